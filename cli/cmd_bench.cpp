@@ -1,0 +1,86 @@
+// reefgen bench generate: the speed figures of docs/BENCHMARKS.md.
+// Prints one JSON object on stdout; medians of repeated runs because timings
+// on a shared machine are noisy.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+
+#include "app.hpp"
+#include "reefgen/io.hpp"
+#include "reefgen/procgen/generator.hpp"
+#include "reefgen/procgen/random_spec.hpp"
+
+namespace reefgen {
+
+using namespace procgen;
+
+namespace {
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0 : v[v.size() / 2];
+}
+
+template <class F>
+double time_ms(F&& f) {
+  const auto t0 = std::chrono::steady_clock::now();
+  f();
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+Command add_bench_command(CLI::App& app, const GlobalOptions& g) {
+  auto* sub = app.add_subcommand("bench", "Benchmarks (print figures; not tests)\n\nExample:\n  reefgen bench generate --reps 50\n");
+  auto* gen = sub->add_subcommand("generate", "ms per island on one thread, islands/s on all cores");
+  sub->require_subcommand(1);
+  struct Args {
+    int size = 256, reps = 50, strokes = 5, threads = default_threads(), islands = 400;
+  };
+  auto a = std::make_shared<Args>();
+  gen->add_option("--size", a->size, "W")->capture_default_str();
+  gen->add_option("--reps", a->reps, "Repetitions per single-thread figure (median)")->capture_default_str();
+  gen->add_option("--strokes", a->strokes, "Wind strokes per island")->capture_default_str();
+  gen->add_option("--threads", a->threads, "Threads for the throughput figure (default: all cores)");
+  gen->add_option("--islands", a->islands, "Islands for the throughput figure")->capture_default_str();
+  return {sub, [a, &g]() -> int {
+            if (a->reps < 1 || a->islands < 1 || a->threads < 1) throw Error("--reps, --islands and --threads must be ≥ 1");
+            RandomSpecParams rp;
+            rp.strokes_min = rp.strokes_max = a->strokes;
+            RenderOptions opt;
+            opt.size_px = a->size;
+            // Several different islands so that one lucky configuration does not decide the figure.
+            std::vector<IslandSpec> specs;
+            for (int i = 0; i < 8; ++i) specs.push_back(random_spec(12345, i, rp));
+            auto single = [&](auto tweak) {
+              std::vector<double> t;
+              for (int r = 0; r < a->reps; ++r) {
+                IslandSpec s = specs[r % specs.size()];
+                s.subsidence = 0.5;
+                tweak(s);
+                t.push_back(time_ms([&] { (void)generate(s, opt); }));
+              }
+              return median(t);
+            };
+            single([](IslandSpec&) {});  // warm-up: page faults, caches
+            const double full = single([](IslandSpec&) {});
+            const double no_noise = single([](IslandSpec& s) { s.noise.amplitude = 0; });
+            const double no_wind = single([](IslandSpec& s) { s.wind.clear(); });
+            Progress progress("bench", a->islands, g.quiet);
+            const double wall = time_ms([&] {
+              parallel_for(a->islands, a->threads, [&](size_t i) {
+                IslandSpec s = specs[i % specs.size()];
+                s.subsidence = 0.5;
+                (void)generate(s, opt);
+              }, [&](size_t d) { progress.tick(d); });
+            });
+            std::printf(
+                "{\"bench\": \"generate\", \"size\": %d, \"strokes\": %d, \"reps\": %d,\n"
+                " \"ms_per_island_1thread\": %.3f, \"ms_no_detail_noise\": %.3f, \"ms_no_wind\": %.3f,\n"
+                " \"threads\": %d, \"islands_per_s\": %.1f}\n",
+                a->size, a->strokes, a->reps, full, no_noise, no_wind, a->threads, a->islands / (wall / 1000.0));
+            return 0;
+          }};
+}
+
+}  // namespace reefgen

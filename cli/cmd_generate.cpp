@@ -1,0 +1,164 @@
+// reefgen generate: one island from a preset or a spec file, or N random ones.
+#include <cmath>
+#include <cstdio>
+#include <optional>
+
+#include "app.hpp"
+#include "reefgen/io.hpp"
+#include "reefgen/procgen/output.hpp"
+#include "reefgen/procgen/random_spec.hpp"
+
+namespace reefgen {
+
+using namespace procgen;
+
+namespace {
+
+struct GenerateArgs {
+  std::string preset, spec_file, prefix, out_dir;
+  int random = 0;
+  double subsidence = NAN;  // NAN: keep the preset's / spec's value
+  int size = 256;
+  uint64_t seed = 0;
+  bool seed_given = false;
+  bool preview = false;
+  int threads = default_threads();
+  int levels = 4;
+  int warp_grid = RenderOptions{}.warp_grid;
+};
+
+IslandSpec load_spec(const GenerateArgs& a) {
+  if (!a.preset.empty()) {
+    const auto& m = builtin_presets();
+    auto it = m.find(a.preset);
+    if (it == m.end()) {
+      std::string names;
+      for (const auto& [k, v] : m) names += (names.empty() ? "" : ", ") + k;
+      throw Error("unknown preset \"" + a.preset + "\"; choose one of: " + names);
+    }
+    return spec_from_json(nlohmann::json::parse(it->second), "preset " + a.preset);
+  }
+  if (!fs::exists(a.spec_file)) throw Error("cannot read " + a.spec_file + ": no such file");
+  return spec_from_json(read_json(a.spec_file), a.spec_file);
+}
+
+void check_common(const GenerateArgs& a) {
+  if (a.size < 8 || a.size > 8192) throw Error("--size " + std::to_string(a.size) + " is out of range; expected 8..8192");
+  if (!std::isnan(a.subsidence) && !(a.subsidence >= 0 && a.subsidence <= 1))
+    throw Error("--subsidence must be in [0, 1]");
+  if (a.threads < 1 || a.threads > 256) throw Error("--threads must be in 1..256");
+}
+
+int run_single(const GenerateArgs& a, const GlobalOptions&) {
+  IslandSpec spec = load_spec(a);
+  if (!std::isnan(a.subsidence)) spec.subsidence = a.subsidence;
+  if (a.seed_given) spec.noise.seed = a.seed;
+  const fs::path prefix = a.prefix;
+  ensure_writable_dir(prefix.parent_path());
+  RenderOptions opt;
+  opt.size_px = a.size;
+  opt.warp_grid = a.warp_grid;
+  const IslandFields f = generate(spec, opt);
+  nlohmann::json prov = {{"mode", a.preset.empty() ? "spec" : "preset"},
+                         {"source", a.preset.empty() ? a.spec_file : a.preset},
+                         {"warp_grid", opt.warp_grid}};
+  const auto w = write_island(prefix, f, spec, prov, a.preview);
+  for (const auto& p : w.files) std::printf("%s\n", p.c_str());
+  return 0;
+}
+
+int run_random(const GenerateArgs& a, const GlobalOptions& g) {
+  if (a.random < 1 || a.random > 10'000'000) throw Error("--random must be in 1..10000000");
+  if (a.levels < 1 || a.levels > 64) throw Error("--levels must be in 1..64");
+  const fs::path dir = a.out_dir;
+  ensure_writable_dir(dir);
+  const auto levels = subsidence_levels(a.levels);
+  const size_t total = static_cast<size_t>(a.random) * levels.size();
+  Progress progress("generate", total, g.quiet);
+  std::atomic<size_t> skipped{0};
+  RenderOptions opt;
+  opt.size_px = a.size;
+  opt.warp_grid = a.warp_grid;
+  parallel_for(
+      total, a.threads,
+      [&](size_t t) {
+        const size_t index = t / levels.size(), level = t % levels.size();
+        char name[64];
+        std::snprintf(name, sizeof name, "island_%06zu_l%zu", index, level);
+        const fs::path prefix = dir / name;
+        fs::path sidecar = prefix;
+        sidecar += ".json";
+        // The sidecar is written last: if it is there, this island is complete
+        // (a rerun after an interruption resumes here) unless it is foreign.
+        if (fs::exists(sidecar)) {
+          const auto j = read_json(sidecar);
+          const auto& p = j.value("provenance", nlohmann::json::object());
+          if (p.value("seed", ~0ull) == a.seed && p.value("index", ~0ull) == index &&
+              j.value("size_px", 0) == a.size && j.value("subsidence", -1.0) == levels[level]) {
+            ++skipped;
+            return;
+          }
+          throw Error(sidecar.string() + " was made with other settings; use an empty --out folder");
+        }
+        IslandSpec spec = random_spec(a.seed, index);
+        spec.subsidence = levels[level];
+        const IslandFields f = generate(spec, opt);
+        write_island(prefix, f, spec,
+                     {{"mode", "random"}, {"seed", a.seed}, {"index", index}, {"level", level}, {"warp_grid", opt.warp_grid}},
+                     a.preview);
+      },
+      [&](size_t done) { progress.tick(done); });
+  if (!g.quiet)
+    std::fprintf(stderr, "wrote %zu islands (%zu already there) to %s\n", total - skipped, size_t(skipped), dir.c_str());
+  std::printf("%s\n", dir.c_str());
+  return 0;
+}
+
+}  // namespace
+
+Command add_generate_command(CLI::App& app, const GlobalOptions& g) {
+  auto a = std::make_shared<GenerateArgs>();
+  auto* sub = app.add_subcommand("generate", "Generate islands with the curve-based procedural generator\n\n"
+                                             "Examples:\n"
+                                             "  reefgen generate --preset young-volcano -o out/volcano --preview\n"
+                                             "  reefgen generate --preset atoll --subsidence 1 --size 512 -o out/atoll\n"
+                                             "  reefgen generate --spec docs/examples/spec.json -o out/mine\n"
+                                             "  reefgen generate --random 50 --seed 1 --out out/random --threads 2\n");
+  auto* src = sub->add_option_group("source", "What to generate");
+  src->add_option("--preset", a->preset, "Built-in preset (see `reefgen presets`)");
+  src->add_option("--spec", a->spec_file, "Island spec JSON (docs/SPEC.md)");
+  src->add_option("--random", a->random, "N random configurations (paper's data generation), each at --levels subsidence levels");
+  src->require_option(1);
+  sub->add_option("-o,--output", a->prefix, "Output prefix: PREFIX.height.exr, .label.png, .json (and .preview.png)");
+  sub->add_option("--out", a->out_dir, "Output folder for --random");
+  sub->add_option("--subsidence", a->subsidence, "Override the subsidence λ in [0, 1]");
+  sub->add_option("--size", a->size, "Width W of the W×W output in pixels")->capture_default_str();
+  sub->add_option("--seed", a->seed, "Random seed (random mode) or detail-noise seed (preset/spec)")
+      ->each([a](const std::string&) { a->seed_given = true; });
+  sub->add_flag("--preview", a->preview, "Also write PREFIX.preview.png (hill-shaded colours)");
+  sub->add_option("--threads", a->threads, "Worker threads for --random (default: all cores)");
+  sub->add_option("--levels", a->levels, "Subsidence levels per random configuration, evenly spaced on [0, 1]")->capture_default_str();
+  sub->add_option("--warp-grid", a->warp_grid, "Cells of the wind displacement grid across the canvas")->capture_default_str();
+  return {sub, [a, &g]() -> int {
+            check_common(*a);
+            if (a->random > 0) {
+              if (a->out_dir.empty()) throw Error("--random needs --out DIR");
+              return run_random(*a, g);
+            }
+            if (a->prefix.empty()) throw Error("missing -o PREFIX (output prefix, e.g. -o out/island)");
+            return run_single(*a, g);
+          }};
+}
+
+Command add_presets_command(CLI::App& app, const GlobalOptions&) {
+  auto* sub = app.add_subcommand("presets", "List the built-in island presets (configs/presets/*.json)");
+  return {sub, [] {
+            for (const auto& [name, text] : builtin_presets()) {
+              const auto j = nlohmann::json::parse(text);
+              std::printf("%-16s %s\n", name.c_str(), j.value("description", "").c_str());
+            }
+            return 0;
+          }};
+}
+
+}  // namespace reefgen

@@ -1,0 +1,38 @@
+// reefgen: coral-reef island terrains from curves or painted sketches.
+// Thin main: parse, dispatch, turn every exception into one line + exit 1.
+#include <cstdio>
+#include <exception>
+
+#include "app.hpp"
+#include "reefgen/version.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"reefgen " + std::string(reefgen::kVersion) +
+               " - procedural and learning-based coral reef island terrains\n\n"
+               "Examples:\n"
+               "  reefgen generate --preset atoll -o out/atoll --preview\n"
+               "  reefgen generate --spec my_island.json -o out/mine --size 512\n"
+               "  reefgen generate --random 100 --seed 7 --out out/random --threads 2\n"
+               "  reefgen presets\n"
+               "  reefgen bench generate\n"};
+  app.set_version_flag("--version", std::string("reefgen ") + reefgen::kVersion);
+  app.require_subcommand(1);
+  reefgen::GlobalOptions g;
+  app.add_flag("-q,--quiet", g.quiet, "No progress or log lines on stderr");
+  const std::vector<reefgen::Command> commands = {reefgen::add_generate_command(app, g),
+                                                  reefgen::add_presets_command(app, g),
+                                                  reefgen::add_bench_command(app, g)};
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    for (const auto& c : commands)
+      if (c.sub->parsed()) return c.run();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "reefgen: error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,49 @@
+#pragma once
+// File I/O with the project's conventions: every write goes to a temporary
+// file in the destination folder and is renamed into place, so a crash, a
+// full disk or a kill never leaves a half-written file under the final name.
+#include <filesystem>
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+namespace reefgen {
+
+namespace fs = std::filesystem;
+
+// Thrown for anything a user can fix (bad file, bad value); main prints what()
+// on one line and exits non-zero.
+struct Error : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// Writes bytes atomically (temp file + fsync-free rename). Throws Error naming
+// the path on failure and removes the temporary file.
+void write_file_atomic(const fs::path& path, const void* data, size_t size);
+void write_text_atomic(const fs::path& path, const std::string& text);
+std::string read_text(const fs::path& path);
+nlohmann::json read_json(const fs::path& path);
+void write_json_atomic(const fs::path& path, const nlohmann::json& j);
+
+// Throws Error unless `dir` exists (or can be created) and is writable.
+void ensure_writable_dir(const fs::path& dir);
+
+// 8-bit (CV_8UC3 BGR or CV_8UC1) or 16-bit PNG, lossless, written atomically.
+void write_png(const fs::path& path, const cv::Mat& image);
+
+// Single-channel float32 OpenEXR with channel "Y" (heights in metres) and
+// string attributes (e.g. "reefgen:json" holding the sidecar). ZIP compressed.
+using ExrAttributes = std::map<std::string, std::string>;
+void write_exr_height(const fs::path& path, const cv::Mat1f& height_m, const ExrAttributes& attrs = {});
+// Reads channel "Y" (or the only channel) of an EXR file; attributes of string
+// type are returned in `attrs` when not null.
+cv::Mat1f read_exr_height(const fs::path& path, ExrAttributes* attrs = nullptr);
+
+// A stable checksum for manifests: FNV-1a 64 of the file's bytes, as hex.
+std::string file_checksum(const fs::path& path);
+
+}  // namespace reefgen

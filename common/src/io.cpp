@@ -1,0 +1,172 @@
+#include "reefgen/io.hpp"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <ImfOutputFile.h>
+#include <ImfStandardAttributes.h>
+#include <ImfStringAttribute.h>
+#include <opencv2/imgcodecs.hpp>
+
+namespace reefgen {
+
+namespace {
+
+// Unique temp name beside the destination (same filesystem, so rename is atomic).
+fs::path temp_path_for(const fs::path& path) {
+  static std::atomic<uint64_t> counter{0};
+  const auto n = counter.fetch_add(1);
+  fs::path tmp = path;
+  tmp += ".tmp." + std::to_string(::getpid()) + "." + std::to_string(n);
+  return tmp;
+}
+
+void commit_temp(const fs::path& tmp, const fs::path& path) {
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    throw Error("cannot write " + path.string() + ": rename failed (" + ec.message() + ")");
+  }
+}
+
+}  // namespace
+
+void write_file_atomic(const fs::path& path, const void* data, size_t size) {
+  const fs::path tmp = temp_path_for(path);
+  FILE* f = std::fopen(tmp.c_str(), "wb");
+  if (!f)
+    throw Error("cannot write " + path.string() + ": " + std::strerror(errno) +
+                " (check that the folder exists and is writable)");
+  const size_t written = size ? std::fwrite(data, 1, size, f) : 0;
+  const int err_write = (written != size) ? errno : 0;
+  const int rc_close = std::fclose(f);
+  if (written != size || rc_close != 0) {
+    const int err = err_write ? err_write : errno;
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    throw Error("cannot write " + path.string() + ": " + std::strerror(err) + " (is the disk full?)");
+  }
+  commit_temp(tmp, path);
+}
+
+void write_text_atomic(const fs::path& path, const std::string& text) {
+  write_file_atomic(path, text.data(), text.size());
+}
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error("cannot read " + path.string() + ": " + std::strerror(errno));
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+nlohmann::json read_json(const fs::path& path) {
+  const std::string text = read_text(path);
+  try {
+    return nlohmann::json::parse(text);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw Error(path.string() + ": invalid JSON at byte " + std::to_string(e.byte) +
+                " (fix the syntax; see docs/SPEC.md)");
+  }
+}
+
+void write_json_atomic(const fs::path& path, const nlohmann::json& j) {
+  write_text_atomic(path, j.dump(2) + "\n");
+}
+
+void ensure_writable_dir(const fs::path& dir) {
+  std::error_code ec;
+  if (!dir.empty() && !fs::exists(dir, ec)) {
+    fs::create_directories(dir, ec);
+    if (ec) throw Error("cannot create folder " + dir.string() + ": " + ec.message());
+  }
+  const fs::path d = dir.empty() ? fs::path(".") : dir;
+  if (!fs::is_directory(d, ec)) throw Error(d.string() + " is not a folder");
+  if (::access(d.c_str(), W_OK) != 0)
+    throw Error("folder " + d.string() + " is not writable: " + std::strerror(errno));
+}
+
+void write_png(const fs::path& path, const cv::Mat& image) {
+  std::vector<uchar> buf;
+  // Compression 6 is zlib's default; fixed so that the bytes are reproducible.
+  if (!cv::imencode(".png", image, buf, {cv::IMWRITE_PNG_COMPRESSION, 6}))
+    throw Error("cannot encode PNG for " + path.string());
+  write_file_atomic(path, buf.data(), buf.size());
+}
+
+void write_exr_height(const fs::path& path, const cv::Mat1f& height_m, const ExrAttributes& attrs) {
+  CV_Assert(height_m.isContinuous());
+  Imf::Header header(height_m.cols, height_m.rows);
+  header.compression() = Imf::ZIP_COMPRESSION;
+  header.channels().insert("Y", Imf::Channel(Imf::FLOAT));
+  for (const auto& [k, v] : attrs) header.insert(k, Imf::StringAttribute(v));
+  Imf::FrameBuffer fb;
+  fb.insert("Y", Imf::Slice(Imf::FLOAT, (char*)height_m.ptr<float>(), sizeof(float),
+                            sizeof(float) * height_m.cols));
+  const fs::path tmp = temp_path_for(path);
+  try {
+    Imf::OutputFile out(tmp.c_str(), header);
+    out.setFrameBuffer(fb);
+    out.writePixels(height_m.rows);
+  } catch (const std::exception& e) {
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    throw Error("cannot write " + path.string() + ": " + e.what());
+  }
+  commit_temp(tmp, path);
+}
+
+cv::Mat1f read_exr_height(const fs::path& path, ExrAttributes* attrs) {
+  if (!fs::exists(path)) throw Error("cannot read " + path.string() + ": no such file");
+  try {
+    Imf::InputFile in(path.c_str());
+    const auto& h = in.header();
+    const auto dw = h.dataWindow();
+    const int w = dw.max.x - dw.min.x + 1, rows = dw.max.y - dw.min.y + 1;
+    std::string channel = "Y";
+    if (!h.channels().findChannel("Y")) {
+      auto it = h.channels().begin();
+      if (it == h.channels().end() || ++h.channels().begin() != h.channels().end())
+        throw Error(path.string() + ": no channel Y (expected a single-channel height EXR)");
+      channel = it.name();
+    }
+    cv::Mat1f out(rows, w);
+    Imf::FrameBuffer fb;
+    char* base = (char*)out.ptr<float>() - (dw.min.x + dw.min.y * (long)w) * (long)sizeof(float);
+    fb.insert(channel, Imf::Slice(Imf::FLOAT, base, sizeof(float), sizeof(float) * w));
+    in.setFrameBuffer(fb);
+    in.readPixels(dw.min.y, dw.max.y);
+    if (attrs) {
+      for (auto it = h.begin(); it != h.end(); ++it)
+        if (auto* s = dynamic_cast<const Imf::StringAttribute*>(&it.attribute())) (*attrs)[it.name()] = s->value();
+    }
+    return out;
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw Error("cannot read " + path.string() + " as EXR: " + e.what());
+  }
+}
+
+std::string file_checksum(const fs::path& path) {
+  const std::string bytes = read_text(path);
+  uint64_t h = 0xCBF29CE484222325ull;
+  for (unsigned char c : bytes) { h ^= c; h *= 0x100000001B3ull; }
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", (unsigned long long)h);
+  return buf;
+}
+
+}  // namespace reefgen

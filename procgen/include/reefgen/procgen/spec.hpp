@@ -1,0 +1,86 @@
+#pragma once
+// Everything that defines one island (the paper's Figure 3 inputs), with the
+// defaults of DESIGN §3. configs/presets/*.json are serialised IslandSpecs;
+// docs/SPEC.md documents the JSON schema.
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "reefgen/procgen/curves.hpp"
+
+namespace reefgen::procgen {
+
+inline constexpr int kNumOutlines = 5;  // outer borders of island, beach, lagoon, reef, abyss
+
+// Default profile h*(u) and resistance ρ*(u), 30 samples on u = x̃/5 ∈ [0,1].
+std::vector<double> default_profile();
+std::vector<double> default_resistance();
+
+struct WindStroke {
+  std::vector<Vec2> points;  // canvas units in [-1,1]² (+y up), ≥ 2 control points of an open Catmull-Rom curve
+  double strength = 0.2;     // canvas units, peak displacement S, [0, 2]
+  double width = 0.2;        // canvas units, Gaussian σ, [0.005, 2]
+};
+
+// Monotone piecewise-linear map M from the normalised profile space to metres.
+struct HeightMapping {
+  double floor_m = -100;    // m, M(0), the abyss floor, [-11000, -1]
+  double sea_level = 0.4;   // normalised profile value mapped to 0 m, (0, 1)
+  double peak_m = 500;      // m, M(1), [1, 9000]
+};
+
+// Coral height field over x = x̃ − 3 (Eqs. 6-8).
+struct CoralParams {
+  bool enabled = true;
+  double back_m = -20;       // m, back reef / lagoon floor for x ≤ back_end
+  double crest_m = -2;       // m, reef crest on [crest_begin, crest_end]
+  double abyss_m = -100;     // m, fore-reef foot for x ≥ 1
+  double back_end = 0.5;     // x where the rise to the crest starts, [0, crest_begin]
+  double crest_begin = 0.75; // x, [back_end, crest_end]
+  double crest_end = 0.8;    // x, [crest_begin, 1]
+};
+
+// Multiplicative surface noise on the volcano heights (signed metres, so the
+// 0 m coastline of the profile is kept exactly where the outlines put it).
+struct DetailNoise {
+  double amplitude = 0.1;   // fraction of |h|, [0, 0.5]; 0 switches it off
+  double feature = 0.04;    // canvas units per noise feature (0.04 = W/50 px), [0.005, 1]
+  int octaves = 3;          // fBm octaves, [1, 8]
+  uint64_t seed = 0;        // noise seed (random islands derive it from the global seed)
+};
+
+struct IslandSpec {
+  std::string description;                        // free text, shown by `reefgen presets`
+  // Control radii of R_1..R_5 (outer borders of regions 0..4), canvas units,
+  // evenly spaced in θ from +x counter-clockwise; 1 value = circle. Each in (0, 3].
+  std::array<std::vector<double>, kNumOutlines> outlines{
+      std::vector<double>{0.3}, std::vector<double>{0.38}, std::vector<double>{0.55},
+      std::vector<double>{0.68}, std::vector<double>{0.98}};
+  double min_gap = 0.02;                          // canvas units, δ: R_{i+1} ≥ R_i + δ, [0.001, 0.2]
+  std::vector<double> profile = default_profile();        // normalised heights on u ∈ [0,1], each in [0,1], ≥ 2 samples
+  std::vector<double> resistance = default_resistance();  // ρ on u ∈ [0,1], each in [0,1], ≥ 2 samples
+  std::vector<WindStroke> wind;                    // 0..64 strokes
+  int wind_substeps = 10;                          // semi-Lagrangian sub-steps, [1, 100]
+  double subsidence = 0;                           // λ, [0, 1]: 0 young volcano, 1 atoll
+  HeightMapping heights;
+  CoralParams coral;
+  double smax_k = 0.5;                             // 1/m, smooth-max sharpness (overshoot ≤ 1/(2k) m), [0.01, 100]
+  DetailNoise noise;
+  double world_size_m = 6000;                      // m, width of the [-1,1] canvas, [10, 1e6]
+};
+
+// Throws reefgen::Error naming the first invalid field and its valid range.
+void validate(const IslandSpec& spec);
+
+// JSON: every field optional (defaults above); unknown keys are rejected so a
+// typo does not silently fall back to a default. An outline may be a number
+// (circle) or an array of radii.
+void to_json(nlohmann::json& j, const IslandSpec& s);
+void from_json(const nlohmann::json& j, IslandSpec& s);
+// Parses and validates; errors name `origin` (a file name) and the field.
+IslandSpec spec_from_json(const nlohmann::json& j, const std::string& origin);
+
+}  // namespace reefgen::procgen

@@ -1,0 +1,317 @@
+#include "reefgen/procgen/generator.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "reefgen/io.hpp"
+#include "reefgen/labels.hpp"
+#include "reefgen/procgen/noise.hpp"
+
+namespace reefgen::procgen {
+
+// ---------------------------------------------------------------- pure pieces
+
+double smax(double a, double b, double k) {
+  const double m = std::max(a, b);
+  const double d2k = 2.0 * k * std::fabs(a - b);
+  if (d2k > 60.0) return m;               // the correction is < 1e-24 m
+  if (d2k < 1e-9) return m + 0.5 / k;     // limit δ/(e^{2kδ}−1) → 1/(2k)
+  return m + std::fabs(a - b) / std::expm1(d2k);
+}
+
+namespace {
+inline double s_curve(double t) {
+  t = std::clamp(t, 0.0, 1.0);
+  return t * t * (3.0 - 2.0 * t);
+}
+}  // namespace
+
+double coral_height_m(double x, const CoralParams& c) {
+  if (x <= c.back_end) return c.back_m;
+  if (x < c.crest_begin) return c.back_m + (c.crest_m - c.back_m) * s_curve((x - c.back_end) / (c.crest_begin - c.back_end));
+  if (x <= c.crest_end) return c.crest_m;
+  if (x < 1.0) return c.crest_m + (c.abyss_m - c.crest_m) * s_curve((x - c.crest_end) / (1.0 - c.crest_end));
+  return c.abyss_m;
+}
+
+double profile_to_metres(double p, const HeightMapping& m) {
+  if (p <= m.sea_level) return m.floor_m * (m.sea_level - p) / m.sea_level;
+  return m.peak_m * (p - m.sea_level) / (1.0 - m.sea_level);
+}
+
+double parametric_distance(double r, const std::array<double, 5>& R) {
+  double lo = 0;
+  for (int i = 0; i < 5; ++i) {
+    if (r < R[i]) return i + (r - lo) / (R[i] - lo);
+    lo = R[i];
+  }
+  return 5.0;
+}
+
+float fast_atan2(float y, float x) {
+  const float ax = std::fabs(x), ay = std::fabs(y);
+  const float mx = std::max(ax, ay), mn = std::min(ax, ay);
+  if (mx == 0.f) return 0.f;
+  const float a = mn / mx, s = a * a;
+  // Minimax polynomial for atan on [0, 1], max error ≈ 1e-5 rad.
+  float r = ((((((-0.01172120f * s + 0.05265332f) * s - 0.11643287f) * s + 0.19354346f) * s - 0.33262347f) * s) +
+             0.99997726f) * a;
+  if (ay > ax) r = 1.57079637f - r;
+  if (x < 0.f) r = 3.14159274f - r;
+  return y < 0.f ? -r : r;
+}
+
+// ---------------------------------------------------------------- outlines
+
+OutlineTable::OutlineTable(const std::array<std::vector<double>, 5>& outlines, double min_gap)
+    : r_(kAngles + 1) {
+  for (int t = 0; t < kAngles; ++t) {
+    const double theta = 2.0 * M_PI * t / kAngles;
+    double prev = 0;
+    for (int i = 0; i < 5; ++i) {
+      const double r = std::max(periodic_catmull_rom(outlines[i], theta), prev + min_gap);
+      r_[t][i] = static_cast<float>(r);
+      prev = r;
+    }
+  }
+  r_[kAngles] = r_[0];
+}
+
+std::array<double, 5> OutlineTable::radii(double theta) const {
+  double tt = theta / (2.0 * M_PI);
+  tt = (tt - std::floor(tt)) * kAngles;
+  const int i = std::min(static_cast<int>(tt), kAngles - 1);
+  const double f = tt - i;
+  std::array<double, 5> R;
+  for (int j = 0; j < 5; ++j) R[j] = r_[i][j] + f * (r_[i + 1][j] - r_[i][j]);
+  return R;
+}
+
+float OutlineTable::xt(float x, float y) const {
+  const float r = std::sqrt(x * x + y * y);
+  float tt = fast_atan2(y, x) * static_cast<float>(kAngles / (2.0 * M_PI));
+  if (tt < 0.f) tt += kAngles;
+  int i = static_cast<int>(tt);
+  if (i >= kAngles) i = kAngles - 1;
+  const float f = tt - i;
+  const auto& a = r_[i];
+  const auto& b = r_[i + 1];
+  float lo = 0.f;
+  for (int j = 0; j < 5; ++j) {
+    const float R = a[j] + f * (b[j] - a[j]);
+    if (r < R) return j + (r - lo) / (R - lo);
+    lo = R;
+  }
+  return 5.f;
+}
+
+// ---------------------------------------------------------------- wind
+
+namespace {
+
+struct Segment {
+  float ax, ay, dx, dy;  // start and direction (end − start)
+  float inv_len2;
+  float ux, uy;          // unit tangent
+};
+
+struct Chunk {
+  float x0, y0, x1, y1;  // bounding box of the chunk's segments
+  int begin, end;
+};
+
+// Closest-segment queries on one stroke. Nodes are visited in raster order and
+// the previous node's closest segment gives a tight first bound, so most chunks
+// are rejected by their bounding box alone: this is what keeps Φ cheap.
+class StrokeIndex {
+ public:
+  static constexpr int kChunk = 8;
+  explicit StrokeIndex(const WindStroke& s) {
+    const auto poly = sample_open_catmull_rom(s.points, 8);
+    for (size_t i = 0; i + 1 < poly.size(); ++i) {
+      const float dx = float(poly[i + 1].x - poly[i].x), dy = float(poly[i + 1].y - poly[i].y);
+      const float l2 = dx * dx + dy * dy;
+      if (l2 < 1e-14f) continue;  // repeated point: no tangent
+      const float l = std::sqrt(l2);
+      segs_.push_back({float(poly[i].x), float(poly[i].y), dx, dy, 1.f / l2, dx / l, dy / l});
+    }
+    for (int b = 0; b < (int)segs_.size(); b += kChunk) {
+      Chunk c{1e30f, 1e30f, -1e30f, -1e30f, b, std::min<int>(b + kChunk, (int)segs_.size())};
+      for (int i = c.begin; i < c.end; ++i) {
+        const auto& g = segs_[i];
+        c.x0 = std::min({c.x0, g.ax, g.ax + g.dx}); c.x1 = std::max({c.x1, g.ax, g.ax + g.dx});
+        c.y0 = std::min({c.y0, g.ay, g.ay + g.dy}); c.y1 = std::max({c.y1, g.ay, g.ay + g.dy});
+      }
+      chunks_.push_back(c);
+    }
+  }
+  bool empty() const { return segs_.empty(); }
+
+  // Squared distance to the closest segment and its index (ties: lowest index).
+  float closest(float px, float py, int& best) const {
+    float best_d2 = dist2(segs_[best], px, py);
+    int best_i = best;
+    for (const auto& c : chunks_) {
+      const float ex = std::max({c.x0 - px, 0.f, px - c.x1}), ey = std::max({c.y0 - py, 0.f, py - c.y1});
+      if (ex * ex + ey * ey > best_d2) continue;
+      for (int i = c.begin; i < c.end; ++i) {
+        const float d2 = dist2(segs_[i], px, py);
+        if (d2 < best_d2 || (d2 == best_d2 && i < best_i)) { best_d2 = d2; best_i = i; }
+      }
+    }
+    best = best_i;
+    return best_d2;
+  }
+  const Segment& seg(int i) const { return segs_[i]; }
+
+ private:
+  static float dist2(const Segment& g, float px, float py) {
+    const float wx = px - g.ax, wy = py - g.ay;
+    const float t = std::clamp((wx * g.dx + wy * g.dy) * g.inv_len2, 0.f, 1.f);
+    const float ex = wx - t * g.dx, ey = wy - t * g.dy;
+    return ex * ex + ey * ey;
+  }
+  std::vector<Segment> segs_;
+  std::vector<Chunk> chunks_;
+};
+
+// Bilinear sample of a node field (n+1)² at canvas point (x, y), clamped to the canvas.
+inline cv::Vec2f sample_nodes(const cv::Mat2f& f, int n, float x, float y) {
+  float gx = std::clamp((x + 1.f) * 0.5f * n, 0.f, float(n));
+  float gy = std::clamp((1.f - y) * 0.5f * n, 0.f, float(n));
+  int ix = std::min(static_cast<int>(gx), n - 1), iy = std::min(static_cast<int>(gy), n - 1);
+  const float fx = gx - ix, fy = gy - iy;
+  const cv::Vec2f* r0 = f.ptr<cv::Vec2f>(iy);
+  const cv::Vec2f* r1 = f.ptr<cv::Vec2f>(iy + 1);
+  const cv::Vec2f top = r0[ix] + fx * (r0[ix + 1] - r0[ix]);
+  const cv::Vec2f bot = r1[ix] + fx * (r1[ix + 1] - r1[ix]);
+  return top + fy * (bot - top);
+}
+
+}  // namespace
+
+cv::Mat2f wind_field(const std::vector<WindStroke>& strokes, int n) {
+  cv::Mat2f phi(n + 1, n + 1, cv::Vec2f(0.f, 0.f));
+  for (const auto& s : strokes) {
+    if (s.strength == 0) continue;
+    const StrokeIndex idx(s);
+    if (idx.empty()) continue;
+    const float inv_2s2 = float(1.0 / (2.0 * s.width * s.width));
+    const float S = float(s.strength);
+    int best = 0;
+    for (int r = 0; r <= n; ++r) {
+      const float y = 1.f - 2.f * r / n;
+      cv::Vec2f* row = phi.ptr<cv::Vec2f>(r);
+      for (int c = 0; c <= n; ++c) {
+        const float x = -1.f + 2.f * c / n;
+        const float d2 = idx.closest(x, y, best);
+        const float g = S * std::exp(-d2 * inv_2s2);
+        row[c][0] += g * idx.seg(best).ux;
+        row[c][1] += g * idx.seg(best).uy;
+      }
+    }
+  }
+  return phi;
+}
+
+cv::Mat2f integrate_warp(const cv::Mat2f& phi, const OutlineTable& outlines, const std::vector<float>& rho_lut,
+                         int substeps) {
+  const int n = phi.rows - 1;
+  const float lut_scale = float(rho_lut.size() - 1) / 5.f;
+  cv::Mat2f D(phi.size(), cv::Vec2f(0.f, 0.f)), next(phi.size());
+  const float inv_steps = 1.f / substeps;
+  for (int k = 0; k < substeps; ++k) {
+    for (int r = 0; r <= n; ++r) {
+      const float y = 1.f - 2.f * r / n;
+      for (int c = 0; c <= n; ++c) {
+        const float x = -1.f + 2.f * c / n;
+        const cv::Vec2f d = D(r, c);
+        // Resistance of the material currently at this node (it came from p + D).
+        const float xt = outlines.xt(x + d[0], y + d[1]);
+        const float rho = rho_lut[static_cast<int>(xt * lut_scale + 0.5f)];
+        const cv::Vec2f v = phi(r, c) * ((1.f - rho) * inv_steps);
+        const float qx = x - v[0], qy = y - v[1];
+        const cv::Vec2f dq = sample_nodes(D, n, qx, qy);
+        next(r, c) = cv::Vec2f(qx + dq[0] - x, qy + dq[1] - y);
+      }
+    }
+    std::swap(D, next);
+  }
+  return D;
+}
+
+// ---------------------------------------------------------------- generate
+
+IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
+  validate(spec);
+  if (opt.size_px < 8 || opt.size_px > 8192)
+    throw Error("size = " + std::to_string(opt.size_px) + " is out of range; expected [8, 8192]");
+  if (opt.warp_grid < 4 || opt.warp_grid > 1024)
+    throw Error("warp_grid = " + std::to_string(opt.warp_grid) + " is out of range; expected [4, 1024]");
+  const int W = opt.size_px;
+  const OutlineTable outlines(spec.outlines, spec.min_gap);
+
+  // Everything that depends on x̃ alone is tabulated once per island.
+  constexpr int kLut = 4097;
+  const float lut_scale = (kLut - 1) / 5.f;
+  std::vector<float> rho(kLut), hsub(kLut), coral(kLut), merged(kLut);
+  for (int j = 0; j < kLut; ++j) {
+    const double xt = 5.0 * j / (kLut - 1);
+    rho[j] = float(sample_curve(spec.resistance, xt / 5.0));
+    hsub[j] = float(subsided_height_m(sample_curve(spec.profile, xt / 5.0), spec.subsidence, spec.heights));
+    coral[j] = float(coral_height_m(xt - 3.0, spec.coral));
+    merged[j] = spec.coral.enabled ? float(smax(hsub[j], coral[j], spec.smax_k)) : hsub[j];
+  }
+
+  const bool warp = std::any_of(spec.wind.begin(), spec.wind.end(), [](const WindStroke& w) { return w.strength > 0; });
+  const int n = opt.warp_grid;
+  cv::Mat2f D;
+  if (warp) D = integrate_warp(wind_field(spec.wind, n), outlines, rho, spec.wind_substeps);
+
+  const bool noisy = spec.noise.amplitude > 0;
+  const GradientNoise2 noise(spec.noise.seed);
+  const float inv_feature = float(1.0 / spec.noise.feature), amp = float(spec.noise.amplitude);
+  const float k = float(spec.smax_k);
+
+  IslandFields out{cv::Mat1f(W, W), cv::Mat1f(W, W), cv::Mat1b(W, W)};
+  for (int y = 0; y < W; ++y) {
+    const float py = 1.f - (2.f * y + 1.f) / W;
+    float* hrow = out.height_m.ptr<float>(y);
+    float* xrow = out.xt.ptr<float>(y);
+    uint8_t* lrow = out.label.ptr<uint8_t>(y);
+    for (int x = 0; x < W; ++x) {
+      const float px = -1.f + (2.f * x + 1.f) / W;
+      float sx = px, sy = py;  // where the material at this pixel came from
+      if (warp) {
+        const cv::Vec2f d = sample_nodes(D, n, px, py);
+        sx += d[0];
+        sy += d[1];
+      }
+      const float xt = outlines.xt(sx, sy);
+      const float g = xt * lut_scale;
+      const int j = std::min(static_cast<int>(g), kLut - 2);
+      const float f = g - j;
+      float h;
+      if (!noisy) {
+        h = merged[j] + f * (merged[j + 1] - merged[j]);
+      } else {
+        float hs = hsub[j] + f * (hsub[j + 1] - hsub[j]);
+        hs *= 1.f + amp * noise.fbm(sx * inv_feature, sy * inv_feature, spec.noise.octaves);
+        if (spec.coral.enabled) {
+          const float hc = coral[j] + f * (coral[j + 1] - coral[j]);
+          // Float version of smax() for the hot loop; same cases.
+          const float m = std::max(hs, hc), d = std::fabs(hs - hc), d2k = 2.f * k * d;
+          h = d2k > 60.f ? m : (d2k < 1e-6f ? m + 0.5f / k : m + d / std::expm1(d2k));
+        } else {
+          h = hs;
+        }
+      }
+      hrow[x] = h;
+      xrow[x] = xt;
+      lrow[x] = static_cast<uint8_t>(std::min(static_cast<int>(xt), 4));
+    }
+  }
+  return out;
+}
+
+}  // namespace reefgen::procgen

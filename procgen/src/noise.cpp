@@ -1,0 +1,85 @@
+#include "reefgen/procgen/noise.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "reefgen/rng.hpp"
+
+namespace reefgen::procgen {
+
+GradientNoise2::GradientNoise2(uint64_t seed) {
+  std::array<uint8_t, 256> p;
+  for (int i = 0; i < 256; ++i) p[i] = static_cast<uint8_t>(i);
+  Rng rng(seed, 0, "gradient-noise-2d");
+  for (int i = 255; i > 0; --i) std::swap(p[i], p[rng.uniform_int(0, i)]);  // Fisher-Yates
+  for (int i = 0; i < 512; ++i) perm_[i] = p[i & 255];
+}
+
+namespace {
+inline float fade(float t) { return t * t * t * (t * (t * 6.f - 15.f) + 10.f); }
+inline float lerp(float a, float b, float t) { return a + t * (b - a); }
+// 12 directions of Perlin's improved noise restricted to 2-D (z = 0), plus 4
+// repeats so that a hash & 15 picks uniformly enough.
+inline float grad(uint8_t h, float x, float y) {
+  switch (h & 15) {
+    case 0: case 12: return x + y;
+    case 1: case 14: return -x + y;
+    case 2: return x - y;
+    case 3: return -x - y;
+    case 4: case 8: return x;
+    case 5: case 9: return -x;
+    case 6: case 10: case 13: return y;
+    default: return -y;  // 7, 11, 15
+  }
+}
+}  // namespace
+
+float GradientNoise2::perlin(float x, float y) const {
+  const float fx = std::floor(x), fy = std::floor(y);
+  const int X = static_cast<int>(fx) & 255, Y = static_cast<int>(fy) & 255;
+  x -= fx; y -= fy;
+  const float u = fade(x), v = fade(y);
+  const int a = perm_[X] + Y, b = perm_[X + 1] + Y;
+  const float n = lerp(lerp(grad(perm_[a], x, y), grad(perm_[b], x - 1, y), u),
+                       lerp(grad(perm_[a + 1], x, y - 1), grad(perm_[b + 1], x - 1, y - 1), u), v);
+  return std::clamp(n, -1.f, 1.f);
+}
+
+float GradientNoise2::fbm(float x, float y, int octaves) const {
+  float sum = 0, amp = 1, norm = 0;
+  for (int o = 0; o < octaves; ++o) {
+    // Offsetting each octave decorrelates the zeros at lattice points.
+    sum += amp * perlin(x + 17.31f * o, y - 9.73f * o);
+    norm += amp;
+    amp *= 0.5f;
+    x *= 2; y *= 2;
+  }
+  return sum / norm;
+}
+
+PeriodicNoise1::PeriodicNoise1(uint64_t seed, int base_cells, int octaves) : base_cells_(std::max(1, base_cells)) {
+  Rng rng(seed, 0, "periodic-noise-1d");
+  for (int o = 0; o < std::max(1, octaves); ++o) {
+    std::vector<double> lat(static_cast<size_t>(base_cells_) << o);
+    for (auto& v : lat) v = rng.uniform(-1.0, 1.0);
+    lattice_.push_back(std::move(lat));
+  }
+}
+
+double PeriodicNoise1::operator()(double t) const {
+  double sum = 0, amp = 1, norm = 0;
+  for (const auto& lat : lattice_) {
+    const int n = static_cast<int>(lat.size());
+    const double x = (t - std::floor(t)) * n;
+    const int i0 = static_cast<int>(std::floor(x)) % n;
+    const int i1 = (i0 + 1) % n;
+    const double f = x - std::floor(x);
+    const double s = f * f * (3 - 2 * f);
+    sum += amp * (lat[i0] + s * (lat[i1] - lat[i0]));
+    norm += amp;
+    amp *= 0.5;
+  }
+  return sum / norm;
+}
+
+}  // namespace reefgen::procgen

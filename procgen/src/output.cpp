@@ -1,0 +1,70 @@
+#include "reefgen/procgen/output.hpp"
+
+#include "reefgen/io.hpp"
+#include "reefgen/labels.hpp"
+#include "reefgen/preview.hpp"
+#include "reefgen/version.hpp"
+
+namespace reefgen::procgen {
+
+WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFields& f, const IslandSpec& spec,
+                           const nlohmann::json& provenance, bool preview) {
+  const int W = f.height_m.cols;
+  double hmin, hmax;
+  cv::minMaxLoc(f.height_m, &hmin, &hmax);
+  const double mpp = spec.world_size_m / W;
+  auto name = [&](const char* suffix) {
+    std::filesystem::path p = prefix;
+    p += suffix;
+    return p;
+  };
+  WrittenIsland out;
+  const auto height_path = name(".height.exr"), label_path = name(".label.png"), preview_path = name(".preview.png"),
+             json_path = name(".json");
+  nlohmann::json files = {{"height", height_path.filename().string()}, {"label", label_path.filename().string()}};
+  if (preview) files["preview"] = preview_path.filename().string();
+  out.sidecar = {{"tool", "reefgen"},
+                 {"version", kVersion},
+                 {"kind", "island"},
+                 {"size_px", W},
+                 {"metres_per_pixel", mpp},
+                 {"world_size_m", spec.world_size_m},
+                 {"sea_level_m", 0.0},
+                 {"height_range_m", {hmin, hmax}},
+                 {"height_channel", "Y"},
+                 {"subsidence", spec.subsidence},
+                 {"label_encoding", "HSV: hue 60*(id+1) deg for island, beach, lagoon, reef; 0 deg abyss; V = 1 - 0.75*subsidence"},
+                 {"files", files},
+                 {"provenance", provenance},
+                 {"spec", spec}};
+
+  ExrAttributes attrs = {{"reefgen:version", kVersion},
+                         {"reefgen:units", "metres, sea level 0"},
+                         {"reefgen:metres_per_pixel", std::to_string(mpp)},
+                         {"reefgen:sidecar", json_path.filename().string()}};
+  // Each file is atomic on its own; if a later one fails, the earlier ones of
+  // this island are removed so that no incomplete island is left behind.
+  try {
+    write_exr_height(height_path, f.height_m, attrs);
+    out.files.push_back(height_path);
+    write_png(label_path, encode_labels(f.label, spec.subsidence));
+    out.files.push_back(label_path);
+    if (preview) {
+      PreviewOptions po;
+      po.land_top_m = spec.heights.peak_m;
+      po.sea_floor_m = spec.heights.floor_m;
+      po.metres_per_px = mpp;
+      write_png(preview_path, render_preview(f.height_m, po));
+      out.files.push_back(preview_path);
+    }
+    write_json_atomic(json_path, out.sidecar);
+    out.files.push_back(json_path);
+  } catch (...) {
+    std::error_code ec;
+    for (const auto& p : out.files) std::filesystem::remove(p, ec);
+    throw;
+  }
+  return out;
+}
+
+}  // namespace reefgen::procgen

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Installs every Debian package reefgen needs to build, test and run.
+# Idempotent: packages already present are left as they are.
+set -euo pipefail
+
+PKGS=(
+  build-essential cmake ninja-build pkg-config
+  libopencv-dev          # image I/O, resampling, colour conversion
+  libopenexr-dev         # float height fields (.exr, channel Y)
+  nlohmann-json3-dev     # params <-> JSON
+  libspdlog-dev          # logging
+  libcli11-dev           # reefgen subcommands
+  libgtest-dev           # unit tests (ctest)
+  libbenchmark-dev       # optional micro-benchmarks
+  libtorch-dev           # LibTorch 1.13 CPU (model/train/infer)
+  python3 python3-torch  # reference comparisons (scripts/reference)
+)
+
+missing=()
+for p in "${PKGS[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#PKGS[@]} packages present" >&2
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+echo "install-deps: installing ${missing[*]}" >&2
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+echo "install-deps: done" >&2
