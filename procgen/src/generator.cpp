@@ -6,6 +6,7 @@
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/noise.hpp"
+#include "reefgen/rng.hpp"
 
 namespace reefgen::procgen {
 
@@ -17,6 +18,15 @@ double smax(double a, double b, double k) {
   if (d2k > 60.0) return m;               // the correction is < 1e-24 m
   if (d2k < 1e-9) return m + 0.5 / k;     // limit δ/(e^{2kδ}−1) → 1/(2k)
   return m + std::fabs(a - b) / std::expm1(d2k);
+}
+
+SmoothMaxTable::SmoothMaxTable(double k)
+    : scale_(static_cast<float>(2.0 * k * kPerUnit)), c_(kMaxT * kPerUnit + 2) {
+  for (size_t i = 0; i < c_.size(); ++i) {
+    const double t = static_cast<double>(i) / kPerUnit;  // t = 2kδ
+    const double d = t / (2.0 * k);
+    c_[i] = static_cast<float>(smax(0.0, d, k) - d);
+  }
 }
 
 namespace {
@@ -75,6 +85,9 @@ OutlineTable::OutlineTable(const std::array<std::vector<double>, 5>& outlines, d
     }
   }
   r_[kAngles] = r_[0];
+  float outer = 0;
+  for (const auto& row : r_) outer = std::max(outer, row[4]);
+  outer2_ = outer * outer;
 }
 
 std::array<double, 5> OutlineTable::radii(double theta) const {
@@ -88,7 +101,9 @@ std::array<double, 5> OutlineTable::radii(double theta) const {
 }
 
 float OutlineTable::xt(float x, float y) const {
-  const float r = std::sqrt(x * x + y * y);
+  const float r2 = x * x + y * y;
+  if (r2 >= outer2_) return 5.f;  // open ocean: the canvas corners, most wind-displaced sources
+  const float r = std::sqrt(r2);
   float tt = fast_atan2(y, x) * static_cast<float>(kAngles / (2.0 * M_PI));
   if (tt < 0.f) tt += kAngles;
   int i = static_cast<int>(tt);
@@ -127,7 +142,9 @@ class StrokeIndex {
  public:
   static constexpr int kChunk = 8;
   explicit StrokeIndex(const WindStroke& s) {
-    const auto poly = sample_open_catmull_rom(s.points, 8);
+    // 4 samples per control interval: the random walks are already smooth, and
+    // the segment count is what the closest-point search pays for.
+    const auto poly = sample_open_catmull_rom(s.points, 4);
     for (size_t i = 0; i + 1 < poly.size(); ++i) {
       const float dx = float(poly[i + 1].x - poly[i].x), dy = float(poly[i + 1].y - poly[i].y);
       const float l2 = dx * dx + dy * dy;
@@ -214,10 +231,33 @@ cv::Mat2f wind_field(const std::vector<WindStroke>& strokes, int n) {
   return phi;
 }
 
-cv::Mat2f integrate_warp(const cv::Mat2f& phi, const OutlineTable& outlines, const std::vector<float>& rho_lut,
-                         int substeps) {
-  const int n = phi.rows - 1;
-  const float lut_scale = float(rho_lut.size() - 1) / 5.f;
+cv::Mat1f resistance_field(const OutlineTable& outlines, const std::vector<float>& rho_of_xt, int m) {
+  const float lut_scale = float(rho_of_xt.size() - 1) / 5.f;
+  cv::Mat1f rho(m + 1, m + 1);
+  for (int r = 0; r <= m; ++r)
+    for (int c = 0; c <= m; ++c) {
+      const float xt = outlines.xt(-1.f + 2.f * c / m, 1.f - 2.f * r / m);
+      rho(r, c) = rho_of_xt[static_cast<int>(xt * lut_scale + 0.5f)];
+    }
+  return rho;
+}
+
+namespace {
+inline float sample_nodes1(const cv::Mat1f& f, int n, float x, float y) {
+  const float gx = std::clamp((x + 1.f) * 0.5f * n, 0.f, float(n));
+  const float gy = std::clamp((1.f - y) * 0.5f * n, 0.f, float(n));
+  const int ix = std::min(static_cast<int>(gx), n - 1), iy = std::min(static_cast<int>(gy), n - 1);
+  const float fx = gx - ix, fy = gy - iy;
+  const float* r0 = f.ptr<float>(iy);
+  const float* r1 = f.ptr<float>(iy + 1);
+  const float top = r0[ix] + fx * (r0[ix + 1] - r0[ix]);
+  const float bot = r1[ix] + fx * (r1[ix + 1] - r1[ix]);
+  return top + fy * (bot - top);
+}
+}  // namespace
+
+cv::Mat2f integrate_warp(const cv::Mat2f& phi, const cv::Mat1f& resistance, int substeps) {
+  const int n = phi.rows - 1, m = resistance.rows - 1;
   cv::Mat2f D(phi.size(), cv::Vec2f(0.f, 0.f)), next(phi.size());
   const float inv_steps = 1.f / substeps;
   for (int k = 0; k < substeps; ++k) {
@@ -227,8 +267,7 @@ cv::Mat2f integrate_warp(const cv::Mat2f& phi, const OutlineTable& outlines, con
         const float x = -1.f + 2.f * c / n;
         const cv::Vec2f d = D(r, c);
         // Resistance of the material currently at this node (it came from p + D).
-        const float xt = outlines.xt(x + d[0], y + d[1]);
-        const float rho = rho_lut[static_cast<int>(xt * lut_scale + 0.5f)];
+        const float rho = sample_nodes1(resistance, m, x + d[0], y + d[1]);
         const cv::Vec2f v = phi(r, c) * ((1.f - rho) * inv_steps);
         const float qx = x - v[0], qy = y - v[1];
         const cv::Vec2f dq = sample_nodes(D, n, qx, qy);
@@ -248,6 +287,10 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
     throw Error("size = " + std::to_string(opt.size_px) + " is out of range; expected [8, 8192]");
   if (opt.warp_grid < 4 || opt.warp_grid > 1024)
     throw Error("warp_grid = " + std::to_string(opt.warp_grid) + " is out of range; expected [4, 1024]");
+  if (opt.resistance_grid < 4 || opt.resistance_grid > 4096)
+    throw Error("resistance_grid = " + std::to_string(opt.resistance_grid) + " is out of range; expected [4, 4096]");
+  if (opt.wind_grid < 4 || opt.wind_grid > 1024)
+    throw Error("wind_grid = " + std::to_string(opt.wind_grid) + " is out of range; expected [4, 1024]");
   const int W = opt.size_px;
   const OutlineTable outlines(spec.outlines, spec.min_gap);
 
@@ -266,12 +309,35 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
   const bool warp = std::any_of(spec.wind.begin(), spec.wind.end(), [](const WindStroke& w) { return w.strength > 0; });
   const int n = opt.warp_grid;
   cv::Mat2f D;
-  if (warp) D = integrate_warp(wind_field(spec.wind, n), outlines, rho, spec.wind_substeps);
+  if (warp) {
+    const cv::Mat2f phi_coarse = wind_field(spec.wind, opt.wind_grid);
+    cv::Mat2f phi(n + 1, n + 1);
+    for (int r = 0; r <= n; ++r)
+      for (int c = 0; c <= n; ++c)
+        phi(r, c) = sample_nodes(phi_coarse, opt.wind_grid, -1.f + 2.f * c / n, 1.f - 2.f * r / n);
+    D = integrate_warp(phi, resistance_field(outlines, rho, opt.resistance_grid), spec.wind_substeps);
+  }
 
+  // Detail noise: the shared periodic tile, sampled at a seed-dependent offset
+  // and one of 8 orientations, in source coordinates so it moves with the wind.
   const bool noisy = spec.noise.amplitude > 0;
-  const GradientNoise2 noise(spec.noise.seed);
-  const float inv_feature = float(1.0 / spec.noise.feature), amp = float(spec.noise.amplitude);
-  const float k = float(spec.smax_k);
+  const NoiseTile* tile = noisy ? &NoiseTile::get(spec.noise.octaves) : nullptr;
+  Rng noise_rng(spec.noise.seed, 0, "detail-noise-placement");
+  const float u0 = float(noise_rng.uniform(0, NoiseTile::kSize)), v0 = float(noise_rng.uniform(0, NoiseTile::kSize));
+  const int orient = static_cast<int>(noise_rng.uniform_int(0, 7));
+  const float texels = float(NoiseTile::kBaseCell / spec.noise.feature);
+  const float amp = float(spec.noise.amplitude);
+  const SmoothMaxTable smax_table(spec.smax_k);
+
+  // Bilinear weights of the displacement grid are separable: per column and per row.
+  std::vector<int> cx(W), ry(W);
+  std::vector<float> fx(W), fy(W);
+  for (int i = 0; i < W; ++i) {
+    const float g = (2.f * i + 1.f) / (2.f * W) * n;  // pixel centre in grid units
+    const int c = std::min(static_cast<int>(g), n - 1);
+    cx[i] = ry[i] = c;
+    fx[i] = fy[i] = g - c;
+  }
 
   IslandFields out{cv::Mat1f(W, W), cv::Mat1f(W, W), cv::Mat1b(W, W)};
   for (int y = 0; y < W; ++y) {
@@ -279,13 +345,18 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
     float* hrow = out.height_m.ptr<float>(y);
     float* xrow = out.xt.ptr<float>(y);
     uint8_t* lrow = out.label.ptr<uint8_t>(y);
+    const cv::Vec2f* d0 = warp ? D.ptr<cv::Vec2f>(ry[y]) : nullptr;
+    const cv::Vec2f* d1 = warp ? D.ptr<cv::Vec2f>(ry[y] + 1) : nullptr;
     for (int x = 0; x < W; ++x) {
       const float px = -1.f + (2.f * x + 1.f) / W;
       float sx = px, sy = py;  // where the material at this pixel came from
       if (warp) {
-        const cv::Vec2f d = sample_nodes(D, n, px, py);
-        sx += d[0];
-        sy += d[1];
+        const int c = cx[x];
+        const float a = fx[x], b = fy[y];
+        const cv::Vec2f top = d0[c] + a * (d0[c + 1] - d0[c]);
+        const cv::Vec2f bot = d1[c] + a * (d1[c + 1] - d1[c]);
+        sx += top[0] + b * (bot[0] - top[0]);
+        sy += top[1] + b * (bot[1] - top[1]);
       }
       const float xt = outlines.xt(sx, sy);
       const float g = xt * lut_scale;
@@ -296,12 +367,11 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
         h = merged[j] + f * (merged[j + 1] - merged[j]);
       } else {
         float hs = hsub[j] + f * (hsub[j + 1] - hsub[j]);
-        hs *= 1.f + amp * noise.fbm(sx * inv_feature, sy * inv_feature, spec.noise.octaves);
+        const float qa = (orient & 1) ? sy : sx, qb = (orient & 1) ? sx : sy;
+        const float u = ((orient & 2) ? -qa : qa) * texels + u0, v = ((orient & 4) ? -qb : qb) * texels + v0;
+        hs *= 1.f + amp * tile->sample(u, v);
         if (spec.coral.enabled) {
-          const float hc = coral[j] + f * (coral[j + 1] - coral[j]);
-          // Float version of smax() for the hot loop; same cases.
-          const float m = std::max(hs, hc), d = std::fabs(hs - hc), d2k = 2.f * k * d;
-          h = d2k > 60.f ? m : (d2k < 1e-6f ? m + 0.5f / k : m + d / std::expm1(d2k));
+          h = smax_table(hs, coral[j] + f * (coral[j + 1] - coral[j]));
         } else {
           h = hs;
         }

@@ -45,6 +45,19 @@ float GradientNoise2::perlin(float x, float y) const {
   return std::clamp(n, -1.f, 1.f);
 }
 
+float GradientNoise2::perlin_periodic(float x, float y, int period, int salt) const {
+  const float fx = std::floor(x), fy = std::floor(y);
+  const int X0 = static_cast<int>(fx), Y0 = static_cast<int>(fy);
+  auto wrap = [period, salt](int i) { return (((i % period) + period) % period + 37 * salt) & 255; };
+  const int X = wrap(X0), X1 = wrap(X0 + 1), Y = wrap(Y0), Y1 = wrap(Y0 + 1);
+  x -= fx; y -= fy;
+  const float u = fade(x), v = fade(y);
+  auto h = [this](int i, int j) { return perm_[perm_[i] + j]; };
+  const float n = lerp(lerp(grad(h(X, Y), x, y), grad(h(X1, Y), x - 1, y), u),
+                       lerp(grad(h(X, Y1), x, y - 1), grad(h(X1, Y1), x - 1, y - 1), u), v);
+  return std::clamp(n, -1.f, 1.f);
+}
+
 float GradientNoise2::fbm(float x, float y, int octaves) const {
   float sum = 0, amp = 1, norm = 0;
   for (int o = 0; o < octaves; ++o) {
@@ -55,6 +68,37 @@ float GradientNoise2::fbm(float x, float y, int octaves) const {
     x *= 2; y *= 2;
   }
   return sum / norm;
+}
+
+NoiseTile::NoiseTile(int octaves) : t_(static_cast<size_t>(kSize) * kSize) {
+  // Periodic Perlin: lattice indices wrap at the period (in cells) of each
+  // octave, so the tile repeats seamlessly. Fixed seed: the tile is part of
+  // the generator's definition, islands differ by where they sample it.
+  const GradientNoise2 g(0x5EEDu);
+  for (int y = 0; y < kSize; ++y)
+    for (int x = 0; x < kSize; ++x) {
+      float sum = 0, amp = 1, norm = 0;
+      int cell = kBaseCell;
+      for (int o = 0; o < octaves; ++o, cell /= 2) {
+        const int period = kSize / cell;
+        const float u = float(x) / cell, v = float(y) / cell;
+        sum += amp * g.perlin_periodic(u + 0.5f / cell, v + 0.5f / cell, period, o);
+        norm += amp;
+        amp *= 0.5f;
+      }
+      t_[static_cast<size_t>(y) * kSize + x] = sum / norm;
+    }
+}
+
+const NoiseTile& NoiseTile::get(int octaves) {
+  octaves = std::clamp(octaves, 1, kMaxOctaves);
+  // Function-local statics: each built on first use, thread-safe (C++11).
+  switch (octaves) {
+    case 1: { static const NoiseTile t(1); return t; }
+    case 2: { static const NoiseTile t(2); return t; }
+    case 3: { static const NoiseTile t(3); return t; }
+    default: { static const NoiseTile t(4); return t; }
+  }
 }
 
 PeriodicNoise1::PeriodicNoise1(uint64_t seed, int base_cells, int octaves) : base_cells_(std::max(1, base_cells)) {

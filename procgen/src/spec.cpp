@@ -116,7 +116,7 @@ void validate(const IslandSpec& s) {
   check_range("smax_k", s.smax_k, 0.01, 100);
   check_range("noise.amplitude", s.noise.amplitude, 0, 0.5);
   check_range("noise.feature", s.noise.feature, 0.005, 1);
-  if (s.noise.octaves < 1 || s.noise.octaves > 8) throw Error("noise.octaves = " + std::to_string(s.noise.octaves) + " is out of range; expected [1, 8]");
+  if (s.noise.octaves < 1 || s.noise.octaves > 4) throw Error("noise.octaves = " + std::to_string(s.noise.octaves) + " is out of range; expected [1, 4]");
   check_range("world_size_m", s.world_size_m, 10, 1e6);
 }
 

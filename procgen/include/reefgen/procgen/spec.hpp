@@ -48,7 +48,7 @@ struct CoralParams {
 struct DetailNoise {
   double amplitude = 0.1;   // fraction of |h|, [0, 0.5]; 0 switches it off
   double feature = 0.04;    // canvas units per noise feature (0.04 = W/50 px), [0.005, 1]
-  int octaves = 3;          // fBm octaves, [1, 8]
+  int octaves = 3;          // fBm octaves, [1, 4]
   uint64_t seed = 0;        // noise seed (random islands derive it from the global seed)
 };
 
