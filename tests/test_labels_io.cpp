@@ -1,0 +1,190 @@
+// Label encoding/decoding and file I/O: round trips, tolerant decoding of
+// painted sketches, error paths.
+#include <gtest/gtest.h>
+
+#include <sys/stat.h>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "reefgen/io.hpp"
+#include "reefgen/labels.hpp"
+#include "reefgen/preview.hpp"
+#include "reefgen/rng.hpp"
+
+using namespace reefgen;
+
+namespace {
+
+fs::path temp_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("reefgen_test_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+// Concentric regions, like a drawn island: abyss outside, island in the middle.
+cv::Mat1b ring_labels(int W) {
+  cv::Mat1b l(W, W);
+  for (int y = 0; y < W; ++y)
+    for (int x = 0; x < W; ++x) {
+      const double r = std::hypot(x - W / 2.0 + 0.5, y - W / 2.0 + 0.5) / (W / 2.0);
+      l(y, x) = static_cast<uint8_t>(std::min(4, static_cast<int>(r / 0.18)));
+    }
+  return l;
+}
+
+}  // namespace
+
+TEST(Labels, ColoursFollowTheConvention) {
+  EXPECT_EQ(region_rgb(kIsland, 0), cv::Vec3b(255, 255, 0));
+  EXPECT_EQ(region_rgb(kBeach, 0), cv::Vec3b(0, 255, 0));
+  EXPECT_EQ(region_rgb(kLagoon, 0), cv::Vec3b(0, 255, 255));
+  EXPECT_EQ(region_rgb(kReef, 0), cv::Vec3b(0, 0, 255));
+  EXPECT_EQ(region_rgb(kAbyss, 0), cv::Vec3b(255, 0, 0));
+  EXPECT_EQ(region_rgb(kIsland, 1), cv::Vec3b(64, 64, 0));  // V = 0.25 keeps the hue
+}
+
+TEST(Labels, EncodeDecodeRoundTrip) {
+  const cv::Mat1b l = ring_labels(64);
+  for (double lambda : {0.0, 0.3, 0.7, 1.0}) {
+    const auto d = decode_sketch(encode_labels(l, lambda));
+    EXPECT_EQ(cv::countNonZero(d.label != l), 0) << "lambda " << lambda;
+    EXPECT_EQ(d.filled_px, 0);
+    double mn, mx;
+    cv::minMaxLoc(d.subsidence, &mn, &mx);
+    EXPECT_NEAR(mn, lambda, 0.01);
+    EXPECT_NEAR(mx, lambda, 0.01);
+  }
+}
+
+TEST(Labels, PerPixelSubsidenceRoundTrip) {
+  const cv::Mat1b l = ring_labels(32);
+  cv::Mat1f lam(32, 32);
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 32; ++x) lam(y, x) = x / 31.f;
+  const auto d = decode_sketch(encode_labels(l, lam));
+  EXPECT_EQ(cv::countNonZero(d.label != l), 0);
+  EXPECT_LT(cv::norm(d.subsidence, lam, cv::NORM_INF), 0.01);
+}
+
+TEST(Labels, DecodesAPaintedNoisySketch) {
+  // What an image editor produces: anti-aliased edges (blur), off-hue brush
+  // colours, JPEG at quality 50, an alpha channel, 16 bits.
+  const cv::Mat1b l = ring_labels(128);
+  cv::Mat3b img = encode_labels(l, 0.2);
+  Rng rng(1);
+  for (int y = 0; y < img.rows; ++y)
+    for (int x = 0; x < img.cols; ++x)
+      for (int c = 0; c < 3; ++c)
+        img(y, x)[c] = cv::saturate_cast<uint8_t>(img(y, x)[c] * 0.8 + 25 * rng.uniform());  // desaturated, noisy
+  cv::GaussianBlur(img, img, {5, 5}, 1.2);
+  std::vector<uchar> jpg;
+  cv::imencode(".jpg", img, jpg, {cv::IMWRITE_JPEG_QUALITY, 50});
+  cv::Mat noisy = cv::imdecode(jpg, cv::IMREAD_COLOR);
+  cv::Mat bgra, deep;
+  cv::cvtColor(noisy, bgra, cv::COLOR_BGR2BGRA);
+  bgra.convertTo(deep, CV_16UC4, 257.0);
+  const auto d = decode_sketch(deep);
+  // Mislabelled pixels only along the 4 region borders (blur + JPEG), < 4 %.
+  const double wrong = cv::countNonZero(d.label != l) / double(l.total());
+  EXPECT_LT(wrong, 0.04);
+  EXPECT_EQ(d.label(64, 64), kIsland);
+  EXPECT_EQ(d.label(2, 2), kAbyss);
+}
+
+TEST(Labels, GreyPixelsTakeTheNearestRegionAndTransparentIsAbyss) {
+  cv::Mat4b img(16, 16, cv::Vec4b(255, 0, 0, 255));  // blue reef everywhere (BGRA)
+  img(8, 8) = cv::Vec4b(128, 128, 128, 255);          // a grey brush dot
+  img(0, 0) = cv::Vec4b(0, 255, 0, 0);                // transparent
+  const auto d = decode_sketch(img);
+  EXPECT_EQ(d.label(8, 8), kReef);
+  EXPECT_EQ(d.label(0, 0), kAbyss);
+  EXPECT_EQ(d.filled_px, 1);
+  // Hues between regions go to the nearest: orange (30°+ε) → island (60°).
+  cv::Mat3b orange(4, 4, cv::Vec3b(0, 140, 255));
+  EXPECT_EQ(decode_sketch(orange).label(0, 0), kIsland);
+}
+
+TEST(Labels, NoRegionColourIsAnError) {
+  cv::Mat3b grey(8, 8, cv::Vec3b(100, 100, 100));
+  EXPECT_THROW(decode_sketch(grey), Error);
+  EXPECT_THROW(read_sketch("/nonexistent/sketch.png"), Error);
+  const fs::path d = temp_dir("badimg");
+  write_text_atomic(d / "corrupt.png", "this is not a PNG");
+  try {
+    read_sketch(d / "corrupt.png");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("corrupt.png"), std::string::npos);
+  }
+  fs::remove_all(d);
+}
+
+TEST(Io, ExrRoundTripWithAttributes) {
+  const fs::path d = temp_dir("exr");
+  cv::Mat1f h(24, 40);
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x) h(y, x) = -100.f + 3.25f * x + 0.5f * y;
+  write_exr_height(d / "h.exr", h, {{"reefgen:test", "hello"}});
+  ExrAttributes attrs;
+  const cv::Mat1f back = read_exr_height(d / "h.exr", &attrs);
+  EXPECT_EQ(back.size(), h.size());
+  EXPECT_EQ(cv::norm(back, h, cv::NORM_INF), 0.0);
+  EXPECT_EQ(attrs["reefgen:test"], "hello");
+  // No temporary files left behind.
+  int n = 0;
+  for (auto& e : fs::directory_iterator(d)) (void)e, ++n;
+  EXPECT_EQ(n, 1);
+  fs::remove_all(d);
+}
+
+TEST(Io, WritesToAnUnwritableFolderFailCleanly) {
+  if (::geteuid() == 0) GTEST_SKIP() << "root ignores folder permissions; the CLI test covers a missing folder";
+  const fs::path d = temp_dir("ro");
+  ::chmod(d.c_str(), 0555);
+  EXPECT_THROW(write_text_atomic(d / "x.json", "{}"), Error);
+  ::chmod(d.c_str(), 0755);
+  fs::remove_all(d);
+}
+
+TEST(Io, MissingFolderAndBadJsonAreErrors) {
+  EXPECT_THROW(write_text_atomic("/nonexistent-folder/x.json", "{}"), Error);
+  EXPECT_THROW(read_json("/nonexistent-folder/x.json"), Error);
+  const fs::path d = temp_dir("json");
+  write_text_atomic(d / "bad.json", "{\"a\": ");
+  try {
+    read_json(d / "bad.json");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.json"), std::string::npos);
+  }
+  fs::remove_all(d);
+}
+
+TEST(Preview, CoastlineIsDrawnAndWaterIsBlue) {
+  cv::Mat1f h(32, 32, -50.f);
+  cv::circle(h, {16, 16}, 8, cv::Scalar(100.f), -1);
+  const cv::Mat3b p = render_preview(h);
+  const cv::Vec3b water = p(1, 1), land = p(16, 16), coast = p(16, 8);
+  EXPECT_GT(water[0], water[2]);  // BGR: blue dominates
+  EXPECT_GT(land[1], land[0]);    // land is not blue
+  EXPECT_LT(coast[0] + coast[1] + coast[2], 200);  // dark line at 0 m
+}
+
+TEST(Rng, ReproducibleAndIndependentStreams) {
+  Rng a(5, 1, "x"), b(5, 1, "x"), c(5, 2, "x"), d(5, 1, "y");
+  const uint64_t va = a.next_u64();
+  EXPECT_EQ(va, b.next_u64());
+  EXPECT_NE(va, c.next_u64());
+  EXPECT_NE(va, d.next_u64());
+  Rng u(11);
+  double sum = 0;
+  for (int i = 0; i < 100000; ++i) {
+    const double x = u.uniform();
+    ASSERT_GE(x, 0.0);
+    ASSERT_LT(x, 1.0);
+    sum += x;
+  }
+  EXPECT_NEAR(sum / 100000, 0.5, 0.005);
+}

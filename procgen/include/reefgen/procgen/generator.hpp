@@ -53,8 +53,8 @@ class SmoothMaxTable {
   explicit SmoothMaxTable(double k);
   float operator()(float a, float b) const {
     const float m = a > b ? a : b, d = a > b ? a - b : b - a;
-    const float t = d * scale_;
-    if (t >= kMaxT) return m;
+    const float t = d * scale_;  // table index: 2kδ · kPerUnit
+    if (t >= static_cast<float>(kMaxT * kPerUnit)) return m;
     const int i = static_cast<int>(t);
     const float f = t - static_cast<float>(i);
     return m + c_[i] + f * (c_[i + 1] - c_[i]);
