@@ -93,12 +93,17 @@ int run_random(const GenerateArgs& a, const GlobalOptions& g) {
         if (fs::exists(sidecar)) {
           const auto j = read_json(sidecar);
           const auto& p = j.value("provenance", nlohmann::json::object());
-          if (p.value("seed", ~0ull) == a.seed && p.value("index", ~0ull) == index &&
-              j.value("size_px", 0) == a.size && j.value("subsidence", -1.0) == levels[level]) {
+          if (!(p.value("seed", ~0ull) == a.seed && p.value("index", ~0ull) == index &&
+                j.value("size_px", 0) == a.size && j.value("subsidence", -1.0) == levels[level]))
+            throw Error(sidecar.string() + " was made with other settings; use an empty --out folder");
+          bool complete = true;
+          const nlohmann::json files = j.value("files", nlohmann::json::object());
+          for (const auto& file : files)
+            complete = complete && file.is_string() && fs::exists(dir / file.get<std::string>());
+          if (complete) {
             ++skipped;
             return;
           }
-          throw Error(sidecar.string() + " was made with other settings; use an empty --out folder");
         }
         IslandSpec spec = random_spec(a.seed, index);
         spec.subsidence = levels[level];

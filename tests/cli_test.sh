@@ -1,0 +1,61 @@
+#!/usr/bin/env bash
+# End-to-end checks of the reefgen binary: outputs, determinism across thread
+# counts, and the error paths (one line, non-zero exit, no partial files).
+set -u
+BIN="$1"
+T=$(mktemp -d)
+trap 'rm -rf "$T"' EXIT
+fail=0; pass=0
+ok() { pass=$((pass+1)); }
+bad() { echo "FAIL: $*"; fail=$((fail+1)); }
+
+# 1. Every preset generates the four files; the EXR starts with the EXR magic.
+for p in $("$BIN" presets | awk '{print $1}'); do
+  if "$BIN" generate --preset "$p" --size 64 -o "$T/p/$p" --preview >/dev/null 2>"$T/err"; then
+    for s in height.exr label.png preview.png json; do [ -s "$T/p/$p.$s" ] || bad "preset $p: no $s"; done
+    [ "$(head -c4 "$T/p/$p.height.exr" | od -An -tx1 | tr -d ' ')" = "762f3101" ] && ok || bad "preset $p: not an EXR"
+  else bad "preset $p failed: $(cat "$T/err")"; fi
+done
+
+# 2. Same seed, same bytes, whatever the thread count; a rerun resumes (skips).
+"$BIN" -q generate --random 3 --levels 2 --seed 11 --size 48 --out "$T/r1" --threads 1 >/dev/null || bad "random t1"
+"$BIN" -q generate --random 3 --levels 2 --seed 11 --size 48 --out "$T/r2" --threads 2 >/dev/null || bad "random t2"
+[ "$(ls "$T/r1" | wc -l)" = 18 ] && ok || bad "random: expected 18 files, got $(ls "$T/r1" | wc -l)"
+diff -r "$T/r1" "$T/r2" >/dev/null && ok || bad "threads 1 vs 2 differ"
+"$BIN" -q generate --random 3 --levels 2 --seed 12 --size 48 --out "$T/r3" >/dev/null
+cmp -s "$T/r1/island_000000_l0.height.exr" "$T/r3/island_000000_l0.height.exr" && bad "seed has no effect" || ok
+rm "$T/r2/island_000001_l1.json" "$T/r2/island_000002_l0.height.exr"  # an interrupted run
+"$BIN" generate --random 3 --levels 2 --seed 11 --size 48 --out "$T/r2" --threads 2 >/dev/null 2>"$T/err" || bad "resume failed"
+grep -q "wrote 2 islands (4 already there)" "$T/err" && ok || bad "resume did not skip: $(cat "$T/err")"
+diff -r "$T/r1" "$T/r2" >/dev/null && ok || bad "resumed run differs"
+
+# 3. Errors: one line on stderr, non-zero exit, nothing written.
+expect_error() {  # expect_error NEEDLE ARGS...
+  local needle="$1"; shift
+  rm -rf "$T/e"; mkdir -p "$T/e"
+  if "$BIN" "$@" >/dev/null 2>"$T/err"; then bad "no error for: $*"; return; fi
+  [ "$(wc -l < "$T/err")" = 1 ] || bad "not one line for: $* -> $(cat "$T/err")"
+  grep -q -- "$needle" "$T/err" || bad "message lacks '$needle' for: $* -> $(cat "$T/err")"
+  [ -z "$(ls -A "$T/e")" ] || bad "files left for: $*: $(ls "$T/e")"
+  ok
+}
+echo '{"subsidence": 2}' > "$T/range.json"
+echo '{"outlines": [0.3, ' > "$T/broken.json"
+echo '{"wind": [], "profle": [0.5, 0.1]}' > "$T/typo.json"
+touch "$T/afile"
+expect_error "no such file" generate --spec "$T/missing.json" -o "$T/e/x"
+expect_error "broken.json: invalid JSON" generate --spec "$T/broken.json" -o "$T/e/x"
+expect_error "subsidence = 2 is out of range" generate --spec "$T/range.json" -o "$T/e/x"
+expect_error 'unknown key "profle"' generate --spec "$T/typo.json" -o "$T/e/x"
+expect_error "unknown preset" generate --preset volcano -o "$T/e/x"
+expect_error "subsidence must be in" generate --preset atoll --subsidence 1.5 -o "$T/e/x"
+expect_error "size" generate --preset atoll --size 3 -o "$T/e/x"
+expect_error "afile" generate --preset atoll -o "$T/afile/sub/x"
+expect_error "needs --out" generate --random 2
+
+# 4. --version, --help with examples.
+"$BIN" --version | grep -q "reefgen [0-9]" && ok || bad "--version"
+"$BIN" generate --help | grep -q "Examples" && ok || bad "generate --help has no examples"
+
+echo "$pass passed, $fail failed"
+[ "$fail" = 0 ]
