@@ -1,0 +1,48 @@
+#pragma once
+// Augmentation of generated pairs (paper §5, DESIGN §4). Every transform is a
+// pure function applied identically to the label map, the per-pixel
+// subsidence and the heights: labels are never blended (nearest neighbour),
+// heights are interpolated (bilinear). No LibTorch here.
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace reefgen::augment {
+
+struct Pair {
+  cv::Mat1f height_m;    // W×W, metres, sea level 0
+  cv::Mat1b label;       // W×W, region ids 0..4
+  cv::Mat1f subsidence;  // W×W, λ per pixel (the label map's brightness)
+};
+
+// Rotation by angle_deg (counter-clockwise in the image as displayed), uniform
+// scaling about the centre, optional horizontal flip (applied first). Pixels
+// that come from outside the canvas repeat its border (open ocean).
+Pair affine(const Pair& p, double angle_deg, double scale, bool flip_x);
+
+// Translation by (dx, dy) pixels with wrap-around: what leaves one side comes
+// back on the other. dx > 0 moves content right, dy > 0 down.
+Pair translate_wrap(const Pair& p, int dx, int dy);
+
+// Intersection over union of two masks (0 when both are empty).
+double iou(const cv::Mat1b& a, const cv::Mat1b& b);
+
+// Footprint of an island: every pixel that is not abyss.
+cv::Mat1b footprint(const Pair& p);
+
+struct PasteResult {
+  Pair pair;
+  int placed = 0;                 // islands that found a place
+  std::vector<cv::Point> offsets; // wrap-around shift of each placed island
+};
+
+// Copy-paste of several islands into one sample. Island i is tried at up to
+// `tries` wrap-around offsets drawn from `seed`; it is kept at the first whose
+// footprint IoU with every island already placed is ≤ max_iou. Heights merge
+// with the smooth maximum (k in 1/m), the label (and subsidence) comes from
+// the island that is higher at that pixel, pixels no footprint covers are abyss.
+PasteResult copy_paste(const std::vector<Pair>& islands, uint64_t seed, double max_iou = 0.10, int tries = 64,
+                       double smax_k = 0.5);
+
+}  // namespace reefgen::augment

@@ -1,0 +1,128 @@
+// Augmentation: alignment of label and height, exactness of the simple
+// cases, wrap continuity, the IoU bound of copy-paste.
+#include <gtest/gtest.h>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "reefgen/augment/augment.hpp"
+#include "reefgen/io.hpp"
+#include "reefgen/labels.hpp"
+#include "reefgen/procgen/generator.hpp"
+#include "reefgen/procgen/random_spec.hpp"
+
+using namespace reefgen;
+using namespace reefgen::augment;
+
+namespace {
+
+Pair island_pair(uint64_t index, int W, double scale = 1.0) {
+  auto spec = procgen::random_spec(77, index);
+  spec.subsidence = 0.1 * index;
+  procgen::RenderOptions o;
+  o.size_px = W;
+  const auto f = procgen::generate(spec, o);
+  Pair p{f.height_m, f.label, cv::Mat1f(W, W, float(spec.subsidence))};
+  return scale == 1.0 ? p : affine(p, 0, scale, false);
+}
+
+// Height = 10 m × label id: lets a test see whether label and height moved together.
+Pair stepped(int W) {
+  Pair p{cv::Mat1f(W, W), cv::Mat1b(W, W), cv::Mat1f(W, W, 0.f)};
+  for (int y = 0; y < W; ++y)
+    for (int x = 0; x < W; ++x) {
+      const double r = std::hypot(x - 20.0, y - 27.0) / W;
+      p.label(y, x) = static_cast<uint8_t>(std::min(4, static_cast<int>(r / 0.1)));
+      p.height_m(y, x) = 10.f * p.label(y, x);
+      p.subsidence(y, x) = x / float(W);
+    }
+  return p;
+}
+
+bool equal(const cv::Mat& a, const cv::Mat& b) { return cv::norm(a, b, cv::NORM_INF) == 0; }
+
+}  // namespace
+
+TEST(Affine, IdentityIsExact) {
+  const Pair p = island_pair(1, 48);
+  const Pair q = affine(p, 0, 1, false);
+  EXPECT_TRUE(equal(p.height_m, q.height_m));
+  EXPECT_TRUE(equal(p.label, q.label));
+}
+
+TEST(Affine, QuarterTurnAndFlipMatchExactPermutations) {
+  const Pair p = stepped(40);
+  const Pair r = affine(p, 90, 1, false);
+  cv::Mat expected;
+  cv::rotate(p.label, expected, cv::ROTATE_90_COUNTERCLOCKWISE);
+  EXPECT_TRUE(equal(r.label, expected));
+  cv::rotate(p.height_m, expected, cv::ROTATE_90_COUNTERCLOCKWISE);
+  EXPECT_LT(cv::norm(r.height_m, expected, cv::NORM_INF), 1e-3);
+  const Pair f = affine(p, 0, 1, true);
+  cv::flip(p.label, expected, 1);
+  EXPECT_TRUE(equal(f.label, expected));
+  cv::flip(p.subsidence, expected, 1);
+  EXPECT_TRUE(equal(f.subsidence, expected));
+}
+
+TEST(Affine, LabelsNeverBlendedAndStayAlignedWithHeights) {
+  const Pair p = stepped(64);
+  const Pair q = affine(p, 37, 0.8, true);
+  int exact = 0;
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x) {
+      ASSERT_LE(q.label(y, x), 4);
+      // Bilinear heights lie within one step of the nearest label's height.
+      ASSERT_LE(std::fabs(q.height_m(y, x) - 10.f * q.label(y, x)), 10.f + 1e-3f);
+      exact += std::fabs(q.height_m(y, x) - 10.f * q.label(y, x)) < 1e-3f;
+    }
+  EXPECT_GT(exact, 64 * 64 * 8 / 10);
+}
+
+TEST(TranslateWrap, ContinuityAndComposition) {
+  const Pair p = stepped(32);
+  const Pair a = translate_wrap(p, 5, -3);
+  EXPECT_EQ(a.label(0, 4), p.label(3, 31));  // column 31 wrapped to column 4, row 3 to row 0
+  EXPECT_EQ(a.height_m(10, 5), p.height_m(13, 0));
+  EXPECT_TRUE(equal(translate_wrap(p, 32, -64).label, p.label));
+  const Pair b = translate_wrap(translate_wrap(p, 7, 2), 30, 31);
+  const Pair c = translate_wrap(p, 37, 33);
+  EXPECT_TRUE(equal(b.label, c.label));
+  EXPECT_TRUE(equal(b.height_m, c.height_m));
+  EXPECT_TRUE(equal(b.subsidence, c.subsidence));
+}
+
+TEST(CopyPaste, IoUBoundMergeRulesAndAbyssElsewhere) {
+  std::vector<Pair> isl;
+  for (int i = 0; i < 3; ++i) isl.push_back(island_pair(i, 64, 0.45));
+  const auto r = copy_paste(isl, 5, 0.10);
+  ASSERT_GE(r.placed, 2);
+  std::vector<Pair> moved;
+  for (int i = 0; i < r.placed; ++i) moved.push_back(translate_wrap(isl[i], r.offsets[i].x, r.offsets[i].y));
+  for (int i = 0; i < r.placed; ++i)
+    for (int j = i + 1; j < r.placed; ++j) EXPECT_LE(iou(footprint(moved[i]), footprint(moved[j])), 0.10);
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x) {
+      ASSERT_LE(r.pair.label(y, x), 4);
+      float top = -1e9f;
+      int owner = -1;
+      bool covered = false;
+      for (int i = 0; i < r.placed; ++i) {
+        if (moved[i].height_m(y, x) > top) top = moved[i].height_m(y, x), owner = i;
+        covered = covered || moved[i].label(y, x) != kAbyss;
+      }
+      ASSERT_GE(r.pair.height_m(y, x), top - 1e-4f);  // smooth max ≥ max
+      // Overshoot ≤ 1/(2k) = 1 m per merge: the abyss floor rises by up to (n − 1) m.
+      ASSERT_LE(r.pair.height_m(y, x), top + 1.0f * (r.placed - 1) + 1e-4f);
+      if (!covered) ASSERT_EQ(r.pair.label(y, x), kAbyss);
+      else if (owner >= 0 && r.pair.label(y, x) != kAbyss) ASSERT_EQ(r.pair.label(y, x), moved[owner].label(y, x));
+    }
+  // Deterministic in the seed.
+  EXPECT_TRUE(equal(copy_paste(isl, 5, 0.10).pair.height_m, r.pair.height_m));
+}
+
+TEST(CopyPaste, Errors) {
+  EXPECT_THROW(copy_paste({}, 1), Error);
+  std::vector<Pair> mixed = {island_pair(0, 32), island_pair(1, 48)};
+  EXPECT_THROW(copy_paste(mixed, 1), Error);
+}
