@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
                "  reefgen generate --spec my_island.json -o out/mine --size 512\n"
                "  reefgen generate --random 100 --seed 7 --out out/random --threads 2\n"
                "  reefgen presets\n"
+               "  reefgen dataset build --config configs/dataset/paper.json --out data/paper\n"
                "  reefgen bench generate\n"};
   app.set_version_flag("--version", std::string("reefgen ") + reefgen::kVersion);
   app.require_subcommand(1);
@@ -21,6 +22,7 @@ int main(int argc, char** argv) {
   app.add_flag("-q,--quiet", g.quiet, "No progress or log lines on stderr");
   const std::vector<reefgen::Command> commands = {reefgen::add_generate_command(app, g),
                                                   reefgen::add_presets_command(app, g),
+                                                  reefgen::add_dataset_command(app, g),
                                                   reefgen::add_bench_command(app, g)};
   try {
     app.parse(argc, argv);

@@ -1,0 +1,51 @@
+#pragma once
+// The training-set recipe (paper §5, DESIGN §4): which pair index is which
+// configuration, subsidence level, split and augmentation. Pure and
+// deterministic in (seed, index): a pair can be rebuilt anywhere, which is what
+// makes resuming, sharding and verification simple.
+#include <cstdint>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "reefgen/augment/augment.hpp"
+
+namespace reefgen::augment {
+
+struct DatasetParams {
+  int64_t count = 10000;       // pairs, [1, 1e8]
+  int size_px = 256;           // W, [16, 4096]
+  int levels = 4;              // subsidence levels per configuration, [1, 64]
+  double val_fraction = 0.05;  // of configurations, [0, 0.5]
+  double test_fraction = 0.05; // of configurations, [0, 0.5]
+  double p_affine = 0.5;       // probability of rotation/scale/flip, [0, 1]
+  double scale_min = 0.6, scale_max = 1.1;  // affine scale range, (0, 4]
+  double p_translate = 0.3;    // probability of a wrap-around translation, [0, 1]
+  double p_paste = 0.2;        // probability of copy-paste of 2-3 islands, [0, 1]
+  double paste_scale = 0.5;    // scale of pasted islands, (0, 1]
+  double max_iou = 0.10;       // footprint IoU bound for copy-paste, [0, 1]
+};
+
+void to_json(nlohmann::json& j, const DatasetParams& p);
+// Every key optional; unknown keys and out-of-range values throw Error naming them.
+DatasetParams dataset_params_from_json(const nlohmann::json& j, const std::string& origin);
+
+enum class Split { kTrain, kVal, kTest };
+const char* split_name(Split s);
+// Split of configuration c: whole configurations go to one split, so no island
+// appears (at another subsidence or augmentation) in two splits.
+Split split_of(uint64_t seed, int64_t configuration, const DatasetParams& p);
+
+struct PairInfo {
+  int64_t index, configuration;
+  int level;
+  double subsidence;
+  Split split;
+  nlohmann::json augmentation;  // what was applied, for the manifest
+};
+
+PairInfo pair_info(uint64_t seed, int64_t index, const DatasetParams& p);
+// Generates and augments pair `index`.
+Pair make_pair(uint64_t seed, int64_t index, const DatasetParams& p, PairInfo* info = nullptr);
+
+}  // namespace reefgen::augment

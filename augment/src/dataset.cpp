@@ -1,0 +1,133 @@
+#include "reefgen/augment/dataset.hpp"
+
+#include <cmath>
+
+#include "reefgen/io.hpp"
+#include "reefgen/procgen/generator.hpp"
+#include "reefgen/procgen/random_spec.hpp"
+#include "reefgen/rng.hpp"
+
+namespace reefgen::augment {
+
+using nlohmann::json;
+
+void to_json(json& j, const DatasetParams& p) {
+  j = json{{"count", p.count},           {"size_px", p.size_px},         {"levels", p.levels},
+           {"val_fraction", p.val_fraction}, {"test_fraction", p.test_fraction}, {"p_affine", p.p_affine},
+           {"scale_min", p.scale_min},   {"scale_max", p.scale_max},     {"p_translate", p.p_translate},
+           {"p_paste", p.p_paste},       {"paste_scale", p.paste_scale}, {"max_iou", p.max_iou}};
+}
+
+DatasetParams dataset_params_from_json(const json& j, const std::string& origin) {
+  if (!j.is_object()) throw Error(origin + ": the dataset config must be a JSON object");
+  DatasetParams p;
+  json known;
+  to_json(known, p);
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    if (it.key() == "description") continue;
+    if (!known.contains(it.key())) throw Error(origin + ": unknown key \"" + it.key() + "\" in the dataset config");
+    if (!it->is_number()) throw Error(origin + ": " + it.key() + " must be a number");
+  }
+  auto num = [&](const char* k, double& v, double lo, double hi) {
+    if (j.contains(k)) v = j[k].get<double>();
+    if (!(v >= lo && v <= hi))
+      throw Error(origin + ": " + k + " = " + std::to_string(v) + " is out of range; expected [" + std::to_string(lo) +
+                  ", " + std::to_string(hi) + "]");
+  };
+  double count = double(p.count), size = p.size_px, levels = p.levels;
+  num("count", count, 1, 1e8);
+  num("size_px", size, 16, 4096);
+  num("levels", levels, 1, 64);
+  p.count = static_cast<int64_t>(count);
+  p.size_px = static_cast<int>(size);
+  p.levels = static_cast<int>(levels);
+  num("val_fraction", p.val_fraction, 0, 0.5);
+  num("test_fraction", p.test_fraction, 0, 0.5);
+  num("p_affine", p.p_affine, 0, 1);
+  num("scale_min", p.scale_min, 1e-3, 4);
+  num("scale_max", p.scale_max, p.scale_min, 4);
+  num("p_translate", p.p_translate, 0, 1);
+  num("p_paste", p.p_paste, 0, 1);
+  num("paste_scale", p.paste_scale, 1e-3, 1);
+  num("max_iou", p.max_iou, 0, 1);
+  return p;
+}
+
+const char* split_name(Split s) {
+  switch (s) {
+    case Split::kTrain: return "train";
+    case Split::kVal: return "val";
+    default: return "test";
+  }
+}
+
+Split split_of(uint64_t seed, int64_t configuration, const DatasetParams& p) {
+  const double u = Rng(seed, static_cast<uint64_t>(configuration), "split").uniform();
+  if (u < p.test_fraction) return Split::kTest;
+  if (u < p.test_fraction + p.val_fraction) return Split::kVal;
+  return Split::kTrain;
+}
+
+PairInfo pair_info(uint64_t seed, int64_t index, const DatasetParams& p) {
+  PairInfo info;
+  info.index = index;
+  info.configuration = index / p.levels;
+  info.level = static_cast<int>(index % p.levels);
+  info.subsidence = procgen::subsidence_levels(p.levels)[info.level];
+  info.split = split_of(seed, info.configuration, p);
+  return info;
+}
+
+namespace {
+Pair render(const procgen::IslandSpec& spec, int W) {
+  procgen::RenderOptions o;
+  o.size_px = W;
+  const auto f = procgen::generate(spec, o);
+  return {f.height_m, f.label, cv::Mat1f(W, W, static_cast<float>(spec.subsidence))};
+}
+}  // namespace
+
+Pair make_pair(uint64_t seed, int64_t index, const DatasetParams& p, PairInfo* out_info) {
+  PairInfo info = pair_info(seed, index, p);
+  Rng rng(seed, static_cast<uint64_t>(index), "augmentation");
+  auto spec = procgen::random_spec(seed, static_cast<uint64_t>(info.configuration));
+  spec.subsidence = info.subsidence;
+  Pair pair = render(spec, p.size_px);
+  json aug = json::object();
+  // Draw every decision up front, in a fixed order, so that the RNG stream
+  // does not depend on which branches run.
+  const bool do_paste = rng.uniform() < p.p_paste;
+  const int extra = 1 + static_cast<int>(rng.uniform_int(0, 1));
+  const uint64_t paste_seed = rng.next_u64();
+  const bool do_affine = rng.uniform() < p.p_affine;
+  const double angle = rng.uniform(0, 360), scale = rng.uniform(p.scale_min, p.scale_max);
+  const bool flip = rng.uniform() < 0.5;
+  const bool do_translate = rng.uniform() < p.p_translate;
+  const int dx = static_cast<int>(rng.uniform_int(0, p.size_px - 1)), dy = static_cast<int>(rng.uniform_int(0, p.size_px - 1));
+  if (do_paste) {
+    // Companions are sub-configurations of the same configuration, so a pasted
+    // island never leaks across splits.
+    std::vector<Pair> islands = {affine(pair, 0, p.paste_scale, false)};
+    for (int k = 0; k < extra; ++k) {
+      auto s = procgen::random_spec(seed ^ 0xC0FFEEull, static_cast<uint64_t>(info.configuration) * 8 + k);
+      s.subsidence = info.subsidence;
+      islands.push_back(affine(render(s, p.size_px), 0, p.paste_scale, false));
+    }
+    const auto r = copy_paste(islands, paste_seed, p.max_iou);
+    pair = r.pair;
+    aug["paste"] = {{"islands", r.placed}, {"scale", p.paste_scale}};
+  }
+  if (do_affine) {
+    pair = affine(pair, angle, scale, flip);
+    aug["affine"] = {{"angle_deg", angle}, {"scale", scale}, {"flip_x", flip}};
+  }
+  if (do_translate) {
+    pair = translate_wrap(pair, dx, dy);
+    aug["translate"] = {dx, dy};
+  }
+  info.augmentation = aug;
+  if (out_info) *out_info = info;
+  return pair;
+}
+
+}  // namespace reefgen::augment

@@ -1,0 +1,233 @@
+// reefgen dataset build|merge: training sets from the generator + augmentation.
+// Every pair is a pure function of (seed, index), so a build can be resumed,
+// sharded over machines and verified by rebuilding.
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <regex>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "app.hpp"
+#include "reefgen/augment/dataset.hpp"
+#include "reefgen/io.hpp"
+#include "reefgen/labels.hpp"
+#include "reefgen/version.hpp"
+
+namespace reefgen {
+
+using namespace augment;
+using nlohmann::json;
+
+namespace {
+
+// Heights are normalised for training by this fixed range (DESIGN §5: "a fixed
+// range stored with the model"); it is the generator's M(0)..M(1).
+constexpr double kNormFloorM = -100, kNormPeakM = 500;
+
+struct BuildArgs {
+  std::string config, out;
+  int64_t count = -1;
+  uint64_t seed = 0;
+  int threads = default_threads();
+  std::string shard = "0/1";
+};
+
+std::pair<int, int> parse_shard(const std::string& s) {
+  std::smatch m;
+  static const std::regex re(R"((\d+)/(\d+))");
+  if (!std::regex_match(s, m, re)) throw Error("--shard must be I/N, e.g. 0/4");
+  const int i = std::stoi(m[1]), n = std::stoi(m[2]);
+  if (n < 1 || i >= n) throw Error("--shard " + s + ": need 0 ≤ I < N");
+  return {i, n};
+}
+
+std::string pair_stem(const PairInfo& info) {
+  char name[32];
+  std::snprintf(name, sizeof name, "%08lld", static_cast<long long>(info.index));
+  return std::string(split_name(info.split)) + "/" + name;
+}
+
+std::string manifest_name(int i, int n) {
+  return n == 1 ? "manifest.jsonl" : "manifest.shard-" + std::to_string(i) + "-of-" + std::to_string(n) + ".jsonl";
+}
+
+// Verifies that existing files hold exactly this pair (a resumed build), or
+// throws naming the file. Returns false when the files are absent.
+bool existing_matches(const fs::path& label_path, const fs::path& height_path, const cv::Mat3b& label_bgr,
+                      const Pair& pair) {
+  const bool hl = fs::exists(label_path), hh = fs::exists(height_path);
+  if (!hl && !hh) return false;
+  if (hl != hh) return false;  // interrupted between the two writes: rewrite both
+  const cv::Mat l = cv::imread(label_path.string(), cv::IMREAD_UNCHANGED);
+  if (l.empty() || l.type() != CV_8UC3 || cv::norm(l, label_bgr, cv::NORM_INF) != 0)
+    throw Error(label_path.string() + " is corrupt or from another dataset; delete it or build into an empty folder");
+  cv::Mat1f h;
+  try {
+    h = read_exr_height(height_path);
+  } catch (const Error&) {
+    throw Error(height_path.string() + " is corrupt or from another dataset; delete it or build into an empty folder");
+  }
+  if (h.size() != pair.height_m.size() || cv::norm(h, pair.height_m, cv::NORM_INF) != 0)
+    throw Error(height_path.string() + " is corrupt or from another dataset; delete it or build into an empty folder");
+  return true;
+}
+
+int run_build(const BuildArgs& a, const GlobalOptions& g) {
+  DatasetParams p;
+  json config = json::object();
+  if (!a.config.empty()) {
+    if (!fs::exists(a.config)) throw Error("cannot read " + a.config + ": no such file");
+    config = read_json(a.config);
+    p = dataset_params_from_json(config, a.config);
+  }
+  if (a.count > 0) p.count = a.count;
+  const auto [shard_i, shard_n] = parse_shard(a.shard);
+  const fs::path dir = a.out;
+  ensure_writable_dir(dir);
+  for (auto s : {Split::kTrain, Split::kVal, Split::kTest}) ensure_writable_dir(dir / split_name(s));
+
+  json meta = {{"tool", "reefgen"},
+               {"format", 1},
+               {"seed", a.seed},
+               {"params", p},
+               {"height_normalisation_m", {kNormFloorM, kNormPeakM}},
+               {"sea_level_m", 0.0},
+               {"label_encoding", "HSV: hue 60*(id+1) deg for island, beach, lagoon, reef; 0 deg abyss; V = 1 - 0.75*subsidence"},
+               {"files", "SPLIT/INDEX.label.png (RGB 8-bit) + SPLIT/INDEX.height.exr (float32, channel Y, metres)"}};
+  const fs::path meta_path = dir / "dataset.json";
+  if (fs::exists(meta_path)) {
+    json old = read_json(meta_path);
+    old.erase("version");
+    if (old != meta) throw Error(meta_path.string() + " describes another dataset (seed or params differ); use an empty --out folder");
+  }
+  meta["version"] = kVersion;
+  write_json_atomic(meta_path, meta);
+
+  std::vector<int64_t> indices;
+  for (int64_t i = shard_i; i < p.count; i += shard_n) indices.push_back(i);
+  std::vector<json> records(indices.size());
+  std::atomic<size_t> reused{0};
+  Progress progress("dataset", indices.size(), g.quiet);
+  parallel_for(
+      indices.size(), a.threads,
+      [&](size_t k) {
+        PairInfo info;
+        const Pair pair = make_pair(a.seed, indices[k], p, &info);
+        const std::string stem = pair_stem(info);
+        const fs::path label_path = dir / (stem + ".label.png"), height_path = dir / (stem + ".height.exr");
+        const cv::Mat3b label_bgr = encode_labels(pair.label, pair.subsidence);
+        if (existing_matches(label_path, height_path, label_bgr, pair)) {
+          ++reused;
+        } else {
+          write_exr_height(height_path, pair.height_m, {{"reefgen:version", kVersion}});
+          write_png(label_path, label_bgr);
+        }
+        double lo, hi;
+        cv::minMaxLoc(pair.height_m, &lo, &hi);
+        records[k] = {{"index", info.index},
+                      {"split", split_name(info.split)},
+                      {"configuration", info.configuration},
+                      {"subsidence", info.subsidence},
+                      {"augmentation", info.augmentation},
+                      {"height_range_m", {lo, hi}},
+                      {"label", stem + ".label.png"},
+                      {"height", stem + ".height.exr"},
+                      {"label_fnv64", file_checksum(label_path)},
+                      {"height_fnv64", file_checksum(height_path)}};
+      },
+      [&](size_t d) { progress.tick(d); });
+  std::string text;
+  for (const auto& r : records) text += r.dump() + "\n";
+  write_text_atomic(dir / manifest_name(shard_i, shard_n), text);
+  if (!g.quiet)
+    std::fprintf(stderr, "dataset: %zu pairs (%zu already there) in %s, manifest %s\n", indices.size(),
+                 size_t(reused), dir.c_str(), manifest_name(shard_i, shard_n).c_str());
+  std::printf("%s\n", (dir / manifest_name(shard_i, shard_n)).c_str());
+  return 0;
+}
+
+int run_merge(const std::string& out, const GlobalOptions& g) {
+  const fs::path dir = out;
+  const json meta = read_json(dir / "dataset.json");
+  const int64_t count = meta.at("params").at("count").get<int64_t>();
+  std::vector<fs::path> shards;
+  int n = 0;
+  static const std::regex re(R"(manifest\.shard-(\d+)-of-(\d+)\.jsonl)");
+  for (const auto& e : fs::directory_iterator(dir)) {
+    std::smatch m;
+    const std::string name = e.path().filename().string();
+    if (!std::regex_match(name, m, re)) continue;
+    const int sn = std::stoi(m[2]);
+    if (n && sn != n) throw Error(dir.string() + ": shard manifests of different N (" + std::to_string(n) + ", " + std::to_string(sn) + ")");
+    n = sn;
+    shards.push_back(e.path());
+  }
+  if (shards.empty()) throw Error(dir.string() + ": no manifest.shard-I-of-N.jsonl to merge");
+  if (static_cast<int>(shards.size()) != n)
+    throw Error(dir.string() + ": " + std::to_string(shards.size()) + " of " + std::to_string(n) + " shard manifests present; build the missing shards first");
+  std::vector<std::string> lines(static_cast<size_t>(count));
+  std::vector<char> seen(static_cast<size_t>(count), 0);
+  for (const auto& s : shards) {
+    std::ifstream in(s);
+    std::string line;
+    while (std::getline(in, line)) {
+      json r;
+      try {
+        r = json::parse(line);
+      } catch (const json::exception&) {
+        throw Error(s.string() + ": corrupt line; rebuild that shard");
+      }
+      const int64_t i = r.at("index").get<int64_t>();
+      if (i < 0 || i >= count || seen[i]) throw Error(s.string() + ": index " + std::to_string(i) + " out of range or repeated");
+      seen[i] = 1;
+      for (const char* kind : {"label", "height"}) {
+        const fs::path f = dir / r.at(kind).get<std::string>();
+        if (!fs::exists(f) || file_checksum(f) != r.at(std::string(kind) + "_fnv64").get<std::string>())
+          throw Error(f.string() + ": missing or checksum mismatch; rebuild its shard");
+      }
+      lines[i] = r.dump() + "\n";
+    }
+  }
+  const auto missing = std::count(seen.begin(), seen.end(), 0);
+  if (missing) throw Error(dir.string() + ": " + std::to_string(missing) + " pairs missing from the shard manifests");
+  std::string text;
+  for (const auto& l : lines) text += l;
+  write_text_atomic(dir / "manifest.jsonl", text);
+  if (!g.quiet) std::fprintf(stderr, "merged %zu shards, %lld pairs verified\n", shards.size(), static_cast<long long>(count));
+  std::printf("%s\n", (dir / "manifest.jsonl").c_str());
+  return 0;
+}
+
+}  // namespace
+
+Command add_dataset_command(CLI::App& app, const GlobalOptions& g) {
+  auto* sub = app.add_subcommand("dataset", "Build training sets (generator + augmentation)\n\n"
+                                            "Examples:\n"
+                                            "  reefgen dataset build --config configs/dataset/paper.json --out data/paper\n"
+                                            "  reefgen dataset build --count 200 --seed 1 --out data/small\n"
+                                            "  reefgen dataset build --config configs/dataset/paper.json --out data/p --shard 0/2\n"
+                                            "  reefgen dataset merge data/p\n");
+  sub->require_subcommand(1);
+  auto a = std::make_shared<BuildArgs>();
+  auto* build = sub->add_subcommand("build", "Build (or resume) a dataset into --out");
+  build->add_option("--config", a->config, "Dataset config JSON (configs/dataset/*.json)");
+  build->add_option("--out", a->out, "Dataset folder")->required();
+  build->add_option("--count", a->count, "Override the number of pairs");
+  build->add_option("--seed", a->seed, "Global seed")->capture_default_str();
+  build->add_option("--threads", a->threads, "Worker threads (default: all cores)");
+  build->add_option("--shard", a->shard, "Build only slice I of N (pairs with index % N == I)")->capture_default_str();
+  auto merge_dir = std::make_shared<std::string>();
+  auto* merge = sub->add_subcommand("merge", "Join shard manifests into manifest.jsonl, verifying checksums");
+  merge->add_option("dir", *merge_dir, "Dataset folder")->required();
+  return {sub, [a, merge_dir, build, merge, &g]() -> int {
+            if (build->parsed()) {
+              if (a->threads < 1 || a->threads > 256) throw Error("--threads must be in 1..256");
+              return run_build(*a, g);
+            }
+            if (merge->parsed()) return run_merge(*merge_dir, g);
+            return 1;
+          }};
+}
+
+}  // namespace reefgen
