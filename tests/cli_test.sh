@@ -53,7 +53,37 @@ expect_error "size" generate --preset atoll --size 3 -o "$T/e/x"
 expect_error "afile" generate --preset atoll -o "$T/afile/sub/x"
 expect_error "needs --out" generate --random 2
 
-# 4. --version, --help with examples.
+# 4. Datasets: threads, shards + merge = unsharded, resume, foreign files.
+cat > "$T/ds.json" <<'JSON'
+{"count": 12, "size_px": 32, "levels": 3, "val_fraction": 0.2, "test_fraction": 0.2,
+ "p_affine": 0.5, "p_translate": 0.5, "p_paste": 0.5, "paste_scale": 0.5}
+JSON
+"$BIN" -q dataset build --config "$T/ds.json" --seed 4 --out "$T/d1" --threads 1 >/dev/null || bad "dataset t1"
+"$BIN" -q dataset build --config "$T/ds.json" --seed 4 --out "$T/d2" --threads 2 >/dev/null || bad "dataset t2"
+diff -r "$T/d1" "$T/d2" >/dev/null && ok || bad "dataset threads 1 vs 2 differ"
+[ "$(wc -l < "$T/d1/manifest.jsonl")" = 12 ] && ok || bad "manifest should list 12 pairs"
+# No configuration in two splits.
+[ "$(sed -E 's/.*"configuration":([0-9]+).*"split":"([a-z]+)".*/\1 \2/' "$T/d1/manifest.jsonl" | sort -u | awk '{print $1}' | uniq -d | wc -l)" = 0 ] && ok || bad "a configuration leaks across splits"
+"$BIN" -q dataset build --config "$T/ds.json" --seed 4 --out "$T/d3" --shard 1/2 >/dev/null || bad "shard 1/2"
+"$BIN" -q dataset merge "$T/d3" >/dev/null 2>&1 && bad "merge with a missing shard succeeded" || ok
+"$BIN" -q dataset build --config "$T/ds.json" --seed 4 --out "$T/d3" --shard 0/2 >/dev/null || bad "shard 0/2"
+"$BIN" -q dataset merge "$T/d3" >/dev/null || bad "merge"
+cmp -s "$T/d1/manifest.jsonl" "$T/d3/manifest.jsonl" && ok || bad "merged shards differ from the unsharded build"
+f=$(ls "$T/d2/train" | head -1)
+rm "$T/d2/train/$f" "$T/d2/manifest.jsonl"   # an interrupted build
+"$BIN" -q dataset build --config "$T/ds.json" --seed 4 --out "$T/d2" >/dev/null || bad "dataset resume"
+diff -r "$T/d1" "$T/d2" >/dev/null && ok || bad "resumed dataset differs"
+g=$(ls "$T/d2/train" | grep label.png | head -1)
+cp "$T/d2/train/$(ls "$T/d2/train" | grep label.png | tail -1)" "$T/d2/train/$g"   # a foreign file
+if "$BIN" -q dataset build --config "$T/ds.json" --seed 4 --out "$T/d2" 2>"$T/err" >/dev/null; then bad "foreign file accepted"
+else grep -q "$g is corrupt or from another dataset" "$T/err" && ok || bad "foreign file message: $(cat "$T/err")"; fi
+"$BIN" -q dataset build --config "$T/ds.json" --seed 5 --out "$T/d1" 2>"$T/err" >/dev/null && bad "other seed into same folder" || ok
+echo '{"count": 0}' > "$T/bad_ds.json"
+expect_error "count" dataset build --config "$T/bad_ds.json" --out "$T/e"
+echo '{"cout": 5}' > "$T/bad_ds.json"
+expect_error 'unknown key "cout"' dataset build --config "$T/bad_ds.json" --out "$T/e"
+
+# 5. --version, --help with examples.
 "$BIN" --version | grep -q "reefgen [0-9]" && ok || bad "--version"
 "$BIN" generate --help | grep -q "Examples" && ok || bad "generate --help has no examples"
 

@@ -98,18 +98,19 @@ void ensure_writable_dir(const fs::path& dir) {
     throw Error("folder " + d.string() + " is not writable: " + std::strerror(errno));
 }
 
-void write_png(const fs::path& path, const cv::Mat& image) {
+void write_png(const fs::path& path, const cv::Mat& image, int level) {
   std::vector<uchar> buf;
-  // Compression 6 is zlib's default; fixed so that the bytes are reproducible.
-  if (!cv::imencode(".png", image, buf, {cv::IMWRITE_PNG_COMPRESSION, 6}))
+  // A fixed level keeps the bytes reproducible.
+  if (!cv::imencode(".png", image, buf, {cv::IMWRITE_PNG_COMPRESSION, level}))
     throw Error("cannot encode PNG for " + path.string());
   write_file_atomic(path, buf.data(), buf.size());
 }
 
-void write_exr_height(const fs::path& path, const cv::Mat1f& height_m, const ExrAttributes& attrs) {
+void write_exr_height(const fs::path& path, const cv::Mat1f& height_m, const ExrAttributes& attrs, int zip_level) {
   CV_Assert(height_m.isContinuous());
   Imf::Header header(height_m.cols, height_m.rows);
   header.compression() = Imf::ZIP_COMPRESSION;
+  header.zipCompressionLevel() = zip_level;
   header.channels().insert("Y", Imf::Channel(Imf::FLOAT));
   for (const auto& [k, v] : attrs) header.insert(k, Imf::StringAttribute(v));
   Imf::FrameBuffer fb;
