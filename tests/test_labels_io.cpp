@@ -2,7 +2,6 @@
 // painted sketches, error paths.
 #include <gtest/gtest.h>
 
-#include <sys/stat.h>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -140,11 +139,21 @@ TEST(Io, ExrRoundTripWithAttributes) {
 }
 
 TEST(Io, WritesToAnUnwritableFolderFailCleanly) {
-  if (::geteuid() == 0) GTEST_SKIP() << "root ignores folder permissions; the CLI test covers a missing folder";
+  // A regular file where a folder is expected: fails even for root, unlike
+  // permission bits.
   const fs::path d = temp_dir("ro");
-  ::chmod(d.c_str(), 0555);
-  EXPECT_THROW(write_text_atomic(d / "x.json", "{}"), Error);
-  ::chmod(d.c_str(), 0755);
+  write_text_atomic(d / "file", "x");
+  try {
+    write_text_atomic(d / "file" / "x.json", "{}");
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("file/x.json"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(write_exr_height(d / "file" / "h.exr", cv::Mat1f(4, 4, 0.f)), Error);
+  EXPECT_THROW(ensure_writable_dir(d / "file" / "sub"), Error);
+  int n = 0;
+  for (auto& e : fs::directory_iterator(d)) (void)e, ++n;
+  EXPECT_EQ(n, 1);  // nothing but the file itself: no temporaries left
   fs::remove_all(d);
 }
 
