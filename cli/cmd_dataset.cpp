@@ -2,16 +2,20 @@
 // Every pair is a pure function of (seed, index), so a build can be resumed,
 // sharded over machines and verified by rebuilding.
 #include <algorithm>
+#include <array>
+#include <map>
 #include <cstdio>
 #include <fstream>
 #include <regex>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "app.hpp"
 #include "reefgen/augment/dataset.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
+#include "reefgen/preview.hpp"
 #include "reefgen/version.hpp"
 
 namespace reefgen {
@@ -22,8 +26,10 @@ using nlohmann::json;
 namespace {
 
 // Heights are normalised for training by this fixed range (DESIGN §5: "a fixed
-// range stored with the model"); it is the generator's M(0)..M(1).
-constexpr double kNormFloorM = -100, kNormPeakM = 500;
+// range stored with the model"). It bounds every generated height: M(0) =
+// -100 m (coral keeps the floor there) up to M(1) = 500 m × (1 + detail noise
+// 0.1) + smooth-max overshoot ≤ 1 m.
+constexpr double kNormFloorM = -100, kNormPeakM = 560;
 
 struct BuildArgs {
   std::string config, out;
@@ -200,6 +206,64 @@ int run_merge(const std::string& out, const GlobalOptions& g) {
   return 0;
 }
 
+int run_stats(const std::string& out, int sheet_pairs, const GlobalOptions& g) {
+  const fs::path dir = out;
+  const json meta = read_json(dir / "dataset.json");
+  const fs::path manifest = dir / "manifest.jsonl";
+  if (!fs::exists(manifest)) throw Error(manifest.string() + ": missing; finish the build (or `dataset merge` its shards)");
+  std::ifstream in(manifest);
+  std::map<std::string, int64_t> per_split;
+  std::array<double, kNumRegions> region_px{};
+  std::vector<int64_t> lambda_hist(10, 0);
+  double hmin = 1e30, hmax = -1e30, total_px = 0;
+  int64_t n = 0;
+  std::vector<cv::Mat> tiles;
+  const int tile = 128;
+  std::string line;
+  std::vector<json> records;
+  while (std::getline(in, line)) records.push_back(json::parse(line));
+  Progress progress("stats", records.size(), g.quiet);
+  for (const auto& r : records) {
+    ++per_split[r.at("split").get<std::string>()];
+    const auto d = read_sketch(dir / r.at("label").get<std::string>());
+    const cv::Mat1f h = read_exr_height(dir / r.at("height").get<std::string>());
+    for (int y = 0; y < d.label.rows; ++y)
+      for (int x = 0; x < d.label.cols; ++x) region_px[d.label(y, x)] += 1;
+    total_px += static_cast<double>(d.label.total());
+    const double lam = r.at("subsidence").get<double>();
+    ++lambda_hist[std::min(9, static_cast<int>(lam * 10))];
+    double lo, hi;
+    cv::minMaxLoc(h, &lo, &hi);
+    hmin = std::min(hmin, lo);
+    hmax = std::max(hmax, hi);
+    if (static_cast<int>(tiles.size()) < sheet_pairs) {
+      cv::Mat lab = cv::imread((dir / r.at("label").get<std::string>()).string(), cv::IMREAD_COLOR), prev, a, b;
+      cv::resize(lab, a, {tile, tile}, 0, 0, cv::INTER_NEAREST);
+      cv::resize(render_preview(h), b, {tile, tile}, 0, 0, cv::INTER_AREA);
+      cv::hconcat(a, b, prev);
+      tiles.push_back(prev);
+    }
+    progress.tick(static_cast<size_t>(++n));
+  }
+  json out_j = {{"pairs", n}, {"per_split", per_split}, {"height_range_m", {hmin, hmax}}, {"seed", meta.at("seed")}};
+  json fractions = json::object();
+  for (int i = 0; i < kNumRegions; ++i) fractions[kRegionNames[i]] = total_px > 0 ? region_px[i] / total_px : 0.0;
+  out_j["region_pixel_fraction"] = fractions;
+  out_j["subsidence_histogram"] = {{"bin_width", 0.1}, {"counts", lambda_hist}};
+  if (!tiles.empty()) {
+    // Grid of label | height previews, 4 pairs per row.
+    const int cols = 4, rows = (static_cast<int>(tiles.size()) + cols - 1) / cols;
+    cv::Mat sheet(rows * tile, cols * 2 * tile, CV_8UC3, cv::Scalar(40, 40, 40));
+    for (size_t k = 0; k < tiles.size(); ++k)
+      tiles[k].copyTo(sheet(cv::Rect(static_cast<int>(k % cols) * 2 * tile, static_cast<int>(k / cols) * tile, 2 * tile, tile)));
+    write_png(dir / "contact_sheet.png", sheet);
+    out_j["contact_sheet"] = "contact_sheet.png";
+  }
+  write_json_atomic(dir / "stats.json", out_j);
+  std::printf("%s\n", out_j.dump(2).c_str());
+  return 0;
+}
+
 }  // namespace
 
 Command add_dataset_command(CLI::App& app, const GlobalOptions& g) {
@@ -208,7 +272,8 @@ Command add_dataset_command(CLI::App& app, const GlobalOptions& g) {
                                             "  reefgen dataset build --config configs/dataset/paper.json --out data/paper\n"
                                             "  reefgen dataset build --count 200 --seed 1 --out data/small\n"
                                             "  reefgen dataset build --config configs/dataset/paper.json --out data/p --shard 0/2\n"
-                                            "  reefgen dataset merge data/p\n");
+                                            "  reefgen dataset merge data/p\n"
+                                            "  reefgen dataset stats data/p\n");
   sub->require_subcommand(1);
   auto a = std::make_shared<BuildArgs>();
   auto* build = sub->add_subcommand("build", "Build (or resume) a dataset into --out");
@@ -221,7 +286,16 @@ Command add_dataset_command(CLI::App& app, const GlobalOptions& g) {
   auto merge_dir = std::make_shared<std::string>();
   auto* merge = sub->add_subcommand("merge", "Join shard manifests into manifest.jsonl, verifying checksums");
   merge->add_option("dir", *merge_dir, "Dataset folder")->required();
-  return {sub, [a, merge_dir, build, merge, &g]() -> int {
+  auto stats_dir = std::make_shared<std::string>();
+  auto sheet = std::make_shared<int>(16);
+  auto* stats = sub->add_subcommand("stats", "Counts, region fractions, subsidence histogram, height range, contact sheet");
+  stats->add_option("dir", *stats_dir, "Dataset folder")->required();
+  stats->add_option("--sheet", *sheet, "Pairs on the contact sheet (DIR/contact_sheet.png)")->capture_default_str();
+  return {sub, [a, merge_dir, build, merge, stats, stats_dir, sheet, &g]() -> int {
+            if (stats->parsed()) {
+              if (*sheet < 0 || *sheet > 1024) throw Error("--sheet must be in 0..1024");
+              return run_stats(*stats_dir, *sheet, g);
+            }
             if (build->parsed()) {
               if (a->threads < 1 || a->threads > 256) throw Error("--threads must be in 1..256");
               return run_build(*a, g);

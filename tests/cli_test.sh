@@ -78,6 +78,9 @@ cp "$T/d2/train/$(ls "$T/d2/train" | grep label.png | tail -1)" "$T/d2/train/$g"
 if "$BIN" -q dataset build --config "$T/ds.json" --seed 4 --out "$T/d2" 2>"$T/err" >/dev/null; then bad "foreign file accepted"
 else grep -q "$g is corrupt or from another dataset" "$T/err" && ok || bad "foreign file message: $(cat "$T/err")"; fi
 "$BIN" -q dataset build --config "$T/ds.json" --seed 5 --out "$T/d1" 2>"$T/err" >/dev/null && bad "other seed into same folder" || ok
+"$BIN" -q dataset stats "$T/d1" > "$T/stats.json" || bad "dataset stats"
+grep -q '"pairs": 12' "$T/stats.json" && ok || bad "stats: pair count"
+[ -s "$T/d1/contact_sheet.png" ] && ok || bad "stats: no contact sheet"
 echo '{"count": 0}' > "$T/bad_ds.json"
 expect_error "count" dataset build --config "$T/bad_ds.json" --out "$T/e"
 echo '{"cout": 5}' > "$T/bad_ds.json"

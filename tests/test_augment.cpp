@@ -67,7 +67,7 @@ TEST(Affine, QuarterTurnAndFlipMatchExactPermutations) {
 
 TEST(Affine, LabelsNeverBlendedAndStayAlignedWithHeights) {
   const Pair p = stepped(64);
-  const Pair q = affine(p, 37, 0.8, true);
+  const Pair q = affine(p, 37, 0.8, true, /*ocean_m=*/40.0);  // this pair's abyss is 10 m × 4
   int exact = 0;
   for (int y = 0; y < 64; ++y)
     for (int x = 0; x < 64; ++x) {
@@ -125,4 +125,16 @@ TEST(CopyPaste, Errors) {
   EXPECT_THROW(copy_paste({}, 1), Error);
   std::vector<Pair> mixed = {island_pair(0, 32), island_pair(1, 48)};
   EXPECT_THROW(copy_paste(mixed, 1), Error);
+}
+
+TEST(Affine, OutsideTheCanvasIsOpenOcean) {
+  // An island cut by the canvas edge: shrinking it must not smear the edge.
+  Pair p{cv::Mat1f(32, 32, -100.f), cv::Mat1b(32, 32, uint8_t(kAbyss)), cv::Mat1f(32, 32, 0.f)};
+  p.label.col(31).setTo(kIsland);
+  p.height_m.col(31).setTo(50.f);
+  const Pair q = affine(p, 0, 0.5, false);
+  EXPECT_EQ(q.label(0, 0), kAbyss);
+  EXPECT_EQ(q.label(16, 31), kAbyss);  // was replicated land before
+  EXPECT_FLOAT_EQ(q.height_m(16, 31), -100.f);
+  EXPECT_EQ(cv::countNonZero(q.label == kIsland), 16);  // the edge column, shrunk to half, inside
 }

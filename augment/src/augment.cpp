@@ -18,7 +18,7 @@ void check(const Pair& p) {
 }
 }  // namespace
 
-Pair affine(const Pair& p, double angle_deg, double scale, bool flip_x) {
+Pair affine(const Pair& p, double angle_deg, double scale, bool flip_x, double ocean_m) {
   check(p);
   if (!(scale > 0) || !std::isfinite(angle_deg)) throw Error("augment: scale must be > 0 and the angle finite");
   const cv::Point2f c((p.height_m.cols - 1) / 2.f, (p.height_m.rows - 1) / 2.f);
@@ -32,8 +32,8 @@ Pair affine(const Pair& p, double angle_deg, double scale, bool flip_x) {
   }
   Pair out;
   const cv::Size sz = p.height_m.size();
-  cv::warpAffine(p.height_m, out.height_m, m, sz, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
-  cv::warpAffine(p.label, out.label, m, sz, cv::INTER_NEAREST, cv::BORDER_REPLICATE);
+  cv::warpAffine(p.height_m, out.height_m, m, sz, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(ocean_m));
+  cv::warpAffine(p.label, out.label, m, sz, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar(kAbyss));
   cv::warpAffine(p.subsidence, out.subsidence, m, sz, cv::INTER_NEAREST, cv::BORDER_REPLICATE);
   return out;
 }

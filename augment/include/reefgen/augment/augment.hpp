@@ -18,8 +18,9 @@ struct Pair {
 
 // Rotation by angle_deg (counter-clockwise in the image as displayed), uniform
 // scaling about the centre, optional horizontal flip (applied first). Pixels
-// that come from outside the canvas repeat its border (open ocean).
-Pair affine(const Pair& p, double angle_deg, double scale, bool flip_x);
+// that come from outside the canvas are open ocean: abyss at `ocean_m`
+// (replicating the border instead drew streaks wherever an island touched it).
+Pair affine(const Pair& p, double angle_deg, double scale, bool flip_x, double ocean_m = -100.0);
 
 // Translation by (dx, dy) pixels with wrap-around: what leaves one side comes
 // back on the other. dx > 0 moves content right, dy > 0 down.
