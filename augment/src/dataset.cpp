@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "reefgen/io.hpp"
+#include "reefgen/labels.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
 #include "reefgen/rng.hpp"
@@ -85,6 +86,20 @@ Pair render(const procgen::IslandSpec& spec, int W) {
   const auto f = procgen::generate(spec, o);
   return {f.height_m, f.label, cv::Mat1f(W, W, static_cast<float>(spec.subsidence))};
 }
+
+// An island rendered at scale·W and centred on a W×W ocean: the same as
+// shrinking a full render, sharper, and 1/scale² cheaper.
+Pair render_scaled(const procgen::IslandSpec& spec, int W, double scale) {
+  const int w = std::max(8, static_cast<int>(std::lround(W * scale)));
+  if (w >= W) return render(spec, W);
+  const Pair small = render(spec, w);
+  Pair out{cv::Mat1f(W, W, -100.f), cv::Mat1b(W, W, uint8_t(kAbyss)),
+           cv::Mat1f(W, W, static_cast<float>(spec.subsidence))};
+  const cv::Rect r((W - w) / 2, (W - w) / 2, w, w);
+  small.height_m.copyTo(out.height_m(r));
+  small.label.copyTo(out.label(r));
+  return out;
+}
 }  // namespace
 
 Pair make_pair(uint64_t seed, int64_t index, const DatasetParams& p, PairInfo* out_info) {
@@ -92,7 +107,6 @@ Pair make_pair(uint64_t seed, int64_t index, const DatasetParams& p, PairInfo* o
   Rng rng(seed, static_cast<uint64_t>(index), "augmentation");
   auto spec = procgen::random_spec(seed, static_cast<uint64_t>(info.configuration));
   spec.subsidence = info.subsidence;
-  Pair pair = render(spec, p.size_px);
   json aug = json::object();
   // Draw every decision up front, in a fixed order, so that the RNG stream
   // does not depend on which branches run.
@@ -104,14 +118,17 @@ Pair make_pair(uint64_t seed, int64_t index, const DatasetParams& p, PairInfo* o
   const bool flip = rng.uniform() < 0.5;
   const bool do_translate = rng.uniform() < p.p_translate;
   const int dx = static_cast<int>(rng.uniform_int(0, p.size_px - 1)), dy = static_cast<int>(rng.uniform_int(0, p.size_px - 1));
-  if (do_paste) {
+  Pair pair;
+  if (!do_paste) {
+    pair = render(spec, p.size_px);
+  } else {
     // Companions are sub-configurations of the same configuration, so a pasted
     // island never leaks across splits.
-    std::vector<Pair> islands = {affine(pair, 0, p.paste_scale, false)};
+    std::vector<Pair> islands = {render_scaled(spec, p.size_px, p.paste_scale)};
     for (int k = 0; k < extra; ++k) {
       auto s = procgen::random_spec(seed ^ 0xC0FFEEull, static_cast<uint64_t>(info.configuration) * 8 + k);
       s.subsidence = info.subsidence;
-      islands.push_back(affine(render(s, p.size_px), 0, p.paste_scale, false));
+      islands.push_back(render_scaled(s, p.size_px, p.paste_scale));
     }
     const auto r = copy_paste(islands, paste_seed, p.max_iou);
     pair = r.pair;

@@ -37,7 +37,8 @@ void ensure_writable_dir(const fs::path& dir);
 void write_png(const fs::path& path, const cv::Mat& image, int level = 6);
 
 // Single-channel float32 OpenEXR with channel "Y" (heights in metres) and
-// string attributes (e.g. "reefgen:json" holding the sidecar). ZIP compressed.
+// string attributes (e.g. "reefgen:json" holding the sidecar). ZIP compressed
+// at `zip_level` (1..9); 0 writes it uncompressed.
 using ExrAttributes = std::map<std::string, std::string>;
 void write_exr_height(const fs::path& path, const cv::Mat1f& height_m, const ExrAttributes& attrs = {},
                       int zip_level = 6);
