@@ -192,16 +192,18 @@ class StrokeIndex {
   std::vector<Chunk> chunks_;
 };
 
-// Bilinear sample of a node field (n+1)² at canvas point (x, y), clamped to the canvas.
-inline cv::Vec2f sample_nodes(const cv::Mat2f& f, int n, float x, float y) {
-  float gx = std::clamp((x + 1.f) * 0.5f * n, 0.f, float(n));
-  float gy = std::clamp((1.f - y) * 0.5f * n, 0.f, float(n));
-  int ix = std::min(static_cast<int>(gx), n - 1), iy = std::min(static_cast<int>(gy), n - 1);
+// Bilinear sample of a node field (n+1)² at canvas point (x, y), clamped to
+// the canvas (beyond it the field is extended by its border values).
+template <class T>
+inline T sample_nodes(const cv::Mat_<T>& f, int n, float x, float y) {
+  const float gx = std::clamp((x + 1.f) * 0.5f * n, 0.f, float(n));
+  const float gy = std::clamp((1.f - y) * 0.5f * n, 0.f, float(n));
+  const int ix = std::min(static_cast<int>(gx), n - 1), iy = std::min(static_cast<int>(gy), n - 1);
   const float fx = gx - ix, fy = gy - iy;
-  const cv::Vec2f* r0 = f.ptr<cv::Vec2f>(iy);
-  const cv::Vec2f* r1 = f.ptr<cv::Vec2f>(iy + 1);
-  const cv::Vec2f top = r0[ix] + fx * (r0[ix + 1] - r0[ix]);
-  const cv::Vec2f bot = r1[ix] + fx * (r1[ix + 1] - r1[ix]);
+  const T* r0 = f[iy];
+  const T* r1 = f[iy + 1];
+  const T top = r0[ix] + fx * (r0[ix + 1] - r0[ix]);
+  const T bot = r1[ix] + fx * (r1[ix + 1] - r1[ix]);
   return top + fy * (bot - top);
 }
 
@@ -242,19 +244,6 @@ cv::Mat1f resistance_field(const OutlineTable& outlines, const std::vector<float
   return rho;
 }
 
-namespace {
-inline float sample_nodes1(const cv::Mat1f& f, int n, float x, float y) {
-  const float gx = std::clamp((x + 1.f) * 0.5f * n, 0.f, float(n));
-  const float gy = std::clamp((1.f - y) * 0.5f * n, 0.f, float(n));
-  const int ix = std::min(static_cast<int>(gx), n - 1), iy = std::min(static_cast<int>(gy), n - 1);
-  const float fx = gx - ix, fy = gy - iy;
-  const float* r0 = f.ptr<float>(iy);
-  const float* r1 = f.ptr<float>(iy + 1);
-  const float top = r0[ix] + fx * (r0[ix + 1] - r0[ix]);
-  const float bot = r1[ix] + fx * (r1[ix + 1] - r1[ix]);
-  return top + fy * (bot - top);
-}
-}  // namespace
 
 cv::Mat2f integrate_warp(const cv::Mat2f& phi, const cv::Mat1f& resistance, int substeps) {
   const int n = phi.rows - 1, m = resistance.rows - 1;
@@ -267,7 +256,7 @@ cv::Mat2f integrate_warp(const cv::Mat2f& phi, const cv::Mat1f& resistance, int 
         const float x = -1.f + 2.f * c / n;
         const cv::Vec2f d = D(r, c);
         // Resistance of the material currently at this node (it came from p + D).
-        const float rho = sample_nodes1(resistance, m, x + d[0], y + d[1]);
+        const float rho = sample_nodes(resistance, m, x + d[0], y + d[1]);
         const cv::Vec2f v = phi(r, c) * ((1.f - rho) * inv_steps);
         const float qx = x - v[0], qy = y - v[1];
         const cv::Vec2f dq = sample_nodes(D, n, qx, qy);
