@@ -33,6 +33,23 @@ cv::Mat1b ring_labels(int W) {
   return l;
 }
 
+// Runs f, expects an Error whose message names `needle` (the file at fault).
+template <class F>
+void expect_error_naming(F&& f, const std::string& needle) {
+  try {
+    f();
+    ADD_FAILURE() << "no error; expected one naming " << needle;
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+  }
+}
+
+int count_files(const fs::path& d) {
+  int n = 0;
+  for (const auto& e : fs::directory_iterator(d)) (void)e, ++n;
+  return n;
+}
+
 }  // namespace
 
 TEST(Labels, ColoursFollowTheConvention) {
@@ -111,12 +128,7 @@ TEST(Labels, NoRegionColourIsAnError) {
   EXPECT_THROW(read_sketch("/nonexistent/sketch.png"), Error);
   const fs::path d = temp_dir("badimg");
   write_text_atomic(d / "corrupt.png", "this is not a PNG");
-  try {
-    read_sketch(d / "corrupt.png");
-    FAIL();
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("corrupt.png"), std::string::npos);
-  }
+  expect_error_naming([&] { read_sketch(d / "corrupt.png"); }, "corrupt.png");
   fs::remove_all(d);
 }
 
@@ -131,10 +143,7 @@ TEST(Io, ExrRoundTripWithAttributes) {
   EXPECT_EQ(back.size(), h.size());
   EXPECT_EQ(cv::norm(back, h, cv::NORM_INF), 0.0);
   EXPECT_EQ(attrs["reefgen:test"], "hello");
-  // No temporary files left behind.
-  int n = 0;
-  for (auto& e : fs::directory_iterator(d)) (void)e, ++n;
-  EXPECT_EQ(n, 1);
+  EXPECT_EQ(count_files(d), 1);  // no temporary files left behind
   fs::remove_all(d);
 }
 
@@ -143,17 +152,10 @@ TEST(Io, WritesToAnUnwritableFolderFailCleanly) {
   // permission bits.
   const fs::path d = temp_dir("ro");
   write_text_atomic(d / "file", "x");
-  try {
-    write_text_atomic(d / "file" / "x.json", "{}");
-    FAIL() << "no error";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("file/x.json"), std::string::npos) << e.what();
-  }
+  expect_error_naming([&] { write_text_atomic(d / "file" / "x.json", "{}"); }, "file/x.json");
   EXPECT_THROW(write_exr_height(d / "file" / "h.exr", cv::Mat1f(4, 4, 0.f)), Error);
   EXPECT_THROW(ensure_writable_dir(d / "file" / "sub"), Error);
-  int n = 0;
-  for (auto& e : fs::directory_iterator(d)) (void)e, ++n;
-  EXPECT_EQ(n, 1);  // nothing but the file itself: no temporaries left
+  EXPECT_EQ(count_files(d), 1);  // nothing but the file itself: no temporaries left
   fs::remove_all(d);
 }
 
@@ -162,12 +164,7 @@ TEST(Io, MissingFolderAndBadJsonAreErrors) {
   EXPECT_THROW(read_json("/nonexistent-folder/x.json"), Error);
   const fs::path d = temp_dir("json");
   write_text_atomic(d / "bad.json", "{\"a\": ");
-  try {
-    read_json(d / "bad.json");
-    FAIL();
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("bad.json"), std::string::npos);
-  }
+  expect_error_naming([&] { read_json(d / "bad.json"); }, "bad.json");
   fs::remove_all(d);
 }
 
