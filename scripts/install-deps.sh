@@ -13,7 +13,11 @@ PKGS=(
   libgtest-dev           # unit tests (ctest)
   libbenchmark-dev       # optional micro-benchmarks
   libtorch-dev           # LibTorch 1.13 CPU (model/train/infer)
-  python3 python3-torch  # reference comparisons (scripts/reference)
+  # Without it LibTorch falls back to the netlib reference BLAS and a pix2pix
+  # training step is ~7x slower (7.0 s vs 1.0 s measured, docs/BENCHMARKS.md).
+  # The OpenMP build shares libgomp's threads with LibTorch (no oversubscription).
+  libopenblas0-openmp
+  python3 python3-torch python3-numpy  # reference comparisons (scripts/reference)
 )
 
 missing=()

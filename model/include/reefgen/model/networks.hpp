@@ -1,0 +1,70 @@
+#pragma once
+// pix2pix networks (Isola et al. 2017) as used by the paper's section 6:
+// a U-Net generator and a PatchGAN discriminator, in LibTorch module style.
+// Layer for layer the same as the original pytorch-CycleGAN-and-pix2pix code
+// (proven by tests/test_model.cpp against scripts/reference/pix2pix_ref.py).
+#include <string>
+
+#include <torch/torch.h>
+
+namespace reefgen::model {
+
+enum class Norm { Batch, Instance, None };
+Norm norm_from_string(const std::string& s);  // "batch" | "instance" | "none"
+std::string to_string(Norm n);
+
+struct UNetOptions {
+  int in_channels = 3;     // RGB label sketch in [-1, 1]; [1, 64]
+  int out_channels = 1;    // height normalised to [-1, 1]; [1, 64]
+  int ngf = 64;            // filters of the outermost layer; [1, 1024]
+  int depth = 8;           // down-samplings; the input side must be a multiple of 2^depth; [5, 12]
+  Norm norm = Norm::Batch; // pix2pix default; convolutions have a bias only without BatchNorm
+  double dropout = 0.5;    // after the decoder blocks of the ngf*8 levels 4..depth-2; [0, 1)
+};
+
+struct PatchOptions {
+  int in_channels = 4;     // label (3) + height (1)
+  int ndf = 64;            // filters of the first layer; [1, 1024]
+  int n_layers = 3;        // 3 = 70x70 receptive field, 30x30 logits at 256²; [1, 8]
+  Norm norm = Norm::Batch;
+};
+
+// The U-Net, flattened: level k (0 = outermost) has a down convolution
+// c_{k-1} -> c_k and an up transposed convolution back, c_k = ngf*min(2^k, 8).
+class UNetGeneratorImpl : public torch::nn::Module {
+ public:
+  explicit UNetGeneratorImpl(const UNetOptions& options = {});
+  torch::Tensor forward(torch::Tensor x);  // {N,in,S,S} -> {N,out,S,S} in (-1, 1)
+  const UNetOptions& options() const { return options_; }
+  // Dropout on/off independently of BatchNorm's train/eval mode: pix2pix runs
+  // G in train mode at test time; tests and deterministic inference need
+  // batch statistics without the dropout noise.
+  void set_dropout_enabled(bool on) { dropout_enabled_ = on; }
+  bool dropout_enabled() const { return dropout_enabled_; }
+
+ private:
+  UNetOptions options_;
+  bool dropout_enabled_ = true;
+  torch::nn::ModuleList levels_{nullptr};
+};
+TORCH_MODULE(UNetGenerator);
+
+class PatchDiscriminatorImpl : public torch::nn::Module {
+ public:
+  explicit PatchDiscriminatorImpl(const PatchOptions& options = {});
+  torch::Tensor forward(torch::Tensor x);  // {N,in,S,S} -> logits {N,1,P,P}, P = 30 at S = 256
+  const PatchOptions& options() const { return options_; }
+
+ private:
+  PatchOptions options_;
+  torch::nn::Sequential net_{nullptr};
+};
+TORCH_MODULE(PatchDiscriminator);
+
+// pix2pix "normal" initialisation: conv weights N(0, gain), norm weights
+// N(1, gain), biases 0. Draws from torch's global generator (seed it first).
+void init_pix2pix(torch::nn::Module& net, double gain = 0.02);
+
+int64_t count_parameters(const torch::nn::Module& net);
+
+}  // namespace reefgen::model

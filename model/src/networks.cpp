@@ -1,0 +1,169 @@
+#include "reefgen/model/networks.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+
+namespace reefgen::model {
+namespace nn = torch::nn;
+
+Norm norm_from_string(const std::string& s) {
+  if (s == "batch") return Norm::Batch;
+  if (s == "instance") return Norm::Instance;
+  if (s == "none") return Norm::None;
+  throw std::invalid_argument("norm '" + s + "': use batch, instance or none");
+}
+
+std::string to_string(Norm n) {
+  switch (n) {
+    case Norm::Batch: return "batch";
+    case Norm::Instance: return "instance";
+    case Norm::None: return "none";
+  }
+  return "?";
+}
+
+namespace {
+
+// A normalisation layer chosen at run time; empty for Norm::None.
+// pix2pix: BatchNorm2d(affine), InstanceNorm2d(affine=False, no running stats).
+struct NormLayerImpl : nn::Module {
+  NormLayerImpl(Norm n, int channels) {
+    if (n == Norm::Batch) bn = register_module("bn", nn::BatchNorm2d(channels));
+    if (n == Norm::Instance) in = register_module("in", nn::InstanceNorm2d(channels));
+  }
+  torch::Tensor forward(const torch::Tensor& x) {
+    if (bn) return bn->forward(x);
+    if (in) return in->forward(x);
+    return x;
+  }
+  nn::BatchNorm2d bn{nullptr};
+  nn::InstanceNorm2d in{nullptr};
+};
+TORCH_MODULE(NormLayer);
+
+nn::Conv2dOptions conv4(int in, int out, int stride, bool bias) {
+  return nn::Conv2dOptions(in, out, 4).stride(stride).padding(1).bias(bias);
+}
+
+void check_options(const UNetOptions& o) {
+  auto bad = [](const std::string& what) { throw std::invalid_argument("UNetOptions: " + what); };
+  if (o.in_channels < 1 || o.in_channels > 64) bad("in_channels must be in [1, 64]");
+  if (o.out_channels < 1 || o.out_channels > 64) bad("out_channels must be in [1, 64]");
+  if (o.ngf < 1 || o.ngf > 1024) bad("ngf must be in [1, 1024]");
+  if (o.depth < 5 || o.depth > 12) bad("depth must be in [5, 12]");
+  if (!(o.dropout >= 0.0 && o.dropout < 1.0)) bad("dropout must be in [0, 1)");
+}
+
+// Level k of the U-Net: the down path c_{k-1} -> c_k and the up path that
+// returns to c_{k-1} (or to the output channels at k = 0).
+struct UNetLevelImpl : nn::Module {
+  UNetLevelImpl(const UNetOptions& o, int k) : outermost(k == 0), innermost(k == o.depth - 1) {
+    auto ch = [&](int level) { return o.ngf * std::min(1 << std::min(level, 3), 8); };
+    const bool bias = o.norm != Norm::Batch;  // pix2pix: use_bias = (norm == instance)
+    const int in = outermost ? o.in_channels : ch(k - 1);
+    const int inner = ch(k);
+    const int out = outermost ? o.out_channels : ch(k - 1);
+    down_conv = register_module("down_conv", nn::Conv2d(conv4(in, inner, 2, bias)));
+    if (!outermost && !innermost) down_norm = register_module("down_norm", NormLayer(o.norm, inner));
+    // Inner levels receive their own output concatenated with the skip.
+    const int up_in = innermost ? inner : 2 * inner;
+    up_conv = register_module(
+        "up_conv", nn::ConvTranspose2d(nn::ConvTranspose2dOptions(up_in, out, 4).stride(2).padding(1).bias(
+                       outermost || bias)));
+    if (!outermost) up_norm = register_module("up_norm", NormLayer(o.norm, out));
+    dropout = (k >= 4 && k <= o.depth - 2) ? o.dropout : 0.0;
+  }
+  bool outermost, innermost;
+  double dropout;
+  nn::Conv2d down_conv{nullptr};
+  NormLayer down_norm{nullptr}, up_norm{nullptr};
+  nn::ConvTranspose2d up_conv{nullptr};
+};
+TORCH_MODULE(UNetLevel);
+
+}  // namespace
+
+UNetGeneratorImpl::UNetGeneratorImpl(const UNetOptions& options) : options_(options) {
+  check_options(options_);
+  levels_ = register_module("levels", nn::ModuleList());
+  for (int k = 0; k < options_.depth; ++k) levels_->push_back(UNetLevel(options_, k));
+}
+
+torch::Tensor UNetGeneratorImpl::forward(torch::Tensor x) {
+  const int depth = options_.depth;
+  const int64_t side = x.size(-1), multiple = int64_t(1) << depth;
+  if (x.dim() != 4 || x.size(1) != options_.in_channels || x.size(-2) != side || side % multiple)
+    throw std::invalid_argument("UNetGenerator: input must be {N," + std::to_string(options_.in_channels) +
+                                ",S,S} with S a multiple of " + std::to_string(multiple) + ", got " +
+                                c10::str(x.sizes()));
+  auto level = [&](int k) { return levels_->ptr<UNetLevelImpl>(k); };
+  // Down path. The original code's in-place LeakyReLU at the start of each
+  // inner block also rewrites the tensor that the skip connection
+  // concatenates, so the skips carry leaky(d), not d: kept, to be the same net.
+  std::vector<torch::Tensor> skips;
+  skips.reserve(depth);
+  torch::Tensor d = level(0)->down_conv->forward(x);  // {N,ngf,S/2,S/2}
+  for (int k = 1; k < depth; ++k) {
+    torch::Tensor a = torch::leaky_relu(d, 0.2);
+    skips.push_back(a);
+    d = level(k)->down_conv->forward(a);  // {N,c_k,S/2^(k+1),..}
+    if (level(k)->down_norm) d = level(k)->down_norm->forward(d);
+  }
+  // Up path, innermost first: u has c_k or 2c_k channels at S/2^(k+1).
+  torch::Tensor u = d;  // {N,8ngf,S/2^depth,..}
+  for (int k = depth - 1; k >= 1; --k) {
+    auto L = level(k);
+    u = L->up_norm->forward(L->up_conv->forward(torch::relu(u)));
+    if (L->dropout > 0) u = torch::dropout(u, L->dropout, is_training() && dropout_enabled_);
+    u = torch::cat({skips[k - 1], u}, 1);  // skip first, as in torch.cat([x, model(x)], 1)
+  }
+  return torch::tanh(level(0)->up_conv->forward(torch::relu(u)));  // {N,out,S,S}
+}
+
+PatchDiscriminatorImpl::PatchDiscriminatorImpl(const PatchOptions& o) : options_(o) {
+  if (o.in_channels < 1 || o.in_channels > 64) throw std::invalid_argument("PatchOptions: in_channels must be in [1, 64]");
+  if (o.ndf < 1 || o.ndf > 1024) throw std::invalid_argument("PatchOptions: ndf must be in [1, 1024]");
+  if (o.n_layers < 1 || o.n_layers > 8) throw std::invalid_argument("PatchOptions: n_layers must be in [1, 8]");
+  const bool bias = o.norm != Norm::Batch;
+  net_ = register_module("net", nn::Sequential());
+  net_->push_back(nn::Conv2d(conv4(o.in_channels, o.ndf, 2, true)));
+  net_->push_back(nn::LeakyReLU(nn::LeakyReLUOptions().negative_slope(0.2)));
+  int mult = 1;
+  for (int n = 1; n <= o.n_layers; ++n) {
+    const int prev = mult;
+    mult = std::min(1 << n, 8);
+    // The last of these keeps the resolution (stride 1): 70x70 receptive field at n_layers 3.
+    net_->push_back(nn::Conv2d(conv4(o.ndf * prev, o.ndf * mult, n < o.n_layers ? 2 : 1, bias)));
+    net_->push_back(NormLayer(o.norm, o.ndf * mult));
+    net_->push_back(nn::LeakyReLU(nn::LeakyReLUOptions().negative_slope(0.2)));
+  }
+  net_->push_back(nn::Conv2d(conv4(o.ndf * mult, 1, 1, true)));
+}
+
+torch::Tensor PatchDiscriminatorImpl::forward(torch::Tensor x) {
+  if (x.dim() != 4 || x.size(1) != options_.in_channels)
+    throw std::invalid_argument("PatchDiscriminator: input must be {N," + std::to_string(options_.in_channels) +
+                                ",H,W}, got " + c10::str(x.sizes()));
+  return net_->forward(x);
+}
+
+void init_pix2pix(torch::nn::Module& net, double gain) {
+  torch::NoGradGuard no_grad;
+  for (auto& m : net.modules(/*include_self=*/false)) {
+    const bool conv = m->as<nn::Conv2d>() || m->as<nn::ConvTranspose2d>();
+    const bool bn = m->as<nn::BatchNorm2d>() != nullptr;
+    if (!conv && !bn) continue;
+    for (auto& p : m->named_parameters(/*recurse=*/false)) {
+      if (p.key() == "weight") p.value().normal_(bn ? 1.0 : 0.0, gain);
+      if (p.key() == "bias") p.value().zero_();
+    }
+  }
+}
+
+int64_t count_parameters(const torch::nn::Module& net) {
+  int64_t n = 0;
+  for (const auto& p : net.parameters()) n += p.numel();
+  return n;
+}
+
+}  // namespace reefgen::model

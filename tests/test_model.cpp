@@ -1,0 +1,160 @@
+// pix2pix networks: sizes, parameter counts, receptive field, and equality
+// with the Python reference (scripts/reference/pix2pix_ref.py).
+#include <cstdlib>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "reefgen/model/networks.hpp"
+#include "reefgen/train/pix2pix.hpp"
+#include "reference_io.hpp"
+
+using namespace reefgen;
+using model::PatchDiscriminator;
+using model::UNetGenerator;
+
+// LibTorch starts with one thread here; use the machine's cores.
+static const bool kThreadsSet = [] {
+  torch::set_num_threads(std::max(1u, std::thread::hardware_concurrency()));
+  return true;
+}();
+
+TEST(Networks, ParameterCountsMatchPix2pixAtNgf64) {
+  UNetGenerator g(model::UNetOptions{});
+  PatchDiscriminator d(model::PatchOptions{});
+  EXPECT_EQ(model::count_parameters(*g), 54409857);
+  EXPECT_EQ(model::count_parameters(*d), 2766657);
+}
+
+TEST(Networks, ShapesAndOutputRange) {
+  torch::manual_seed(1);
+  model::UNetOptions go;
+  go.ngf = 4;
+  UNetGenerator g(go);
+  model::init_pix2pix(*g);
+  PatchDiscriminator d(model::PatchOptions{4, 4, 3, model::Norm::Batch});
+  const auto x = torch::rand({2, 3, 256, 256}) * 2 - 1;
+  const auto y = g->forward(x);
+  EXPECT_EQ(y.sizes(), (std::vector<int64_t>{2, 1, 256, 256}));
+  EXPECT_LE(y.abs().max().item<float>(), 1.0f);
+  EXPECT_EQ(d->forward(torch::cat({x, y}, 1)).sizes(), (std::vector<int64_t>{2, 1, 30, 30}));
+  // A side that is not a multiple of 2^depth is refused with the reason.
+  try {
+    g->forward(torch::zeros({1, 3, 100, 100}));
+    FAIL() << "expected an error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("multiple of 256"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(UNetGenerator(model::UNetOptions{3, 1, 64, 4}), std::invalid_argument);
+}
+
+TEST(Networks, PatchGanReceptiveFieldIs70) {
+  PatchDiscriminator d(model::PatchOptions{4, 2, 3, model::Norm::None});
+  model::init_pix2pix(*d);
+  auto x = torch::randn({1, 4, 128, 128}).set_requires_grad(true);
+  const auto logits = d->forward(x);  // {1,1,14,14}
+  logits.index({0, 0, 7, 7}).backward();
+  const auto touched = x.grad().abs().sum(std::vector<int64_t>{0, 1}).nonzero();  // {K,2} pixel coordinates
+  const torch::Tensor lo = std::get<0>(touched.min(0));
+  const torch::Tensor hi = std::get<0>(touched.max(0));
+  EXPECT_EQ((hi - lo + 1).min().item<int64_t>(), 70);
+  EXPECT_EQ((hi - lo + 1).max().item<int64_t>(), 70);
+}
+
+TEST(Networks, DropoutOnlyInTrainModeAndWhenEnabled) {
+  torch::manual_seed(3);
+  model::UNetOptions go;
+  go.ngf = 2;
+  UNetGenerator g(go);
+  model::init_pix2pix(*g);
+  const auto x = torch::rand({1, 3, 256, 256});
+  torch::NoGradGuard no_grad;
+  g->train();
+  const auto a = g->forward(x), b = g->forward(x);
+  EXPECT_FALSE(torch::equal(a, b)) << "dropout should make two train-mode passes differ";
+  g->set_dropout_enabled(false);
+  EXPECT_TRUE(torch::equal(g->forward(x), g->forward(x)));
+}
+
+// --- Equivalence with the reference --------------------------------------
+
+namespace {
+const char* reference_dir() { return std::getenv("REEFGEN_REFERENCE_DIR"); }
+
+bool have_reference() {
+  const char* dir = reference_dir();
+  return dir && std::filesystem::exists(std::filesystem::path(dir) / "reference.json");
+}
+
+void skip_or_fail_without_reference() {
+  if (std::getenv("REEFGEN_REQUIRE_REFERENCE"))
+    FAIL() << "reference outputs missing in " << (reference_dir() ? reference_dir() : "(unset)")
+           << " although REEFGEN_REQUIRE_REFERENCE is set: install python3-torch";
+}
+
+double max_abs_diff(const torch::Tensor& a, const torch::Tensor& b) {
+  EXPECT_EQ(a.sizes(), b.sizes());
+  return (a - b).abs().max().item<double>();
+}
+
+train::Pix2PixOptions options_of(const test::Reference& ref) {
+  train::Pix2PixOptions o;
+  o.g.ngf = ref.meta.at("ngf");
+  o.g.depth = ref.meta.at("depth");
+  o.d.ndf = ref.meta.at("ndf");
+  return o;
+}
+}  // namespace
+
+TEST(Reference, ForwardMatchesPythonWithin1e4) {
+  if (!have_reference()) {
+    skip_or_fail_without_reference();
+    GTEST_SKIP() << "no Python reference (python3-torch absent): equivalence not checked";
+  }
+  const auto ref = test::load_reference(reference_dir());
+  const auto o = options_of(ref);
+  UNetGenerator g(o.g);
+  PatchDiscriminator d(o.d);
+  // Every tensor on both sides, same shapes: the same architecture.
+  EXPECT_EQ(test::copy_weights(*g, ref, "G.") + test::copy_weights(*d, ref, "D."),
+            ref.tensors.size() - 2 - 5);  // minus x, y and the five outputs
+  EXPECT_EQ(model::count_parameters(*g), ref.meta.at("params_G").get<int64_t>());
+  EXPECT_EQ(model::count_parameters(*d), ref.meta.at("params_D").get<int64_t>());
+  const auto& x = ref.at("x");
+  const auto& y = ref.at("y");
+  torch::NoGradGuard no_grad;
+  g->train();
+  g->set_dropout_enabled(false);
+  EXPECT_LT(max_abs_diff(g->forward(x), ref.at("out.G.train")), 1e-4) << "G, BatchNorm batch statistics";
+  g->eval();  // running statistics as updated by the pass above
+  EXPECT_LT(max_abs_diff(g->forward(x), ref.at("out.G.eval")), 1e-4) << "G, BatchNorm running statistics";
+  const auto xy = torch::cat({x, y}, 1);
+  d->train();
+  EXPECT_LT(max_abs_diff(d->forward(xy), ref.at("out.D.train")), 1e-4) << "D, train mode";
+  d->eval();
+  EXPECT_LT(max_abs_diff(d->forward(xy), ref.at("out.D.eval")), 1e-4) << "D, eval mode";
+}
+
+TEST(Reference, TwoTrainingStepsMatchPython) {
+  if (!have_reference()) {
+    skip_or_fail_without_reference();
+    GTEST_SKIP() << "no Python reference (python3-torch absent): training step not checked";
+  }
+  const auto ref = test::load_reference(reference_dir());
+  train::Pix2Pix p(options_of(ref));
+  test::copy_weights(*p.G(), ref, "G.");
+  test::copy_weights(*p.D(), ref, "D.");
+  p.G()->set_dropout_enabled(false);
+  const auto& losses = ref.meta.at("losses");
+  for (int s = 0; s < 2; ++s) {
+    const train::Losses l = p.step(ref.at("x"), ref.at("y"));
+    const double got[4] = {l.g_gan, l.g_l1, l.d_real, l.d_fake};
+    for (int k = 0; k < 4; ++k)
+      EXPECT_NEAR(got[k], losses[s][k].get<double>(), 1e-4 * std::max(1.0, std::abs(got[k])))
+          << "step " << s << " loss " << ref.meta.at("loss_names")[k];
+  }
+  // The weights after two Adam steps: G's eval output.
+  torch::NoGradGuard no_grad;
+  p.G()->eval();
+  EXPECT_LT(max_abs_diff(p.G()->forward(ref.at("x")), ref.at("out.G.after_steps")), 1e-4);
+}

@@ -1,0 +1,64 @@
+#include "reefgen/train/pix2pix.hpp"
+
+namespace reefgen::train {
+
+namespace F = torch::nn::functional;
+
+namespace {
+torch::optim::AdamOptions adam(const Pix2PixOptions& o) {
+  return torch::optim::AdamOptions(o.lr).betas(std::make_tuple(o.beta1, o.beta2));
+}
+void set_requires_grad(torch::nn::Module& m, bool on) {
+  for (auto& p : m.parameters()) p.set_requires_grad(on);
+}
+}  // namespace
+
+Pix2Pix::Pix2Pix(const Pix2PixOptions& o) : options_(o), g_(o.g), d_(o.d), lr_(o.lr) {
+  if (o.d.in_channels != o.g.in_channels + o.g.out_channels)
+    throw std::invalid_argument("Pix2PixOptions: D takes label ⊕ height, so d.in_channels must be " +
+                                std::to_string(o.g.in_channels + o.g.out_channels));
+  if (!(o.lr > 0 && o.lr <= 1)) throw std::invalid_argument("Pix2PixOptions: lr must be in (0, 1]");
+  if (!(o.beta1 >= 0 && o.beta1 < 1 && o.beta2 >= 0 && o.beta2 < 1))
+    throw std::invalid_argument("Pix2PixOptions: betas must be in [0, 1)");
+  model::init_pix2pix(*g_);
+  model::init_pix2pix(*d_);
+  opt_g_ = std::make_unique<torch::optim::Adam>(g_->parameters(), adam(o));
+  opt_d_ = std::make_unique<torch::optim::Adam>(d_->parameters(), adam(o));
+}
+
+void Pix2Pix::set_lr(double lr) {
+  lr_ = lr;
+  for (auto* opt : {opt_g_.get(), opt_d_.get()})
+    for (auto& group : opt->param_groups()) static_cast<torch::optim::AdamOptions&>(group.options()).lr(lr);
+}
+
+Losses Pix2Pix::step(const torch::Tensor& label, const torch::Tensor& height) {
+  g_->train();
+  d_->train();
+  const torch::Tensor fake = g_->forward(label);  // {N,1,S,S}
+
+  // D step: fake pairs detached so G gets no gradient from it.
+  set_requires_grad(*d_, true);
+  opt_d_->zero_grad();
+  const torch::Tensor pred_fake = d_->forward(torch::cat({label, fake.detach()}, 1));  // {N,1,P,P}
+  const torch::Tensor d_fake = F::binary_cross_entropy_with_logits(pred_fake, torch::zeros_like(pred_fake));
+  const torch::Tensor pred_real = d_->forward(torch::cat({label, height}, 1));
+  const torch::Tensor d_real = F::binary_cross_entropy_with_logits(pred_real, torch::ones_like(pred_real));
+  // Halved so D learns more slowly than G (pix2pix).
+  ((d_fake + d_real) * 0.5).backward();
+  opt_d_->step();
+
+  // G step against a frozen D: no gradients accumulate in D's parameters.
+  set_requires_grad(*d_, false);
+  opt_g_->zero_grad();
+  const torch::Tensor pred = d_->forward(torch::cat({label, fake}, 1));
+  const torch::Tensor g_gan = F::binary_cross_entropy_with_logits(pred, torch::ones_like(pred));
+  const torch::Tensor g_l1 = F::l1_loss(fake, height) * options_.lambda_l1;
+  (g_gan + g_l1).backward();
+  opt_g_->step();
+  set_requires_grad(*d_, true);
+
+  return {g_gan.item<double>(), g_l1.item<double>(), d_real.item<double>(), d_fake.item<double>()};
+}
+
+}  // namespace reefgen::train
