@@ -31,6 +31,7 @@ Command add_generate_command(CLI::App& app, const GlobalOptions& g);
 Command add_presets_command(CLI::App& app, const GlobalOptions& g);
 Command add_bench_command(CLI::App& app, const GlobalOptions& g);
 Command add_dataset_command(CLI::App& app, const GlobalOptions& g);
+Command add_train_command(CLI::App& app, const GlobalOptions& g);
 
 inline int default_threads() {
   const unsigned n = std::thread::hardware_concurrency();

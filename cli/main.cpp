@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
                "  reefgen generate --random 100 --seed 7 --out out/random --threads 2\n"
                "  reefgen presets\n"
                "  reefgen dataset build --config configs/dataset/paper.json --out data/paper\n"
+               "  reefgen train --data data/paper --out runs/paper\n"
                "  reefgen bench generate\n"};
   app.set_version_flag("--version", std::string("reefgen ") + reefgen::kVersion);
   app.require_subcommand(1);
@@ -23,6 +24,7 @@ int main(int argc, char** argv) {
   const std::vector<reefgen::Command> commands = {reefgen::add_generate_command(app, g),
                                                   reefgen::add_presets_command(app, g),
                                                   reefgen::add_dataset_command(app, g),
+                                                  reefgen::add_train_command(app, g),
                                                   reefgen::add_bench_command(app, g)};
   try {
     app.parse(argc, argv);

@@ -1,0 +1,101 @@
+// reefgen train: pix2pix on a dataset folder (paper §6, docs/TRAINING.md).
+// Thin: flags -> TrainParams, signals -> a stop flag, progress -> stderr.
+#include <csignal>
+#include <cstdio>
+#include <optional>
+
+#include "app.hpp"
+#include "reefgen/io.hpp"
+#include "reefgen/train/trainer.hpp"
+
+namespace reefgen {
+
+namespace {
+std::atomic<bool> g_stop{false};
+extern "C" void on_signal(int) { g_stop = true; }
+}  // namespace
+
+Command add_train_command(CLI::App& app, const GlobalOptions& g) {
+  auto* sub = app.add_subcommand(
+      "train",
+      "Train the pix2pix sketch-to-height model on a dataset\n\n"
+      "Examples:\n"
+      "  reefgen train --config configs/train/paper.json --data data/paper --out runs/paper\n"
+      "  reefgen train --data data/small --out runs/try --max-steps 200 --ngf 32\n"
+      "  reefgen train --data data/paper --out runs/paper --resume     # after Ctrl-C or a crash\n"
+      "Ctrl-C (SIGINT) or SIGTERM writes a checkpoint and RUN/generator.pt, then exits with 130.\n");
+  struct Args {
+    std::string config, data, out;
+    bool resume = false;
+    int64_t max_steps = -1;
+    std::optional<uint64_t> seed;
+    std::optional<int> threads, ngf, ndf, depth;
+    std::optional<double> epochs, epochs_decay;
+  };
+  auto a = std::make_shared<Args>();
+  sub->add_option("--config", a->config, "Training config JSON (configs/train/*.json); default: built-in paper settings");
+  sub->add_option("--data", a->data, "Dataset folder made by `reefgen dataset build`")->required();
+  sub->add_option("--out", a->out, "Run folder (created)")->required();
+  sub->add_flag("--resume", a->resume, "Continue the run in --out from its checkpoint (its run.json config unless --config)");
+  sub->add_option("--max-steps", a->max_steps, "Stop after this many steps in all (checkpoint written); the lr schedule still spans the whole run");
+  sub->add_option("--seed", a->seed, "Overrides the config's seed");
+  sub->add_option("--threads", a->threads, "LibTorch threads (default: all cores)");
+  sub->add_option("--ngf", a->ngf, "Overrides G's filters");
+  sub->add_option("--ndf", a->ndf, "Overrides D's filters");
+  sub->add_option("--depth", a->depth, "Overrides G's down-samplings (side must be a multiple of 2^depth)");
+  sub->add_option("--epochs", a->epochs, "Overrides epochs at constant lr");
+  sub->add_option("--epochs-decay", a->epochs_decay, "Overrides epochs of linear lr decay");
+  return {sub, [a, &g]() -> int {
+            nlohmann::json j = nlohmann::json::object();
+            std::string origin = "built-in training defaults";
+            const fs::path run_json = fs::path(a->out) / "run.json";
+            if (!a->config.empty()) {
+              j = read_json(a->config);
+              origin = a->config;
+            } else if (a->resume && fs::exists(run_json)) {
+              j = read_json(run_json).at("config");
+              origin = run_json.string();
+            }
+            if (a->seed) j["seed"] = *a->seed;
+            if (a->threads) j["threads"] = *a->threads;
+            if (a->ngf) j["ngf"] = *a->ngf;
+            if (a->ndf) j["ndf"] = *a->ndf;
+            if (a->depth) j["depth"] = *a->depth;
+            if (a->epochs) j["epochs"] = *a->epochs;
+            if (a->epochs_decay) j["epochs_decay"] = *a->epochs_decay;
+            const train::TrainParams params = train::train_params_from_json(j, origin);
+
+            std::signal(SIGINT, on_signal);
+            std::signal(SIGTERM, on_signal);
+            train::RunOptions run;
+            run.data = a->data;
+            run.out = a->out;
+            run.resume = a->resume;
+            run.max_steps = a->max_steps;
+            run.stop = &g_stop;
+            std::unique_ptr<Progress> progress;
+            const bool tty = !g.quiet && ::isatty(2);
+            run.on_step = [&](const train::StepReport& r) {
+              if (!tty) return;
+              const double eta_min = r.seconds_per_step * double(r.total - r.step) / 60.0;
+              std::fprintf(stderr, "\rstep %lld/%lld  G_GAN %.3f  G_L1 %.2f  D_real %.3f  D_fake %.3f  lr %.2e  %.2f s/it  ETA %.0f min   ",
+                           static_cast<long long>(r.step), static_cast<long long>(r.total), r.losses.g_gan,
+                           r.losses.g_l1, r.losses.d_real, r.losses.d_fake, r.lr, r.seconds_per_step, eta_min);
+              std::fflush(stderr);
+            };
+            run.on_log = [&](const std::string& s) {
+              if (!g.quiet) std::fprintf(stderr, "%strain: %s\n", tty ? "\n" : "", s.c_str());
+            };
+            const train::RunResult r = train::run_training(params, run);
+            if (tty) std::fprintf(stderr, "\n");
+            if (r.interrupted) {
+              std::fprintf(stderr, "train: interrupted at step %lld of %lld; continue with --resume\n",
+                           static_cast<long long>(r.step), static_cast<long long>(r.total));
+              return 130;
+            }
+            std::printf("%s\n", (fs::path(a->out) / "generator.pt").c_str());
+            return 0;
+          }};
+}
+
+}  // namespace reefgen

@@ -1,0 +1,57 @@
+#pragma once
+// Training configuration (paper §6, DESIGN §5). configs/train/*.json are this
+// struct serialised; command-line flags override them.
+#include <cstdint>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "reefgen/train/pix2pix.hpp"
+
+namespace reefgen::train {
+
+struct TrainParams {
+  uint64_t seed = 1;            // weights init, data order, jitter, dropout
+  // Networks
+  int ngf = 64;                 // G filters of the outermost layer, [1, 1024]
+  int ndf = 64;                 // D filters of the first layer, [1, 1024]
+  int depth = 8;                // U-Net down-samplings; the side must be a multiple of 2^depth, [5, 12]
+  int d_layers = 3;             // PatchGAN layers: 3 = 70x70 patches, [1, 8]
+  std::string norm = "batch";   // batch | instance | none
+  double dropout = 0.5;         // in G's three innermost decoder blocks, [0, 1)
+  // Optimisation
+  double lr = 2e-4;             // Adam learning rate, (0, 1]
+  double beta1 = 0.5;           // Adam β1, [0, 1)
+  double beta2 = 0.999;         // Adam β2, [0, 1)
+  double lambda_l1 = 100;       // L1 weight in G's loss, [0, 1e4]
+  int batch_size = 1;           // pix2pix: 1, [1, 64]
+  double epochs = 1;            // epochs at constant lr, [0, 1e4]
+  double epochs_decay = 1;      // then epochs of linear decay to 0, [0, 1e4]; both 0 is refused
+  // Jitter (pix2pix's resize-and-crop + flip), identical on label and height
+  bool jitter = true;           // off: pairs used as stored
+  double jitter_scale = 286.0 / 256.0;  // resize factor before cropping back, [1, 2]
+  bool flip = true;             // random horizontal flip
+  // Run
+  int log_every = 100;          // steps per log.csv row (means over the window), [1, 1e9]
+  int val_every = 1000;         // steps per validation grid PNG, [1, 1e9]
+  int val_samples = 4;          // rows of the validation grid, [1, 64]
+  int val_max_pairs = 200;      // val pairs for the per-epoch MAE, [1, 1e9]
+  int checkpoint_every = 1000;  // steps per checkpoint, [1, 1e9]
+  int loader_threads = 2;       // background data loading threads, [1, 64]
+  int prefetch = 8;             // batches loaded ahead, [1, 1024]
+  int threads = 0;              // LibTorch threads; 0 = all cores
+  bool deterministic = true;    // LibTorch deterministic algorithms (resume = uninterrupted, bit for bit)
+};
+
+void to_json(nlohmann::json& j, const TrainParams& p);
+// Every key optional; unknown keys and out-of-range values throw reefgen::Error naming them and `origin`.
+TrainParams train_params_from_json(const nlohmann::json& j, const std::string& origin);
+void validate(const TrainParams& p, const std::string& origin);
+
+Pix2PixOptions pix2pix_options(const TrainParams& p);
+
+// Learning rate before step s (0-based) of `total` = steps_constant + steps_decay:
+// lr for the first steps_constant, then linear decay reaching 0 after the last step.
+double lr_at(const TrainParams& p, int64_t step, int64_t steps_constant, int64_t steps_decay);
+
+}  // namespace reefgen::train

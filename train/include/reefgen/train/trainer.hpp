@@ -1,0 +1,56 @@
+#pragma once
+// The training run: one flat loop over steps, with everything a person needs
+// to follow it in the run folder and everything needed to resume it exactly.
+//
+// RUN/run.json        resolved config, seed, version, parameter counts, dataset
+// RUN/log.csv         step,epoch,lr,G_GAN,G_L1,D_real,D_fake,s_per_iter (window means)
+// RUN/val.csv         step,epoch,mae_m_batchstats,mae_m_running (per epoch, val split)
+// RUN/val/step-N.png  fixed validation samples: label | truth | prediction
+// RUN/checkpoint.pt   G, D, both Adam states, step, log window, RNG state
+// RUN/generator.pt    G alone for `reefgen infer` (written at the end / on interrupt)
+#include <atomic>
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+
+#include "reefgen/train/params.hpp"
+#include "reefgen/train/pix2pix.hpp"
+
+namespace reefgen::train {
+
+struct StepReport {
+  int64_t step = 0, total = 0;  // steps done, steps of the whole run
+  double lr = 0, seconds_per_step = 0;
+  Losses losses;                // of the last step
+};
+
+struct RunOptions {
+  std::filesystem::path data, out;
+  bool resume = false;
+  int64_t max_steps = -1;                  // stop (with a checkpoint) after this many steps in all; -1 = the whole run
+  const std::atomic<bool>* stop = nullptr; // set by SIGINT/SIGTERM: checkpoint and return
+  std::function<void(const StepReport&)> on_step;  // progress display
+  std::function<void(const std::string&)> on_log;  // one-line events (checkpoint written, ...)
+};
+
+struct RunResult {
+  int64_t step = 0, total = 0;
+  bool interrupted = false;  // stopped by the flag before the end
+};
+
+RunResult run_training(const TrainParams& params, const RunOptions& run);
+
+// Checkpoint file (LibTorch archive, written atomically).
+struct LogWindow {
+  double sums[4] = {0, 0, 0, 0};  // G_GAN, G_L1, D_real, D_fake over the current log window
+  int64_t steps = 0;
+  double seconds = 0;
+};
+void save_checkpoint(const std::filesystem::path& path, Pix2Pix& p, const TrainParams& params, int64_t step,
+                     const LogWindow& window);
+// Restores weights, optimizers and RNG; returns the step. Throws reefgen::Error
+// for a missing, truncated or foreign file and for a config that differs from
+// `params` in anything but the thread and loader settings.
+int64_t load_checkpoint(const std::filesystem::path& path, Pix2Pix& p, const TrainParams& params, LogWindow* window);
+
+}  // namespace reefgen::train

@@ -1,0 +1,328 @@
+#include "reefgen/train/trainer.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include <opencv2/imgproc.hpp>
+
+#include "reefgen/io.hpp"
+#include "reefgen/model/archive.hpp"
+#include "reefgen/model/generator_file.hpp"
+#include "reefgen/preview.hpp"
+#include "reefgen/rng.hpp"
+#include "reefgen/train/data.hpp"
+#include "reefgen/version.hpp"
+
+namespace reefgen::train {
+
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr const char* kCheckpointFormat = "reefgen-checkpoint";
+constexpr int64_t kCheckpointVersion = 1;
+
+// Settings that may change between an interrupted run and its resumption
+// without changing the result.
+json comparable(const TrainParams& p) {
+  json j = p;
+  for (const char* k : {"threads", "loader_threads", "prefetch"}) j.erase(k);
+  return j;
+}
+
+// Runs f() and then puts back BatchNorm running statistics and modes, so
+// validation passes leave no trace in the training state.
+template <class F>
+void without_side_effects(model::UNetGenerator& g, F f) {
+  std::vector<torch::Tensor> saved;
+  for (const auto& b : g->buffers()) saved.push_back(b.clone());
+  const bool training = g->is_training(), dropout = g->dropout_enabled();
+  f();
+  torch::NoGradGuard no_grad;
+  size_t i = 0;
+  for (auto& b : g->buffers()) b.copy_(saved[i++]);
+  g->train(training);
+  g->set_dropout_enabled(dropout);
+}
+
+cv::Mat3b tensor_to_label_bgr(const torch::Tensor& t) {  // {3,S,S} in [-1,1]
+  torch::Tensor u8 = t.add(1.0).mul(127.5).round().clamp(0, 255).to(torch::kUInt8).permute({1, 2, 0}).contiguous();
+  cv::Mat3b rgb(int(t.size(1)), int(t.size(2)));
+  std::memcpy(rgb.data, u8.data_ptr<uint8_t>(), size_t(u8.numel()));
+  cv::Mat3b bgr;
+  cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
+  return bgr;
+}
+
+// Keeps the header and the rows of steps <= `step`: a resumed run's logs read
+// as if it had never stopped.
+void truncate_log(const fs::path& path, int64_t step) {
+  if (!fs::exists(path)) return;
+  std::ifstream in(path);
+  std::string line, out;
+  bool header = true;
+  while (std::getline(in, line)) {
+    if (header || (!line.empty() && std::stoll(line.substr(0, line.find(','))) <= step)) out += line + "\n";
+    header = false;
+  }
+  write_text_atomic(path, out);
+}
+
+void append_line(const fs::path& path, const std::string& header, const std::string& line) {
+  const bool fresh = !fs::exists(path);
+  std::ofstream f(path, std::ios::app);
+  if (fresh) f << header << "\n";
+  f << line << "\n";
+  f.flush();
+  if (!f) throw Error(path.string() + ": cannot append (disk full?)");
+}
+
+std::string fmt(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.6g", v);
+  return b;
+}
+
+}  // namespace
+
+void save_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& params, int64_t step,
+                     const LogWindow& window) {
+  torch::serialize::OutputArchive a;
+  a.write("format", c10::IValue(std::string(kCheckpointFormat)));
+  a.write("format_version", c10::IValue(kCheckpointVersion));
+  a.write("reefgen_version", c10::IValue(std::string(kVersion)));
+  a.write("config", c10::IValue(json(params).dump()));
+  a.write("step", c10::IValue(step));
+  a.write("log_window", torch::tensor({window.sums[0], window.sums[1], window.sums[2], window.sums[3],
+                                       double(window.steps), window.seconds},
+                                      torch::kFloat64));
+  a.write("torch_rng", at::detail::getDefaultCPUGenerator().get_state());
+  torch::serialize::OutputArchive g, d, og, od;
+  p.G()->save(g);
+  p.D()->save(d);
+  p.opt_G().save(og);
+  p.opt_D().save(od);
+  a.write("G", g);
+  a.write("D", d);
+  a.write("opt_G", og);
+  a.write("opt_D", od);
+  try {
+    model::save_archive_atomic(a, path);
+  } catch (const std::exception& e) {
+    throw Error(e.what());
+  }
+}
+
+int64_t load_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& params, LogWindow* window) {
+  torch::serialize::InputArchive a;
+  const std::string fix = "start a new run (another --out) or restore the file";
+  try {
+    model::load_archive(a, path, "checkpoint", fix);
+    model::expect_format(a, path, kCheckpointFormat, kCheckpointVersion, "a checkpoint written by `reefgen train`");
+  } catch (const std::runtime_error& e) {
+    throw Error(e.what());
+  }
+  const json stored = json::parse(model::read_string(a, "config"), nullptr, false);
+  const json want = comparable(params);
+  if (stored.is_discarded()) throw Error(path.string() + ": unreadable config; " + fix);
+  TrainParams stored_p = train_params_from_json(stored, path.string());
+  const json have = comparable(stored_p);
+  for (const auto& [k, v] : want.items())
+    if (have.at(k) != v)
+      throw Error(path.string() + ": the run was started with " + k + " = " + have.at(k).dump() + ", now " +
+                  v.dump() + "; resume with the run's config (RUN/run.json) or start a new run");
+  try {
+    c10::IValue v;
+    a.read("step", v);
+    const int64_t step = v.toInt();
+    torch::Tensor w, rng;
+    a.read("log_window", w);
+    a.read("torch_rng", rng);
+    torch::serialize::InputArchive g, d, og, od;
+    a.read("G", g);
+    a.read("D", d);
+    a.read("opt_G", og);
+    a.read("opt_D", od);
+    p.G()->load(g);
+    p.D()->load(d);
+    p.opt_G().load(og);
+    p.opt_D().load(od);
+    at::Generator gen = at::detail::getDefaultCPUGenerator();
+    gen.set_state(rng);
+    if (window) {
+      auto acc = w.accessor<double, 1>();
+      for (int k = 0; k < 4; ++k) window->sums[k] = acc[k];
+      window->steps = int64_t(acc[4]);
+      window->seconds = acc[5];
+    }
+    return step;
+  } catch (const c10::Error& e) {
+    throw Error(path.string() + ": damaged checkpoint (" + model::first_line(e.what_without_backtrace()) + "); " + fix);
+  }
+}
+
+RunResult run_training(const TrainParams& params, const RunOptions& run) {
+  validate(params, "training config");
+  const DatasetInfo data = open_dataset(run.data);
+  if (data.size_px % (1 << params.depth))
+    throw Error(run.data.string() + ": pairs are " + std::to_string(data.size_px) + " px, not a multiple of 2^depth = " +
+                std::to_string(1 << params.depth) + "; lower depth or build the dataset at another size");
+  torch::set_num_threads(params.threads > 0 ? params.threads : int(std::max(1u, std::thread::hardware_concurrency())));
+  at::globalContext().setDeterministicAlgorithms(params.deterministic, /*warn_only=*/true);
+
+  const int64_t n = int64_t(data.train.size()), B = params.batch_size;
+  const int64_t steps_per_epoch = (n + B - 1) / B;
+  const int64_t steps_constant = std::llround(params.epochs * steps_per_epoch);
+  const int64_t steps_decay = std::llround(params.epochs_decay * steps_per_epoch);
+  const int64_t total = steps_constant + steps_decay;
+  const int64_t end = run.max_steps >= 0 ? std::min(total, run.max_steps) : total;
+
+  ensure_writable_dir(run.out);
+  const fs::path ckpt = run.out / "checkpoint.pt";
+  const fs::path log_csv = run.out / "log.csv", val_csv = run.out / "val.csv";
+  if (!run.resume && (fs::exists(ckpt) || fs::exists(run.out / "run.json")))
+    throw Error(run.out.string() + ": already holds a run; pass --resume to continue it or choose another --out");
+
+  torch::manual_seed(params.seed);  // weight initialisation
+  Pix2Pix p(pix2pix_options(params));
+  LogWindow window;
+  int64_t step = 0;
+  if (run.resume && fs::exists(ckpt)) {
+    step = load_checkpoint(ckpt, p, params, &window);
+    truncate_log(log_csv, step);
+    truncate_log(val_csv, step);
+    if (run.on_log) run.on_log("resumed " + ckpt.string() + " at step " + std::to_string(step));
+  }
+  const json run_json = {{"reefgen_version", kVersion},
+                         {"config", params},
+                         {"seed", params.seed},
+                         {"data", fs::absolute(run.data).string()},
+                         {"size_px", data.size_px},
+                         {"height_range_m", {data.range.lo_m, data.range.hi_m}},
+                         {"pairs", {{"train", n}, {"val", data.val.size()}}},
+                         {"steps", {{"per_epoch", steps_per_epoch}, {"constant", steps_constant},
+                                    {"decay", steps_decay}, {"total", total}}},
+                         {"parameters", {{"G", model::count_parameters(*p.G())}, {"D", model::count_parameters(*p.D())}}},
+                         {"torch_threads", torch::get_num_threads()}};
+  write_json_atomic(run.out / "run.json", run_json);
+
+  const JitterOptions jitter{params.jitter, params.jitter_scale, params.flip};
+  auto make_batch = [&](int64_t s) -> Prefetcher::Batch {
+    std::vector<torch::Tensor> labels, heights;
+    for (int64_t b = 0; b < B; ++b) {
+      const int64_t q = s * B + b;
+      const PairRef& ref = data.train[sample_at(params.seed, q, size_t(n))];
+      Sample smp = load_sample(data, ref, jitter, derive_seed(params.seed, uint64_t(q), "jitter"));
+      labels.push_back(smp.label);
+      heights.push_back(smp.height);
+    }
+    return {torch::stack(labels), torch::stack(heights)};  // {B,3,S,S}, {B,1,S,S}
+  };
+
+  // Fixed validation samples (the val split, else the first training pairs), no jitter.
+  const std::vector<PairRef>& val = data.val.empty() ? data.train : data.val;
+  std::vector<Sample> val_fixed;
+  for (int i = 0; i < std::min<int>(params.val_samples, int(val.size())); ++i)
+    val_fixed.push_back(load_sample(data, val[size_t(i)], {}, 0));
+
+  const double metres_per_unit = (data.range.hi_m - data.range.lo_m) / 2.0;
+  auto write_val_grid = [&](int64_t s) {
+    std::vector<cv::Mat> rows;
+    without_side_effects(p.G(), [&] {
+      torch::NoGradGuard no_grad;
+      p.G()->train();  // pix2pix's test-time mode: batch statistics; dropout off
+      p.G()->set_dropout_enabled(false);
+      for (const Sample& v : val_fixed) {
+        const torch::Tensor pred = p.G()->forward(v.label.unsqueeze(0))[0];  // {1,S,S}
+        const cv::Mat1f truth_m = model::tensor_to_height(v.height, data.range);
+        const cv::Mat1f pred_m = model::tensor_to_height(pred, data.range);
+        cv::Mat row;
+        cv::hconcat(std::vector<cv::Mat>{tensor_to_label_bgr(v.label), render_preview(truth_m), render_preview(pred_m)}, row);
+        rows.push_back(row);
+      }
+    });
+    cv::Mat grid;
+    cv::vconcat(rows, grid);
+    ensure_writable_dir(run.out / "val");
+    char name[48];
+    std::snprintf(name, sizeof name, "step-%08lld.png", static_cast<long long>(s));
+    write_png(run.out / "val" / name, grid);
+  };
+  auto val_mae = [&](bool batch_stats) {
+    double sum = 0;
+    int64_t count = 0;
+    without_side_effects(p.G(), [&] {
+      torch::NoGradGuard no_grad;
+      p.G()->train(batch_stats);
+      p.G()->set_dropout_enabled(false);
+      for (size_t i = 0; i < std::min(val.size(), size_t(params.val_max_pairs)); ++i) {
+        const Sample v = load_sample(data, val[i], {}, 0);
+        sum += (p.G()->forward(v.label.unsqueeze(0))[0] - v.height).abs().mean().item<double>();
+        ++count;
+      }
+    });
+    return count ? sum / double(count) * metres_per_unit : 0.0;
+  };
+
+  RunResult result{step, total, false};
+  if (step >= end) return result;
+  Prefetcher loader(make_batch, step, end, params.loader_threads, params.prefetch);
+  using clock = std::chrono::steady_clock;
+  while (step < end) {
+    const auto t0 = clock::now();
+    const double lr = lr_at(params, step, steps_constant, steps_decay);
+    p.set_lr(lr);
+    auto [label, height] = loader.next();
+    // Dropout draws from torch's generator, reseeded per step: a resumed run
+    // draws exactly what the uninterrupted one would have.
+    torch::manual_seed(derive_seed(params.seed, uint64_t(step), "dropout"));
+    const Losses l = p.step(label, height);
+    if (!std::isfinite(l.g_gan + l.g_l1 + l.d_real + l.d_fake))
+      throw Error("training diverged at step " + std::to_string(step + 1) + " (a loss is NaN or infinite); "
+                  "lower lr or resume from the last checkpoint in " + ckpt.string());
+    ++step;
+    const double dt = std::chrono::duration<double>(clock::now() - t0).count();
+    const double ls[4] = {l.g_gan, l.g_l1, l.d_real, l.d_fake};
+    for (int k = 0; k < 4; ++k) window.sums[k] += ls[k];
+    window.steps += 1;
+    window.seconds += dt;
+    const double epoch = double(step) / double(steps_per_epoch);
+    if (step % params.log_every == 0 || step == total) {
+      std::string row = std::to_string(step) + "," + fmt(epoch) + "," + fmt(lr);
+      for (double s : window.sums) row += "," + fmt(s / double(window.steps));
+      row += "," + fmt(window.seconds / double(window.steps));
+      append_line(log_csv, "step,epoch,lr,G_GAN,G_L1,D_real,D_fake,s_per_iter", row);
+      window = {};
+    }
+    if (step % params.val_every == 0 || step == total) write_val_grid(step);
+    if (step % steps_per_epoch == 0 || step == total) {
+      append_line(val_csv, "step,epoch,mae_m_batchstats,mae_m_running",
+                  std::to_string(step) + "," + fmt(epoch) + "," + fmt(val_mae(true)) + "," + fmt(val_mae(false)));
+    }
+    const bool stopping = run.stop && run.stop->load();
+    if (step % params.checkpoint_every == 0 || step == end || stopping) {
+      save_checkpoint(ckpt, p, params, step, window);
+      if (run.on_log) run.on_log("checkpoint at step " + std::to_string(step) + ": " + ckpt.string());
+    }
+    if (run.on_step) run.on_step({step, total, lr, dt, l});
+    if (stopping && step < end) {
+      result.interrupted = true;
+      break;
+    }
+  }
+  result.step = step;
+  if (step == total || result.interrupted || step == end) {
+    try {
+      model::save_generator(run.out / "generator.pt", p.G(), data.range, data.size_px, step);
+    } catch (const std::exception& e) {
+      throw Error(e.what());
+    }
+  }
+  return result;
+}
+
+}  // namespace reefgen::train
