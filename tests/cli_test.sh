@@ -86,7 +86,38 @@ expect_error "count" dataset build --config "$T/bad_ds.json" --out "$T/e"
 echo '{"cout": 5}' > "$T/bad_ds.json"
 expect_error 'unknown key "cout"' dataset build --config "$T/bad_ds.json" --out "$T/e"
 
-# 5. --version, --help with examples.
+# 5. Training on the 12-pair dataset: a run killed by SIGINT and resumed ends
+#    with the same generator, byte for byte, as an uninterrupted run.
+TR="--data $T/d1 --ngf 4 --ndf 4 --depth 5 --epochs 4 --epochs-decay 4"
+cat > "$T/tr.json" <<'JSON'
+{"log_every": 5, "val_every": 20, "checkpoint_every": 1000, "val_samples": 2}
+JSON
+"$BIN" -q train --config "$T/tr.json" $TR --out "$T/t1" > "$T/out" || bad "train"
+[ "$(cat "$T/out")" = "$T/t1/generator.pt" ] && ok || bad "train stdout: $(cat "$T/out")"
+for f in run.json log.csv val.csv checkpoint.pt generator.pt; do [ -s "$T/t1/$f" ] || bad "train: no $f"; done
+grep -q '"G": [0-9]' "$T/t1/run.json" && ok || bad "run.json has no parameter counts"
+[ "$(head -1 "$T/t1/log.csv")" = "step,epoch,lr,G_GAN,G_L1,D_real,D_fake,s_per_iter" ] && ok || bad "log.csv header"
+ls "$T/t1/val/"step-*.png >/dev/null 2>&1 && ok || bad "no validation grid"
+"$BIN" -q train --config "$T/tr.json" $TR --out "$T/t2" > /dev/null 2>&1 &
+pid=$!
+for _ in $(seq 1 200); do [ -s "$T/t2/log.csv" ] && [ "$(wc -l < "$T/t2/log.csv")" -ge 3 ] && break; sleep 0.05; done
+kill -INT $pid; wait $pid; rc=$?
+if [ "$rc" = 130 ]; then
+  ok
+  "$BIN" -q train $TR --out "$T/t2" --resume > /dev/null || bad "train --resume"
+else
+  bad "SIGINT: exit $rc, expected 130 (the run may have finished first)"
+fi
+cmp -s "$T/t1/generator.pt" "$T/t2/generator.pt" && ok || bad "interrupted + resumed run differs from the uninterrupted one"
+diff <(cut -d, -f1-7 "$T/t1/log.csv") <(cut -d, -f1-7 "$T/t2/log.csv") >/dev/null && ok || bad "resumed log.csv differs"
+expect_error "--resume" train $TR --out "$T/t1"
+expect_error "dataset.json" train --data "$T/e" --out "$T/e/run"
+echo '{"lr": -2}' > "$T/bad_tr.json"
+expect_error "lr" train --config "$T/bad_tr.json" $TR --out "$T/e/run"
+head -c 1000 "$T/t1/checkpoint.pt" > "$T/t3.pt"; mkdir -p "$T/t3"; cp "$T/t1/run.json" "$T/t3/"; mv "$T/t3.pt" "$T/t3/checkpoint.pt"
+expect_error "truncated" train $TR --out "$T/t3" --resume
+
+# 6. --version, --help with examples.
 "$BIN" --version | grep -q "reefgen [0-9]" && ok || bad "--version"
 "$BIN" generate --help | grep -q "Examples" && ok || bad "generate --help has no examples"
 

@@ -10,17 +10,14 @@
 #include "reefgen/labels.hpp"
 #include "reefgen/preview.hpp"
 #include "reefgen/rng.hpp"
+#include "test_util.hpp"
 
 using namespace reefgen;
+using test::count_files;
+using test::expect_error_naming;
+using test::temp_dir;
 
 namespace {
-
-fs::path temp_dir(const std::string& name) {
-  const fs::path d = fs::temp_directory_path() / ("reefgen_test_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
 
 // Concentric regions, like a drawn island: abyss outside, island in the middle.
 cv::Mat1b ring_labels(int W) {
@@ -31,23 +28,6 @@ cv::Mat1b ring_labels(int W) {
       l(y, x) = static_cast<uint8_t>(std::min(4, static_cast<int>(r / 0.18)));
     }
   return l;
-}
-
-// Runs f, expects an Error whose message names `needle` (the file at fault).
-template <class F>
-void expect_error_naming(F&& f, const std::string& needle) {
-  try {
-    f();
-    ADD_FAILURE() << "no error; expected one naming " << needle;
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
-  }
-}
-
-int count_files(const fs::path& d) {
-  int n = 0;
-  for (const auto& e : fs::directory_iterator(d)) (void)e, ++n;
-  return n;
 }
 
 }  // namespace

@@ -29,7 +29,7 @@ namespace {
 struct NormLayerImpl : nn::Module {
   NormLayerImpl(Norm n, int channels) {
     if (n == Norm::Batch) bn = register_module("bn", nn::BatchNorm2d(channels));
-    if (n == Norm::Instance) in = register_module("in", nn::InstanceNorm2d(channels));
+    if (n == Norm::Instance) in = register_module("inorm", nn::InstanceNorm2d(channels));  // not "in": a Python keyword breaks archive loading
   }
   torch::Tensor forward(const torch::Tensor& x) {
     if (bn) return bn->forward(x);

@@ -98,9 +98,11 @@ void save_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& params
   a.write("config", c10::IValue(json(params).dump()));
   a.write("step", c10::IValue(step));
   a.write("log_window", torch::tensor({window.sums[0], window.sums[1], window.sums[2], window.sums[3],
-                                       double(window.steps), window.seconds},
+                                       double(window.steps)},
                                       torch::kFloat64));
   a.write("torch_rng", at::detail::getDefaultCPUGenerator().get_state());
+  // Results depend on the thread count (reductions split differently).
+  a.write("torch_threads", c10::IValue(int64_t(torch::get_num_threads())));
   torch::serialize::OutputArchive g, d, og, od;
   p.G()->save(g);
   p.D()->save(d);
@@ -117,7 +119,8 @@ void save_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& params
   }
 }
 
-int64_t load_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& params, LogWindow* window) {
+int64_t load_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& params, LogWindow* window,
+                        int64_t* torch_threads) {
   torch::serialize::InputArchive a;
   const std::string fix = "start a new run (another --out) or restore the file";
   try {
@@ -157,7 +160,10 @@ int64_t load_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& par
       auto acc = w.accessor<double, 1>();
       for (int k = 0; k < 4; ++k) window->sums[k] = acc[k];
       window->steps = int64_t(acc[4]);
-      window->seconds = acc[5];
+    }
+    if (torch_threads) {
+      a.read("torch_threads", v);
+      *torch_threads = v.toInt();
     }
     return step;
   } catch (const c10::Error& e) {
@@ -192,7 +198,11 @@ RunResult run_training(const TrainParams& params, const RunOptions& run) {
   LogWindow window;
   int64_t step = 0;
   if (run.resume && fs::exists(ckpt)) {
-    step = load_checkpoint(ckpt, p, params, &window);
+    int64_t threads_then = 0;
+    step = load_checkpoint(ckpt, p, params, &window, &threads_then);
+    if (threads_then != torch::get_num_threads() && run.on_log)
+      run.on_log("warning: the checkpoint was written with " + std::to_string(threads_then) + " LibTorch threads, now " +
+                 std::to_string(torch::get_num_threads()) + ": the result will differ slightly from an uninterrupted run");
     truncate_log(log_csv, step);
     truncate_log(val_csv, step);
     if (run.on_log) run.on_log("resumed " + ckpt.string() + " at step " + std::to_string(step));
@@ -290,11 +300,12 @@ RunResult run_training(const TrainParams& params, const RunOptions& run) {
     for (int k = 0; k < 4; ++k) window.sums[k] += ls[k];
     window.steps += 1;
     window.seconds += dt;
+    window.timed_steps += 1;
     const double epoch = double(step) / double(steps_per_epoch);
     if (step % params.log_every == 0 || step == total) {
       std::string row = std::to_string(step) + "," + fmt(epoch) + "," + fmt(lr);
       for (double s : window.sums) row += "," + fmt(s / double(window.steps));
-      row += "," + fmt(window.seconds / double(window.steps));
+      row += "," + fmt(window.seconds / double(std::max<int64_t>(1, window.timed_steps)));
       append_line(log_csv, "step,epoch,lr,G_GAN,G_L1,D_real,D_fake,s_per_iter", row);
       window = {};
     }

@@ -44,13 +44,18 @@ RunResult run_training(const TrainParams& params, const RunOptions& run);
 struct LogWindow {
   double sums[4] = {0, 0, 0, 0};  // G_GAN, G_L1, D_real, D_fake over the current log window
   int64_t steps = 0;
+  // Wall-clock of the steps timed in this process; not checkpointed, so
+  // checkpoints are byte-identical between interrupted and uninterrupted runs.
   double seconds = 0;
+  int64_t timed_steps = 0;
 };
 void save_checkpoint(const std::filesystem::path& path, Pix2Pix& p, const TrainParams& params, int64_t step,
                      const LogWindow& window);
-// Restores weights, optimizers and RNG; returns the step. Throws reefgen::Error
+// Restores weights, optimizers and RNG; returns the step. `torch_threads`, when
+// given, receives the LibTorch thread count the checkpoint was written with. Throws reefgen::Error
 // for a missing, truncated or foreign file and for a config that differs from
 // `params` in anything but the thread and loader settings.
-int64_t load_checkpoint(const std::filesystem::path& path, Pix2Pix& p, const TrainParams& params, LogWindow* window);
+int64_t load_checkpoint(const std::filesystem::path& path, Pix2Pix& p, const TrainParams& params, LogWindow* window,
+                        int64_t* torch_threads = nullptr);
 
 }  // namespace reefgen::train

@@ -1,0 +1,350 @@
+// Training on tiny settings (ngf 4-8, 64x64, a dozen pairs): learning on a
+// fixed batch, resume = uninterrupted, checkpoint and generator round trips,
+// data loading and jitter alignment, config and file errors.
+#include <fstream>
+#include <thread>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include "reefgen/labels.hpp"
+#include "reefgen/model/generator_file.hpp"
+#include "reefgen/procgen/generator.hpp"
+#include "reefgen/procgen/random_spec.hpp"
+#include "reefgen/train/data.hpp"
+#include "reefgen/train/trainer.hpp"
+#include "test_util.hpp"
+
+using namespace reefgen;
+using namespace reefgen::train;
+using test::expect_error_naming;
+using test::temp_dir;
+using nlohmann::json;
+
+namespace {
+
+// A dataset folder in the format of `reefgen dataset build`: `n` generated
+// islands at 64 px, the last `n_val` in the val split.
+fs::path make_dataset(const std::string& name, int n, int n_val) {
+  const fs::path d = temp_dir(name);
+  fs::create_directories(d / "train");
+  fs::create_directories(d / "val");
+  write_json_atomic(d / "dataset.json", {{"params", {{"size_px", 64}}}, {"height_normalisation_m", {-100, 560}}});
+  procgen::RenderOptions opt;
+  opt.size_px = 64;
+  std::string manifest;
+  for (int i = 0; i < n; ++i) {
+    procgen::IslandSpec s = procgen::random_spec(99, uint64_t(i));
+    s.subsidence = 0.25 * (i % 4);
+    const procgen::IslandFields f = procgen::generate(s, opt);
+    const std::string split = i >= n - n_val ? "val" : "train";
+    char stem[32];
+    std::snprintf(stem, sizeof stem, "%s/%08d", split.c_str(), i);
+    write_png(d / (std::string(stem) + ".label.png"), encode_labels(f.label, s.subsidence));
+    write_exr_height(d / (std::string(stem) + ".height.exr"), f.height_m);
+    manifest += json{{"index", i}, {"split", split}, {"label", std::string(stem) + ".label.png"},
+                     {"height", std::string(stem) + ".height.exr"}}.dump() + "\n";
+  }
+  write_text_atomic(d / "manifest.jsonl", manifest);
+  return d;
+}
+
+TrainParams tiny_params() {
+  TrainParams p;
+  p.ngf = 4;
+  p.ndf = 4;
+  p.depth = 6;  // 64 px
+  p.epochs = 1;
+  p.epochs_decay = 1;
+  p.log_every = 2;
+  p.val_every = 5;
+  p.checkpoint_every = 4;
+  p.val_samples = 2;
+  p.loader_threads = 2;
+  p.prefetch = 3;
+  return p;
+}
+
+void expect_same_weights(torch::nn::Module& a, torch::nn::Module& b) {
+  const auto pa = a.named_parameters(), pb = b.named_parameters();
+  ASSERT_EQ(pa.size(), pb.size());
+  for (const auto& kv : pa) EXPECT_TRUE(torch::equal(kv.value(), pb[kv.key()])) << kv.key();
+  const auto ba = a.named_buffers(), bb = b.named_buffers();
+  for (const auto& kv : ba) EXPECT_TRUE(torch::equal(kv.value(), bb[kv.key()])) << kv.key();
+}
+
+// Log rows without the wall-clock column.
+std::string log_without_timing(const fs::path& p) {
+  std::ifstream in(p);
+  std::string line, out;
+  while (std::getline(in, line)) out += line.substr(0, line.rfind(',')) + "\n";
+  return out;
+}
+
+RunOptions run_in(const fs::path& data, const fs::path& out) {
+  RunOptions r;
+  r.data = data;
+  r.out = out;
+  return r;
+}
+
+struct Loaded {
+  Pix2Pix p;
+  int64_t step;
+};
+Loaded load_run(const fs::path& run, const TrainParams& params) {
+  Pix2Pix p(pix2pix_options(params));
+  const int64_t step = load_checkpoint(run / "checkpoint.pt", p, params, nullptr);
+  return {std::move(p), step};
+}
+
+}  // namespace
+
+TEST(TrainParams, JsonRoundTripAndErrors) {
+  TrainParams p;
+  p.ngf = 32;
+  p.lr = 1e-3;
+  p.norm = "instance";
+  const TrainParams q = train_params_from_json(json(p), "test");
+  EXPECT_EQ(json(q), json(p));
+  expect_error_naming([] { train_params_from_json(json{{"lr", -1.0}}, "cfg.json"); }, "lr");
+  expect_error_naming([] { train_params_from_json(json{{"learning_rate", 0.1}}, "cfg.json"); }, "learning_rate");
+  expect_error_naming([] { train_params_from_json(json{{"norm", "layer"}}, "cfg.json"); }, "norm");
+  expect_error_naming([] { train_params_from_json(json{{"depth", 3}}, "cfg.json"); }, "depth");
+  expect_error_naming([] { train_params_from_json(json{{"ngf", "many"}}, "cfg.json"); }, "cfg.json");
+  expect_error_naming([] { train_params_from_json(json{{"epochs", 0}, {"epochs_decay", 0}}, "cfg.json"); }, "epochs");
+}
+
+TEST(TrainParams, LearningRateConstantThenLinearToZero) {
+  TrainParams p;
+  p.lr = 2e-4;
+  EXPECT_DOUBLE_EQ(lr_at(p, 0, 10, 4), 2e-4);
+  EXPECT_DOUBLE_EQ(lr_at(p, 9, 10, 4), 2e-4);
+  EXPECT_DOUBLE_EQ(lr_at(p, 10, 10, 4), 2e-4 * 4 / 5);
+  EXPECT_DOUBLE_EQ(lr_at(p, 13, 10, 4), 2e-4 * 1 / 5);
+  EXPECT_DOUBLE_EQ(lr_at(p, 14, 10, 4), 0.0);
+}
+
+TEST(Train, LossGoesDownOnAFixedBatch) {
+  torch::manual_seed(5);
+  Pix2PixOptions o;
+  o.g.ngf = 8;
+  o.g.depth = 6;
+  o.d.ndf = 8;
+  o.lr = 1e-3;
+  Pix2Pix p(o);
+  p.G()->set_dropout_enabled(false);
+  const auto label = torch::rand({1, 3, 64, 64}) * 2 - 1;
+  const auto height = torch::tanh(label.sum(1, true));  // a function of the label: learnable
+  const double first = p.step(label, height).g_l1;
+  double last = first;
+  for (int s = 0; s < 150; ++s) last = p.step(label, height).g_l1;
+  EXPECT_LT(last, 0.5 * first) << "G_L1 " << first << " -> " << last;
+}
+
+TEST(Train, ResumeEqualsUninterruptedBitForBit) {
+  const fs::path data = make_dataset("resume_data", 8, 2);
+  const TrainParams params = tiny_params();  // 6 train pairs: 12 steps
+  const fs::path base = temp_dir("resume_runs");
+  RunOptions full = run_in(data, base / "full");
+  const RunResult r_full = run_training(params, full);
+  EXPECT_EQ(r_full.step, 12);
+  EXPECT_FALSE(r_full.interrupted);
+
+  // Stopped by --max-steps at 5 (not a checkpoint multiple), then resumed.
+  RunOptions part = run_in(data, base / "part");
+  part.max_steps = 5;
+  EXPECT_EQ(run_training(params, part).step, 5);
+  part.max_steps = -1;
+  part.resume = true;
+  EXPECT_EQ(run_training(params, part).step, 12);
+
+  // Stopped by the signal flag at step 7, then resumed with other thread settings.
+  std::atomic<bool> stop{false};
+  RunOptions sig = run_in(data, base / "sig");
+  sig.stop = &stop;
+  sig.on_step = [&](const StepReport& r) { if (r.step == 6) stop = true; };
+  const RunResult r_sig = run_training(params, sig);
+  EXPECT_TRUE(r_sig.interrupted);
+  EXPECT_EQ(r_sig.step, 7);  // the flag is seen after the step that follows
+  EXPECT_TRUE(fs::exists(base / "sig" / "generator.pt"));
+  TrainParams other = params;
+  other.loader_threads = 1;
+  other.prefetch = 1;
+  sig.stop = nullptr;
+  sig.on_step = nullptr;
+  sig.resume = true;
+  EXPECT_EQ(run_training(other, sig).step, 12);
+
+  auto a = load_run(base / "full", params), b = load_run(base / "part", params), c = load_run(base / "sig", params);
+  EXPECT_EQ(a.step, 12);
+  EXPECT_EQ(b.step, 12);
+  expect_same_weights(*a.p.G(), *b.p.G());
+  expect_same_weights(*a.p.D(), *b.p.D());
+  expect_same_weights(*a.p.G(), *c.p.G());
+  expect_same_weights(*a.p.D(), *c.p.D());
+  EXPECT_EQ(log_without_timing(base / "full" / "log.csv"), log_without_timing(base / "part" / "log.csv"));
+  EXPECT_EQ(log_without_timing(base / "full" / "log.csv"), log_without_timing(base / "sig" / "log.csv"));
+  EXPECT_EQ(read_text(base / "full" / "val.csv"), read_text(base / "sig" / "val.csv"));
+
+  // A run folder is never silently reused.
+  expect_error_naming([&] { run_training(params, run_in(data, base / "full")); }, "--resume");
+  // Resuming with a different config is refused, naming the key.
+  TrainParams changed = params;
+  changed.lr = 1e-3;
+  RunOptions again = run_in(data, base / "full");
+  again.resume = true;
+  expect_error_naming([&] { run_training(changed, again); }, "lr");
+  fs::remove_all(base);
+  fs::remove_all(data);
+}
+
+TEST(Train, CheckpointRoundTripAndBadFiles) {
+  const fs::path d = temp_dir("ckpt");
+  const TrainParams params = tiny_params();
+  torch::manual_seed(1);
+  Pix2Pix p(pix2pix_options(params));
+  const auto x = torch::rand({1, 3, 64, 64}) * 2 - 1, y = torch::rand({1, 1, 64, 64}) * 2 - 1;
+  p.step(x, y);
+  LogWindow w;
+  w.sums[1] = 12.5;
+  w.steps = 3;
+  save_checkpoint(d / "c.pt", p, params, 42, w);
+  EXPECT_EQ(test::count_files(d), 1);  // no temporary left behind
+
+  torch::manual_seed(2);
+  Pix2Pix q(pix2pix_options(params));
+  LogWindow w2;
+  EXPECT_EQ(load_checkpoint(d / "c.pt", q, params, &w2), 42);
+  EXPECT_EQ(w2.sums[1], 12.5);
+  EXPECT_EQ(w2.steps, 3);
+  expect_same_weights(*p.G(), *q.G());
+  expect_same_weights(*p.D(), *q.D());
+  // Optimizer state restored: the next step is the same on both.
+  torch::manual_seed(7);
+  const Losses lp = p.step(x, y);
+  torch::manual_seed(7);
+  const Losses lq = q.step(x, y);
+  EXPECT_EQ(lp.g_l1, lq.g_l1);
+  expect_same_weights(*p.G(), *q.G());
+
+  // Truncated, foreign, missing.
+  const std::string bytes = read_text(d / "c.pt");
+  write_text_atomic(d / "truncated.pt", bytes.substr(0, bytes.size() / 2));
+  expect_error_naming([&] { load_checkpoint(d / "truncated.pt", q, params, nullptr); }, "truncated.pt");
+  write_text_atomic(d / "foreign.pt", "not a checkpoint at all");
+  expect_error_naming([&] { load_checkpoint(d / "foreign.pt", q, params, nullptr); }, "foreign.pt");
+  model::save_generator(d / "g.pt", p.G(), {}, 64, 1);
+  expect_error_naming([&] { load_checkpoint(d / "g.pt", q, params, nullptr); }, "expected a checkpoint");
+  expect_error_naming([&] { load_checkpoint(d / "missing.pt", q, params, nullptr); }, "missing.pt");
+  fs::remove_all(d);
+}
+
+TEST(Train, ExportedGeneratorReproducesG) {
+  const fs::path d = temp_dir("gen");
+  torch::manual_seed(3);
+  model::UNetOptions o;
+  o.ngf = 4;
+  o.depth = 6;
+  o.norm = model::Norm::Instance;
+  model::UNetGenerator g(o);
+  model::init_pix2pix(*g);
+  model::save_generator(d / "g.pt", g, {-50, 300}, 64, 17);
+  model::GeneratorFile f = model::load_generator(d / "g.pt");
+  EXPECT_EQ(f.g->options().ngf, 4);
+  EXPECT_EQ(f.g->options().norm, model::Norm::Instance);
+  EXPECT_EQ(f.range.lo_m, -50);
+  EXPECT_EQ(f.range.hi_m, 300);
+  EXPECT_EQ(f.size_px, 64);
+  EXPECT_EQ(f.train_step, 17);
+  torch::NoGradGuard no_grad;
+  g->eval();
+  f.g->eval();
+  const auto x = torch::rand({1, 3, 64, 64});
+  EXPECT_TRUE(torch::equal(g->forward(x), f.g->forward(x)));
+  write_text_atomic(d / "bad.pt", "garbage");
+  EXPECT_THROW(model::load_generator(d / "bad.pt"), std::runtime_error);
+  fs::remove_all(d);
+}
+
+TEST(Data, JitterMovesLabelAndHeightTogether) {
+  // Pixel column c: label red channel = 4c, height = 4c metres. After resize,
+  // crop and flip, both must still name the same source column (±1 px).
+  const fs::path d = temp_dir("jitter");
+  cv::Mat3b label(64, 64);
+  cv::Mat1f height(64, 64);
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x) {
+      label(y, x) = cv::Vec3b(0, uint8_t(4 * y), uint8_t(4 * x));  // BGR: R = 4x, G = 4y
+      height(y, x) = float(4 * x);
+    }
+  write_png(d / "a.label.png", label);
+  write_exr_height(d / "a.height.exr", height);
+  DatasetInfo info;
+  info.dir = d;
+  info.size_px = 64;
+  info.range = {0, 252};
+  const PairRef ref{0, "a.label.png", "a.height.exr"};
+  int flipped = 0;
+  for (uint64_t seed = 0; seed < 16; ++seed) {
+    const Sample s = load_sample(info, ref, {true, 1.25, true}, seed);
+    const auto r = (s.label[0] + 1) * 127.5 / 4;   // source column per label pixel
+    const auto h = (s.height[0] + 1) * 126.0 / 4;  // source column per height pixel
+    EXPECT_LE((r - h).abs().max().item<double>(), 1.01) << "seed " << seed;
+    flipped += r[0][0].item<double>() > r[0][63].item<double>();
+  }
+  EXPECT_GT(flipped, 2);
+  EXPECT_LT(flipped, 14);
+  // Labels stay palette values: never blended.
+  const Sample s = load_sample(info, ref, {true, 1.25, true}, 3);
+  const auto red = ((s.label[0] + 1) * 127.5).round();
+  EXPECT_TRUE(torch::equal(torch::remainder(red, 4), torch::zeros_like(red)));
+  fs::remove_all(d);
+}
+
+TEST(Data, SampleOrderIsAPermutationPerEpoch) {
+  std::vector<int> seen(10, 0);
+  for (int q = 10; q < 20; ++q) ++seen[sample_at(4, q, 10)];
+  for (int c : seen) EXPECT_EQ(c, 1);
+  EXPECT_EQ(sample_at(4, 13, 10), sample_at(4, 13, 10));
+}
+
+TEST(Data, PrefetcherKeepsOrderAndRethrows) {
+  Prefetcher pf([](int64_t s) { return Prefetcher::Batch{torch::full({1}, double(s)), torch::zeros({1})}; }, 3, 40, 3, 4);
+  for (int s = 3; s < 40; ++s) EXPECT_EQ(pf.next().first.item<double>(), s);
+  Prefetcher bad([](int64_t s) -> Prefetcher::Batch {
+    if (s == 2) throw Error("pair 2 is broken");
+    return {torch::zeros({1}), torch::zeros({1})};
+  }, 0, 10, 2, 2);
+  bad.next();
+  bad.next();
+  expect_error_naming([&] { bad.next(); }, "pair 2");
+}
+
+TEST(Data, BadDatasetsNameTheFile) {
+  const fs::path d = make_dataset("bad_data", 3, 0);
+  DatasetInfo info = open_dataset(d);
+  EXPECT_EQ(info.train.size(), 3u);
+  // Wrong size.
+  write_png(d / info.train[0].label, cv::Mat3b(32, 32, cv::Vec3b(0, 0, 255)));
+  expect_error_naming([&] { load_sample(info, info.train[0], {}, 0); }, info.train[0].label);
+  // NaN heights.
+  cv::Mat1f nan(64, 64, std::numeric_limits<float>::quiet_NaN());
+  write_exr_height(d / info.train[1].height, nan);
+  expect_error_naming([&] { load_sample(info, info.train[1], {}, 0); }, "NaN");
+  // Corrupt label.
+  write_text_atomic(d / info.train[2].label, "not a png");
+  expect_error_naming([&] { load_sample(info, info.train[2], {}, 0); }, info.train[2].label);
+  // Missing manifest, bad manifest line.
+  write_text_atomic(d / "manifest.jsonl", "{\"index\": 0}\n");
+  expect_error_naming([&] { open_dataset(d); }, "manifest.jsonl:1");
+  fs::remove(d / "manifest.jsonl");
+  expect_error_naming([&] { open_dataset(d); }, "dataset merge");
+  fs::remove_all(d);
+}
+
+TEST(TrainParams, PaperConfigIsTheDefaults) {
+  // configs/train/paper.json is just the serialised defaults (DESIGN §5).
+  const TrainParams p = train_params_from_json(read_json(REEFGEN_SOURCE_DIR "/configs/train/paper.json"), "paper.json");
+  EXPECT_EQ(json(p), json(TrainParams{}));
+}
