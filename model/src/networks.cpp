@@ -104,7 +104,9 @@ torch::Tensor UNetGeneratorImpl::forward(torch::Tensor x) {
   skips.reserve(depth);
   torch::Tensor d = level(0)->down_conv->forward(x);  // {N,ngf,S/2,S/2}
   for (int k = 1; k < depth; ++k) {
-    torch::Tensor a = torch::leaky_relu(d, 0.2);
+    // In place, as the original: no extra activation buffer (d is not needed:
+    // neither convolution nor BatchNorm backward uses its own output).
+    torch::Tensor a = torch::leaky_relu_(d, 0.2);
     skips.push_back(a);
     d = level(k)->down_conv->forward(a);  // {N,c_k,S/2^(k+1),..}
     if (level(k)->down_norm) d = level(k)->down_norm->forward(d);
@@ -113,11 +115,11 @@ torch::Tensor UNetGeneratorImpl::forward(torch::Tensor x) {
   torch::Tensor u = d;  // {N,8ngf,S/2^depth,..}
   for (int k = depth - 1; k >= 1; --k) {
     auto L = level(k);
-    u = L->up_norm->forward(L->up_conv->forward(torch::relu(u)));
+    u = L->up_norm->forward(L->up_conv->forward(torch::relu_(u)));  // u is a fresh cat/conv output
     if (L->dropout > 0) u = torch::dropout(u, L->dropout, is_training() && dropout_enabled_);
     u = torch::cat({skips[k - 1], u}, 1);  // skip first, as in torch.cat([x, model(x)], 1)
   }
-  return torch::tanh(level(0)->up_conv->forward(torch::relu(u)));  // {N,out,S,S}
+  return torch::tanh(level(0)->up_conv->forward(torch::relu_(u)));  // {N,out,S,S}
 }
 
 PatchDiscriminatorImpl::PatchDiscriminatorImpl(const PatchOptions& o) : options_(o) {
@@ -127,7 +129,7 @@ PatchDiscriminatorImpl::PatchDiscriminatorImpl(const PatchOptions& o) : options_
   const bool bias = o.norm != Norm::Batch;
   net_ = register_module("net", nn::Sequential());
   net_->push_back(nn::Conv2d(conv4(o.in_channels, o.ndf, 2, true)));
-  net_->push_back(nn::LeakyReLU(nn::LeakyReLUOptions().negative_slope(0.2)));
+  net_->push_back(nn::LeakyReLU(nn::LeakyReLUOptions().negative_slope(0.2).inplace(true)));
   int mult = 1;
   for (int n = 1; n <= o.n_layers; ++n) {
     const int prev = mult;
@@ -135,7 +137,7 @@ PatchDiscriminatorImpl::PatchDiscriminatorImpl(const PatchOptions& o) : options_
     // The last of these keeps the resolution (stride 1): 70x70 receptive field at n_layers 3.
     net_->push_back(nn::Conv2d(conv4(o.ndf * prev, o.ndf * mult, n < o.n_layers ? 2 : 1, bias)));
     net_->push_back(NormLayer(o.norm, o.ndf * mult));
-    net_->push_back(nn::LeakyReLU(nn::LeakyReLUOptions().negative_slope(0.2)));
+    net_->push_back(nn::LeakyReLU(nn::LeakyReLUOptions().negative_slope(0.2).inplace(true)));
   }
   net_->push_back(nn::Conv2d(conv4(o.ndf * mult, 1, 1, true)));
 }

@@ -22,8 +22,8 @@ Pix2Pix::Pix2Pix(const Pix2PixOptions& o) : options_(o), g_(o.g), d_(o.d), lr_(o
     throw std::invalid_argument("Pix2PixOptions: betas must be in [0, 1)");
   model::init_pix2pix(*g_);
   model::init_pix2pix(*d_);
-  opt_g_ = std::make_unique<torch::optim::Adam>(g_->parameters(), adam(o));
-  opt_d_ = std::make_unique<torch::optim::Adam>(d_->parameters(), adam(o));
+  opt_g_ = std::make_unique<FusedAdam>(g_->parameters(), adam(o));
+  opt_d_ = std::make_unique<FusedAdam>(d_->parameters(), adam(o));
 }
 
 void Pix2Pix::set_lr(double lr) {
@@ -39,7 +39,7 @@ Losses Pix2Pix::step(const torch::Tensor& label, const torch::Tensor& height) {
 
   // D step: fake pairs detached so G gets no gradient from it.
   set_requires_grad(*d_, true);
-  opt_d_->zero_grad();
+  clear_grads(d_->parameters());
   const torch::Tensor pred_fake = d_->forward(torch::cat({label, fake.detach()}, 1));  // {N,1,P,P}
   const torch::Tensor d_fake = F::binary_cross_entropy_with_logits(pred_fake, torch::zeros_like(pred_fake));
   const torch::Tensor pred_real = d_->forward(torch::cat({label, height}, 1));
@@ -50,7 +50,7 @@ Losses Pix2Pix::step(const torch::Tensor& label, const torch::Tensor& height) {
 
   // G step against a frozen D: no gradients accumulate in D's parameters.
   set_requires_grad(*d_, false);
-  opt_g_->zero_grad();
+  clear_grads(g_->parameters());
   const torch::Tensor pred = d_->forward(torch::cat({label, fake}, 1));
   const torch::Tensor g_gan = F::binary_cross_entropy_with_logits(pred, torch::ones_like(pred));
   const torch::Tensor g_l1 = F::l1_loss(fake, height) * options_.lambda_l1;

@@ -179,6 +179,7 @@ RunResult run_training(const TrainParams& params, const RunOptions& run) {
                 std::to_string(1 << params.depth) + "; lower depth or build the dataset at another size");
   torch::set_num_threads(params.threads > 0 ? params.threads : int(std::max(1u, std::thread::hardware_concurrency())));
   at::globalContext().setDeterministicAlgorithms(params.deterministic, /*warn_only=*/true);
+  keep_freed_memory();
 
   const int64_t n = int64_t(data.train.size()), B = params.batch_size;
   const int64_t steps_per_epoch = (n + B - 1) / B;

@@ -5,6 +5,7 @@
 #include <torch/torch.h>
 
 #include "reefgen/model/networks.hpp"
+#include "reefgen/train/fused_adam.hpp"
 
 namespace reefgen::train {
 
@@ -39,7 +40,7 @@ class Pix2Pix {
   Pix2PixOptions options_;
   model::UNetGenerator g_;
   model::PatchDiscriminator d_;
-  std::unique_ptr<torch::optim::Adam> opt_g_, opt_d_;
+  std::unique_ptr<FusedAdam> opt_g_, opt_d_;
   double lr_;
 };
 

@@ -1,0 +1,99 @@
+// reefgen bench train | infer: pix2pix speed at the paper's setting, one JSON
+// object on stdout. scripts/bench-model.sh runs these against the Python
+// reference in the same session and prints the ratios (docs/BENCHMARKS.md).
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+
+#include "app.hpp"
+#include "reefgen/io.hpp"
+#include "reefgen/train/pix2pix.hpp"
+
+namespace reefgen {
+
+namespace {
+
+double median_of(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0 : v[v.size() / 2];
+}
+
+template <class F>
+double seconds(F&& f) {
+  const auto t0 = std::chrono::steady_clock::now();
+  f();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+int depth_for(int size) {
+  int d = 0;
+  while ((1 << (d + 1)) <= size && d < 8) ++d;
+  return d;
+}
+
+}  // namespace
+
+std::function<int()> add_bench_model_commands(CLI::App* bench) {
+  struct Args {
+    int ngf = 64, size = 256, reps = 5, threads = default_threads(), batch = 8;
+  };
+  auto a = std::make_shared<Args>();
+  auto* tr = bench->add_subcommand("train", "seconds per pix2pix training iteration (batch 1), median of --reps");
+  auto* in = bench->add_subcommand("infer", "ms per 256² sketch (model loaded once), median of --reps; sketches/s in batches");
+  for (auto* s : {tr, in}) {
+    s->add_option("--ngf", a->ngf, "G and D filters")->capture_default_str();
+    s->add_option("--size", a->size, "Side of the square input (power of two ≥ 32)")->capture_default_str();
+    s->add_option("--reps", a->reps, "Timed repetitions after one warm-up")->capture_default_str();
+    s->add_option("--threads", a->threads, "LibTorch threads (default: all cores)");
+  }
+  in->add_option("--batch", a->batch, "Batch size for the throughput figure")->capture_default_str();
+  return [a, tr, in]() -> int {
+    if (a->reps < 1 || a->threads < 1 || a->batch < 1) throw Error("--reps, --threads and --batch must be ≥ 1");
+    if (a->size < 32 || (a->size & (a->size - 1))) throw Error("--size must be a power of two ≥ 32");
+    torch::set_num_threads(a->threads);
+    train::keep_freed_memory();
+    torch::manual_seed(1);
+    train::Pix2PixOptions o;
+    o.g.ngf = a->ngf;
+    o.g.depth = depth_for(a->size);
+    o.d.ndf = a->ngf;
+    train::Pix2Pix p(o);
+    const auto x = torch::rand({1, 3, a->size, a->size}) * 2 - 1;
+    const auto y = torch::rand({1, 1, a->size, a->size}) * 2 - 1;
+    std::vector<double> t;
+    if (tr->parsed()) {
+      p.step(x, y);  // warm-up: allocations, oneDNN primitive creation
+      for (int r = 0; r < a->reps; ++r) t.push_back(seconds([&] { p.step(x, y); }));
+      std::printf("{\"bench\": \"train\", \"impl\": \"reefgen\", \"ngf\": %d, \"size\": %d, \"threads\": %d, "
+                  "\"reps\": %d, \"s_per_iter\": %.4f}\n",
+                  a->ngf, a->size, a->threads, a->reps, median_of(t));
+      return 0;
+    }
+    (void)in;
+    torch::NoGradGuard no_grad;
+    auto& g = p.G();
+    g->train();  // pix2pix's test-time mode (batch statistics), dropout off: our default
+    g->set_dropout_enabled(false);
+    g->forward(x);
+    for (int r = 0; r < a->reps; ++r) t.push_back(seconds([&] { g->forward(x); }));
+    const double batchstats = median_of(t);
+    t.clear();
+    g->eval();
+    g->forward(x);
+    for (int r = 0; r < a->reps; ++r) t.push_back(seconds([&] { g->forward(x); }));
+    const double running = median_of(t);
+    const auto xb = torch::rand({a->batch, 3, a->size, a->size}) * 2 - 1;
+    g->train();
+    g->forward(xb);
+    t.clear();
+    for (int r = 0; r < std::max(1, a->reps / 2); ++r) t.push_back(seconds([&] { g->forward(xb); }));
+    std::printf("{\"bench\": \"infer\", \"impl\": \"reefgen\", \"ngf\": %d, \"size\": %d, \"threads\": %d, "
+                "\"reps\": %d, \"ms_batchstats\": %.2f, \"ms_running_stats\": %.2f, \"batch\": %d, "
+                "\"sketches_per_s\": %.2f}\n",
+                a->ngf, a->size, a->threads, a->reps, batchstats * 1e3, running * 1e3, a->batch,
+                a->batch / median_of(t));
+    return 0;
+  };
+}
+
+}  // namespace reefgen

@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# pix2pix speed against the Python reference, in one session on one machine:
+# ROUNDS alternating runs of `reefgen bench WHAT` and scripts/reference/bench_ref.py,
+# medians of each, and the ratio reference / reefgen (> 1: reefgen is faster).
+#   bash scripts/bench-model.sh [train|infer|all] [ROUNDS] [extra flags, e.g. --ngf 32]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+what=${1:-all}; rounds=${2:-3}; shift $(( $# > 2 ? 2 : $# )) || true
+[ -x build/cli/reefgen ] || bash scripts/build.sh >&2
+py=/usr/bin/python3; [ -x "$py" ] || py=python3
+"$py" -c 'import torch' 2>/dev/null || { echo "bench-model: python3-torch missing (bash scripts/install-deps.sh)" >&2; exit 1; }
+run() {  # run WHAT KEY REPS
+  local w=$1 key=$2 reps=$3 c=() p=()
+  for r in $(seq 1 "$rounds"); do
+    c+=("$(build/cli/reefgen bench "$w" --reps "$reps" "${@:4}" 2>/dev/null | "$py" -c "import json,sys; print(json.load(sys.stdin)['$key'])")")
+    p+=("$("$py" scripts/reference/bench_ref.py "$w" --reps "$reps" "${@:4}" | "$py" -c "import json,sys; print(json.load(sys.stdin)['$key'])")")
+  done
+  "$py" - "$w" "$key" "${c[*]}" "${p[*]}" <<'PY'
+import statistics, sys
+w, key, c, p = sys.argv[1], sys.argv[2], list(map(float, sys.argv[3].split())), list(map(float, sys.argv[4].split()))
+mc, mp = statistics.median(c), statistics.median(p)
+print(f"{w:5s} {key:16s} reefgen {mc:9.3f}  python-reference {mp:9.3f}  ratio ref/reefgen {mp/mc:5.2f}   "
+      f"(rounds: reefgen {c}, reference {p})")
+PY
+}
+extra=("$@")
+if [ "$what" = train ] || [ "$what" = all ]; then run train s_per_iter 3 "${extra[@]}"; fi
+if [ "$what" = infer ] || [ "$what" = all ]; then
+  run infer ms_batchstats 10 "${extra[@]}"
+  run infer sketches_per_s 10 "${extra[@]}"
+fi
