@@ -32,6 +32,9 @@ Command add_presets_command(CLI::App& app, const GlobalOptions& g);
 Command add_bench_command(CLI::App& app, const GlobalOptions& g);
 Command add_dataset_command(CLI::App& app, const GlobalOptions& g);
 Command add_train_command(CLI::App& app, const GlobalOptions& g);
+Command add_infer_command(CLI::App& app, const GlobalOptions& g);
+Command add_sketch_command(CLI::App& app, const GlobalOptions& g);
+Command add_eval_command(CLI::App& app, const GlobalOptions& g);
 // `bench train` and `bench infer` under `bench`; returns their runner.
 std::function<int()> add_bench_model_commands(CLI::App* bench);
 

@@ -16,6 +16,9 @@ int main(int argc, char** argv) {
                "  reefgen presets\n"
                "  reefgen dataset build --config configs/dataset/paper.json --out data/paper\n"
                "  reefgen train --data data/paper --out runs/paper\n"
+               "  reefgen sketch random --seed 3 -o sketch.png\n"
+               "  reefgen infer sketch.png -m runs/paper/generator.pt -o out/island --preview --r16\n"
+               "  reefgen eval -m runs/paper/generator.pt --data data/paper --split test\n"
                "  reefgen bench generate\n"};
   app.set_version_flag("--version", std::string("reefgen ") + reefgen::kVersion);
   app.require_subcommand(1);
@@ -25,6 +28,9 @@ int main(int argc, char** argv) {
                                                   reefgen::add_presets_command(app, g),
                                                   reefgen::add_dataset_command(app, g),
                                                   reefgen::add_train_command(app, g),
+                                                  reefgen::add_infer_command(app, g),
+                                                  reefgen::add_sketch_command(app, g),
+                                                  reefgen::add_eval_command(app, g),
                                                   reefgen::add_bench_command(app, g)};
   try {
     app.parse(argc, argv);

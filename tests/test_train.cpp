@@ -348,3 +348,28 @@ TEST(TrainParams, PaperConfigIsTheDefaults) {
   const TrainParams p = train_params_from_json(read_json(REEFGEN_SOURCE_DIR "/configs/train/paper.json"), "paper.json");
   EXPECT_EQ(json(p), json(TrainParams{}));
 }
+
+TEST(FusedAdam, MatchesLibTorchAdamAndIgnoresThreadCount) {
+  auto run = [](bool fused, int threads) {
+    torch::set_num_threads(threads);
+    torch::manual_seed(11);
+    std::vector<torch::Tensor> params = {torch::randn({300000}).set_requires_grad(true),
+                                         torch::randn({7, 5}).set_requires_grad(true)};
+    const auto options = torch::optim::AdamOptions(2e-4).betas(std::make_tuple(0.5, 0.999));
+    std::unique_ptr<torch::optim::Adam> opt;
+    if (fused) opt = std::make_unique<FusedAdam>(params, options);
+    else opt = std::make_unique<torch::optim::Adam>(params, options);
+    for (int s = 0; s < 5; ++s) {
+      clear_grads(params);
+      (params[0].sin().sum() + params[1].pow(2).sum()).backward();
+      opt->step();
+    }
+    return std::vector<torch::Tensor>{params[0].detach().clone(), params[1].detach().clone()};
+  };
+  const auto ref = run(false, 2), f2 = run(true, 2), f1 = run(true, 1);
+  for (size_t i = 0; i < ref.size(); ++i) {
+    EXPECT_LT((ref[i] - f2[i]).abs().max().item<double>(), 1e-6) << "tensor " << i;
+    EXPECT_TRUE(torch::equal(f1[i], f2[i])) << "thread count changed the update of tensor " << i;
+  }
+  torch::set_num_threads(std::max(1u, std::thread::hardware_concurrency()));
+}

@@ -1,0 +1,187 @@
+// reefgen infer: painted sketches -> height fields in the formats terrain
+// tools import (docs/INFERENCE.md). Thin: inputs -> infer library -> files.
+#include <cstdio>
+#include <optional>
+
+#include "app.hpp"
+#include "reefgen/infer/export.hpp"
+#include "reefgen/infer/infer.hpp"
+#include "reefgen/io.hpp"
+#include "reefgen/preview.hpp"
+#include "reefgen/train/fused_adam.hpp"
+#include "reefgen/version.hpp"
+
+namespace reefgen {
+
+namespace {
+
+bool is_image(const fs::path& p) {
+  std::string e = p.extension().string();
+  for (auto& ch : e) ch = char(std::tolower(ch));
+  return e == ".png" || e == ".jpg" || e == ".jpeg" || e == ".tif" || e == ".tiff" || e == ".bmp" || e == ".webp";
+}
+
+// Files written for one sketch, removed again if a later one fails: no
+// half-finished result set is left under the final names.
+struct Outputs {
+  std::vector<fs::path> files;
+  void discard() {
+    std::error_code ec;
+    for (const auto& f : files) fs::remove(f, ec);
+  }
+};
+
+}  // namespace
+
+Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
+  auto* sub = app.add_subcommand(
+      "infer",
+      "Turn painted label sketches into height fields with a trained generator\n\n"
+      "Colours (paper §7): red abyss, blue reef, cyan lagoon, green beach, yellow mountain;\n"
+      "darker = more subsidence. Any size (resized to the model's side and back), PNG/JPEG,\n"
+      "8/16-bit, alpha, anti-aliased brushes.\n\n"
+      "Examples:\n"
+      "  reefgen infer sketch.png -m runs/paper/generator.pt -o out/island --preview\n"
+      "  reefgen infer sketches/ -m generator.pt -o out/ --png16 --r16\n"
+      "  reefgen infer sketch.png -m generator.pt -o out/island --mesh out/island.glb --exaggeration 3\n"
+      "  reefgen infer sketch.png -m generator.pt -o out/v --stochastic --seed 7\n");
+  struct Args {
+    std::vector<std::string> inputs;
+    std::string model, out, mesh;
+    bool png16 = false, r16 = false, preview = false, stochastic = false, running_stats = false;
+    uint64_t seed = 0;
+    double exaggeration = 1.0, world_size_m = 6000;
+    std::optional<int> threads;
+  };
+  auto a = std::make_shared<Args>();
+  sub->add_option("sketches", a->inputs, "Sketch images or folders of them")->required();
+  sub->add_option("-m,--model", a->model, "Generator exported by `reefgen train` (RUN/generator.pt)")->required();
+  sub->add_option("-o,--output", a->out,
+                  "One sketch: output prefix (PREFIX.height.exr, PREFIX.json, ...). Several: a folder")->required();
+  sub->add_flag("--png16", a->png16, "Also PREFIX.height.png: 16-bit linear, range in the sidecar");
+  sub->add_flag("--r16", a->r16, "Also PREFIX.r16: little-endian RAW for Unity/Unreal (import numbers printed)");
+  sub->add_option("--mesh", a->mesh, "Also a grid mesh: obj or glb (per sketch), or a path ending in .obj/.glb (one sketch)");
+  sub->add_option("--exaggeration", a->exaggeration, "Vertical exaggeration of the mesh")->capture_default_str();
+  sub->add_option("--world-size", a->world_size_m, "Canvas width in metres (mesh spacing, RAW import numbers)")->capture_default_str();
+  sub->add_flag("--preview", a->preview, "Also PREFIX.preview.png: coloured, hill-shaded");
+  sub->add_flag("--stochastic", a->stochastic, "Dropout on (pix2pix's noise): a different island per --seed");
+  sub->add_option("--seed", a->seed, "Dropout masks for --stochastic")->capture_default_str();
+  sub->add_flag("--running-stats", a->running_stats,
+                "BatchNorm running statistics (eval mode) instead of pix2pix's test-time batch statistics");
+  sub->add_option("--threads", a->threads, "LibTorch threads (default: all cores)");
+  return {sub, [a, &g]() -> int {
+            torch::set_num_threads(a->threads.value_or(default_threads()));
+            train::keep_freed_memory();
+            // Inputs: files and the images inside folders, in name order.
+            std::vector<fs::path> inputs;
+            for (const auto& s : a->inputs) {
+              const fs::path p(s);
+              if (fs::is_directory(p)) {
+                std::vector<fs::path> in_dir;
+                for (const auto& e : fs::directory_iterator(p))
+                  if (e.is_regular_file() && is_image(e.path())) in_dir.push_back(e.path());
+                std::sort(in_dir.begin(), in_dir.end());
+                if (in_dir.empty()) throw Error(p.string() + ": no images (.png, .jpg, ...) in this folder");
+                inputs.insert(inputs.end(), in_dir.begin(), in_dir.end());
+              } else if (fs::exists(p)) {
+                inputs.push_back(p);
+              } else {
+                throw Error(p.string() + ": no such sketch file or folder");
+              }
+            }
+            const bool many = inputs.size() > 1 || fs::is_directory(a->out);
+            std::string mesh_format = a->mesh;
+            fs::path mesh_path;
+            if (!a->mesh.empty() && a->mesh != "obj" && a->mesh != "glb") {
+              const std::string ext = fs::path(a->mesh).extension().string();
+              if (ext != ".obj" && ext != ".glb") throw Error("--mesh " + a->mesh + ": use obj, glb, or a path ending in .obj or .glb");
+              if (many) throw Error("--mesh " + a->mesh + ": a path only works with one sketch; use --mesh obj|glb");
+              mesh_path = a->mesh;
+              mesh_format = ext.substr(1);
+            }
+            if (!(a->exaggeration > 0 && a->exaggeration <= 100)) throw Error("--exaggeration must be in (0, 100]");
+            if (!(a->world_size_m > 0)) throw Error("--world-size must be > 0");
+            // Everything is read and checked before anything is written.
+            model::GeneratorFile gen = model::load_generator(a->model);
+            std::vector<DecodedSketch> sketches;
+            for (const auto& p : inputs) sketches.push_back(read_sketch(p));
+            const fs::path out_dir = many ? fs::path(a->out) : fs::path(a->out).parent_path();
+            ensure_writable_dir(out_dir.empty() ? fs::path(".") : out_dir);
+            Progress progress("infer", inputs.size(), g.quiet);
+            infer::InferOptions io;
+            io.stochastic = a->stochastic;
+            io.running_stats = a->running_stats;
+            io.seed = a->seed;
+            const std::vector<cv::Mat1f> heights = infer::infer_heights(gen, sketches, io);
+            std::vector<Outputs> written(inputs.size());
+            try {
+              for (size_t i = 0; i < inputs.size(); ++i) {
+                const fs::path prefix = many ? out_dir / inputs[i].stem() : fs::path(a->out);
+                const cv::Mat1f& h = heights[i];
+                const double mpp = a->world_size_m / h.cols, lo = gen.range.lo_m, hi = gen.range.hi_m;
+                double hmin, hmax;
+                cv::minMaxLoc(h, &hmin, &hmax);
+                nlohmann::json side = {
+                    {"reefgen_version", kVersion},
+                    {"sketch", fs::absolute(inputs[i]).string()},
+                    {"model", {{"path", fs::absolute(a->model).string()}, {"train_step", gen.train_step},
+                               {"ngf", gen.g->options().ngf}, {"reefgen_version", gen.reefgen_version}}},
+                    {"mode", {{"stochastic", a->stochastic}, {"seed", a->seed},
+                              {"batchnorm", a->running_stats ? "running statistics" : "batch statistics"}}},
+                    {"size_px", {h.cols, h.rows}},
+                    {"metres_per_px", mpp},
+                    {"height_range_m", {hmin, hmax}},
+                    {"model_range_m", {lo, hi}},
+                    {"files", nlohmann::json::object()}};
+                auto add = [&](const std::string& kind, const fs::path& p) {
+                  written[i].files.push_back(p);
+                  side["files"][kind] = p.filename().string();
+                };
+                const fs::path exr = prefix.string() + ".height.exr";
+                write_exr_height(exr, h, {{"reefgen:version", kVersion}, {"reefgen:metres_per_px", std::to_string(mpp)}});
+                add("height_exr", exr);
+                if (a->png16) {
+                  const fs::path p = prefix.string() + ".height.png";
+                  infer::write_png16(p, h, lo, hi);
+                  add("height_png16", p);
+                  side["png16"] = {{"encoding", "linear: metres = lo + v/65535·(hi − lo)"}, {"lo_m", lo}, {"hi_m", hi}};
+                }
+                if (a->r16) {
+                  const fs::path p = prefix.string() + ".r16";
+                  infer::write_r16(p, h, lo, hi);
+                  add("height_r16", p);
+                  const std::string note = infer::r16_import_note(h.cols, h.rows, lo, hi, mpp);
+                  side["r16"] = {{"width", h.cols}, {"height", h.rows}, {"byte_order", "little-endian"},
+                                 {"lo_m", lo}, {"hi_m", hi}, {"import", note}};
+                  if (!g.quiet) std::fprintf(stderr, "%s: %s", p.c_str(), note.c_str());
+                }
+                if (!mesh_format.empty()) {
+                  const fs::path p = mesh_path.empty() ? fs::path(prefix.string() + "." + mesh_format) : mesh_path;
+                  infer::MeshOptions mo{mpp, a->exaggeration};
+                  if (mesh_format == "obj") infer::write_obj(p, h, mo);
+                  else infer::write_glb(p, h, mo);
+                  add("mesh", p);
+                  side["mesh"] = {{"format", mesh_format}, {"up", "+Y"}, {"units", "metres"}, {"exaggeration", a->exaggeration}};
+                }
+                if (a->preview) {
+                  const fs::path p = prefix.string() + ".preview.png";
+                  PreviewOptions po;
+                  po.metres_per_px = mpp;
+                  write_png(p, render_preview(h, po));
+                  add("preview", p);
+                }
+                const fs::path js = prefix.string() + ".json";
+                write_json_atomic(js, side);  // last: its presence marks a complete result
+                written[i].files.push_back(js);
+                std::printf("%s\n", exr.c_str());
+                progress.tick(i + 1);
+              }
+            } catch (...) {
+              for (auto& w : written) w.discard();
+              throw;
+            }
+            return 0;
+          }};
+}
+
+}  // namespace reefgen

@@ -1,0 +1,30 @@
+#pragma once
+// Height-field formats terrain tools import (docs/EXPORTS.md). All written
+// atomically; heights in metres, sea level 0.
+#include <filesystem>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+namespace reefgen::infer {
+
+// 16-bit greyscale PNG, linear: v = round(65535·(h − lo)/(hi − lo)).
+void write_png16(const std::filesystem::path& path, const cv::Mat1f& height_m, double lo_m, double hi_m);
+cv::Mat1f read_png16(const std::filesystem::path& path, double lo_m, double hi_m);
+
+// Headerless little-endian uint16, row 0 first, W·H·2 bytes (Unity / Unreal
+// "RAW 16-bit"), same linear mapping as PNG16.
+void write_r16(const std::filesystem::path& path, const cv::Mat1f& height_m, double lo_m, double hi_m);
+// What to type in Unity's and Unreal's import dialogs for such a file.
+std::string r16_import_note(int width, int height, double lo_m, double hi_m, double metres_per_px);
+
+struct MeshOptions {
+  double metres_per_px = 6000.0 / 256;  // horizontal spacing of grid vertices
+  double exaggeration = 1.0;            // vertical scale factor, (0, 100]
+};
+// Grid mesh, one vertex per pixel, two triangles per cell, +Y up (glTF and
+// Blender's OBJ importer convention), centred on the canvas, metres.
+void write_obj(const std::filesystem::path& path, const cv::Mat1f& height_m, const MeshOptions& o);
+void write_glb(const std::filesystem::path& path, const cv::Mat1f& height_m, const MeshOptions& o);
+
+}  // namespace reefgen::infer

@@ -1,0 +1,240 @@
+// Inference, exports read back, evaluation metrics, random sketches.
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "reefgen/infer/eval.hpp"
+#include "reefgen/infer/export.hpp"
+#include "reefgen/infer/infer.hpp"
+#include "reefgen/procgen/sketch.hpp"
+#include "test_util.hpp"
+
+using namespace reefgen;
+using namespace reefgen::infer;
+using test::expect_error_naming;
+using test::temp_dir;
+
+namespace {
+
+cv::Mat1f bumpy(int W) {
+  cv::Mat1f h(W, W);
+  for (int r = 0; r < W; ++r)
+    for (int c = 0; c < W; ++c) h(r, c) = float(400 * std::exp(-((r - 20.0) * (r - 20.0) + (c - 30.0) * (c - 30.0)) / 200.0) - 90 + 0.5 * c);
+  return h;
+}
+
+std::string bytes_of(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(f), {}};
+}
+
+uint32_t u32_at(const std::string& b, size_t off) {
+  uint32_t v = 0;
+  for (int k = 3; k >= 0; --k) v = (v << 8) | uint8_t(b[off + size_t(k)]);
+  return v;
+}
+
+// A tiny random generator saved and loaded as `reefgen train` exports it.
+model::GeneratorFile tiny_generator(const fs::path& dir, bool batch_norm = true) {
+  torch::manual_seed(9);
+  model::UNetOptions o;
+  o.ngf = 4;
+  o.depth = 6;
+  o.norm = batch_norm ? model::Norm::Batch : model::Norm::None;
+  model::UNetGenerator g(o);
+  model::init_pix2pix(*g);
+  model::save_generator(dir / "g.pt", g, {-100, 560}, 64, 1);
+  return model::load_generator(dir / "g.pt");
+}
+
+DecodedSketch sketch(uint64_t seed, int size) {
+  procgen::SketchParams p;
+  p.size_px = size;
+  const procgen::Sketch s = procgen::random_sketch(p, seed);
+  return decode_sketch(encode_labels(s.label, s.subsidence));
+}
+
+}  // namespace
+
+TEST(Export, Png16AndR16RoundTrip) {
+  const fs::path d = temp_dir("png16");
+  const cv::Mat1f h = bumpy(64);
+  write_png16(d / "h.png", h, -100, 560);
+  const cv::Mat1f back = read_png16(d / "h.png", -100, 560);
+  EXPECT_LE(cv::norm(back, h, cv::NORM_INF), 660.0 / 65535 / 2 + 1e-4);  // half a quantisation step
+  write_r16(d / "h.r16", h, -100, 560);
+  const std::string raw = bytes_of(d / "h.r16");
+  ASSERT_EQ(raw.size(), 64u * 64u * 2u);
+  // Little-endian, row 0 first, same values as the PNG.
+  const cv::Mat png = cv::imread((d / "h.png").string(), cv::IMREAD_UNCHANGED);
+  for (int k : {0, 1, 64, 64 * 20 + 30, 64 * 64 - 1})
+    EXPECT_EQ(uint16_t(uint8_t(raw[2 * size_t(k)]) | (uint8_t(raw[2 * size_t(k) + 1]) << 8)), png.at<uint16_t>(k / 64, k % 64));
+  EXPECT_NE(r16_import_note(64, 64, -100, 560, 10).find("Width 64"), std::string::npos);
+  fs::remove_all(d);
+}
+
+TEST(Export, ObjReadsBack) {
+  const fs::path d = temp_dir("obj");
+  const cv::Mat1f h = bumpy(16);
+  write_obj(d / "m.obj", h, {10.0, 2.0});
+  std::ifstream f(d / "m.obj");
+  std::string tag, line;
+  std::vector<cv::Vec3f> v;
+  int faces = 0;
+  while (f >> tag) {
+    if (tag == "v") {
+      cv::Vec3f p;
+      f >> p[0] >> p[1] >> p[2];
+      v.push_back(p);
+    } else if (tag == "f") {
+      long a, b, c;
+      f >> a >> b >> c;
+      EXPECT_TRUE(a >= 1 && b >= 1 && c >= 1 && a <= 256 && b <= 256 && c <= 256);
+      ++faces;
+    } else {
+      std::getline(f, line);
+    }
+  }
+  ASSERT_EQ(v.size(), 256u);
+  EXPECT_EQ(faces, 15 * 15 * 2);
+  EXPECT_NEAR(v[5 * 16 + 7][1], 2.0 * h(5, 7), 1e-2);  // exaggerated height, +Y up
+  EXPECT_NEAR(v[1][0] - v[0][0], 10.0, 1e-3);          // spacing in metres
+  EXPECT_NEAR(v[0][0] + v[15][0], 0.0, 1e-3);          // centred
+  expect_error_naming([&] { write_obj(d / "x.obj", h, {10.0, 0.0}); }, "exaggeration");
+  fs::remove_all(d);
+}
+
+TEST(Export, GlbReadsBack) {
+  const fs::path d = temp_dir("glb");
+  const cv::Mat1f h = bumpy(16);
+  write_glb(d / "m.glb", h, {10.0, 1.0});
+  const std::string b = bytes_of(d / "m.glb");
+  ASSERT_GE(b.size(), 20u);
+  EXPECT_EQ(b.substr(0, 4), "glTF");
+  EXPECT_EQ(u32_at(b, 4), 2u);
+  EXPECT_EQ(u32_at(b, 8), b.size());
+  const uint32_t json_len = u32_at(b, 12);
+  EXPECT_EQ(b.substr(16, 4), "JSON");
+  const auto j = nlohmann::json::parse(b.substr(20, json_len));
+  const size_t bin_at = 20 + json_len;
+  EXPECT_EQ(b.substr(bin_at + 4, 4), std::string("BIN\0", 4));
+  const uint32_t bin_len = u32_at(b, bin_at);
+  EXPECT_EQ(bin_len, j["buffers"][0]["byteLength"].get<uint32_t>());
+  EXPECT_EQ(bin_at + 8 + bin_len, b.size());
+  EXPECT_EQ(j["accessors"][0]["count"], 256);
+  EXPECT_EQ(j["accessors"][2]["count"], 15 * 15 * 6);
+  // Vertex (5, 7): its y is the height.
+  float p[3];
+  std::memcpy(p, b.data() + bin_at + 8 + (5 * 16 + 7) * 12, 12);
+  EXPECT_FLOAT_EQ(p[1], h(5, 7));
+  // Indices in range, every triangle facing up (+Y normal).
+  const size_t idx_off = bin_at + 8 + j["bufferViews"][2]["byteOffset"].get<size_t>();
+  for (int t = 0; t < 15 * 15 * 2; ++t) {
+    uint32_t ix[3];
+    std::memcpy(ix, b.data() + idx_off + size_t(t) * 12, 12);
+    cv::Vec3f q[3];
+    for (int k = 0; k < 3; ++k) {
+      ASSERT_LT(ix[k], 256u);
+      std::memcpy(&q[k], b.data() + bin_at + 8 + ix[k] * 12, 12);
+    }
+    EXPECT_GT((q[1] - q[0]).cross(q[2] - q[0])[1], 0.f) << "triangle " << t;
+  }
+  fs::remove_all(d);
+}
+
+TEST(Infer, SizesRangeDeterminismAndBatchIndependence) {
+  const fs::path d = temp_dir("infer");
+  auto g = tiny_generator(d);
+  const std::vector<DecodedSketch> two = {sketch(1, 64), sketch(2, 100)};  // 100 px: resized to 64 and back
+  InferOptions o;
+  const auto h = infer_heights(g, two, o);
+  ASSERT_EQ(h.size(), 2u);
+  EXPECT_EQ(h[1].size(), cv::Size(100, 100));
+  for (const auto& m : h) {
+    double lo, hi;
+    cv::minMaxLoc(m, &lo, &hi);
+    EXPECT_GE(lo, -100);
+    EXPECT_LE(hi, 560);
+  }
+  EXPECT_EQ(cv::norm(h[0], infer_heights(g, {two[0]}, o)[0], cv::NORM_INF), 0.0) << "batch changed a result";
+  o.running_stats = true;
+  const auto r = infer_heights(g, two, o);
+  EXPECT_EQ(cv::norm(r[1], infer_heights(g, {two[1]}, o)[0], cv::NORM_INF), 0.0) << "batch changed a result";
+  // Stochastic: same seed same island, another seed another.
+  o = {};
+  o.stochastic = true;
+  o.seed = 4;
+  const auto s4 = infer_heights(g, {two[0]}, o)[0];
+  EXPECT_EQ(cv::norm(s4, infer_heights(g, {two[0]}, o)[0], cv::NORM_INF), 0.0);
+  o.seed = 5;
+  EXPECT_GT(cv::norm(s4, infer_heights(g, {two[0]}, o)[0], cv::NORM_INF), 0.0);
+  fs::remove_all(d);
+}
+
+TEST(Infer, FuzzySketchGivesTheCleanSketchResult) {
+  // An anti-aliased, JPEG-compressed painting decodes to the same canonical
+  // sketch at the model's size as the clean one, up to a few border pixels.
+  const procgen::Sketch s = procgen::random_sketch({}, 7);
+  const cv::Mat3b clean = encode_labels(s.label, s.subsidence);
+  const cv::Mat3b fuzzy = perturb(perturb(clean, Perturbation::Blur, 1), Perturbation::Jpeg50, 1);
+  const cv::Mat3b a = canonical_sketch(decode_sketch(clean), 64), b = canonical_sketch(decode_sketch(fuzzy), 64);
+  cv::Mat diff;
+  cv::absdiff(a, b, diff);
+  cv::Mat1b any;
+  cv::cvtColor(diff, any, cv::COLOR_BGR2GRAY);
+  EXPECT_LT(cv::countNonZero(any > 40), int(0.03 * 64 * 64));
+}
+
+TEST(Eval, MetricsOnKnownFields) {
+  const cv::Mat1f t = bumpy(64);
+  EXPECT_NEAR(ssim(t, t, -100, 560), 1.0, 1e-9);
+  EXPECT_EQ(slope_distance_deg(t, t, 10), 0.0);
+  EXPECT_LT(ssim(t, cv::Mat1f(64, 64, 0.f), -100, 560), 0.5);
+  cv::Mat1b label(64, 64, uint8_t(kAbyss));
+  label(cv::Rect(0, 0, 32, 64)).setTo(kIsland);
+  const cv::Mat1f pred = t + 10.0f;
+  const auto m = pair_metrics(pred, t, label, -100, 560, 10).finish();
+  EXPECT_NEAR(m["mae_m"].get<double>(), 10.0, 1e-3);
+  EXPECT_NEAR(m["rmse_m"].get<double>(), 10.0, 1e-3);
+  EXPECT_NEAR(m["per_region"]["mountain"]["pixel_share"].get<double>(), 0.5, 1e-9);
+  EXPECT_LT(slope_distance_deg(pred, t, 10), 1e-5);  // a shift keeps every slope (float rounding)
+  // Coastline: land = left half; a field positive exactly there agrees fully.
+  cv::Mat1f coast(64, 64, -5.f);
+  coast(cv::Rect(0, 0, 32, 64)).setTo(5.f);
+  EXPECT_EQ(pair_metrics(coast, coast, label, -100, 560, 10).finish()["coastline_agreement"], 1.0);
+  EXPECT_EQ(pair_metrics(-coast, coast, label, -100, 560, 10).finish()["coastline_agreement"], 0.0);
+}
+
+TEST(Eval, PerturbationsAreDeterministicAndChangeTheSketch) {
+  const procgen::Sketch s = procgen::random_sketch({}, 3);
+  const cv::Mat3b clean = encode_labels(s.label, s.subsidence);
+  for (auto p : {Perturbation::Blur, Perturbation::Jpeg50, Perturbation::HueJitter, Perturbation::BrushNoise}) {
+    const cv::Mat3b a = perturb(clean, p, 11), b = perturb(clean, p, 11);
+    EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0) << perturbation_name(p);
+    EXPECT_GT(cv::norm(a, clean, cv::NORM_L1), 0.0) << perturbation_name(p);
+  }
+  EXPECT_EQ(cv::norm(perturb(clean, Perturbation::None, 1), clean, cv::NORM_INF), 0.0);
+}
+
+TEST(Sketch, GoldenRegionCountsAndNesting) {
+  procgen::SketchParams p;
+  p.size_px = 64;
+  p.subsidence = 0.25;
+  const procgen::Sketch s = procgen::random_sketch(p, 1);
+  int counts[5] = {0, 0, 0, 0, 0};
+  for (int r = 0; r < 64; ++r)
+    for (int c = 0; c < 64; ++c) ++counts[s.label(r, c)];
+  // Golden values (seed 1, 64 px, λ 0.25): a change in the generator shows here.
+  const int golden[5] = {65, 81, 157, 316, 3477};
+  for (int k = 0; k < 5; ++k) EXPECT_EQ(counts[k], golden[k]) << "region " << k;
+  // Nesting: a region only touches its neighbours in the order.
+  for (int r = 0; r + 1 < 64; ++r)
+    for (int c = 0; c + 1 < 64; ++c) {
+      EXPECT_LE(std::abs(int(s.label(r, c)) - int(s.label(r, c + 1))), 1);
+      EXPECT_LE(std::abs(int(s.label(r, c)) - int(s.label(r + 1, c))), 1);
+    }
+  EXPECT_THROW(procgen::random_sketch(procgen::SketchParams{64, 0}, 1), std::invalid_argument);
+}
