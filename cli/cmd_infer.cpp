@@ -103,6 +103,10 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
             if (!(a->world_size_m > 0)) throw Error("--world-size must be > 0");
             // Everything is read and checked before anything is written.
             model::GeneratorFile gen = model::load_generator(a->model);
+            if (a->stochastic && (gen.g->options().depth < 6 || gen.g->options().dropout == 0))
+              throw Error("--stochastic: " + a->model + " has no dropout layers (depth " +
+                          std::to_string(gen.g->options().depth) + ", dropout " + std::to_string(gen.g->options().dropout) +
+                          "), so outputs cannot vary; drop --stochastic");
             std::vector<DecodedSketch> sketches;
             for (const auto& p : inputs) sketches.push_back(read_sketch(p));
             const fs::path out_dir = many ? fs::path(a->out) : fs::path(a->out).parent_path();

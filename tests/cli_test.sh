@@ -117,7 +117,38 @@ expect_error "lr" train --config "$T/bad_tr.json" $TR --out "$T/e/run"
 head -c 1000 "$T/t1/checkpoint.pt" > "$T/t3.pt"; mkdir -p "$T/t3"; cp "$T/t1/run.json" "$T/t3/"; mv "$T/t3.pt" "$T/t3/checkpoint.pt"
 expect_error "truncated" train $TR --out "$T/t3" --resume
 
-# 6. --version, --help with examples.
+# 6. Sketches -> inference with the model trained above; exports; eval.
+M="$T/t1/generator.pt"
+"$BIN" sketch random --seed 3 --size 48 -o "$T/s/one.png" >/dev/null || bad "sketch random"
+"$BIN" sketch random --seed 4 --size 32 --islands 2 --count 3 -o "$T/s/many" >/dev/null || bad "sketch random --count"
+[ "$(ls "$T/s/many" | wc -l)" = 3 ] && ok || bad "sketch --count 3: $(ls "$T/s/many")"
+"$BIN" sketch random --seed 3 --size 48 -o "$T/s/again.png" >/dev/null; cmp -s "$T/s/one.png" "$T/s/again.png" && ok || bad "sketch not deterministic"
+"$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/one" --png16 --r16 --mesh glb --preview > "$T/out" || bad "infer"
+for f in height.exr height.png r16 glb preview.png json; do [ -s "$T/i/one.$f" ] || bad "infer: no one.$f"; done
+[ "$(stat -c %s "$T/i/one.r16")" = $((48*48*2)) ] && ok || bad "r16 size"
+grep -q '"height_range_m"' "$T/i/one.json" && ok || bad "infer sidecar"
+"$BIN" -q infer "$T/s/many" -m "$M" -o "$T/i/many" --mesh obj > "$T/out" 2>&1 || bad "infer folder: $(cat "$T/out")"
+[ "$(ls "$T/i/many" | grep -c '\.obj$')" = 3 ] && ok || bad "infer folder: $(ls "$T/i/many")"
+"$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/two" > /dev/null
+cmp -s "$T/i/one.height.exr" "$T/i/two.height.exr" && ok || bad "infer not deterministic"
+# (seeds vary the output of deeper models: test_infer.cpp; this depth-5 one has no dropout)
+expect_error "no dropout layers" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --stochastic
+printf 'not an image' > "$T/s/bad.png"
+expect_error "bad.png" infer "$T/s/bad.png" -m "$M" -o "$T/e/x"
+expect_error "expected a file exported" infer "$T/s/one.png" -m "$T/t1/checkpoint.pt" -o "$T/e/x"
+expect_error "missing.pt" infer "$T/s/one.png" -m "$T/missing.pt" -o "$T/e/x"
+expect_error "one.png" infer "$T/s/one.png" -m "$M" -o "$T/s/one.png/sub/x"   # output under a file: unwritable
+expect_error "nothere.png" infer "$T/nothere.png" -m "$M" -o "$T/e/x"
+convert_grey() { printf 'P5\n8 8\n255\n'; head -c 64 /dev/zero | tr '\0' '\200'; }
+convert_grey > "$T/s/grey.pgm"
+expect_error "grey.pgm" infer "$T/s/grey.pgm" -m "$M" -o "$T/e/x"
+"$BIN" -q eval -m "$M" --data "$T/d1" --split train --max-pairs 3 --out "$T/ev1" > "$T/ev1.json" || bad "eval"
+"$BIN" -q eval -m "$M" --data "$T/d1" --split train --max-pairs 3 --out "$T/ev2" > "$T/ev2.json" || bad "eval again"
+cmp -s "$T/ev1/eval.json" "$T/ev2/eval.json" && ok || bad "eval not reproducible"
+for f in eval.json eval.md worst.png; do [ -s "$T/ev1/$f" ] || bad "eval: no $f"; done
+grep -q '"jpeg_q50"' "$T/ev1/eval.json" && ok || bad "eval: no perturbed results"
+
+# 7. --version, --help with examples.
 "$BIN" --version | grep -q "reefgen [0-9]" && ok || bad "--version"
 "$BIN" generate --help | grep -q "Examples" && ok || bad "generate --help has no examples"
 
