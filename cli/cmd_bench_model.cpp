@@ -70,7 +70,7 @@ std::function<int()> add_bench_model_commands(CLI::App* bench) {
       return 0;
     }
     (void)in;
-    torch::NoGradGuard no_grad;
+    c10::InferenceMode inference;  // as infer_heights
     auto& g = p.G();
     g->train();  // pix2pix's test-time mode (batch statistics), dropout off: our default
     g->set_dropout_enabled(false);

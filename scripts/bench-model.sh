@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # pix2pix speed against the Python reference, in one session on one machine:
 # ROUNDS alternating runs of `reefgen bench WHAT` and scripts/reference/bench_ref.py,
-# medians of each, and the ratio reference / reefgen (> 1: reefgen is faster).
+# medians of each, and reefgen's speed-up over the reference (> 1: reefgen is faster).
 #   bash scripts/bench-model.sh [train|infer|all] [ROUNDS] [extra flags, e.g. --ngf 32]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -19,7 +19,8 @@ run() {  # run WHAT KEY REPS
 import statistics, sys
 w, key, c, p = sys.argv[1], sys.argv[2], list(map(float, sys.argv[3].split())), list(map(float, sys.argv[4].split()))
 mc, mp = statistics.median(c), statistics.median(p)
-print(f"{w:5s} {key:16s} reefgen {mc:9.3f}  python-reference {mp:9.3f}  ratio ref/reefgen {mp/mc:5.2f}   "
+speedup = mc / mp if key.endswith("_per_s") else mp / mc  # rates: higher is better; times: lower
+print(f"{w:5s} {key:16s} reefgen {mc:9.3f}  python-reference {mp:9.3f}  speed-up {speedup:5.2f}x   "
       f"(rounds: reefgen {c}, reference {p})")
 PY
 }

@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
-# The main job on built-in defaults: sets up, builds, then generates every
-# preset and a few random islands, with previews, into ./out.
+# The main job on built-in defaults: sets up, builds, generates every preset
+# and a few random islands, then runs the learning pipeline end to end in
+# miniature (a small dataset, a short training, a sketch, inference) into ./out.
+# A real model needs a real training run: docs/TRAINING.md.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/build.sh
@@ -10,9 +12,20 @@ for p in $($BIN presets | awk '{print $1}'); do
   $BIN generate --preset "$p" -o "out/presets/$p" --preview >/dev/null
 done
 $BIN -q generate --random 4 --seed 1 --levels 3 --preview --out out/random >/dev/null
+
+# Pipeline in miniature (~1 min): 128 pairs, 150 steps of a small pix2pix.
+rm -rf out/pipeline
+$BIN -q dataset build --count 128 --seed 1 --out out/pipeline/data >/dev/null
+$BIN -q train --data out/pipeline/data --out out/pipeline/run --ngf 16 --ndf 16 --max-steps 150 >/dev/null
+$BIN sketch random --seed 3 -o out/pipeline/sketch.png >/dev/null
+$BIN -q infer out/pipeline/sketch.png -m out/pipeline/run/generator.pt -o out/pipeline/island \
+  --preview --png16 --r16 --mesh glb >/dev/null
+
 echo
-echo "Islands written to $(pwd)/out:"
+echo "Written to $(pwd)/out:"
 echo "  out/presets/NAME.preview.png   look at these first (presets: $($BIN presets | awk '{print $1}' | paste -sd' '))"
 echo "  out/presets/NAME.height.exr    heights in metres, channel Y, sea level 0"
 echo "  out/presets/NAME.label.png     HSV label map; NAME.json the sidecar"
 echo "  out/random/                    4 random islands at 3 subsidence levels each"
+echo "  out/pipeline/                  dataset -> 150-step training (run/log.csv, run/val/*.png)"
+echo "                                 -> sketch.png -> island.{height.exr,preview.png,glb,r16} (an untrained model: a demo of the plumbing)"

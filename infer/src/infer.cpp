@@ -18,7 +18,7 @@ cv::Mat3b canonical_sketch(const DecodedSketch& s, int size_px) {
 
 std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<DecodedSketch>& sketches,
                                      const InferOptions& o) {
-  torch::NoGradGuard no_grad;
+  c10::InferenceMode inference;  // no autograd bookkeeping at all (cheaper than NoGradGuard)
   // pix2pix runs G in train mode at test time: BatchNorm normalises with the
   // sample's own statistics. With batch statistics a batch would mix samples,
   // so that mode runs one sketch per forward; running statistics batch freely.
