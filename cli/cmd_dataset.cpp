@@ -7,6 +7,8 @@
 #include <cstdio>
 #include <fstream>
 #include <regex>
+#include <set>
+#include <mutex>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -112,8 +114,19 @@ int run_build(const BuildArgs& a, const GlobalOptions& g) {
 
   std::vector<int64_t> indices;
   for (int64_t i = shard_i; i < p.count; i += shard_n) indices.push_back(i);
-  // Serialised at once: a manifest line is ~450 B, a json object ~2 KB.
-  std::vector<std::string> records(indices.size());
+  // Lines are streamed to the manifest's temporary file in index order as soon
+  // as the pairs before them are done: memory holds only the few lines that
+  // finished out of order, whatever the dataset size.
+  AtomicTextWriter manifest(dir / manifest_name(shard_i, shard_n));
+  std::mutex manifest_mutex;
+  std::map<size_t, std::string> pending;
+  size_t next_line = 0;
+  auto put_line = [&](size_t k, std::string line) {
+    std::lock_guard<std::mutex> lock(manifest_mutex);
+    pending.emplace(k, std::move(line));
+    for (auto it = pending.begin(); it != pending.end() && it->first == next_line; it = pending.erase(it), ++next_line)
+      manifest.write(it->second + "\n");
+  };
   std::atomic<size_t> reused{0};
   Progress progress("dataset", indices.size(), g.quiet);
   parallel_for(
@@ -134,7 +147,7 @@ int run_build(const BuildArgs& a, const GlobalOptions& g) {
         }
         double lo, hi;
         cv::minMaxLoc(pair.height_m, &lo, &hi);
-        records[k] = json{{"index", info.index},
+        put_line(k, json{{"index", info.index},
                       {"split", split_name(info.split)},
                       {"configuration", info.configuration},
                       {"subsidence", info.subsidence},
@@ -143,12 +156,11 @@ int run_build(const BuildArgs& a, const GlobalOptions& g) {
                       {"label", stem + ".label.png"},
                       {"height", stem + ".height.exr"},
                       {"label_fnv64", file_checksum(label_path)},
-                      {"height_fnv64", file_checksum(height_path)}}.dump();
+                      {"height_fnv64", file_checksum(height_path)}}.dump());
       },
       [&](size_t d) { progress.tick(d); });
-  std::string text;
-  for (const auto& r : records) text += r + "\n";
-  write_text_atomic(dir / manifest_name(shard_i, shard_n), text);
+  if (next_line != indices.size()) throw Error(dir.string() + ": internal error: manifest incomplete");
+  manifest.commit();
   if (!g.quiet)
     std::fprintf(stderr, "dataset: %zu pairs (%zu already there) in %s, manifest %s\n", indices.size(),
                  size_t(reused), dir.c_str(), manifest_name(shard_i, shard_n).c_str());
@@ -175,34 +187,56 @@ int run_merge(const std::string& out, const GlobalOptions& g) {
   if (shards.empty()) throw Error(dir.string() + ": no manifest.shard-I-of-N.jsonl to merge");
   if (static_cast<int>(shards.size()) != n)
     throw Error(dir.string() + ": " + std::to_string(shards.size()) + " of " + std::to_string(n) + " shard manifests present; build the missing shards first");
-  std::vector<std::string> lines(static_cast<size_t>(count));
-  std::vector<char> seen(static_cast<size_t>(count), 0);
-  for (const auto& s : shards) {
-    std::ifstream in(s);
-    std::string line;
-    while (std::getline(in, line)) {
-      json r;
-      try {
-        r = json::parse(line);
-      } catch (const json::exception&) {
-        throw Error(s.string() + ": corrupt line; rebuild that shard");
-      }
-      const int64_t i = r.at("index").get<int64_t>();
-      if (i < 0 || i >= count || seen[i]) throw Error(s.string() + ": index " + std::to_string(i) + " out of range or repeated");
-      seen[i] = 1;
-      for (const char* kind : {"label", "height"}) {
-        const fs::path f = dir / r.at(kind).get<std::string>();
-        if (!fs::exists(f) || file_checksum(f) != r.at(std::string(kind) + "_fnv64").get<std::string>())
-          throw Error(f.string() + ": missing or checksum mismatch; rebuild its shard");
-      }
-      lines[i] = r.dump() + "\n";
-    }
+  // Shard I holds the indices i with i % N == I in increasing order, so the
+  // merged manifest is read off the shards round-robin: streamed, flat memory.
+  std::vector<std::ifstream> in(static_cast<size_t>(n));
+  for (const auto& sp : shards) {
+    std::smatch m;
+    const std::string name = sp.filename().string();
+    std::regex_match(name, m, re);
+    in[static_cast<size_t>(std::stoi(m[1]))].open(sp);
   }
-  const auto missing = std::count(seen.begin(), seen.end(), 0);
-  if (missing) throw Error(dir.string() + ": " + std::to_string(missing) + " pairs missing from the shard manifests");
-  std::string text;
-  for (const auto& l : lines) text += l;
-  write_text_atomic(dir / "manifest.jsonl", text);
+  AtomicTextWriter merged(dir / "manifest.jsonl");
+  std::set<std::string> listed;  // file names, to find foreign files afterwards
+  for (int64_t i = 0; i < count; ++i) {
+    const fs::path s = dir / manifest_name(int(i % n), n);
+    std::string line;
+    if (!std::getline(in[static_cast<size_t>(i % n)], line))
+      throw Error(s.string() + ": ends before pair " + std::to_string(i) + "; rebuild that shard");
+    json r;
+    try {
+      r = json::parse(line);
+    } catch (const json::exception&) {
+      throw Error(s.string() + ": corrupt line; rebuild that shard");
+    }
+    if (r.at("index").get<int64_t>() != i)
+      throw Error(s.string() + ": expected pair " + std::to_string(i) + ", found " + r.at("index").dump() + "; rebuild that shard");
+    for (const char* kind : {"label", "height"}) {
+      const std::string rel = r.at(kind).get<std::string>();
+      const fs::path f = dir / rel;
+      if (!fs::exists(f) || file_checksum(f) != r.at(std::string(kind) + "_fnv64").get<std::string>())
+        throw Error(f.string() + ": missing or checksum mismatch; rebuild its shard");
+      listed.insert(rel);
+    }
+    merged.write(r.dump() + "\n");
+  }
+  for (size_t k = 0; k < in.size(); ++k) {
+    std::string extra;
+    if (std::getline(in[k], extra) && !extra.empty())
+      throw Error((dir / manifest_name(int(k), n)).string() + ": more pairs than dataset.json's count; rebuild that shard");
+  }
+  // Files in the split folders that no manifest lists: another build's, or copied in by mistake.
+  std::vector<std::string> foreign;
+  for (auto sp : {Split::kTrain, Split::kVal, Split::kTest})
+    if (fs::exists(dir / split_name(sp)))
+      for (const auto& e : fs::directory_iterator(dir / split_name(sp))) {
+        const std::string rel = std::string(split_name(sp)) + "/" + e.path().filename().string();
+        if (!listed.count(rel)) foreign.push_back(rel);
+      }
+  if (!foreign.empty())
+    throw Error(dir.string() + ": " + std::to_string(foreign.size()) + " file(s) no manifest lists, e.g. " + foreign.front() +
+                "; remove them (or build into a clean folder) and merge again");
+  merged.commit();
   if (!g.quiet) std::fprintf(stderr, "merged %zu shards, %lld pairs verified\n", shards.size(), static_cast<long long>(count));
   std::printf("%s\n", (dir / "manifest.jsonl").c_str());
   return 0;

@@ -6,6 +6,7 @@ set -euo pipefail
 PKGS=(
   build-essential cmake ninja-build pkg-config
   libopencv-dev          # image I/O, resampling, colour conversion
+  zlib1g-dev             # our own fast 8-bit PNG encoder (common/src/io.cpp)
   libopenexr-dev         # float height fields (.exr, channel Y)
   nlohmann-json3-dev     # params <-> JSON
   libspdlog-dev          # logging

@@ -69,6 +69,11 @@ diff -r "$T/d1" "$T/d2" >/dev/null && ok || bad "dataset threads 1 vs 2 differ"
 "$BIN" -q dataset build --config "$T/ds.json" --seed 4 --out "$T/d3" --shard 0/2 >/dev/null || bad "shard 0/2"
 "$BIN" -q dataset merge "$T/d3" >/dev/null || bad "merge"
 cmp -s "$T/d1/manifest.jsonl" "$T/d3/manifest.jsonl" && ok || bad "merged shards differ from the unsharded build"
+cp "$T/d3/train/$(ls "$T/d3/train" | head -1)" "$T/d3/train/99999999.label.png"   # a file no manifest lists
+if "$BIN" -q dataset merge "$T/d3" >/dev/null 2>"$T/err"; then bad "merge accepted a foreign file"
+else grep -q "99999999.label.png" "$T/err" && ok || bad "foreign file not named: $(cat "$T/err")"; fi
+cmp -s "$T/d1/manifest.jsonl" "$T/d3/manifest.jsonl" && ok || bad "a failed merge changed manifest.jsonl"
+rm "$T/d3/train/99999999.label.png"
 f=$(ls "$T/d2/train" | head -1)
 rm "$T/d2/train/$f" "$T/d2/manifest.jsonl"   # an interrupted build
 "$BIN" -q dataset build --config "$T/ds.json" --seed 4 --out "$T/d2" >/dev/null || bad "dataset resume"

@@ -174,3 +174,46 @@ TEST(Rng, ReproducibleAndIndependentStreams) {
   }
   EXPECT_NEAR(sum / 100000, 0.5, 0.005);
 }
+
+TEST(Io, AtomicTextWriterCommitsOrLeavesNothing) {
+  const fs::path d = temp_dir("atw");
+  {
+    AtomicTextWriter w(d / "kept.txt");
+    w.write("a\n");
+    w.write("b\n");
+    EXPECT_FALSE(fs::exists(d / "kept.txt"));  // not under the final name before commit
+    w.commit();
+  }
+  EXPECT_EQ(read_text(d / "kept.txt"), "a\nb\n");
+  {
+    AtomicTextWriter w(d / "dropped.txt");
+    w.write("half");
+  }  // an exception or an interrupt: no commit
+  EXPECT_EQ(count_files(d), 1);
+  expect_error_naming([&] { AtomicTextWriter w(d / "no" / "such" / "x.txt"); }, "x.txt");
+  fs::remove_all(d);
+}
+
+TEST(Io, OwnPngEncoderRoundTripsThroughOpenCV) {
+  const fs::path d = temp_dir("png8");
+  Rng rng(5);
+  cv::Mat3b rgb(37, 53);
+  cv::Mat1b grey(19, 7);
+  for (auto& p : rgb) p = cv::Vec3b(uint8_t(rng.uniform_int(0, 255)), uint8_t(rng.uniform_int(0, 255)), uint8_t(rng.uniform_int(0, 255)));
+  for (auto& p : grey) p = uint8_t(rng.uniform_int(0, 255));
+  for (int level : {1, 6, 9}) {
+    write_png(d / "rgb.png", rgb, level);
+    write_png(d / "grey.png", grey, level);
+    const cv::Mat a = cv::imread((d / "rgb.png").string(), cv::IMREAD_UNCHANGED);
+    const cv::Mat b = cv::imread((d / "grey.png").string(), cv::IMREAD_UNCHANGED);
+    ASSERT_EQ(a.type(), CV_8UC3);
+    ASSERT_EQ(b.type(), CV_8UC1);
+    EXPECT_EQ(cv::norm(a, rgb, cv::NORM_INF), 0.0) << "level " << level;
+    EXPECT_EQ(cv::norm(b, grey, cv::NORM_INF), 0.0) << "level " << level;
+  }
+  // A label map (runs of one colour) compresses well with Sub + RLE.
+  const cv::Mat3b flat = encode_labels(ring_labels(256), 0.3);
+  write_png(d / "labels.png", flat, 1);
+  EXPECT_LT(fs::file_size(d / "labels.png"), 8000u);
+  fs::remove_all(d);
+}

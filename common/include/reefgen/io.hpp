@@ -29,6 +29,23 @@ std::string read_text(const fs::path& path);
 nlohmann::json read_json(const fs::path& path);
 void write_json_atomic(const fs::path& path, const nlohmann::json& j);
 
+// A text file written as a stream (memory stays flat however long it gets)
+// to a temporary name, renamed into place by commit(); dropped without
+// commit() (an exception, an interrupted build), it leaves nothing behind.
+class AtomicTextWriter {
+ public:
+  explicit AtomicTextWriter(const fs::path& path);
+  ~AtomicTextWriter();
+  AtomicTextWriter(const AtomicTextWriter&) = delete;
+  AtomicTextWriter& operator=(const AtomicTextWriter&) = delete;
+  void write(const std::string& text);
+  void commit();
+
+ private:
+  fs::path path_, tmp_;
+  FILE* f_ = nullptr;
+};
+
 // Throws Error unless `dir` exists (or can be created) and is writable.
 void ensure_writable_dir(const fs::path& dir);
 
