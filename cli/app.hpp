@@ -2,6 +2,7 @@
 // Shared plumbing of the reefgen subcommands.
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -37,6 +38,19 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions& g);
 Command add_eval_command(CLI::App& app, const GlobalOptions& g);
 // `bench train` and `bench infer` under `bench`; returns their runner.
 std::function<int()> add_bench_model_commands(CLI::App* bench);
+
+// Benchmarks: the median (timings on a shared machine are noisy) and the
+// wall time of one call.
+inline double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? 0 : v[v.size() / 2];
+}
+template <class F>
+double seconds_of(F&& f) {
+  const auto t0 = std::chrono::steady_clock::now();
+  f();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
 
 inline int default_threads() {
   const unsigned n = std::thread::hardware_concurrency();

@@ -13,18 +13,6 @@ namespace reefgen {
 
 namespace {
 
-double median_of(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0 : v[v.size() / 2];
-}
-
-template <class F>
-double seconds(F&& f) {
-  const auto t0 = std::chrono::steady_clock::now();
-  f();
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
 int depth_for(int size) {
   int d = 0;
   while ((1 << (d + 1)) <= size && d < 8) ++d;
@@ -63,10 +51,10 @@ std::function<int()> add_bench_model_commands(CLI::App* bench) {
     std::vector<double> t;
     if (tr->parsed()) {
       p.step(x, y);  // warm-up: allocations, oneDNN primitive creation
-      for (int r = 0; r < a->reps; ++r) t.push_back(seconds([&] { p.step(x, y); }));
+      for (int r = 0; r < a->reps; ++r) t.push_back(seconds_of([&] { p.step(x, y); }));
       std::printf("{\"bench\": \"train\", \"impl\": \"reefgen\", \"ngf\": %d, \"size\": %d, \"threads\": %d, "
                   "\"reps\": %d, \"s_per_iter\": %.4f}\n",
-                  a->ngf, a->size, a->threads, a->reps, median_of(t));
+                  a->ngf, a->size, a->threads, a->reps, median(t));
       return 0;
     }
     (void)in;
@@ -75,23 +63,23 @@ std::function<int()> add_bench_model_commands(CLI::App* bench) {
     g->train();  // pix2pix's test-time mode (batch statistics), dropout off: our default
     g->set_dropout_enabled(false);
     g->forward(x);
-    for (int r = 0; r < a->reps; ++r) t.push_back(seconds([&] { g->forward(x); }));
-    const double batchstats = median_of(t);
+    for (int r = 0; r < a->reps; ++r) t.push_back(seconds_of([&] { g->forward(x); }));
+    const double batchstats = median(t);
     t.clear();
     g->eval();
     g->forward(x);
-    for (int r = 0; r < a->reps; ++r) t.push_back(seconds([&] { g->forward(x); }));
-    const double running = median_of(t);
+    for (int r = 0; r < a->reps; ++r) t.push_back(seconds_of([&] { g->forward(x); }));
+    const double running = median(t);
     const auto xb = torch::rand({a->batch, 3, a->size, a->size}) * 2 - 1;
     g->train();
     g->forward(xb);
     t.clear();
-    for (int r = 0; r < std::max(1, a->reps / 2); ++r) t.push_back(seconds([&] { g->forward(xb); }));
+    for (int r = 0; r < std::max(1, a->reps / 2); ++r) t.push_back(seconds_of([&] { g->forward(xb); }));
     std::printf("{\"bench\": \"infer\", \"impl\": \"reefgen\", \"ngf\": %d, \"size\": %d, \"threads\": %d, "
                 "\"reps\": %d, \"ms_batchstats\": %.2f, \"ms_running_stats\": %.2f, \"batch\": %d, "
                 "\"sketches_per_s\": %.2f}\n",
                 a->ngf, a->size, a->threads, a->reps, batchstats * 1e3, running * 1e3, a->batch,
-                a->batch / median_of(t));
+                a->batch / median(t));
     return 0;
   };
 }

@@ -86,6 +86,11 @@ else grep -q "$g is corrupt or from another dataset" "$T/err" && ok || bad "fore
 "$BIN" -q dataset stats "$T/d1" > "$T/stats.json" || bad "dataset stats"
 grep -q '"pairs": 12' "$T/stats.json" && ok || bad "stats: pair count"
 [ -s "$T/d1/contact_sheet.png" ] && ok || bad "stats: no contact sheet"
+# Every shipped dataset config is valid (built at a tiny count and size).
+for c in "$(dirname "$0")"/../configs/dataset/*.json; do
+  sed -E 's/"count": [0-9]+/"count": 4/; s/"size_px": [0-9]+/"size_px": 32/' "$c" > "$T/c.json"
+  "$BIN" -q dataset build --config "$T/c.json" --out "$T/cfg_$(basename "$c" .json)" >/dev/null 2>"$T/err" && ok || bad "config $c: $(cat "$T/err")"
+done
 echo '{"count": 0}' > "$T/bad_ds.json"
 expect_error "count" dataset build --config "$T/bad_ds.json" --out "$T/e"
 echo '{"cout": 5}' > "$T/bad_ds.json"
