@@ -9,6 +9,7 @@
 #include "reefgen/io.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
+#include "reefgen/procgen/terrains.hpp"
 
 namespace reefgen {
 
@@ -63,6 +64,11 @@ Command add_bench_command(CLI::App& app, const GlobalOptions& g) {
             const double full = single([](IslandSpec&) {});
             const double no_noise = single([](IslandSpec& s) { s.noise.amplitude = 0; });
             const double no_wind = single([](IslandSpec& s) { s.wind.clear(); });
+            std::vector<double> tw;
+            WilburParams wp;
+            wp.size_px = a->size;
+            for (int r = 0; r < a->reps; ++r) tw.push_back(time_ms([&] { (void)wilbur_height(wp, uint64_t(r)); }));
+            const double wilbur = median(tw);
             Progress progress("bench", a->islands, g.quiet);
             const double wall = time_ms([&] {
               parallel_for(a->islands, a->threads, [&](size_t i) {
@@ -74,8 +80,8 @@ Command add_bench_command(CLI::App& app, const GlobalOptions& g) {
             std::printf(
                 "{\"bench\": \"generate\", \"size\": %d, \"strokes\": %d, \"reps\": %d,\n"
                 " \"ms_per_island_1thread\": %.3f, \"ms_no_detail_noise\": %.3f, \"ms_no_wind\": %.3f,\n"
-                " \"threads\": %d, \"islands_per_s\": %.1f}\n",
-                a->size, a->strokes, a->reps, full, no_noise, no_wind, a->threads, a->islands / (wall / 1000.0));
+                " \"threads\": %d, \"islands_per_s\": %.1f, \"ms_wilbur_1thread\": %.3f}\n",
+                a->size, a->strokes, a->reps, full, no_noise, no_wind, a->threads, a->islands / (wall / 1000.0), wilbur);
             return 0;
           }};
 }

@@ -5,11 +5,34 @@
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/sketch.hpp"
+#include "reefgen/procgen/terrains.hpp"
 
 namespace reefgen {
 
 Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
-  auto* sub = app.add_subcommand("sketch", "Make label sketches to try `reefgen infer` without drawing");
+  auto* sub = app.add_subcommand(
+      "sketch",
+      "Make label sketches to try `reefgen infer` without drawing\n\n"
+      "Examples:\n"
+      "  reefgen sketch random --seed 3 -o sketch.png          # thresholded noise (Figure 17)\n"
+      "  reefgen sketch --from wilbur --seed 2 -o wilbur.png    # a Wilbur-style island, cut into height bands\n"
+      "  reefgen sketch --from out/atoll.height.exr -o atoll.png --subsidence 0.6\n");
+  struct FromArgs {
+    std::string from, out;
+    uint64_t seed = 1;
+    int size = 256;
+    double subsidence = 0.0;
+    procgen::SketchBands bands;
+  };
+  auto f = std::make_shared<FromArgs>();
+  sub->add_option("--from", f->from, "wilbur, noise, or a height EXR (metres): its land/water and depth/elevation bands become the five regions");
+  sub->add_option("-o,--output", f->out, "PNG file (with --from)");
+  sub->add_option("--seed", f->seed, "Seed (wilbur, noise)")->capture_default_str();
+  sub->add_option("--size", f->size, "W (wilbur, noise)")->capture_default_str();
+  sub->add_option("--subsidence", f->subsidence, "λ in [0, 1] written in the value channel")->capture_default_str();
+  sub->add_option("--beach-top", f->bands.beach_top_m, "Land below this (m) is beach")->capture_default_str();
+  sub->add_option("--lagoon-depth", f->bands.lagoon_depth_m, "Water shallower than this (m) is lagoon")->capture_default_str();
+  sub->add_option("--reef-depth", f->bands.reef_depth_m, "Then reef down to this depth (m); deeper is abyss")->capture_default_str();
   auto* rnd = sub->add_subcommand(
       "random",
       "Sketch from thresholded noise (the paper's Figure 17)\n\n"
@@ -17,7 +40,7 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
       "  reefgen sketch random --seed 3 -o sketch.png\n"
       "  reefgen sketch random --seed 4 --islands 3 --subsidence 0.8 -o atolls.png\n"
       "  reefgen sketch random --seed 5 --count 20 -o sketches/     # sketches/sketch_0000.png ...\n");
-  sub->require_subcommand(1);
+  sub->require_subcommand(0, 1);
   struct Args {
     procgen::SketchParams p;
     uint64_t seed = 1;
@@ -32,7 +55,38 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
   rnd->add_option("--islands", a->p.islands, "Islands per sketch [1, 16]")->capture_default_str();
   rnd->add_option("--subsidence", a->p.subsidence, "λ in [0, 1] (darker colours); -1 = random per island")->capture_default_str();
   rnd->add_option("--roughness", a->p.roughness, "Outline noise amplitude [0, 1]")->capture_default_str();
-  return {sub, [a]() -> int {
+  return {sub, [a, f, rnd]() -> int {
+            if (!rnd->parsed()) {
+              if (f->from.empty() || f->out.empty())
+                throw Error("sketch: use `reefgen sketch random -o FILE` or `reefgen sketch --from wilbur|noise|H.exr -o FILE`");
+              procgen::Sketch s;
+              try {
+                if (f->from == "wilbur" || f->from == "noise") {
+                  if (f->from == "noise") {
+                    procgen::SketchParams sp;
+                    sp.size_px = f->size;
+                    sp.subsidence = f->subsidence;
+                    s = procgen::random_sketch(sp, f->seed);
+                  } else {
+                    procgen::WilburParams wp;
+                    wp.size_px = f->size;
+                    s = procgen::height_to_sketch(procgen::wilbur_height(wp, f->seed), f->subsidence, f->bands);
+                  }
+                } else {
+                  const fs::path exr(f->from);
+                  if (exr.extension() != ".exr")
+                    throw Error("--from " + f->from + ": use wilbur, noise, or a height field .exr");
+                  s = procgen::height_to_sketch(read_exr_height(exr), f->subsidence, f->bands);
+                }
+              } catch (const std::invalid_argument& e) {
+                throw Error(std::string(e.what()));
+              }
+              const fs::path path(f->out);
+              if (path.has_parent_path()) ensure_writable_dir(path.parent_path());
+              write_png(path, encode_labels(s.label, s.subsidence));
+              std::printf("%s\n", path.c_str());
+              return 0;
+            }
             if (a->count < 1) throw Error("--count must be ≥ 1");
             try {
               (void)procgen::random_sketch(procgen::SketchParams{a->p}, a->seed);  // validate before writing

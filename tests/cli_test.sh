@@ -133,6 +133,10 @@ M="$T/t1/generator.pt"
 "$BIN" sketch random --seed 4 --size 32 --islands 2 --count 3 -o "$T/s/many" >/dev/null || bad "sketch random --count"
 [ "$(ls "$T/s/many" | wc -l)" = 3 ] && ok || bad "sketch --count 3: $(ls "$T/s/many")"
 "$BIN" sketch random --seed 3 --size 48 -o "$T/s/again.png" >/dev/null; cmp -s "$T/s/one.png" "$T/s/again.png" && ok || bad "sketch not deterministic"
+"$BIN" sketch --from wilbur --seed 2 --size 48 -o "$T/s/wilbur.png" >/dev/null && [ -s "$T/s/wilbur.png" ] && ok || bad "sketch --from wilbur"
+"$BIN" generate --preset atoll --size 48 -o "$T/s/atoll" >/dev/null
+"$BIN" sketch --from "$T/s/atoll.height.exr" --subsidence 0.5 -o "$T/s/atoll.png" >/dev/null && [ -s "$T/s/atoll.png" ] && ok || bad "sketch --from EXR"
+expect_error "wilbur, noise" sketch --from mapgen9 -o "$T/e/x.png"
 "$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/one" --png16 --r16 --mesh glb --preview > "$T/out" || bad "infer"
 for f in height.exr height.png r16 glb preview.png json; do [ -s "$T/i/one.$f" ] || bad "infer: no one.$f"; done
 [ "$(stat -c %s "$T/i/one.r16")" = $((48*48*2)) ] && ok || bad "r16 size"

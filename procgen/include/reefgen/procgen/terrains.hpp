@@ -1,0 +1,36 @@
+#pragma once
+// Other island systems users compare reefgen with (issue 6), on reefgen's
+// conventions: metres, sea level 0, row 0 at the top, canvas [-1, 1]².
+#include <cstdint>
+
+#include <opencv2/core.hpp>
+
+#include "reefgen/procgen/sketch.hpp"
+
+namespace reefgen::procgen {
+
+// Wilbur-style island (Joe Wilbur's island-shaping recipe): fBm n spanned to
+// [0, 1], s = n·exp(−(r/4)²) − r² on [−1, 1]², land height = peak·s^p where
+// s ≥ 0. Below sea level the recipe has 0; we keep −s as a bathymetry
+// (depth_m·(−s)/0.5, clamped at −depth_m) so the field also has shallows and
+// open ocean for sketches and previews.
+struct WilburParams {
+  int size_px = 256;       // W, [16, 4096]
+  int octaves = 6;         // fBm octaves, [1, 10]
+  double frequency = 2.0;  // base fBm features per canvas half-width, (0, 64]
+  double exponent = 3.0;   // p: higher = flatter lowlands, sharper peaks, (0, 10]
+  double peak_m = 500.0;   // height of s = 1, (0, 1e4]
+  double depth_m = 100.0;  // ocean floor depth, (0, 1e4]
+};
+cv::Mat1f wilbur_height(const WilburParams& p, uint64_t seed);
+
+// Bands that turn any height field into a five-region label sketch.
+struct SketchBands {
+  double beach_top_m = 8.0;      // land below this is beach, above is mountain, (0, 1e4]
+  double lagoon_depth_m = 12.0;  // water shallower than this is lagoon, (0, 1e4]
+  double reef_depth_m = 40.0;    // then reef down to this depth, deeper is abyss, > lagoon_depth_m
+};
+// Regions by height bands; subsidence λ uniform (the value channel).
+Sketch height_to_sketch(const cv::Mat1f& height_m, double subsidence, const SketchBands& b = {});
+
+}  // namespace reefgen::procgen

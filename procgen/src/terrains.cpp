@@ -1,0 +1,63 @@
+#include "reefgen/procgen/terrains.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "reefgen/labels.hpp"
+#include "reefgen/procgen/noise.hpp"
+#include "reefgen/rng.hpp"
+
+namespace reefgen::procgen {
+
+cv::Mat1f wilbur_height(const WilburParams& p, uint64_t seed) {
+  if (p.size_px < 16 || p.size_px > 4096) throw std::invalid_argument("wilbur: size must be in [16, 4096]");
+  if (p.octaves < 1 || p.octaves > 10) throw std::invalid_argument("wilbur: octaves must be in [1, 10]");
+  if (!(p.frequency > 0 && p.frequency <= 64)) throw std::invalid_argument("wilbur: frequency must be in (0, 64]");
+  if (!(p.exponent > 0 && p.exponent <= 10)) throw std::invalid_argument("wilbur: exponent must be in (0, 10]");
+  if (!(p.peak_m > 0 && p.peak_m <= 1e4)) throw std::invalid_argument("wilbur: peak_m must be in (0, 1e4]");
+  if (!(p.depth_m > 0 && p.depth_m <= 1e4)) throw std::invalid_argument("wilbur: depth_m must be in (0, 1e4]");
+  const int W = p.size_px;
+  const GradientNoise2 noise(derive_seed(seed, 0, "wilbur"));
+  Rng rng(derive_seed(seed, 1, "wilbur-offset"));
+  const float ox = float(rng.uniform(0, 256)), oy = float(rng.uniform(0, 256));
+  cv::Mat1f n(W, W);
+  for (int r = 0; r < W; ++r)
+    for (int c = 0; c < W; ++c) {
+      const double x = (c + 0.5) / W * 2 - 1, y = 1 - (r + 0.5) / W * 2;
+      n(r, c) = noise.fbm(float(x * p.frequency) + ox, float(y * p.frequency) + oy, p.octaves);
+    }
+  double lo, hi;
+  cv::minMaxLoc(n, &lo, &hi);
+  const double span = hi > lo ? hi - lo : 1.0;  // "spanned to [0, 1]"
+  cv::Mat1f h(W, W);
+  for (int r = 0; r < W; ++r)
+    for (int c = 0; c < W; ++c) {
+      const double x = (c + 0.5) / W * 2 - 1, y = 1 - (r + 0.5) / W * 2;
+      const double rad = std::hypot(x, y);
+      const double s = (n(r, c) - lo) / span * std::exp(-(rad / 4) * (rad / 4)) - rad * rad;
+      h(r, c) = s >= 0 ? float(p.peak_m * std::pow(s, p.exponent))
+                       : float(std::max(-p.depth_m, p.depth_m * s / 0.5));
+    }
+  return h;
+}
+
+Sketch height_to_sketch(const cv::Mat1f& h, double subsidence, const SketchBands& b) {
+  if (!(b.beach_top_m > 0 && b.lagoon_depth_m > 0 && b.reef_depth_m > b.lagoon_depth_m))
+    throw std::invalid_argument("sketch bands: need beach_top_m > 0 and 0 < lagoon_depth_m < reef_depth_m");
+  if (!(subsidence >= 0 && subsidence <= 1)) throw std::invalid_argument("sketch: subsidence must be in [0, 1]");
+  Sketch s{cv::Mat1b(h.size()), cv::Mat1f(h.size(), float(subsidence))};
+  for (int r = 0; r < h.rows; ++r)
+    for (int c = 0; c < h.cols; ++c) {
+      const float v = h(r, c);
+      uint8_t region = kAbyss;
+      if (v >= b.beach_top_m) region = kIsland;
+      else if (v >= 0) region = kBeach;
+      else if (v > -b.lagoon_depth_m) region = kLagoon;
+      else if (v > -b.reef_depth_m) region = kReef;
+      s.label(r, c) = region;
+    }
+  return s;
+}
+
+}  // namespace reefgen::procgen

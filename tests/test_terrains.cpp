@@ -1,0 +1,57 @@
+// Other island systems (issue 6): Wilbur-style islands and height-band sketches.
+#include <gtest/gtest.h>
+
+#include "reefgen/labels.hpp"
+#include "reefgen/procgen/terrains.hpp"
+
+using namespace reefgen;
+using namespace reefgen::procgen;
+
+TEST(Wilbur, GoldenValuesAndDeterminism) {
+  WilburParams p;
+  p.size_px = 64;
+  const cv::Mat1f h = wilbur_height(p, 1);
+  int land = 0;
+  for (float v : h) land += v > 0;
+  // Golden values (seed 1, 64 px, defaults): a change in the recipe shows here.
+  EXPECT_EQ(land, 1589);
+  EXPECT_NEAR(h(32, 32), 14.760653, 1e-3);
+  EXPECT_NEAR(h(10, 50), -46.610176, 1e-3);
+  EXPECT_EQ(h(0, 0), -100.0f);  // corners: s = n - r² < -0.5, the ocean floor
+  EXPECT_EQ(cv::norm(h, wilbur_height(p, 1), cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(h, wilbur_height(p, 2), cv::NORM_INF), 0.0);
+}
+
+TEST(Wilbur, RecipeProperties) {
+  WilburParams p;
+  p.size_px = 96;
+  const cv::Mat1f h3 = wilbur_height(p, 4);
+  double lo, hi;
+  cv::minMaxLoc(h3, &lo, &hi);
+  EXPECT_GE(lo, -p.depth_m);
+  EXPECT_LE(hi, p.peak_m);  // s ≤ 1
+  // The exponent only reshapes land: same coastline, lower mean land height for larger p.
+  p.exponent = 1;
+  const cv::Mat1f h1 = wilbur_height(p, 4);
+  double sum1 = 0, sum3 = 0;
+  int n = 0;
+  for (int r = 0; r < h1.rows; ++r)
+    for (int c = 0; c < h1.cols; ++c) {
+      EXPECT_EQ(h1(r, c) > 0, h3(r, c) > 0);
+      if (h1(r, c) > 0) sum1 += h1(r, c), sum3 += h3(r, c), ++n;
+    }
+  ASSERT_GT(n, 0);
+  EXPECT_LT(sum3, sum1);
+  EXPECT_THROW(wilbur_height(WilburParams{64, 0}, 1), std::invalid_argument);
+}
+
+TEST(HeightToSketch, BandsGiveTheFiveRegions) {
+  cv::Mat1f h(1, 7);
+  const float v[7] = {100, 8, 7.9f, 0, -11.9f, -12, -40};
+  for (int c = 0; c < 7; ++c) h(0, c) = v[c];
+  const Sketch s = height_to_sketch(h, 0.4);
+  const int want[7] = {kIsland, kIsland, kBeach, kBeach, kLagoon, kReef, kAbyss};
+  for (int c = 0; c < 7; ++c) EXPECT_EQ(s.label(0, c), want[c]) << "height " << v[c];
+  EXPECT_EQ(s.subsidence(0, 3), 0.4f);
+  EXPECT_THROW(height_to_sketch(h, 0.4, SketchBands{8, 50, 40}), std::invalid_argument);
+}
