@@ -69,6 +69,11 @@ Command add_bench_command(CLI::App& app, const GlobalOptions& g) {
             wp.size_px = a->size;
             for (int r = 0; r < a->reps; ++r) tw.push_back(time_ms([&] { (void)wilbur_height(wp, uint64_t(r)); }));
             const double wilbur = median(tw);
+            tw.clear();
+            Mapgen4Params mp;
+            mp.size_px = a->size;
+            for (int r = 0; r < a->reps; ++r) tw.push_back(time_ms([&] { (void)mapgen4_height(mp, uint64_t(r)); }));
+            const double mapgen4 = median(tw);
             Progress progress("bench", a->islands, g.quiet);
             const double wall = time_ms([&] {
               parallel_for(a->islands, a->threads, [&](size_t i) {
@@ -80,8 +85,8 @@ Command add_bench_command(CLI::App& app, const GlobalOptions& g) {
             std::printf(
                 "{\"bench\": \"generate\", \"size\": %d, \"strokes\": %d, \"reps\": %d,\n"
                 " \"ms_per_island_1thread\": %.3f, \"ms_no_detail_noise\": %.3f, \"ms_no_wind\": %.3f,\n"
-                " \"threads\": %d, \"islands_per_s\": %.1f, \"ms_wilbur_1thread\": %.3f}\n",
-                a->size, a->strokes, a->reps, full, no_noise, no_wind, a->threads, a->islands / (wall / 1000.0), wilbur);
+                " \"threads\": %d, \"islands_per_s\": %.1f, \"ms_wilbur_1thread\": %.3f, \"ms_mapgen4_1thread\": %.3f}\n",
+                a->size, a->strokes, a->reps, full, no_noise, no_wind, a->threads, a->islands / (wall / 1000.0), wilbur, mapgen4);
             return 0;
           }};
 }

@@ -4,6 +4,7 @@
 #include "app.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
+#include "reefgen/preview.hpp"
 #include "reefgen/procgen/sketch.hpp"
 #include "reefgen/procgen/terrains.hpp"
 
@@ -16,6 +17,7 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
       "Examples:\n"
       "  reefgen sketch random --seed 3 -o sketch.png          # thresholded noise (Figure 17)\n"
       "  reefgen sketch --from wilbur --seed 2 -o wilbur.png    # a Wilbur-style island, cut into height bands\n"
+      "  reefgen sketch --from mapgen4 --seed 2 -o m4.png       # a mapgen4-style island\n"
       "  reefgen sketch --from out/atoll.height.exr -o atoll.png --subsidence 0.6\n");
   struct FromArgs {
     std::string from, out;
@@ -25,7 +27,7 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
     procgen::SketchBands bands;
   };
   auto f = std::make_shared<FromArgs>();
-  sub->add_option("--from", f->from, "wilbur, noise, or a height EXR (metres): its land/water and depth/elevation bands become the five regions");
+  sub->add_option("--from", f->from, "mapgen4, wilbur, noise, or a height EXR (metres): its land/water and depth/elevation bands become the five regions");
   sub->add_option("-o,--output", f->out, "PNG file (with --from)");
   sub->add_option("--seed", f->seed, "Seed (wilbur, noise)")->capture_default_str();
   sub->add_option("--size", f->size, "W (wilbur, noise)")->capture_default_str();
@@ -58,10 +60,14 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
   return {sub, [a, f, rnd]() -> int {
             if (!rnd->parsed()) {
               if (f->from.empty() || f->out.empty())
-                throw Error("sketch: use `reefgen sketch random -o FILE` or `reefgen sketch --from wilbur|noise|H.exr -o FILE`");
+                throw Error("sketch: use `reefgen sketch random -o FILE` or `reefgen sketch --from mapgen4|wilbur|noise|H.exr -o FILE`");
               procgen::Sketch s;
               try {
-                if (f->from == "wilbur" || f->from == "noise") {
+                if (f->from == "mapgen4") {
+                  procgen::Mapgen4Params mp;
+                  mp.size_px = f->size;
+                  s = procgen::height_to_sketch(procgen::mapgen4_height(mp, f->seed), f->subsidence, f->bands);
+                } else if (f->from == "wilbur" || f->from == "noise") {
                   if (f->from == "noise") {
                     procgen::SketchParams sp;
                     sp.size_px = f->size;
@@ -75,7 +81,7 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
                 } else {
                   const fs::path exr(f->from);
                   if (exr.extension() != ".exr")
-                    throw Error("--from " + f->from + ": use wilbur, noise, or a height field .exr");
+                    throw Error("--from " + f->from + ": use mapgen4, wilbur, noise, or a height field .exr");
                   s = procgen::height_to_sketch(read_exr_height(exr), f->subsidence, f->bands);
                 }
               } catch (const std::invalid_argument& e) {
@@ -104,6 +110,52 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
               write_png(path, encode_labels(s.label, s.subsidence));
               std::printf("%s\n", path.c_str());
             }
+            return 0;
+          }};
+}
+
+Command add_terrain_command(CLI::App& app, const GlobalOptions&) {
+  auto* sub = app.add_subcommand(
+      "terrain",
+      "Height fields from the other island systems (mapgen4-style, Wilbur-style), on reefgen's conventions\n\n"
+      "Examples:\n"
+      "  reefgen terrain mapgen4 --seed 2 -o out/m4 --preview\n"
+      "  reefgen terrain wilbur --seed 5 --size 512 -o out/w5\n");
+  struct Args {
+    std::string kind, out;
+    uint64_t seed = 1;
+    int size = 256;
+    bool preview = false;
+  };
+  auto a = std::make_shared<Args>();
+  sub->add_option("kind", a->kind, "mapgen4 or wilbur")->required();
+  sub->add_option("-o,--output", a->out, "Output prefix: PREFIX.height.exr (+ PREFIX.preview.png)")->required();
+  sub->add_option("--seed", a->seed, "Seed")->capture_default_str();
+  sub->add_option("--size", a->size, "W")->capture_default_str();
+  sub->add_flag("--preview", a->preview, "Also the coloured, hill-shaded preview");
+  return {sub, [a]() -> int {
+            cv::Mat1f h;
+            try {
+              if (a->kind == "mapgen4") {
+                procgen::Mapgen4Params p;
+                p.size_px = a->size;
+                h = procgen::mapgen4_height(p, a->seed);
+              } else if (a->kind == "wilbur") {
+                procgen::WilburParams p;
+                p.size_px = a->size;
+                h = procgen::wilbur_height(p, a->seed);
+              } else {
+                throw Error("terrain " + a->kind + ": use mapgen4 or wilbur");
+              }
+            } catch (const std::invalid_argument& e) {
+              throw Error(std::string(e.what()));
+            }
+            const fs::path prefix(a->out);
+            if (prefix.has_parent_path()) ensure_writable_dir(prefix.parent_path());
+            write_exr_height(prefix.string() + ".height.exr", h,
+                             {{"reefgen:generator", a->kind}, {"reefgen:seed", std::to_string(a->seed)}});
+            if (a->preview) write_png(prefix.string() + ".preview.png", render_preview(h));
+            std::printf("%s.height.exr\n", prefix.c_str());
             return 0;
           }};
 }

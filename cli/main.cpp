@@ -30,6 +30,7 @@ int main(int argc, char** argv) {
                                                   reefgen::add_train_command(app, g),
                                                   reefgen::add_infer_command(app, g),
                                                   reefgen::add_sketch_command(app, g),
+                                                  reefgen::add_terrain_command(app, g),
                                                   reefgen::add_eval_command(app, g),
                                                   reefgen::add_bench_command(app, g)};
   try {

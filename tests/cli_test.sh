@@ -136,7 +136,10 @@ M="$T/t1/generator.pt"
 "$BIN" sketch --from wilbur --seed 2 --size 48 -o "$T/s/wilbur.png" >/dev/null && [ -s "$T/s/wilbur.png" ] && ok || bad "sketch --from wilbur"
 "$BIN" generate --preset atoll --size 48 -o "$T/s/atoll" >/dev/null
 "$BIN" sketch --from "$T/s/atoll.height.exr" --subsidence 0.5 -o "$T/s/atoll.png" >/dev/null && [ -s "$T/s/atoll.png" ] && ok || bad "sketch --from EXR"
-expect_error "wilbur, noise" sketch --from mapgen9 -o "$T/e/x.png"
+expect_error "mapgen4, wilbur, noise" sketch --from mapgen9 -o "$T/e/x.png"
+"$BIN" sketch --from mapgen4 --seed 2 --size 48 -o "$T/s/m4.png" >/dev/null && [ -s "$T/s/m4.png" ] && ok || bad "sketch --from mapgen4"
+"$BIN" terrain mapgen4 --seed 2 --size 48 -o "$T/s/m4t" --preview >/dev/null && [ -s "$T/s/m4t.height.exr" ] && [ -s "$T/s/m4t.preview.png" ] && ok || bad "terrain mapgen4"
+expect_error "mapgen4 or wilbur" terrain perlin -o "$T/e/x"
 "$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/one" --png16 --r16 --mesh glb --preview > "$T/out" || bad "infer"
 for f in height.exr height.png r16 glb preview.png json; do [ -s "$T/i/one.$f" ] || bad "infer: no one.$f"; done
 [ "$(stat -c %s "$T/i/one.r16")" = $((48*48*2)) ] && ok || bad "r16 size"

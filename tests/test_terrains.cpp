@@ -55,3 +55,37 @@ TEST(HeightToSketch, BandsGiveTheFiveRegions) {
   EXPECT_EQ(s.subsidence(0, 3), 0.4f);
   EXPECT_THROW(height_to_sketch(h, 0.4, SketchBands{8, 50, 40}), std::invalid_argument);
 }
+
+TEST(Mapgen4, GoldenValuesAndDeterminism) {
+  Mapgen4Params p;
+  p.size_px = 64;
+  const cv::Mat1f h = mapgen4_height(p, 1);
+  int land = 0;
+  for (float v : h) land += v > 0;
+  // Golden values (seed 1, 64 px, defaults).
+  EXPECT_EQ(land, 1511);
+  EXPECT_NEAR(h(32, 32), 200.374603, 1e-2);
+  EXPECT_NEAR(h(10, 50), 4.541908, 1e-2);
+  EXPECT_EQ(h(0, 0), -100.0f);
+  EXPECT_EQ(cv::norm(h, mapgen4_height(p, 1), cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(h, mapgen4_height(p, 2), cv::NORM_INF), 0.0);
+  double lo, hi;
+  cv::minMaxLoc(h, &lo, &hi);
+  EXPECT_GE(lo, -p.depth_m);
+  EXPECT_LE(hi, p.peak_m);
+  EXPECT_THROW(mapgen4_height(Mapgen4Params{64, 0.001}, 1), std::invalid_argument);
+}
+
+TEST(Mapgen4, PoissonDiskKeepsItsDistanceAndFillsTheSquare) {
+  const auto pts = poisson_disk(0.1, 3);
+  EXPECT_EQ(pts.size(), poisson_disk(0.1, 3).size());
+  double min_d = 1e9;
+  for (size_t i = 0; i < pts.size(); ++i) {
+    EXPECT_TRUE(std::abs(pts[i].x) <= 1 && std::abs(pts[i].y) <= 1);
+    for (size_t j = i + 1; j < pts.size(); ++j) min_d = std::min(min_d, std::hypot(pts[i].x - pts[j].x, pts[i].y - pts[j].y));
+  }
+  EXPECT_GE(min_d, 0.1);
+  // Maximal sampling: about area / (0.7·r²) points, never far from that.
+  EXPECT_GT(pts.size(), 4.0 / (0.1 * 0.1) * 0.5);
+  EXPECT_LT(pts.size(), 4.0 / (0.1 * 0.1) * 1.0);
+}

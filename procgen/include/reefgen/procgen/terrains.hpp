@@ -2,6 +2,7 @@
 // Other island systems users compare reefgen with (issue 6), on reefgen's
 // conventions: metres, sea level 0, row 0 at the top, canvas [-1, 1]².
 #include <cstdint>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -32,5 +33,34 @@ struct SketchBands {
 };
 // Regions by height bands; subsidence λ uniform (the value channel).
 Sketch height_to_sketch(const cv::Mat1f& height_m, double subsidence, const SketchBands& b = {});
+
+}  // namespace reefgen::procgen
+
+namespace reefgen::procgen {
+
+// mapgen4-style island (redblobgames' mapgen4; Guerra, "Procedural Island
+// Generation" I-II): Bridson Poisson-disk points plus boundary rings,
+// Delaunay triangulation (OpenCV Subdiv2D), mountain peak seeds from a
+// coarser second Poisson sampling, the paint map
+//   e = (k_fbm·fBm + k_d·(0.75 − 2d²)) / 2,  d = Chebyshev distance from the centre,
+// ridges R = n₁ + n₂, r = max(0, 1 − |R|) weighted by the nearness of a peak,
+// s = saturate(5e), e ← max(e, min(3e, s·r)); e evaluated at the points and
+// interpolated linearly over each triangle (the low-poly look), then metres:
+// land = peak_m·e, water = depth_m·e/0.5 (clamped at −depth_m).
+struct Mapgen4Params {
+  int size_px = 256;              // W, [16, 4096]
+  double spacing = 0.05;          // Poisson radius, canvas half-widths, [0.01, 0.5]
+  double mountain_spacing = 0.35; // Poisson radius of the peak seeds, [spacing, 2]
+  double k_fbm = 1.0;             // weight of the noise in the paint map, [0, 4]
+  double k_d = 1.0;               // weight of the island-shaping falloff, [0, 4]
+  double frequency = 2.0;         // fBm features per canvas half-width, (0, 64]
+  double peak_m = 500.0;          // height of e = 1, (0, 1e4]
+  double depth_m = 100.0;         // ocean floor depth, (0, 1e4]
+};
+cv::Mat1f mapgen4_height(const Mapgen4Params& p, uint64_t seed);
+
+// Bridson's Poisson-disk sampling in [-1, 1]² (minimum distance `radius`,
+// 30 candidates per active point), deterministic in `seed`.
+std::vector<cv::Point2d> poisson_disk(double radius, uint64_t seed);
 
 }  // namespace reefgen::procgen

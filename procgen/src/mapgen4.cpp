@@ -1,0 +1,130 @@
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+#include "reefgen/procgen/noise.hpp"
+#include "reefgen/procgen/terrains.hpp"
+#include "reefgen/rng.hpp"
+
+namespace reefgen::procgen {
+
+std::vector<cv::Point2d> poisson_disk(double radius, uint64_t seed) {
+  Rng rng(derive_seed(seed, 0, "poisson"));
+  const double cell = radius / std::sqrt(2.0);
+  const int n = int(std::ceil(2.0 / cell));
+  std::vector<int> grid(size_t(n) * size_t(n), -1);  // one point per cell at most
+  std::vector<cv::Point2d> pts;
+  std::vector<size_t> active;
+  auto cell_of = [&](double v) { return std::clamp(int((v + 1) / cell), 0, n - 1); };
+  auto add = [&](cv::Point2d q) {
+    grid[size_t(cell_of(q.y)) * size_t(n) + size_t(cell_of(q.x))] = int(pts.size());
+    active.push_back(pts.size());
+    pts.push_back(q);
+  };
+  add({rng.uniform(-1, 1), rng.uniform(-1, 1)});
+  while (!active.empty()) {
+    const size_t k = size_t(rng.uniform_int(0, int64_t(active.size()) - 1));
+    const cv::Point2d c = pts[active[k]];
+    bool placed = false;
+    for (int t = 0; t < 30 && !placed; ++t) {
+      const double a = rng.uniform(0, 2 * M_PI), r = radius * (1 + rng.uniform());
+      const cv::Point2d q(c.x + r * std::cos(a), c.y + r * std::sin(a));
+      if (q.x < -1 || q.x > 1 || q.y < -1 || q.y > 1) continue;
+      const int gx = cell_of(q.x), gy = cell_of(q.y);
+      bool ok = true;
+      for (int y = std::max(0, gy - 2); y <= std::min(n - 1, gy + 2) && ok; ++y)
+        for (int x = std::max(0, gx - 2); x <= std::min(n - 1, gx + 2) && ok; ++x) {
+          const int j = grid[size_t(y) * size_t(n) + size_t(x)];
+          if (j >= 0 && std::hypot(pts[size_t(j)].x - q.x, pts[size_t(j)].y - q.y) < radius) ok = false;
+        }
+      if (ok) add(q), placed = true;
+    }
+    if (!placed) {
+      active[k] = active.back();
+      active.pop_back();
+    }
+  }
+  return pts;
+}
+
+cv::Mat1f mapgen4_height(const Mapgen4Params& p, uint64_t seed) {
+  if (p.size_px < 16 || p.size_px > 4096) throw std::invalid_argument("mapgen4: size must be in [16, 4096]");
+  if (!(p.spacing >= 0.01 && p.spacing <= 0.5)) throw std::invalid_argument("mapgen4: spacing must be in [0.01, 0.5]");
+  if (!(p.mountain_spacing >= p.spacing && p.mountain_spacing <= 2))
+    throw std::invalid_argument("mapgen4: mountain_spacing must be in [spacing, 2]");
+  if (!(p.k_fbm >= 0 && p.k_fbm <= 4 && p.k_d >= 0 && p.k_d <= 4)) throw std::invalid_argument("mapgen4: k_fbm, k_d must be in [0, 4]");
+  if (!(p.frequency > 0 && p.frequency <= 64)) throw std::invalid_argument("mapgen4: frequency must be in (0, 64]");
+  if (!(p.peak_m > 0 && p.depth_m > 0)) throw std::invalid_argument("mapgen4: peak_m and depth_m must be > 0");
+
+  std::vector<cv::Point2d> pts = poisson_disk(p.spacing, seed);
+  // Boundary rings (on the edge and one spacing outside) so that the
+  // triangulation covers the whole canvas with well-shaped triangles.
+  const int ring = int(std::ceil(2.0 / p.spacing));
+  for (double off : {1.0, 1.0 + p.spacing})
+    for (int i = 0; i < ring; ++i) {
+      const double t = -off + 2 * off * i / ring;
+      for (cv::Point2d q : {cv::Point2d(t, -off), cv::Point2d(off, t), cv::Point2d(-t, off), cv::Point2d(-off, -t)})
+        pts.push_back(q);
+    }
+  const std::vector<cv::Point2d> peaks = poisson_disk(p.mountain_spacing, derive_seed(seed, 1, "peaks"));
+
+  const GradientNoise2 fbm(derive_seed(seed, 2, "mapgen4-fbm")), n1(derive_seed(seed, 3, "ridge1")),
+      n2(derive_seed(seed, 4, "ridge2"));
+  auto elevation = [&](double x, double y) {
+    const double d = std::max(std::abs(x), std::abs(y));
+    double e = (p.k_fbm * fbm.fbm(float(x * p.frequency), float(y * p.frequency), 5) + p.k_d * (0.75 - 2 * d * d)) / 2;
+    // Ridges near the peak seeds: R = n1 + n2 (lower frequency twice), r = max(0, 1-|R|).
+    double near = 0;
+    for (const auto& k : peaks) near = std::max(near, 1 - std::hypot(x - k.x, y - k.y) / p.mountain_spacing);
+    const double R = n1.fbm(float(x * p.frequency * 1.5), float(y * p.frequency * 1.5), 3) +
+                     n2.fbm(float(x * p.frequency * 1.5 + 31.7), float(y * p.frequency * 1.5 - 12.3), 3);
+    const double r = std::max(0.0, 1 - std::abs(R)) * std::max(0.0, near);
+    const double s = std::clamp(5 * e, 0.0, 1.0);
+    return std::max(e, std::min(3 * e, s * r));
+  };
+
+  // Delaunay in pixel coordinates (Subdiv2D wants a bounding rectangle).
+  const int W = p.size_px;
+  auto to_px = [&](const cv::Point2d& q) { return cv::Point2f(float((q.x + 1) / 2 * W), float((1 - q.y) / 2 * W)); };
+  const float margin = float(W);
+  cv::Subdiv2D dt(cv::Rect(int(-margin), int(-margin), int(W + 2 * margin), int(W + 2 * margin)));
+  for (const auto& q : pts) dt.insert(to_px(q));
+  std::vector<cv::Vec6f> tris;
+  dt.getTriangleList(tris);
+
+  cv::Mat1f e_px(W, W, std::numeric_limits<float>::quiet_NaN());
+  for (const auto& t : tris) {
+    const cv::Point2f a(t[0], t[1]), b(t[2], t[3]), c(t[4], t[5]);
+    bool outer = false;  // triangles touching Subdiv2D's virtual outer vertices
+    for (const auto& v : {a, b, c}) outer |= v.x < -margin * 0.9f || v.y < -margin * 0.9f || v.x > W + margin * 0.9f || v.y > W + margin * 0.9f;
+    if (outer) continue;
+    auto elev = [&](const cv::Point2f& v) { return elevation(v.x / W * 2.0 - 1, 1 - v.y / W * 2.0); };
+    const double ea = elev(a), eb = elev(b), ec = elev(c);
+    const double den = double(b.y - c.y) * (a.x - c.x) + double(c.x - b.x) * (a.y - c.y);
+    if (std::abs(den) < 1e-12) continue;
+    const int x0 = std::max(0, int(std::floor(std::min({a.x, b.x, c.x})))), x1 = std::min(W - 1, int(std::ceil(std::max({a.x, b.x, c.x}))));
+    const int y0 = std::max(0, int(std::floor(std::min({a.y, b.y, c.y})))), y1 = std::min(W - 1, int(std::ceil(std::max({a.y, b.y, c.y}))));
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) {
+        const double px = x + 0.5, py = y + 0.5;
+        const double l1 = ((b.y - c.y) * (px - c.x) + (c.x - b.x) * (py - c.y)) / den;
+        const double l2 = ((c.y - a.y) * (px - c.x) + (a.x - c.x) * (py - c.y)) / den;
+        const double l3 = 1 - l1 - l2;
+        if (l1 < -1e-9 || l2 < -1e-9 || l3 < -1e-9) continue;
+        e_px(y, x) = float(l1 * ea + l2 * eb + l3 * ec);
+      }
+  }
+  cv::Mat1f h(W, W);
+  for (int y = 0; y < W; ++y)
+    for (int x = 0; x < W; ++x) {
+      float e = e_px(y, x);
+      if (std::isnan(e)) e = float(elevation((x + 0.5) / W * 2 - 1, 1 - (y + 0.5) / W * 2));  // never expected; safe
+      h(y, x) = e >= 0 ? float(p.peak_m * std::min(1.0f, e)) : float(std::max(-p.depth_m, p.depth_m * e / 0.5));
+    }
+  return h;
+}
+
+}  // namespace reefgen::procgen
