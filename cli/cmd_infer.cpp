@@ -101,14 +101,11 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
             }
             if (!(a->exaggeration > 0 && a->exaggeration <= 100)) throw Error("--exaggeration must be in (0, 100]");
             if (!(a->world_size_m > 0)) throw Error("--world-size must be > 0");
-            // Everything is read and checked before anything is written.
             model::GeneratorFile gen = model::load_generator(a->model);
             if (a->stochastic && (gen.g->options().depth < 6 || gen.g->options().dropout == 0))
               throw Error("--stochastic: " + a->model + " has no dropout layers (depth " +
                           std::to_string(gen.g->options().depth) + ", dropout " + std::to_string(gen.g->options().dropout) +
                           "), so outputs cannot vary; drop --stochastic");
-            std::vector<DecodedSketch> sketches;
-            for (const auto& p : inputs) sketches.push_back(read_sketch(p));
             const fs::path out_dir = many ? fs::path(a->out) : fs::path(a->out).parent_path();
             ensure_writable_dir(out_dir.empty() ? fs::path(".") : out_dir);
             Progress progress("infer", inputs.size(), g.quiet);
@@ -116,12 +113,20 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
             io.stochastic = a->stochastic;
             io.running_stats = a->running_stats;
             io.seed = a->seed;
-            const std::vector<cv::Mat1f> heights = infer::infer_heights(gen, sketches, io);
             std::vector<Outputs> written(inputs.size());
+            // Chunks of 32 sketches: memory stays bounded for folders of any
+            // size; a failure in a later chunk still removes every file of the run.
+            constexpr size_t kChunk = 32;
+            std::vector<cv::Mat1f> heights;
             try {
               for (size_t i = 0; i < inputs.size(); ++i) {
+                if (i % kChunk == 0) {
+                  std::vector<DecodedSketch> sketches;
+                  for (size_t k = i; k < std::min(inputs.size(), i + kChunk); ++k) sketches.push_back(read_sketch(inputs[k]));
+                  heights = infer::infer_heights(gen, sketches, io);
+                }
                 const fs::path prefix = many ? out_dir / inputs[i].stem() : fs::path(a->out);
-                const cv::Mat1f& h = heights[i];
+                const cv::Mat1f& h = heights[i % kChunk];
                 const double mpp = a->world_size_m / h.cols, lo = gen.range.lo_m, hi = gen.range.hi_m;
                 double hmin, hmax;
                 cv::minMaxLoc(h, &hmin, &hmax);

@@ -159,6 +159,8 @@ expect_error "nothere.png" infer "$T/nothere.png" -m "$M" -o "$T/e/x"
 convert_grey() { printf 'P5\n8 8\n255\n'; head -c 64 /dev/zero | tr '\0' '\200'; }
 convert_grey > "$T/s/grey.pgm"
 expect_error "grey.pgm" infer "$T/s/grey.pgm" -m "$M" -o "$T/e/x"
+mkdir -p "$T/s/mixed"; cp "$T/s/one.png" "$T/s/mixed/a.png"; convert_grey > "$T/s/mixed/b.png"
+expect_error "b.png" infer "$T/s/mixed" -m "$M" -o "$T/e"   # a.png's results removed again
 "$BIN" -q eval -m "$M" --data "$T/d1" --split train --max-pairs 3 --out "$T/ev1" > "$T/ev1.json" || bad "eval"
 "$BIN" -q eval -m "$M" --data "$T/d1" --split train --max-pairs 3 --out "$T/ev2" > "$T/ev2.json" || bad "eval again"
 cmp -s "$T/ev1/eval.json" "$T/ev2/eval.json" && ok || bad "eval not reproducible"

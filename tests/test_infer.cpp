@@ -169,6 +169,7 @@ TEST(Infer, SizesRangeDeterminismAndBatchIndependence) {
   o.seed = 4;
   const auto s4 = infer_heights(g, {two[0]}, o)[0];
   EXPECT_EQ(cv::norm(s4, infer_heights(g, {two[0]}, o)[0], cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(s4, infer_heights(g, {two[1], two[0]}, o)[1], cv::NORM_INF), 0.0) << "position in a folder matters";
   o.seed = 5;
   EXPECT_GT(cv::norm(s4, infer_heights(g, {two[0]}, o)[0], cv::NORM_INF), 0.0);
   fs::remove_all(d);

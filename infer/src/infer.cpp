@@ -27,10 +27,12 @@ std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<
   std::vector<torch::Tensor> inputs;
   for (const auto& s : sketches) inputs.push_back(model::label_to_tensor(canonical_sketch(s, g.size_px)));
   std::vector<torch::Tensor> outs;
-  const size_t batch = o.running_stats ? 8 : 1;
+  // Stochastic mode runs one sketch per forward with the masks of --seed, so a
+  // sketch gives the same island alone or in a folder, in any position.
+  const size_t batch = o.running_stats && !o.stochastic ? 8 : 1;
   for (size_t i = 0; i < inputs.size(); i += batch) {
     const size_t n = std::min(batch, inputs.size() - i);
-    if (o.stochastic) torch::manual_seed(derive_seed(o.seed, i, "infer-dropout"));
+    if (o.stochastic) torch::manual_seed(derive_seed(o.seed, 0, "infer-dropout"));
     const torch::Tensor x = torch::stack(std::vector<torch::Tensor>(inputs.begin() + long(i), inputs.begin() + long(i + n)));
     const torch::Tensor y = g.g->forward(x);  // {n,1,S,S}
     for (size_t k = 0; k < n; ++k) outs.push_back(y[long(k)]);
