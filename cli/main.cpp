@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
                "  reefgen dataset build --config configs/dataset/paper.json --out data/paper\n"
                "  reefgen train --data data/paper --out runs/paper\n"
                "  reefgen sketch random --seed 3 -o sketch.png\n"
+               "  reefgen terrain mapgen4 --seed 2 -o out/m4 --preview\n"
                "  reefgen infer sketch.png -m runs/paper/generator.pt -o out/island --preview --r16\n"
                "  reefgen eval -m runs/paper/generator.pt --data data/paper --split test\n"
                "  reefgen bench generate\n"};
