@@ -63,21 +63,13 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
                 throw Error("sketch: use `reefgen sketch random -o FILE` or `reefgen sketch --from mapgen4|wilbur|noise|H.exr -o FILE`");
               procgen::Sketch s;
               try {
-                if (f->from == "mapgen4") {
-                  procgen::Mapgen4Params mp;
-                  mp.size_px = f->size;
-                  s = procgen::height_to_sketch(procgen::mapgen4_height(mp, f->seed), f->subsidence, f->bands);
-                } else if (f->from == "wilbur" || f->from == "noise") {
-                  if (f->from == "noise") {
-                    procgen::SketchParams sp;
-                    sp.size_px = f->size;
-                    sp.subsidence = f->subsidence;
-                    s = procgen::random_sketch(sp, f->seed);
-                  } else {
-                    procgen::WilburParams wp;
-                    wp.size_px = f->size;
-                    s = procgen::height_to_sketch(procgen::wilbur_height(wp, f->seed), f->subsidence, f->bands);
-                  }
+                if (f->from == "mapgen4" || f->from == "wilbur") {
+                  s = procgen::height_to_sketch(procgen::named_terrain(f->from, f->size, f->seed), f->subsidence, f->bands);
+                } else if (f->from == "noise") {
+                  procgen::SketchParams sp;
+                  sp.size_px = f->size;
+                  sp.subsidence = f->subsidence;
+                  s = procgen::random_sketch(sp, f->seed);
                 } else {
                   const fs::path exr(f->from);
                   if (exr.extension() != ".exr")
@@ -136,17 +128,7 @@ Command add_terrain_command(CLI::App& app, const GlobalOptions&) {
   return {sub, [a]() -> int {
             cv::Mat1f h;
             try {
-              if (a->kind == "mapgen4") {
-                procgen::Mapgen4Params p;
-                p.size_px = a->size;
-                h = procgen::mapgen4_height(p, a->seed);
-              } else if (a->kind == "wilbur") {
-                procgen::WilburParams p;
-                p.size_px = a->size;
-                h = procgen::wilbur_height(p, a->seed);
-              } else {
-                throw Error("terrain " + a->kind + ": use mapgen4 or wilbur");
-              }
+              h = procgen::named_terrain(a->kind, a->size, a->seed);
             } catch (const std::invalid_argument& e) {
               throw Error(std::string(e.what()));
             }

@@ -60,4 +60,18 @@ Sketch height_to_sketch(const cv::Mat1f& h, double subsidence, const SketchBands
   return s;
 }
 
+cv::Mat1f named_terrain(const std::string& kind, int size_px, uint64_t seed) {
+  if (kind == "mapgen4") {
+    Mapgen4Params p;
+    p.size_px = size_px;
+    return mapgen4_height(p, seed);
+  }
+  if (kind == "wilbur") {
+    WilburParams p;
+    p.size_px = size_px;
+    return wilbur_height(p, seed);
+  }
+  throw std::invalid_argument("terrain '" + kind + "': use mapgen4 or wilbur");
+}
+
 }  // namespace reefgen::procgen

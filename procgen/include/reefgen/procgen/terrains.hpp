@@ -2,6 +2,7 @@
 // Other island systems users compare reefgen with (issue 6), on reefgen's
 // conventions: metres, sea level 0, row 0 at the top, canvas [-1, 1]².
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -63,4 +64,10 @@ cv::Mat1f mapgen4_height(const Mapgen4Params& p, uint64_t seed);
 // 30 candidates per active point), deterministic in `seed`.
 std::vector<cv::Point2d> poisson_disk(double radius, uint64_t seed);
 
+}  // namespace reefgen::procgen
+
+namespace reefgen::procgen {
+// "mapgen4" or "wilbur" with default parameters at `size_px`; throws
+// std::invalid_argument naming the choices for anything else.
+cv::Mat1f named_terrain(const std::string& kind, int size_px, uint64_t seed);
 }  // namespace reefgen::procgen
