@@ -327,12 +327,12 @@ RunResult run_training(const TrainParams& params, const RunOptions& run) {
     }
   }
   result.step = step;
-  if (step == total || result.interrupted || step == end) {
-    try {
-      model::save_generator(run.out / "generator.pt", p.G(), data.range, data.size_px, step);
-    } catch (const std::exception& e) {
-      throw Error(e.what());
-    }
+  // The loop ends at the end of the run, at --max-steps or on a signal: every
+  // case leaves a usable generator next to the checkpoint.
+  try {
+    model::save_generator(run.out / "generator.pt", p.G(), data.range, data.size_px, step);
+  } catch (const std::exception& e) {
+    throw Error(e.what());
   }
   return result;
 }
