@@ -310,7 +310,7 @@ RunResult run_training(const TrainParams& params, const RunOptions& run) {
       append_line(log_csv, "step,epoch,lr,G_GAN,G_L1,D_real,D_fake,s_per_iter", row);
       window = {};
     }
-    if (step % params.val_every == 0 || step == total) write_val_grid(step);
+    if (step % params.val_every == 0 || step == total || step == end) write_val_grid(step);  // end: --max-steps too
     if (step % steps_per_epoch == 0 || step == total) {
       append_line(val_csv, "step,epoch,mae_m_batchstats,mae_m_running",
                   std::to_string(step) + "," + fmt(epoch) + "," + fmt(val_mae(true)) + "," + fmt(val_mae(false)));
