@@ -112,23 +112,29 @@ Command add_terrain_command(CLI::App& app, const GlobalOptions&) {
       "Height fields from the other island systems (mapgen4-style, Wilbur-style), on reefgen's conventions\n\n"
       "Examples:\n"
       "  reefgen terrain mapgen4 --seed 2 -o out/m4 --preview\n"
-      "  reefgen terrain wilbur --seed 5 --size 512 -o out/w5\n");
+      "  reefgen terrain wilbur --seed 5 --size 512 -o out/w5\n"
+      "  reefgen terrain wilbur --config configs/terrains/wilbur.json --seed 5 -o out/w5\n");
   struct Args {
-    std::string kind, out;
+    std::string kind, out, config;
     uint64_t seed = 1;
     int size = 256;
     bool preview = false;
   };
   auto a = std::make_shared<Args>();
   sub->add_option("kind", a->kind, "mapgen4 or wilbur")->required();
+  sub->add_option("--config", a->config, "Params JSON (configs/terrains/KIND.json is the defaults serialised)");
   sub->add_option("-o,--output", a->out, "Output prefix: PREFIX.height.exr (+ PREFIX.preview.png)")->required();
   sub->add_option("--seed", a->seed, "Seed")->capture_default_str();
   sub->add_option("--size", a->size, "W")->capture_default_str();
   sub->add_flag("--preview", a->preview, "Also the coloured, hill-shaded preview");
-  return {sub, [a]() -> int {
+  return {sub, [a, sub]() -> int {
             cv::Mat1f h;
             try {
-              h = procgen::named_terrain(a->kind, a->size, a->seed);
+              if (!a->config.empty())
+                h = procgen::configured_terrain(a->kind, read_json(a->config), a->config,
+                                                sub->count("--size") ? a->size : 0, a->seed);
+              else
+                h = procgen::named_terrain(a->kind, a->size, a->seed);
             } catch (const std::invalid_argument& e) {
               throw Error(std::string(e.what()));
             }

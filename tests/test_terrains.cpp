@@ -1,6 +1,7 @@
 // Other island systems (issue 6): Wilbur-style islands and height-band sketches.
 #include <gtest/gtest.h>
 
+#include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/terrains.hpp"
 
@@ -88,4 +89,22 @@ TEST(Mapgen4, PoissonDiskKeepsItsDistanceAndFillsTheSquare) {
   // Maximal sampling: about area / (0.7·r²) points, never far from that.
   EXPECT_GT(pts.size(), 4.0 / (0.1 * 0.1) * 0.5);
   EXPECT_LT(pts.size(), 4.0 / (0.1 * 0.1) * 1.0);
+}
+
+TEST(TerrainParams, JsonConfigsRoundTripAndErrors) {
+  for (const std::string kind : {"wilbur", "mapgen4"}) {
+    const auto j = kind == "wilbur" ? to_json(WilburParams{}) : to_json(Mapgen4Params{});
+    // The shipped config is the defaults serialised.
+    EXPECT_EQ(read_json(std::string(REEFGEN_SOURCE_DIR) + "/configs/terrains/" + kind + ".json"), j) << kind;
+    EXPECT_EQ(cv::norm(configured_terrain(kind, j, "cfg", 48, 3), named_terrain(kind, 48, 3), cv::NORM_INF), 0.0) << kind;
+    try {
+      configured_terrain(kind, {{"octavs", 3}}, "cfg.json", 48, 3);
+      ADD_FAILURE() << "unknown key accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("octavs"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_THROW(configured_terrain("wilbur", {{"octaves", 0}}, "cfg.json", 48, 3), Error);
+  EXPECT_THROW(configured_terrain("mapgen4", {{"spacing", "wide"}}, "cfg.json", 48, 3), Error);
+  EXPECT_THROW(configured_terrain("perlin", nlohmann::json::object(), "cfg.json", 48, 3), Error);
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/noise.hpp"
 #include "reefgen/rng.hpp"
@@ -72,6 +73,79 @@ cv::Mat1f named_terrain(const std::string& kind, int size_px, uint64_t seed) {
     return wilbur_height(p, seed);
   }
   throw std::invalid_argument("terrain '" + kind + "': use mapgen4 or wilbur");
+}
+
+#define REEFGEN_WILBUR_FIELDS(X) X(size_px) X(octaves) X(frequency) X(exponent) X(peak_m) X(depth_m)
+#define REEFGEN_MAPGEN4_FIELDS(X) \
+  X(size_px) X(spacing) X(mountain_spacing) X(k_fbm) X(k_d) X(frequency) X(peak_m) X(depth_m)
+
+namespace {
+// Strict parse of a flat params object: the listed keys only, typed as the struct's fields.
+template <class P, class F>
+P parse_params(const nlohmann::json& j, const std::string& origin, const std::vector<std::string>& keys, F&& read) {
+  if (!j.is_object()) throw Error(origin + ": terrain params must be a JSON object");
+  for (const auto& [k, v] : j.items())
+    if (std::find(keys.begin(), keys.end(), k) == keys.end())
+      throw Error(origin + ": unknown key \"" + k + "\" (see configs/terrains/)");
+  P p;
+  try {
+    read(p);
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(origin + ": wrong type of value (" + std::string(e.what()) + ")");
+  }
+  return p;
+}
+}  // namespace
+
+nlohmann::json to_json(const WilburParams& p) {
+  nlohmann::json j;
+#define X(f) j[#f] = p.f;
+  REEFGEN_WILBUR_FIELDS(X)
+#undef X
+  return j;
+}
+
+nlohmann::json to_json(const Mapgen4Params& p) {
+  nlohmann::json j;
+#define X(f) j[#f] = p.f;
+  REEFGEN_MAPGEN4_FIELDS(X)
+#undef X
+  return j;
+}
+
+cv::Mat1f configured_terrain(const std::string& kind, const nlohmann::json& j, const std::string& origin, int size_px,
+                             uint64_t seed) {
+  try {
+    if (kind == "wilbur") {
+      auto p = parse_params<WilburParams>(j, origin, {
+#define X(f) #f,
+        REEFGEN_WILBUR_FIELDS(X)
+#undef X
+      }, [&](WilburParams& q) {
+#define X(f) if (j.contains(#f)) j.at(#f).get_to(q.f);
+        REEFGEN_WILBUR_FIELDS(X)
+#undef X
+      });
+      if (size_px > 0) p.size_px = size_px;
+      return wilbur_height(p, seed);
+    }
+    if (kind == "mapgen4") {
+      auto p = parse_params<Mapgen4Params>(j, origin, {
+#define X(f) #f,
+        REEFGEN_MAPGEN4_FIELDS(X)
+#undef X
+      }, [&](Mapgen4Params& q) {
+#define X(f) if (j.contains(#f)) j.at(#f).get_to(q.f);
+        REEFGEN_MAPGEN4_FIELDS(X)
+#undef X
+      });
+      if (size_px > 0) p.size_px = size_px;
+      return mapgen4_height(p, seed);
+    }
+  } catch (const std::invalid_argument& e) {
+    throw Error(origin + ": " + e.what());
+  }
+  throw Error("terrain '" + kind + "': use mapgen4 or wilbur");
 }
 
 }  // namespace reefgen::procgen

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
 #include "reefgen/procgen/sketch.hpp"
@@ -70,4 +71,12 @@ namespace reefgen::procgen {
 // "mapgen4" or "wilbur" with default parameters at `size_px`; throws
 // std::invalid_argument naming the choices for anything else.
 cv::Mat1f named_terrain(const std::string& kind, int size_px, uint64_t seed);
+
+// The same with parameters from JSON (configs/terrains/*.json are these params
+// serialised): every key optional, unknown keys and bad values throw
+// reefgen::Error naming `origin` and the key. `size_px` overrides the JSON's when > 0.
+cv::Mat1f configured_terrain(const std::string& kind, const nlohmann::json& params, const std::string& origin,
+                             int size_px, uint64_t seed);
+nlohmann::json to_json(const WilburParams& p);
+nlohmann::json to_json(const Mapgen4Params& p);
 }  // namespace reefgen::procgen
