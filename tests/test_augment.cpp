@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "reefgen/augment/augment.hpp"
+#include "reefgen/augment/dataset.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/generator.hpp"
@@ -137,4 +138,34 @@ TEST(Affine, OutsideTheCanvasIsOpenOcean) {
   EXPECT_EQ(q.label(16, 31), kAbyss);  // was replicated land before
   EXPECT_FLOAT_EQ(q.height_m(16, 31), -100.f);
   EXPECT_EQ(cv::countNonZero(q.label == kIsland), 16);  // the edge column, shrunk to half, inside
+}
+
+TEST(Dataset, OtherIslandSystemsAsPairs) {
+  DatasetParams p;
+  p.size_px = 48;
+  p.p_paste = 0;
+  const Pair curves = augment::make_pair(5, 3, p);
+  // The option's own RNG stream: with it at 0 the pairs are unchanged.
+  p.p_wilbur = 0;
+  p.p_mapgen4 = 0;
+  EXPECT_EQ(cv::norm(augment::make_pair(5, 3, p).height_m, curves.height_m, cv::NORM_INF), 0.0);
+  p.p_mapgen4 = 1;
+  PairInfo info;
+  const Pair m4 = augment::make_pair(5, 3, p, &info);
+  EXPECT_EQ(info.augmentation.at("source"), "mapgen4");
+  EXPECT_EQ(info.subsidence, 0.0);
+  EXPECT_EQ(cv::norm(m4.height_m, augment::make_pair(5, 3, p).height_m, cv::NORM_INF), 0.0);  // deterministic
+  // Labels follow the height bands: land is mountain or beach, deep water abyss
+  // (before any affine move; check with augmentation off).
+  p.p_affine = 0;
+  p.p_translate = 0;
+  const Pair plain = augment::make_pair(5, 3, p);
+  for (int r = 0; r < 48; ++r)
+    for (int c = 0; c < 48; ++c) {
+      const bool land = plain.label(r, c) == kIsland || plain.label(r, c) == kBeach;
+      EXPECT_EQ(land, plain.height_m(r, c) >= 0) << r << "," << c;
+    }
+  p.p_mapgen4 = 0.6;
+  p.p_wilbur = 0.6;
+  EXPECT_THROW(dataset_params_from_json(nlohmann::json(p), "cfg"), Error);
 }

@@ -6,6 +6,7 @@
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
+#include "reefgen/procgen/terrains.hpp"
 #include "reefgen/rng.hpp"
 
 namespace reefgen::augment {
@@ -16,7 +17,8 @@ void to_json(json& j, const DatasetParams& p) {
   j = json{{"count", p.count},           {"size_px", p.size_px},         {"levels", p.levels},
            {"val_fraction", p.val_fraction}, {"test_fraction", p.test_fraction}, {"p_affine", p.p_affine},
            {"scale_min", p.scale_min},   {"scale_max", p.scale_max},     {"p_translate", p.p_translate},
-           {"p_paste", p.p_paste},       {"paste_scale", p.paste_scale}, {"max_iou", p.max_iou}};
+           {"p_paste", p.p_paste},       {"paste_scale", p.paste_scale}, {"max_iou", p.max_iou},
+           {"p_mapgen4", p.p_mapgen4},   {"p_wilbur", p.p_wilbur}};
 }
 
 DatasetParams dataset_params_from_json(const json& j, const std::string& origin) {
@@ -51,6 +53,8 @@ DatasetParams dataset_params_from_json(const json& j, const std::string& origin)
   num("p_paste", p.p_paste, 0, 1);
   num("paste_scale", p.paste_scale, 1e-3, 1);
   num("max_iou", p.max_iou, 0, 1);
+  num("p_mapgen4", p.p_mapgen4, 0, 1);
+  num("p_wilbur", p.p_wilbur, 0, 1 - p.p_mapgen4);
   return p;
 }
 
@@ -118,8 +122,23 @@ Pair make_pair(uint64_t seed, int64_t index, const DatasetParams& p, PairInfo* o
   const bool flip = rng.uniform() < 0.5;
   const bool do_translate = rng.uniform() < p.p_translate;
   const int dx = static_cast<int>(rng.uniform_int(0, p.size_px - 1)), dy = static_cast<int>(rng.uniform_int(0, p.size_px - 1));
+  // Other island systems (issue 6) from their own RNG stream, so that the
+  // pairs of datasets without them stay byte-identical.
+  std::string source = "curves";
+  if (p.p_mapgen4 + p.p_wilbur > 0) {
+    Rng src(seed, static_cast<uint64_t>(index), "source");
+    const double u = src.uniform();
+    if (u < p.p_mapgen4) source = "mapgen4";
+    else if (u < p.p_mapgen4 + p.p_wilbur) source = "wilbur";
+  }
   Pair pair;
-  if (!do_paste) {
+  if (source != "curves") {
+    // A young island (λ = 0) of the other system, its label cut by height bands.
+    const cv::Mat1f h = procgen::named_terrain(source, p.size_px, derive_seed(seed, static_cast<uint64_t>(index), source));
+    pair = {h, procgen::height_to_sketch(h, 0.0).label, cv::Mat1f(h.size(), 0.0f)};
+    info.subsidence = 0.0;
+    aug["source"] = source;
+  } else if (!do_paste) {
     pair = render(spec, p.size_px);
   } else {
     // Companions are sub-configurations of the same configuration, so a pasted

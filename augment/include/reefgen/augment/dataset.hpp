@@ -24,6 +24,8 @@ struct DatasetParams {
   double p_paste = 0.2;        // probability of copy-paste of 2-3 islands, [0, 1]
   double paste_scale = 0.5;    // scale of pasted islands, (0, 1]
   double max_iou = 0.10;       // footprint IoU bound for copy-paste, [0, 1]
+  double p_mapgen4 = 0;        // probability a pair is a mapgen4-style island cut into height bands, [0, 1]
+  double p_wilbur = 0;         // same for Wilbur-style islands; p_mapgen4 + p_wilbur ≤ 1
 };
 
 void to_json(nlohmann::json& j, const DatasetParams& p);
