@@ -80,16 +80,42 @@ cv::Mat1f named_terrain(const std::string& kind, int size_px, uint64_t seed) {
   X(size_px) X(spacing) X(mountain_spacing) X(k_fbm) X(k_d) X(frequency) X(peak_m) X(depth_m)
 
 namespace {
-// Strict parse of a flat params object: the listed keys only, typed as the struct's fields.
-template <class P, class F>
-P parse_params(const nlohmann::json& j, const std::string& origin, const std::vector<std::string>& keys, F&& read) {
+// One walk over a params struct's fields (name, reference) serves
+// serialisation, the key list and parsing, so a field cannot be forgotten in one.
+template <class F>
+void fields(WilburParams& p, F&& f) {
+#define X(n) f(#n, p.n);
+  REEFGEN_WILBUR_FIELDS(X)
+#undef X
+}
+template <class F>
+void fields(Mapgen4Params& p, F&& f) {
+#define X(n) f(#n, p.n);
+  REEFGEN_MAPGEN4_FIELDS(X)
+#undef X
+}
+
+template <class P>
+nlohmann::json params_json(P p) {
+  nlohmann::json j;
+  fields(p, [&](const char* k, const auto& v) { j[k] = v; });
+  return j;
+}
+
+// Strict parse: the struct's keys only, each typed as its field.
+template <class P>
+P params_from_json(const nlohmann::json& j, const std::string& origin) {
   if (!j.is_object()) throw Error(origin + ": terrain params must be a JSON object");
+  P p;
+  std::vector<std::string> keys;
+  fields(p, [&](const char* k, const auto&) { keys.emplace_back(k); });
   for (const auto& [k, v] : j.items())
     if (std::find(keys.begin(), keys.end(), k) == keys.end())
       throw Error(origin + ": unknown key \"" + k + "\" (see configs/terrains/)");
-  P p;
   try {
-    read(p);
+    fields(p, [&](const char* k, auto& v) {
+      if (j.contains(k)) j.at(k).get_to(v);
+    });
   } catch (const nlohmann::json::exception& e) {
     throw Error(origin + ": wrong type of value (" + std::string(e.what()) + ")");
   }
@@ -97,48 +123,19 @@ P parse_params(const nlohmann::json& j, const std::string& origin, const std::ve
 }
 }  // namespace
 
-nlohmann::json to_json(const WilburParams& p) {
-  nlohmann::json j;
-#define X(f) j[#f] = p.f;
-  REEFGEN_WILBUR_FIELDS(X)
-#undef X
-  return j;
-}
-
-nlohmann::json to_json(const Mapgen4Params& p) {
-  nlohmann::json j;
-#define X(f) j[#f] = p.f;
-  REEFGEN_MAPGEN4_FIELDS(X)
-#undef X
-  return j;
-}
+nlohmann::json to_json(const WilburParams& p) { return params_json(p); }
+nlohmann::json to_json(const Mapgen4Params& p) { return params_json(p); }
 
 cv::Mat1f configured_terrain(const std::string& kind, const nlohmann::json& j, const std::string& origin, int size_px,
                              uint64_t seed) {
   try {
     if (kind == "wilbur") {
-      auto p = parse_params<WilburParams>(j, origin, {
-#define X(f) #f,
-        REEFGEN_WILBUR_FIELDS(X)
-#undef X
-      }, [&](WilburParams& q) {
-#define X(f) if (j.contains(#f)) j.at(#f).get_to(q.f);
-        REEFGEN_WILBUR_FIELDS(X)
-#undef X
-      });
+      auto p = params_from_json<WilburParams>(j, origin);
       if (size_px > 0) p.size_px = size_px;
       return wilbur_height(p, seed);
     }
     if (kind == "mapgen4") {
-      auto p = parse_params<Mapgen4Params>(j, origin, {
-#define X(f) #f,
-        REEFGEN_MAPGEN4_FIELDS(X)
-#undef X
-      }, [&](Mapgen4Params& q) {
-#define X(f) if (j.contains(#f)) j.at(#f).get_to(q.f);
-        REEFGEN_MAPGEN4_FIELDS(X)
-#undef X
-      });
+      auto p = params_from_json<Mapgen4Params>(j, origin);
       if (size_px > 0) p.size_px = size_px;
       return mapgen4_height(p, seed);
     }
