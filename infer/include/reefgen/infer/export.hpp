@@ -6,6 +6,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "reefgen/mesh.hpp"
+
 namespace reefgen::infer {
 
 // 16-bit greyscale PNG, linear: v = round(65535·(h − lo)/(hi − lo)).
@@ -24,6 +26,7 @@ struct MeshOptions {
 };
 // Grid mesh, one vertex per pixel, two triangles per cell, +Y up (glTF and
 // Blender's OBJ importer convention), centred on the canvas, metres.
+Mesh grid_mesh(const cv::Mat1f& height_m, const MeshOptions& o);
 void write_obj(const std::filesystem::path& path, const cv::Mat1f& height_m, const MeshOptions& o);
 void write_glb(const std::filesystem::path& path, const cv::Mat1f& height_m, const MeshOptions& o);
 

@@ -1,0 +1,282 @@
+#include "reefgen/mesh.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <fstream>
+#include <numeric>
+#include <sstream>
+#include <unordered_map>
+
+#include <nlohmann/json.hpp>
+
+#include "reefgen/io.hpp"
+
+namespace reefgen {
+
+namespace {
+
+void check_indices(const Mesh& m, const std::string& what) {
+  for (const auto& t : m.triangles)
+    for (uint32_t i : t)
+      if (i >= m.positions.size()) throw Error(what + ": triangle index " + std::to_string(i) + " out of range");
+}
+
+std::string read_bytes(const fs::path& path) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) throw Error(path.string() + ": cannot open (check the path)");
+  return {std::istreambuf_iterator<char>(f), {}};
+}
+
+uint32_t u32_at(const std::string& b, size_t off) {
+  uint32_t v = 0;
+  for (int k = 3; k >= 0; --k) v = (v << 8) | uint8_t(b[off + size_t(k)]);
+  return v;
+}
+
+}  // namespace
+
+std::vector<cv::Vec3f> vertex_normals(const Mesh& m) {
+  std::vector<cv::Vec3d> acc(m.positions.size(), cv::Vec3d(0, 0, 0));
+  for (const auto& t : m.triangles) {
+    const cv::Vec3d a(m.positions[t[0]]), b(m.positions[t[1]]), c(m.positions[t[2]]);
+    const cv::Vec3d n = (b - a).cross(c - a);  // length = 2·area: area weighting for free
+    for (uint32_t i : t) acc[i] += n;
+  }
+  std::vector<cv::Vec3f> out(acc.size());
+  for (size_t i = 0; i < acc.size(); ++i) {
+    const double len = cv::norm(acc[i]);
+    out[i] = len > 0 ? cv::Vec3f(acc[i] / len) : cv::Vec3f(0, 1, 0);
+  }
+  return out;
+}
+
+void write_obj(const fs::path& path, const Mesh& m, const std::string& comment) {
+  check_indices(m, path.string());
+  std::string out;
+  out.reserve(m.positions.size() * 36 + m.triangles.size() * 24 + comment.size() + 32);
+  out += "# " + comment + "\no island\n";
+  char line[96];
+  for (const auto& p : m.positions) {
+    std::snprintf(line, sizeof line, "v %.3f %.3f %.3f\n", p[0], p[1], p[2]);
+    out += line;
+  }
+  for (const auto& t : m.triangles) {
+    std::snprintf(line, sizeof line, "f %lu %lu %lu\n", (unsigned long)t[0] + 1, (unsigned long)t[1] + 1,
+                  (unsigned long)t[2] + 1);
+    out += line;
+  }
+  write_text_atomic(path, out);
+}
+
+void write_glb(const fs::path& path, const Mesh& m, const std::string& name) {
+  check_indices(m, path.string());
+  if (m.positions.empty() || m.triangles.empty()) throw Error(path.string() + ": empty mesh");
+  const std::vector<cv::Vec3f> nrm = m.normals.size() == m.positions.size() ? m.normals : vertex_normals(m);
+  float mn[3] = {1e30f, 1e30f, 1e30f}, mx[3] = {-1e30f, -1e30f, -1e30f};
+  for (const auto& p : m.positions)
+    for (int k = 0; k < 3; ++k) {
+      mn[k] = std::min(mn[k], p[k]);
+      mx[k] = std::max(mx[k], p[k]);
+    }
+  const size_t nv = m.positions.size();
+  const size_t pos_bytes = nv * 12, nrm_bytes = nv * 12, idx_bytes = m.triangles.size() * 12;
+  const size_t bin_len = pos_bytes + nrm_bytes + idx_bytes;  // all multiples of 4
+  using nlohmann::json;
+  const json j = {
+      {"asset", {{"version", "2.0"}, {"generator", "reefgen"}}},
+      {"scene", 0},
+      {"scenes", {{{"nodes", {0}}}}},
+      {"nodes", {{{"mesh", 0}, {"name", name}}}},
+      {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}}}, {"indices", 2}, {"mode", 4}}}}}}},
+      {"buffers", {{{"byteLength", bin_len}}}},
+      {"bufferViews",
+       {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", pos_bytes}, {"target", 34962}},
+        {{"buffer", 0}, {"byteOffset", pos_bytes}, {"byteLength", nrm_bytes}, {"target", 34962}},
+        {{"buffer", 0}, {"byteOffset", pos_bytes + nrm_bytes}, {"byteLength", idx_bytes}, {"target", 34963}}}},
+      {"accessors",
+       {{{"bufferView", 0}, {"componentType", 5126}, {"count", nv}, {"type", "VEC3"},
+         {"min", {mn[0], mn[1], mn[2]}}, {"max", {mx[0], mx[1], mx[2]}}},
+        {{"bufferView", 1}, {"componentType", 5126}, {"count", nv}, {"type", "VEC3"}},
+        {{"bufferView", 2}, {"componentType", 5125}, {"count", m.triangles.size() * 3}, {"type", "SCALAR"}}}}};
+  std::string js = j.dump();
+  while (js.size() % 4) js += ' ';
+  const size_t total = 12 + 8 + js.size() + 8 + bin_len;
+  if (total > 0xffffffffull) throw Error(path.string() + ": mesh too large for GLB (4 GiB)");
+  std::string out;
+  out.reserve(total);
+  auto u32 = [&](uint32_t v) { for (int k = 0; k < 4; ++k) out += char((v >> (8 * k)) & 0xff); };
+  u32(0x46546C67);  // "glTF"
+  u32(2);
+  u32(uint32_t(total));
+  u32(uint32_t(js.size()));
+  u32(0x4E4F534A);  // "JSON"
+  out += js;
+  u32(uint32_t(bin_len));
+  u32(0x004E4942);  // "BIN\0"
+  // x86-64 and aarch64 are little-endian, as glTF requires.
+  out.append(reinterpret_cast<const char*>(m.positions.data()), pos_bytes);
+  out.append(reinterpret_cast<const char*>(nrm.data()), nrm_bytes);
+  out.append(reinterpret_cast<const char*>(m.triangles.data()), idx_bytes);
+  write_file_atomic(path, out.data(), out.size());
+}
+
+Mesh read_obj(const fs::path& path) {
+  std::istringstream in(read_bytes(path));
+  Mesh m;
+  std::string line;
+  size_t line_no = 0;
+  auto fail = [&](const std::string& why) {
+    throw Error(path.string() + ":" + std::to_string(line_no) + ": " + why);
+  };
+  while (std::getline(in, line)) {
+    ++line_no;
+    std::istringstream s(line);
+    std::string tag;
+    if (!(s >> tag) || tag[0] == '#') continue;
+    if (tag == "v") {
+      cv::Vec3f p;
+      if (!(s >> p[0] >> p[1] >> p[2])) fail("vertex needs three numbers");
+      m.positions.push_back(p);
+    } else if (tag == "f") {
+      std::vector<long> ix;
+      std::string tok;
+      while (s >> tok) {
+        long i = 0;
+        try {
+          i = std::stol(tok.substr(0, tok.find('/')));
+        } catch (const std::exception&) {
+          fail("bad face index '" + tok + "'");
+        }
+        if (i < 0) i += long(m.positions.size()) + 1;
+        if (i < 1 || i > long(m.positions.size())) fail("face index " + tok + " out of range");
+        ix.push_back(i - 1);
+      }
+      if (ix.size() < 3) fail("face needs at least three vertices");
+      for (size_t k = 1; k + 1 < ix.size(); ++k)  // fan: polygons become triangles
+        m.triangles.push_back({uint32_t(ix[0]), uint32_t(ix[k]), uint32_t(ix[k + 1])});
+    }
+  }
+  return m;
+}
+
+Mesh read_glb(const fs::path& path) {
+  const std::string b = read_bytes(path);
+  const std::string name = path.string();
+  if (b.size() < 28 || b.compare(0, 4, "glTF") != 0) throw Error(name + ": not a binary glTF file");
+  if (u32_at(b, 4) != 2) throw Error(name + ": glTF version is not 2");
+  if (u32_at(b, 8) != b.size()) throw Error(name + ": length in header does not match the file (truncated?)");
+  const uint32_t json_len = u32_at(b, 12);
+  if (u32_at(b, 16) != 0x4E4F534A || 20 + size_t(json_len) + 8 > b.size()) throw Error(name + ": bad JSON chunk");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(b.substr(20, json_len));
+  } catch (const std::exception& e) {
+    throw Error(name + ": JSON chunk does not parse (" + e.what() + ")");
+  }
+  const size_t bin_at = 20 + json_len;
+  const uint32_t bin_len = u32_at(b, bin_at);
+  if (u32_at(b, bin_at + 4) != 0x004E4942 || bin_at + 8 + bin_len > b.size()) throw Error(name + ": bad BIN chunk");
+  const char* bin = b.data() + bin_at + 8;
+  Mesh m;
+  try {
+    const auto& prim = j.at("meshes").at(0).at("primitives").at(0);
+    if (prim.value("mode", 4) != 4) throw Error(name + ": primitive is not a triangle list");
+    // Returns (pointer, count, componentType) of an accessor, checked against the chunk.
+    auto view = [&](int accessor, size_t elem_size) {
+      const auto& a = j.at("accessors").at(accessor);
+      const auto& v = j.at("bufferViews").at(a.at("bufferView").get<int>());
+      const size_t off = v.value("byteOffset", size_t(0)) + a.value("byteOffset", size_t(0));
+      const size_t count = a.at("count").get<size_t>();
+      if (v.contains("byteStride") && v["byteStride"].get<size_t>() != elem_size)
+        throw Error(name + ": interleaved buffers are not supported");
+      if (off + count * elem_size > bin_len) throw Error(name + ": accessor runs past the BIN chunk");
+      return std::make_pair(bin + off, count);
+    };
+    const int pa = prim.at("attributes").at("POSITION").get<int>();
+    if (j["accessors"][pa].at("componentType") != 5126) throw Error(name + ": positions are not float");
+    const auto [pp, nv] = view(pa, 12);
+    m.positions.resize(nv);
+    std::memcpy(static_cast<void*>(m.positions.data()), pp, nv * 12);
+    const int ia = prim.at("indices").get<int>();
+    const int type = j["accessors"][ia].at("componentType").get<int>();
+    const size_t isz = type == 5125 ? 4 : type == 5123 ? 2 : type == 5121 ? 1 : 0;
+    if (!isz) throw Error(name + ": unsupported index type " + std::to_string(type));
+    const auto [ip, ni] = view(ia, isz);
+    if (ni % 3) throw Error(name + ": index count is not a multiple of 3");
+    auto index = [&, ip = ip](size_t k) -> uint32_t {
+      uint32_t v = 0;
+      std::memcpy(&v, ip + k * isz, isz);
+      return v;
+    };
+    for (size_t k = 0; k < ni; k += 3) m.triangles.push_back({index(k), index(k + 1), index(k + 2)});
+    if (prim.at("attributes").contains("NORMAL")) {
+      const auto [np, nn] = view(prim["attributes"]["NORMAL"].get<int>(), 12);
+      m.normals.resize(nn);
+      std::memcpy(static_cast<void*>(m.normals.data()), np, nn * 12);
+    }
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(name + ": glTF JSON lacks a mesh this reader understands (" + e.what() + ")");
+  }
+  check_indices(m, name);
+  return m;
+}
+
+MeshReport inspect_mesh(const Mesh& m) {
+  check_indices(m, "mesh");
+  MeshReport r;
+  struct EdgeUse {
+    int count = 0;
+    int direction = 0;  // +1 per use running low→high index, −1 per use running high→low
+  };
+  std::unordered_map<uint64_t, EdgeUse> edges;
+  edges.reserve(m.triangles.size() * 2);
+  double mean_len2 = 0;
+  for (const auto& t : m.triangles)
+    for (int k = 0; k < 3; ++k) mean_len2 += cv::norm(m.positions[t[k]] - m.positions[t[(k + 1) % 3]], cv::NORM_L2SQR);
+  mean_len2 /= std::max<size_t>(1, m.triangles.size() * 3);
+  for (const auto& t : m.triangles) {
+    const cv::Vec3d a(m.positions[t[0]]), b(m.positions[t[1]]), c(m.positions[t[2]]);
+    const cv::Vec3d n = (b - a).cross(c - a);
+    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || cv::norm(n) / 2 < 1e-9 * mean_len2) ++r.degenerate;
+    r.volume_m3 += a.dot(b.cross(c)) / 6;
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t u = t[k], v = t[(k + 1) % 3];
+      auto& e = edges[(uint64_t(std::min(u, v)) << 32) | std::max(u, v)];
+      ++e.count;
+      e.direction += u < v ? 1 : -1;
+    }
+  }
+  for (const auto& [key, e] : edges) {
+    if (e.count == 1) ++r.open_edges;
+    else if (e.count > 2) ++r.nonmanifold_edges;
+    else if (e.direction != 0) ++r.misoriented_edges;
+  }
+  // Vertex fans: the triangles around a vertex must be one edge-connected fan.
+  std::vector<std::vector<uint32_t>> around(m.positions.size());
+  for (uint32_t t = 0; t < m.triangles.size(); ++t)
+    for (uint32_t v : m.triangles[t]) around[v].push_back(t);
+  std::vector<uint32_t> parent;
+  for (uint32_t v = 0; v < around.size(); ++v) {
+    const auto& ts = around[v];
+    if (ts.size() < 2) continue;
+    parent.resize(ts.size());
+    std::iota(parent.begin(), parent.end(), 0u);
+    std::function<uint32_t(uint32_t)> find = [&](uint32_t x) { return parent[x] == x ? x : parent[x] = find(parent[x]); };
+    // Two triangles around v are neighbours when they share another vertex (an edge through v).
+    std::unordered_map<uint32_t, uint32_t> first_with;
+    for (uint32_t k = 0; k < ts.size(); ++k)
+      for (uint32_t w : m.triangles[ts[k]]) {
+        if (w == v) continue;
+        auto [it, inserted] = first_with.emplace(w, k);
+        if (!inserted) parent[find(k)] = find(it->second);
+      }
+    size_t roots = 0;
+    for (uint32_t k = 0; k < ts.size(); ++k) roots += find(k) == k;
+    if (roots > 1) ++r.nonmanifold_vertices;
+  }
+  return r;
+}
+
+}  // namespace reefgen
