@@ -8,6 +8,7 @@
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/noise.hpp"
 #include "reefgen/rng.hpp"
+#include "params_json.hpp"
 
 namespace reefgen::procgen {
 
@@ -79,49 +80,19 @@ cv::Mat1f named_terrain(const std::string& kind, int size_px, uint64_t seed) {
 #define REEFGEN_MAPGEN4_FIELDS(X) \
   X(size_px) X(spacing) X(mountain_spacing) X(k_fbm) X(k_d) X(frequency) X(peak_m) X(depth_m)
 
-namespace {
-// One walk over a params struct's fields (name, reference) serves
-// serialisation, the key list and parsing, so a field cannot be forgotten in one.
+// Field walks for params_json.hpp.
 template <class F>
-void fields(WilburParams& p, F&& f) {
+static void fields(WilburParams& p, F&& f) {
 #define X(n) f(#n, p.n);
   REEFGEN_WILBUR_FIELDS(X)
 #undef X
 }
 template <class F>
-void fields(Mapgen4Params& p, F&& f) {
+static void fields(Mapgen4Params& p, F&& f) {
 #define X(n) f(#n, p.n);
   REEFGEN_MAPGEN4_FIELDS(X)
 #undef X
 }
-
-template <class P>
-nlohmann::json params_json(P p) {
-  nlohmann::json j;
-  fields(p, [&](const char* k, const auto& v) { j[k] = v; });
-  return j;
-}
-
-// Strict parse: the struct's keys only, each typed as its field.
-template <class P>
-P params_from_json(const nlohmann::json& j, const std::string& origin) {
-  if (!j.is_object()) throw Error(origin + ": terrain params must be a JSON object");
-  P p;
-  std::vector<std::string> keys;
-  fields(p, [&](const char* k, const auto&) { keys.emplace_back(k); });
-  for (const auto& [k, v] : j.items())
-    if (std::find(keys.begin(), keys.end(), k) == keys.end())
-      throw Error(origin + ": unknown key \"" + k + "\" (see configs/terrains/)");
-  try {
-    fields(p, [&](const char* k, auto& v) {
-      if (j.contains(k)) j.at(k).get_to(v);
-    });
-  } catch (const nlohmann::json::exception& e) {
-    throw Error(origin + ": wrong type of value (" + std::string(e.what()) + ")");
-  }
-  return p;
-}
-}  // namespace
 
 nlohmann::json to_json(const WilburParams& p) { return params_json(p); }
 nlohmann::json to_json(const Mapgen4Params& p) { return params_json(p); }
@@ -130,12 +101,12 @@ cv::Mat1f configured_terrain(const std::string& kind, const nlohmann::json& j, c
                              uint64_t seed) {
   try {
     if (kind == "wilbur") {
-      auto p = params_from_json<WilburParams>(j, origin);
+      auto p = params_from_json<WilburParams>(j, origin, "configs/terrains/");
       if (size_px > 0) p.size_px = size_px;
       return wilbur_height(p, seed);
     }
     if (kind == "mapgen4") {
-      auto p = params_from_json<Mapgen4Params>(j, origin);
+      auto p = params_from_json<Mapgen4Params>(j, origin, "configs/terrains/");
       if (size_px > 0) p.size_px = size_px;
       return mapgen4_height(p, seed);
     }

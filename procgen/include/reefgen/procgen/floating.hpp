@@ -1,0 +1,87 @@
+#pragma once
+// Floating islands from a painting (IslandPaint, Li 2021), as closed meshes.
+//
+// The painting is a top view of the island's top (top colours, e.g. green and
+// white snow) and, optionally, the rock hanging under it (bottom colour,
+// brown), painted below the top as seen from the front-above: how far the
+// brown reaches below the top's lowest row sets the depth of the rock. Each
+// top blob becomes one closed shell (docs/ISLANDS.md):
+//   silhouette: contour of the blob, Douglas–Peucker polygon, grid trimmed to it;
+//   basemaps per row v (u = column): μ = (u_min+u_max)/2, σ = (u_max−u_min)/2,
+//     B = sin(arccos(|u−μ|/σ)), c_b = μ+σ − [(1−t)μ(v_min) + tμ(v_max)], B' = c_b·B;
+//   H_top = α_top(β_top·σB + (1−β_top)H₀), H_bottom = stretch·α_bottom(β_bottom·B' + (1−β_bottom)H₀),
+//     B scaled by σ (metres) on top so both terms are lengths: for a disc of
+//     radius R, σB and B' are both the hemisphere of radius R;
+//   the bottom kept at least rim_m under the top; a middle strip joins the two rims.
+// Units: metres, +Y up, x = column, z = row, centred on the canvas.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "reefgen/mesh.hpp"
+
+namespace reefgen::procgen {
+
+struct FloatingParams {
+  double alpha_top = 0.2;       // α_top: overall scale of the top surface, [0, 100]
+  double beta_top = 0.2;        // β_top: basemap (dome) vs features H₀ on top, [-10, 10]
+  double alpha_bottom = 0.8;    // α_bottom: overall scale of the bottom, [0, 100]
+  double beta_bottom = -2.5;    // β_bottom: negative hangs the rock down, [-10, 10]
+  double depth_stretch = 1.5;   // multiplies the bottom, (0, 100]
+  double metres_per_px = 1.0;   // ground size of a painting pixel, (0, 1e4]
+  double feature_m = 5.0;       // amplitude of the noise H₀ when no terrain is given, [0, 1e4]
+  double feature_px = 48.0;     // size of the noise's largest features, pixels, [1, 1e4]
+  int octaves = 5;              // noise octaves, [1, 10]
+  double simplify_px = 1.0;     // Douglas–Peucker tolerance of the silhouette, pixels, [0, 16]
+  double rim_m = 2.0;           // least thickness at the rim (the middle strip's height), (0, 1e4]
+  int min_area_px = 16;         // painted top blobs smaller than this are ignored, [1, 1e8]
+  // Palette: every pixel takes the class of the nearest of these colours
+  // (RGB distance); transparent pixels (alpha < 128) are background.
+  std::vector<std::string> top_colours = {"#4caf50", "#ffffff"};         // green, snow
+  std::vector<std::string> bottom_colours = {"#8b5a2b"};                 // brown rock
+  std::vector<std::string> background_colours = {"#87ceeb", "#000000"};  // sky, black
+};
+// Throws reefgen::Error naming the field and its range.
+void validate(const FloatingParams& p);
+nlohmann::json to_json(const FloatingParams& p);
+// Strict: unknown keys and wrong types name `origin` and the key.
+FloatingParams floating_params_from_json(const nlohmann::json& j, const std::string& origin);
+
+enum PaintClass : uint8_t { kPaintBackground = 0, kPaintTop = 1, kPaintBottom = 2 };
+// Segments an 8- or 16-bit BGR/BGRA/grey image by the palette. Throws
+// reefgen::Error naming `origin` when there is no top, or when a top colour
+// covers most of the border (a white canvas read as snow).
+cv::Mat1b segment_painting(const cv::Mat& image, const FloatingParams& p, const std::string& origin);
+
+// Noise features H₀ ∈ [0, feature_m] (metres) of the given size.
+cv::Mat1f floating_features(cv::Size size, const FloatingParams& p, uint64_t seed);
+
+// Basemaps of one blob (mask of its pixels) at pixel centres: B (unitless,
+// [0, 1]), σ·B and B' (metres, B' ≥ 0: c_b clamped at 0); 0 outside the blob's rows' spans.
+struct Basemaps {
+  cv::Mat1f b, top_m, bottom_m;
+};
+Basemaps floating_basemaps(const cv::Mat1b& blob, double metres_per_px);
+
+struct FloatingIsland {
+  Mesh mesh;              // closed, outward-wound, one shell per blob
+  int islands = 0;        // shells
+  double top_max_m = 0;   // highest top point
+  double depth_m = 0;     // deepest bottom point (positive)
+  cv::Mat1f top_m, bottom_m;  // per pixel of the canvas; NaN off the islands
+};
+// `labels` from segment_painting (or any mask: kPaintTop where the top is);
+// `h0_m` the features (same size). Throws reefgen::Error if no blob is big enough.
+FloatingIsland floating_island(const cv::Mat1b& labels, const cv::Mat1f& h0_m, const FloatingParams& p);
+
+// The mesh seen from above, rasterised at the canvas' pixel centres (255 = covered).
+cv::Mat1b mesh_silhouette(const Mesh& m, cv::Size canvas, double metres_per_px);
+double mask_iou(const cv::Mat1b& a, const cv::Mat1b& b);
+
+// A shaded oblique view of the mesh (BGR), for previews and docs.
+cv::Mat3b render_mesh(const Mesh& m, int width_px, double yaw_deg = 30, double pitch_deg = 25);
+
+}  // namespace reefgen::procgen

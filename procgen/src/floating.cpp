@@ -1,0 +1,469 @@
+#include "reefgen/procgen/floating.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <opencv2/imgproc.hpp>
+
+#include "params_json.hpp"
+#include "reefgen/io.hpp"
+#include "reefgen/procgen/noise.hpp"
+#include "reefgen/rng.hpp"
+
+namespace reefgen::procgen {
+
+#define REEFGEN_FLOATING_FIELDS(X)                                                                            \
+  X(alpha_top) X(beta_top) X(alpha_bottom) X(beta_bottom) X(depth_stretch) X(metres_per_px) X(feature_m)    \
+  X(feature_px) X(octaves) X(simplify_px) X(rim_m) X(min_area_px) X(top_colours) X(bottom_colours)           \
+  X(background_colours)
+
+template <class F>
+static void fields(FloatingParams& p, F&& f) {
+#define X(n) f(#n, p.n);
+  REEFGEN_FLOATING_FIELDS(X)
+#undef X
+}
+
+namespace {
+
+void check_range(const char* name, double v, double lo, double hi, bool open_lo = false) {
+  if (!(open_lo ? v > lo : v >= lo) || !(v <= hi))
+    throw Error(std::string("floating: ") + name + " = " + std::to_string(v) + " is outside " + (open_lo ? "(" : "[") +
+                std::to_string(lo) + ", " + std::to_string(hi) + "]");
+}
+
+cv::Vec3i parse_colour(const std::string& s) {  // "#rrggbb" → (r, g, b)
+  auto hex = [&](size_t k) {
+    const char c = char(std::tolower(static_cast<unsigned char>(s[k])));
+    if (c >= '0' && c <= '9') return c - '0';
+    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+    throw Error("floating: colour \"" + s + "\" is not of the form #rrggbb");
+  };
+  if (s.size() != 7 || s[0] != '#') throw Error("floating: colour \"" + s + "\" is not of the form #rrggbb");
+  return {hex(1) * 16 + hex(2), hex(3) * 16 + hex(4), hex(5) * 16 + hex(6)};
+}
+
+}  // namespace
+
+void validate(const FloatingParams& p) {
+  check_range("alpha_top", p.alpha_top, 0, 100);
+  check_range("beta_top", p.beta_top, -10, 10);
+  check_range("alpha_bottom", p.alpha_bottom, 0, 100);
+  check_range("beta_bottom", p.beta_bottom, -10, 10);
+  check_range("depth_stretch", p.depth_stretch, 0, 100, true);
+  check_range("metres_per_px", p.metres_per_px, 0, 1e4, true);
+  check_range("feature_m", p.feature_m, 0, 1e4);
+  check_range("feature_px", p.feature_px, 1, 1e4);
+  check_range("octaves", p.octaves, 1, 10);
+  check_range("simplify_px", p.simplify_px, 0, 16);
+  check_range("rim_m", p.rim_m, 0, 1e4, true);
+  check_range("min_area_px", p.min_area_px, 1, 1e8);
+  if (p.top_colours.empty()) throw Error("floating: top_colours is empty (give at least one #rrggbb)");
+  for (const auto* list : {&p.top_colours, &p.bottom_colours, &p.background_colours})
+    for (const auto& c : *list) parse_colour(c);
+}
+
+nlohmann::json to_json(const FloatingParams& p) { return params_json(p); }
+
+FloatingParams floating_params_from_json(const nlohmann::json& j, const std::string& origin) {
+  FloatingParams p = params_from_json<FloatingParams>(j, origin, "configs/floating/");
+  try {
+    validate(p);
+  } catch (const Error& e) {
+    throw Error(origin + ": " + e.what());
+  }
+  return p;
+}
+
+cv::Mat1b segment_painting(const cv::Mat& image, const FloatingParams& p, const std::string& origin) {
+  validate(p);
+  if (image.empty()) throw Error(origin + ": empty image");
+  cv::Mat img8;
+  if (image.depth() == CV_16U) image.convertTo(img8, CV_8U, 1.0 / 257);
+  else if (image.depth() == CV_8U) img8 = image;
+  else throw Error(origin + ": painting must be an 8- or 16-bit image");
+  cv::Mat bgra;
+  switch (img8.channels()) {
+    case 1: cv::cvtColor(img8, bgra, cv::COLOR_GRAY2BGRA); break;
+    case 3: cv::cvtColor(img8, bgra, cv::COLOR_BGR2BGRA); break;
+    case 4: bgra = img8; break;
+    default: throw Error(origin + ": painting must have 1, 3 or 4 channels");
+  }
+  struct Entry {
+    cv::Vec3i rgb;
+    uint8_t cls;
+  };
+  std::vector<Entry> palette;
+  for (const auto& c : p.top_colours) palette.push_back({parse_colour(c), kPaintTop});
+  for (const auto& c : p.bottom_colours) palette.push_back({parse_colour(c), kPaintBottom});
+  for (const auto& c : p.background_colours) palette.push_back({parse_colour(c), kPaintBackground});
+  cv::Mat1b out(bgra.size());
+  for (int r = 0; r < bgra.rows; ++r)
+    for (int c = 0; c < bgra.cols; ++c) {
+      const cv::Vec4b px = bgra.at<cv::Vec4b>(r, c);
+      uint8_t cls = kPaintBackground;
+      if (px[3] >= 128) {
+        const cv::Vec3d rgb(px[2], px[1], px[0]);
+        double best = std::numeric_limits<double>::max();
+        for (const auto& e : palette) {  // nearest palette colour; first listed wins ties
+          const double d = cv::norm(rgb - cv::Vec3d(e.rgb), cv::NORM_L2SQR);
+          if (d < best) best = d, cls = e.cls;
+        }
+        // Anti-aliased and soft-brush pixels are blends of two colours; a blend
+        // of brown and sky can be nearer to green than to either. So blends
+        // (points on the segment between two colours of different classes)
+        // count too, and go to the end they are nearer to.
+        for (size_t i = 0; i < palette.size(); ++i)
+          for (size_t j = i + 1; j < palette.size(); ++j) {
+            if (palette[i].cls == palette[j].cls) continue;
+            const cv::Vec3d a(palette[i].rgb), ab = cv::Vec3d(palette[j].rgb) - a;
+            const double len2 = ab.dot(ab);
+            if (len2 <= 0) continue;
+            const double t = std::clamp((rgb - a).dot(ab) / len2, 0.0, 1.0);
+            const double d = cv::norm(rgb - (a + t * ab), cv::NORM_L2SQR);
+            if (d < best) best = d, cls = t < 0.5 ? palette[i].cls : palette[j].cls;
+          }
+      }
+      out(r, c) = cls;
+    }
+  if (cv::countNonZero(out == kPaintTop) == 0)
+    throw Error(origin + ": no pixel is nearest to a top colour; paint the island's top in one of the top_colours");
+  size_t border = 0, border_top = 0;
+  for (int r = 0; r < out.rows; ++r)
+    for (int c = 0; c < out.cols; ++c)
+      if (r == 0 || c == 0 || r == out.rows - 1 || c == out.cols - 1) ++border, border_top += out(r, c) == kPaintTop;
+  if (2 * border_top > border)
+    throw Error(origin + ": the top colour covers most of the image border (a white canvas read as snow?); paint on a "
+                         "transparent or sky-blue background, or set background_colours / top_colours");
+  return out;
+}
+
+cv::Mat1f floating_features(cv::Size size, const FloatingParams& p, uint64_t seed) {
+  validate(p);
+  const GradientNoise2 noise(derive_seed(seed, 0, "floating-features"));
+  Rng rng(derive_seed(seed, 1, "floating-offset"));
+  const float ox = float(rng.uniform(0, 256)), oy = float(rng.uniform(0, 256));
+  cv::Mat1f h(size);
+  const float k = float(1.0 / p.feature_px);
+  for (int r = 0; r < size.height; ++r)
+    for (int c = 0; c < size.width; ++c)
+      h(r, c) = float(p.feature_m * 0.5 * (1.0 + noise.fbm(float(c) * k + ox, float(r) * k + oy, p.octaves)));
+  return h;
+}
+
+Basemaps floating_basemaps(const cv::Mat1b& blob, double mpp) {
+  Basemaps m{cv::Mat1f(blob.size(), 0.f), cv::Mat1f(blob.size(), 0.f), cv::Mat1f(blob.size(), 0.f)};
+  // Per row: the span [u_min, u_max] of the blob's pixel centres; the row's
+  // half-width σ reaches the pixels' outer edges (+0.5) so edge pixels keep B > 0.
+  std::vector<double> mu(size_t(blob.rows), 0), sigma(size_t(blob.rows), 0);
+  int v_min = -1, v_max = -1;
+  for (int r = 0; r < blob.rows; ++r) {
+    int lo = -1, hi = -1;
+    for (int c = 0; c < blob.cols; ++c)
+      if (blob(r, c)) {
+        if (lo < 0) lo = c;
+        hi = c;
+      }
+    if (lo < 0) continue;
+    if (v_min < 0) v_min = r;
+    v_max = r;
+    mu[size_t(r)] = (lo + hi) / 2.0;
+    sigma[size_t(r)] = (hi - lo) / 2.0 + 0.5;
+  }
+  if (v_min < 0) return m;
+  for (int r = v_min; r <= v_max; ++r) {
+    const double s = sigma[size_t(r)];
+    if (s <= 0) continue;  // a row with no blob pixel inside the blob's rows (concave in v)
+    const double t = v_max > v_min ? double(r - v_min) / (v_max - v_min) : 0.0;
+    // Distance from the row's right end to the straight axis joining the
+    // first and last rows' centres: tilts the rock's tip under bulges.
+    const double cb_m = std::max(0.0, (mu[size_t(r)] + s - ((1 - t) * mu[size_t(v_min)] + t * mu[size_t(v_max)])) * mpp);
+    for (int c = 0; c < blob.cols; ++c) {
+      const double x = std::abs(c - mu[size_t(r)]) / s;
+      if (x >= 1) continue;
+      const double b = std::sin(std::acos(x));
+      m.b(r, c) = float(b);
+      m.top_m(r, c) = float(s * mpp * b);
+      m.bottom_m(r, c) = float(cb_m * b);
+    }
+  }
+  return m;
+}
+
+namespace {
+
+// One blob → one closed shell appended to `out`. The silhouette is the zero
+// level of f = signed distance to the polygon + 0.5 px (the contour runs
+// through the boundary pixels' centres; the painted edge is half a pixel
+// further out), cut by marching squares on the pixel-centre grid: inside
+// corners and edge crossings make convex cell polygons (fanned), the
+// crossing-to-crossing segments are the rim, where a vertical strip joins the
+// top to the bottom.
+struct ShellStats {
+  double top_max_m, depth_m;
+};
+
+ShellStats add_shell(const std::vector<cv::Point>& poly, const cv::Rect& bbox, const cv::Mat1f& h0_m,
+                     double painted_depth_m, const FloatingParams& p, cv::Size canvas, Mesh& out, cv::Mat1f& top_canvas,
+                     cv::Mat1f& bottom_canvas) {
+  const int x0 = bbox.x - 2, y0 = bbox.y - 2, w = bbox.width + 4, h = bbox.height + 4;
+  const double mpp = p.metres_per_px;
+  std::vector<cv::Point> local(poly);
+  for (auto& q : local) q -= cv::Point(x0, y0);
+  cv::Mat1b blob(h, w, uchar(0));
+  cv::fillPoly(blob, std::vector<std::vector<cv::Point>>{local}, cv::Scalar(255));
+  const Basemaps bm = floating_basemaps(blob, mpp);
+
+  // Signed distance, exact only near the polygon: elsewhere only the sign
+  // matters (crossings need both ends of an edge, one of them within 1 px).
+  cv::Mat1f f(h, w);
+  {
+    cv::Mat1f d_in, d_out;
+    cv::distanceTransform(blob, d_in, cv::DIST_L2, 3);
+    cv::distanceTransform(255 - blob, d_out, cv::DIST_L2, 3);
+    std::vector<cv::Point2f> polyf(local.begin(), local.end());
+    for (int i = 0; i < h; ++i)
+      for (int j = 0; j < w; ++j) {
+        const float approx = blob(i, j) ? d_in(i, j) : -d_out(i, j);
+        float v = std::abs(approx) < 3.f ? float(cv::pointPolygonTest(polyf, cv::Point2f(float(j), float(i)), true))
+                                         : approx;
+        v += 0.5f;
+        // Keep crossings away from grid vertices: a crossing on a vertex
+        // would make zero-area triangles.
+        if (std::abs(v) < 0.05f) v = v < 0 ? -0.05f : 0.05f;
+        f(i, j) = v;
+      }
+  }
+
+  // Heights at every grid vertex (outside the blob too: crossings interpolate).
+  cv::Mat1f zt(h, w), zb(h, w);
+  double raw_min = 0;
+  for (int i = 0; i < h; ++i)
+    for (int j = 0; j < w; ++j) {
+      const int r = std::clamp(y0 + i, 0, h0_m.rows - 1), c = std::clamp(x0 + j, 0, h0_m.cols - 1);
+      const double h0 = h0_m(r, c);
+      zt(i, j) = float(p.alpha_top * (p.beta_top * bm.top_m(i, j) + (1 - p.beta_top) * h0));
+      zb(i, j) = float(p.depth_stretch * p.alpha_bottom * (p.beta_bottom * bm.bottom_m(i, j) + (1 - p.beta_bottom) * h0));
+      if (f(i, j) > 0) raw_min = std::min(raw_min, double(zb(i, j)));
+    }
+  // A painted rock depth rescales the bottom so its tip is that deep.
+  const double k = painted_depth_m > 0 && raw_min < 0 ? painted_depth_m / -raw_min : 1.0;
+  ShellStats st{-1e30, 0};
+  for (int i = 0; i < h; ++i)
+    for (int j = 0; j < w; ++j) {
+      zb(i, j) = std::min(float(zb(i, j) * k), float(zt(i, j) - p.rim_m));  // never thinner than the rim
+      if (f(i, j) > 0) {
+        st.top_max_m = std::max(st.top_max_m, double(zt(i, j)));
+        st.depth_m = std::max(st.depth_m, -double(zb(i, j)));
+        const int r = y0 + i, c = x0 + j;
+        if (r >= 0 && c >= 0 && r < canvas.height && c < canvas.width) {
+          top_canvas(r, c) = zt(i, j);
+          bottom_canvas(r, c) = zb(i, j);
+        }
+      }
+    }
+
+  auto X = [&](double j) { return float((x0 + j - (canvas.width - 1) / 2.0) * mpp); };
+  auto Z = [&](double i) { return float((y0 + i - (canvas.height - 1) / 2.0) * mpp); };
+  struct Pair {
+    uint32_t top, bot;
+  };
+  const uint32_t none = std::numeric_limits<uint32_t>::max();
+  std::vector<Pair> corner(size_t(w) * size_t(h), {none, none});
+  std::vector<Pair> hcross(size_t(w) * size_t(h), {none, none}), vcross(size_t(w) * size_t(h), {none, none});
+  auto add = [&](float x, float y, float z) {
+    out.positions.emplace_back(x, y, z);
+    return uint32_t(out.positions.size() - 1);
+  };
+  auto corner_of = [&](int i, int j) {
+    Pair& q = corner[size_t(i) * size_t(w) + size_t(j)];
+    if (q.top == none) q = {add(X(j), zt(i, j), Z(i)), add(X(j), zb(i, j), Z(i))};
+    return q;
+  };
+  // Crossing on the edge from grid vertex a to b (4-neighbours), shared by the two cells.
+  auto cross_of = [&](int ia, int ja, int ib, int jb) {
+    const bool horizontal = ia == ib;
+    const int i = std::min(ia, ib), j = std::min(ja, jb);
+    Pair& q = (horizontal ? hcross : vcross)[size_t(i) * size_t(w) + size_t(j)];
+    if (q.top == none) {
+      const float fa = f(ia, ja), fb = f(ib, jb), t = fa / (fa - fb);
+      auto lerp = [&](float a, float b) { return a + t * (b - a); };
+      const float x = lerp(X(ja), X(jb)), z = lerp(Z(ia), Z(ib));
+      q = {add(x, lerp(zt(ia, ja), zt(ib, jb)), z), add(x, lerp(zb(ia, ja), zb(ib, jb)), z)};
+    }
+    return q;
+  };
+  struct PolyVertex {
+    Pair v;
+    bool crossing;
+  };
+  std::vector<PolyVertex> cell;
+  for (int i = 0; i + 1 < h; ++i)
+    for (int j = 0; j + 1 < w; ++j) {
+      // Corners top-left, bottom-left, bottom-right, top-right: counter-clockwise seen from above.
+      const int ci[4] = {i, i + 1, i + 1, i}, cj[4] = {j, j, j + 1, j + 1};
+      cell.clear();
+      for (int k = 0; k < 4; ++k) {
+        const int n = (k + 1) % 4;
+        const bool in_k = f(ci[k], cj[k]) > 0, in_n = f(ci[n], cj[n]) > 0;
+        if (in_k) cell.push_back({corner_of(ci[k], cj[k]), false});
+        if (in_k != in_n) cell.push_back({cross_of(ci[k], cj[k], ci[n], cj[n]), true});
+      }
+      const size_t n = cell.size();
+      if (n < 3) continue;
+      for (size_t k = 1; k + 1 < n; ++k) {  // cell polygons are convex: a fan
+        out.triangles.push_back({cell[0].v.top, cell[k].v.top, cell[k + 1].v.top});
+        out.triangles.push_back({cell[0].v.bot, cell[k + 1].v.bot, cell[k].v.bot});  // bottom faces down
+      }
+      for (size_t k = 0; k < n; ++k) {  // crossing → crossing is the rim: the strip's quad, facing out
+        const PolyVertex &a = cell[k], &b = cell[(k + 1) % n];
+        if (!a.crossing || !b.crossing) continue;
+        out.triangles.push_back({a.v.top, a.v.bot, b.v.bot});
+        out.triangles.push_back({a.v.top, b.v.bot, b.v.top});
+      }
+    }
+  return st;
+}
+
+}  // namespace
+
+FloatingIsland floating_island(const cv::Mat1b& labels, const cv::Mat1f& h0_m, const FloatingParams& p) {
+  validate(p);
+  if (labels.empty() || labels.size() != h0_m.size())
+    throw Error("floating: the feature field must have the painting's size");
+  FloatingIsland isl;
+  isl.top_m = cv::Mat1f(labels.size(), std::numeric_limits<float>::quiet_NaN());
+  isl.bottom_m = isl.top_m.clone();
+  const cv::Mat1b top = labels == kPaintTop;
+  // Top blobs (8-connected, as contours are traced) and the painted rock that
+  // hangs from each: the bottom pixels in the same top∪bottom component.
+  cv::Mat1i blob_id, stats, union_id;
+  cv::Mat1d centroids;
+  const int blobs = cv::connectedComponentsWithStats(top, blob_id, stats, centroids, 8, CV_32S);
+  const cv::Mat1b painted = (labels == kPaintTop) | (labels == kPaintBottom);
+  const int unions = cv::connectedComponents(painted, union_id, 8, CV_32S);
+  std::vector<int> rock_bottom_row(size_t(unions), -1);
+  for (int r = 0; r < labels.rows; ++r)
+    for (int c = 0; c < labels.cols; ++c)
+      if (labels(r, c) == kPaintBottom) rock_bottom_row[size_t(union_id(r, c))] = r;  // rows ascend: the last is lowest
+  double top_max = -1e30;
+  for (int b = 1; b < blobs; ++b) {
+    if (stats(b, cv::CC_STAT_AREA) < p.min_area_px) continue;
+    const cv::Mat1b one = blob_id == b;
+    std::vector<std::vector<cv::Point>> contours;
+    cv::findContours(one, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+    if (contours.empty()) continue;
+    const auto& contour = *std::max_element(contours.begin(), contours.end(),
+                                            [](const auto& a, const auto& c) { return a.size() < c.size(); });
+    std::vector<cv::Point> poly;
+    if (p.simplify_px > 0) cv::approxPolyDP(contour, poly, p.simplify_px, true);
+    if (poly.size() < 3) poly = contour;
+    const cv::Rect bbox = cv::boundingRect(contour) | cv::boundingRect(poly);
+    const int lowest_top_row = bbox.y + bbox.height - 1;
+    const int rock_row = rock_bottom_row[size_t(union_id(contour[0].y, contour[0].x))];
+    const double painted_depth_m = rock_row > lowest_top_row ? (rock_row - lowest_top_row) * p.metres_per_px : 0.0;
+    const ShellStats st =
+        add_shell(poly, bbox, h0_m, painted_depth_m, p, labels.size(), isl.mesh, isl.top_m, isl.bottom_m);
+    top_max = std::max(top_max, st.top_max_m);
+    isl.depth_m = std::max(isl.depth_m, st.depth_m);
+    ++isl.islands;
+  }
+  if (isl.islands == 0)
+    throw Error("floating: no top blob has " + std::to_string(p.min_area_px) +
+                " pixels or more; paint a bigger top or lower min_area_px");
+  isl.top_max_m = top_max;
+  return isl;
+}
+
+cv::Mat1b mesh_silhouette(const Mesh& m, cv::Size canvas, double mpp) {
+  // Our own point-in-triangle at pixel centres (OpenCV's polygon fill rounds
+  // edges by up to a pixel, which is the size of what this measures).
+  cv::Mat1b out(canvas, uchar(0));
+  auto px = [&](const cv::Vec3f& v) {
+    return cv::Point2d(v[0] / mpp + (canvas.width - 1) / 2.0, v[2] / mpp + (canvas.height - 1) / 2.0);
+  };
+  for (const auto& t : m.triangles) {
+    const cv::Point2d a = px(m.positions[t[0]]), b = px(m.positions[t[1]]), c = px(m.positions[t[2]]);
+    const double area2 = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+    if (std::abs(area2) < 1e-9) continue;  // seen edge-on (the rim's strip)
+    const int x_lo = std::max(0, int(std::ceil(std::min({a.x, b.x, c.x}))));
+    const int x_hi = std::min(canvas.width - 1, int(std::floor(std::max({a.x, b.x, c.x}))));
+    const int y_lo = std::max(0, int(std::ceil(std::min({a.y, b.y, c.y}))));
+    const int y_hi = std::min(canvas.height - 1, int(std::floor(std::max({a.y, b.y, c.y}))));
+    auto edge = [](const cv::Point2d& p, const cv::Point2d& q, double x, double y) {
+      return (q.x - p.x) * (y - p.y) - (q.y - p.y) * (x - p.x);
+    };
+    const double sgn = area2 > 0 ? 1 : -1, eps = 1e-9 * std::abs(area2);
+    for (int y = y_lo; y <= y_hi; ++y)
+      for (int x = x_lo; x <= x_hi; ++x)
+        if (sgn * edge(a, b, x, y) >= -eps && sgn * edge(b, c, x, y) >= -eps && sgn * edge(c, a, x, y) >= -eps)
+          out(y, x) = 255;
+  }
+  return out;
+}
+
+double mask_iou(const cv::Mat1b& a, const cv::Mat1b& b) {
+  if (a.size() != b.size()) throw Error("mask_iou: masks differ in size");
+  const double inter = cv::countNonZero(a & b), uni = cv::countNonZero(a | b);
+  return uni > 0 ? inter / uni : 1.0;
+}
+
+cv::Mat3b render_mesh(const Mesh& m, int width_px, double yaw_deg, double pitch_deg) {
+  const int W = std::max(64, width_px), H = W * 3 / 4;
+  cv::Mat3b img(H, W);
+  for (int r = 0; r < H; ++r)  // sky gradient
+    img.row(r).setTo(cv::Vec3b(uchar(235 - 40 * r / H), uchar(215 - 30 * r / H), uchar(180 - 40 * r / H)));
+  if (m.triangles.empty()) return img;
+  const double yaw = yaw_deg * CV_PI / 180, pitch = pitch_deg * CV_PI / 180;
+  // Camera: rotate about +Y by yaw, then tilt about +X by pitch; orthographic.
+  std::vector<cv::Vec3d> q(m.positions.size());
+  cv::Vec2d lo(1e30, 1e30), hi(-1e30, -1e30);
+  for (size_t i = 0; i < q.size(); ++i) {
+    const cv::Vec3d v(m.positions[i]);
+    const double x1 = std::cos(yaw) * v[0] - std::sin(yaw) * v[2], z1 = std::sin(yaw) * v[0] + std::cos(yaw) * v[2];
+    const double y2 = std::cos(pitch) * v[1] - std::sin(pitch) * z1, z2 = std::sin(pitch) * v[1] + std::cos(pitch) * z1;
+    q[i] = {x1, -y2, z2};  // screen x right, screen y down, depth towards the viewer
+    lo = {std::min(lo[0], x1), std::min(lo[1], -y2)};
+    hi = {std::max(hi[0], x1), std::max(hi[1], -y2)};
+  }
+  const double s = 0.9 * std::min(W / std::max(1e-9, hi[0] - lo[0]), H / std::max(1e-9, hi[1] - lo[1]));
+  const cv::Vec2d off((W - s * (hi[0] - lo[0])) / 2 - s * lo[0], (H - s * (hi[1] - lo[1])) / 2 - s * lo[1]);
+  for (auto& v : q) v = {v[0] * s + off[0], v[1] * s + off[1], v[2]};
+  cv::Mat1d depth(H, W, -1e300);
+  const cv::Vec3d light = cv::normalize(cv::Vec3d(-0.4, 0.8, 0.45));
+  for (const auto& t : m.triangles) {
+    const cv::Vec3d a(m.positions[t[0]]), b(m.positions[t[1]]), c(m.positions[t[2]]);
+    cv::Vec3d n = (b - a).cross(c - a);
+    const double len = cv::norm(n);
+    if (len <= 0) continue;
+    n /= len;
+    const double shade = 0.35 + 0.65 * std::max(0.0, n.dot(light));
+    // Grass on faces looking up, rock elsewhere (BGR).
+    const cv::Vec3d base = n[1] > 0.5 ? cv::Vec3d(60, 150, 80) : cv::Vec3d(50, 85, 125);
+    const cv::Vec3d& A = q[t[0]];
+    const cv::Vec3d& B = q[t[1]];
+    const cv::Vec3d& C = q[t[2]];
+    const double den = (B[1] - C[1]) * (A[0] - C[0]) + (C[0] - B[0]) * (A[1] - C[1]);
+    if (std::abs(den) < 1e-12) continue;
+    const int x_lo = std::max(0, int(std::floor(std::min({A[0], B[0], C[0]}))));
+    const int x_hi = std::min(W - 1, int(std::ceil(std::max({A[0], B[0], C[0]}))));
+    const int y_lo = std::max(0, int(std::floor(std::min({A[1], B[1], C[1]}))));
+    const int y_hi = std::min(H - 1, int(std::ceil(std::max({A[1], B[1], C[1]}))));
+    for (int y = y_lo; y <= y_hi; ++y)
+      for (int x = x_lo; x <= x_hi; ++x) {
+        const double l0 = ((B[1] - C[1]) * (x - C[0]) + (C[0] - B[0]) * (y - C[1])) / den;
+        const double l1 = ((C[1] - A[1]) * (x - C[0]) + (A[0] - C[0]) * (y - C[1])) / den;
+        const double l2 = 1 - l0 - l1;
+        if (l0 < 0 || l1 < 0 || l2 < 0) continue;
+        const double d = l0 * A[2] + l1 * B[2] + l2 * C[2];
+        if (d <= depth(y, x)) continue;
+        depth(y, x) = d;
+        img(y, x) = cv::Vec3b(cv::saturate_cast<uchar>(base[0] * shade), cv::saturate_cast<uchar>(base[1] * shade),
+                              cv::saturate_cast<uchar>(base[2] * shade));
+      }
+  }
+  return img;
+}
+
+}  // namespace reefgen::procgen
