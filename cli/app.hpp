@@ -17,7 +17,8 @@
 
 namespace reefgen {
 
-const std::map<std::string, std::string>& builtin_presets();
+const std::map<std::string, std::string>& builtin_presets();           // configs/presets/*.json
+const std::map<std::string, std::string>& builtin_floating_presets();  // configs/floating/*.json
 
 struct GlobalOptions {
   bool quiet = false;
@@ -37,6 +38,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g);
 Command add_sketch_command(CLI::App& app, const GlobalOptions& g);
 Command add_terrain_command(CLI::App& app, const GlobalOptions& g);
 Command add_eval_command(CLI::App& app, const GlobalOptions& g);
+Command add_floating_command(CLI::App& app, const GlobalOptions& g);
 // `bench train` and `bench infer` under `bench`; returns their runner.
 std::function<int()> add_bench_model_commands(CLI::App* bench);
 

@@ -7,6 +7,7 @@
 
 #include "app.hpp"
 #include "reefgen/io.hpp"
+#include "reefgen/procgen/floating.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
 #include "reefgen/procgen/terrains.hpp"
@@ -74,6 +75,16 @@ Command add_bench_command(CLI::App& app, const GlobalOptions& g) {
             mp.size_px = a->size;
             for (int r = 0; r < a->reps; ++r) tw.push_back(time_ms([&] { (void)mapgen4_height(mp, uint64_t(r)); }));
             const double mapgen4 = median(tw);
+            // Floating island: the closed mesh of a W² field's land (a Wilbur
+            // island as the top, its relief as H₀), segmentation excluded.
+            tw.clear();
+            const cv::Mat1f land = cv::max(wilbur_height(wp, 1), 0.f);
+            const cv::Mat1b top = (land > 0) / 255 * kPaintTop;
+            FloatingParams fp;
+            size_t triangles = 0;
+            for (int r = 0; r < a->reps; ++r)
+              tw.push_back(time_ms([&] { triangles = floating_island(top, land, fp).mesh.triangles.size(); }));
+            const double floating = median(tw);
             Progress progress("bench", a->islands, g.quiet);
             const double wall = time_ms([&] {
               parallel_for(a->islands, a->threads, [&](size_t i) {
@@ -85,8 +96,10 @@ Command add_bench_command(CLI::App& app, const GlobalOptions& g) {
             std::printf(
                 "{\"bench\": \"generate\", \"size\": %d, \"strokes\": %d, \"reps\": %d,\n"
                 " \"ms_per_island_1thread\": %.3f, \"ms_no_detail_noise\": %.3f, \"ms_no_wind\": %.3f,\n"
-                " \"threads\": %d, \"islands_per_s\": %.1f, \"ms_wilbur_1thread\": %.3f, \"ms_mapgen4_1thread\": %.3f}\n",
-                a->size, a->strokes, a->reps, full, no_noise, no_wind, a->threads, a->islands / (wall / 1000.0), wilbur, mapgen4);
+                " \"threads\": %d, \"islands_per_s\": %.1f, \"ms_wilbur_1thread\": %.3f, \"ms_mapgen4_1thread\": %.3f,\n"
+                " \"ms_floating_mesh_1thread\": %.3f, \"floating_triangles\": %zu}\n",
+                a->size, a->strokes, a->reps, full, no_noise, no_wind, a->threads, a->islands / (wall / 1000.0), wilbur, mapgen4,
+                floating, triangles);
             return 0;
           }};
 }

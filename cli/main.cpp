@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
                "  reefgen train --data data/paper --out runs/paper\n"
                "  reefgen sketch random --seed 3 -o sketch.png\n"
                "  reefgen terrain mapgen4 --seed 2 -o out/m4 --preview\n"
+               "  reefgen floating --painting docs/examples/floating-painting.png -o out/floating.glb --preview out/floating.png\n"
                "  reefgen infer sketch.png -m runs/paper/generator.pt -o out/island --preview --r16\n"
                "  reefgen eval -m runs/paper/generator.pt --data data/paper --split test\n"
                "  reefgen bench generate\n"};
@@ -32,6 +33,7 @@ int main(int argc, char** argv) {
                                                   reefgen::add_infer_command(app, g),
                                                   reefgen::add_sketch_command(app, g),
                                                   reefgen::add_terrain_command(app, g),
+                                                  reefgen::add_floating_command(app, g),
                                                   reefgen::add_eval_command(app, g),
                                                   reefgen::add_bench_command(app, g)};
   try {

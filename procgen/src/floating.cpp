@@ -15,7 +15,7 @@ namespace reefgen::procgen {
 
 #define REEFGEN_FLOATING_FIELDS(X)                                                                            \
   X(alpha_top) X(beta_top) X(alpha_bottom) X(beta_bottom) X(depth_stretch) X(metres_per_px) X(feature_m)    \
-  X(feature_px) X(octaves) X(simplify_px) X(rim_m) X(min_area_px) X(top_colours) X(bottom_colours)           \
+  X(feature_px) X(octaves) X(simplify_px) X(smooth_px) X(rim_m) X(min_area_px) X(top_colours) X(bottom_colours)           \
   X(background_colours)
 
 template <class F>
@@ -57,6 +57,7 @@ void validate(const FloatingParams& p) {
   check_range("feature_px", p.feature_px, 1, 1e4);
   check_range("octaves", p.octaves, 1, 10);
   check_range("simplify_px", p.simplify_px, 0, 16);
+  check_range("smooth_px", p.smooth_px, 0, 64);
   check_range("rim_m", p.rim_m, 0, 1e4, true);
   check_range("min_area_px", p.min_area_px, 1, 1e8);
   if (p.top_colours.empty()) throw Error("floating: top_colours is empty (give at least one #rrggbb)");
@@ -213,7 +214,30 @@ ShellStats add_shell(const std::vector<cv::Point>& poly, const cv::Rect& bbox, c
   for (auto& q : local) q -= cv::Point(x0, y0);
   cv::Mat1b blob(h, w, uchar(0));
   cv::fillPoly(blob, std::vector<std::vector<cv::Point>>{local}, cv::Scalar(255));
-  const Basemaps bm = floating_basemaps(blob, mpp);
+  Basemaps bm = floating_basemaps(blob, mpp);
+  if (p.smooth_px > 0) {
+    // Normalised convolution inside the blob (the zeros outside do not leak
+    // in), then a quarter-circle taper over the last 3σ before the rim, so the
+    // basemaps still end at 0 on the silhouette as the formula's do.
+    cv::Mat1f weight, den, dist;
+    blob.convertTo(weight, CV_32F, 1.0 / 255);
+    cv::GaussianBlur(weight, den, cv::Size(0, 0), p.smooth_px, p.smooth_px, cv::BORDER_CONSTANT);
+    cv::distanceTransform(blob, dist, cv::DIST_L2, 3);
+    const double rho = 3 * p.smooth_px;
+    for (cv::Mat1f* m : {&bm.top_m, &bm.bottom_m}) {
+      cv::Mat1f num;
+      cv::GaussianBlur(m->mul(weight), num, cv::Size(0, 0), p.smooth_px, p.smooth_px, cv::BORDER_CONSTANT);
+      for (int i = 0; i < h; ++i)
+        for (int j = 0; j < w; ++j) {
+          if (!blob(i, j) || den(i, j) <= 1e-6f) {
+            (*m)(i, j) = 0.f;
+            continue;
+          }
+          const double u = 1 - std::min(1.0, (dist(i, j) - 0.5) / rho);  // 1 at the rim, 0 from ρ inwards
+          (*m)(i, j) = float(num(i, j) / den(i, j) * std::sqrt(std::max(0.0, 1 - u * u)));
+        }
+    }
+  }
 
   // Signed distance, exact only near the polygon: elsewhere only the sign
   // matters (crossings need both ends of an edge, one of them within 1 px).

@@ -12,6 +12,8 @@
 //   H_top = α_top(β_top·σB + (1−β_top)H₀), H_bottom = stretch·α_bottom(β_bottom·B' + (1−β_bottom)H₀),
 //     B scaled by σ (metres) on top so both terms are lengths: for a disc of
 //     radius R, σB and B' are both the hemisphere of radius R;
+//   the basemaps smoothed across rows (our addition: where a row's span jumps,
+//     at a bay or a lobe, the per-row formula makes walls and stripes);
 //   the bottom kept at least rim_m under the top; a middle strip joins the two rims.
 // Units: metres, +Y up, x = column, z = row, centred on the canvas.
 #include <cstdint>
@@ -36,6 +38,7 @@ struct FloatingParams {
   double feature_px = 48.0;     // size of the noise's largest features, pixels, [1, 1e4]
   int octaves = 5;              // noise octaves, [1, 10]
   double simplify_px = 1.0;     // Douglas–Peucker tolerance of the silhouette, pixels, [0, 16]
+  double smooth_px = 4.0;       // Gaussian σ smoothing the basemaps across rows (ours: per-row spans jump), [0, 64]
   double rim_m = 2.0;           // least thickness at the rim (the middle strip's height), (0, 1e4]
   int min_area_px = 16;         // painted top blobs smaller than this are ignored, [1, 1e8]
   // Palette: every pixel takes the class of the nearest of these colours
