@@ -113,6 +113,7 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
             if (sub->count("--metres-per-px")) p.metres_per_px = a->metres_per_px;
             procgen::validate(p);
             if (!a->painting.empty()) {
+              if (!fs::is_regular_file(a->painting)) throw Error(a->painting + ": no such file (check the path)");
               const cv::Mat img = cv::imread(a->painting, cv::IMREAD_UNCHANGED);
               if (img.empty()) throw Error(a->painting + ": cannot read the image (missing, or not PNG/JPEG/TIFF/BMP/WebP)");
               labels = procgen::segment_painting(img, p, a->painting);

@@ -143,6 +143,31 @@ expect_error "mapgen4 or wilbur" terrain perlin -o "$T/e/x"
 "$BIN" terrain wilbur --config "$(dirname "$0")/../configs/terrains/wilbur.json" --size 48 --seed 2 -o "$T/s/wc" >/dev/null && ok || bad "terrain --config"
 echo '{"octavs": 3}' > "$T/bad_terrain.json"
 expect_error "octavs" terrain wilbur --config "$T/bad_terrain.json" -o "$T/e/x"
+
+# 5b. Floating islands: painting → closed GLB + OBJ + sidecar + preview; a
+# height field's land; same seed, same bytes; the error paths.
+PAINT="$(dirname "$0")/../docs/examples/floating-painting.png"
+"$BIN" -q floating --painting "$PAINT" --seed 3 -o "$T/f/a.glb" -o "$T/f/a.obj" --preview "$T/f/a.png" > "$T/f.json" || bad "floating painting"
+[ "$(head -c4 "$T/f/a.glb")" = "glTF" ] && [ -s "$T/f/a.png" ] && grep -q '^f ' "$T/f/a.obj" && ok || bad "floating: files"
+grep -q '"closed_2_manifold": *true' "$T/f/a.json" && ok || bad "floating: sidecar"
+iou=$(grep -o '"silhouette_iou":[0-9.]*' "$T/f.json" | cut -d: -f2)
+awk -v v="$iou" 'BEGIN { exit !(v >= 0.95) }' && ok || bad "floating: silhouette IoU $iou < 0.95"
+"$BIN" -q floating --painting "$PAINT" --seed 3 -o "$T/f/b.glb" >/dev/null && cmp -s "$T/f/a.glb" "$T/f/b.glb" && ok || bad "floating: not deterministic"
+"$BIN" -q floating --painting "$PAINT" --seed 4 -o "$T/f/c.glb" >/dev/null && ! cmp -s "$T/f/a.glb" "$T/f/c.glb" && ok || bad "floating: seed has no effect"
+for pr in $("$BIN" floating --presets); do
+  "$BIN" -q floating --painting "$PAINT" --preset "$pr" -o "$T/f/$pr.glb" >/dev/null || bad "floating preset $pr"
+done
+[ "$("$BIN" floating --presets | wc -l)" -ge 4 ] && ok || bad "floating: fewer than 4 presets"
+"$BIN" -q floating --height "$T/s/m4t.height.exr" -o "$T/f/m4.glb" >/dev/null && grep -q '"preset": *"terrain-top"' "$T/f/m4.json" && ok || bad "floating --height"
+"$BIN" -q floating --painting "$PAINT" --height "$T/s/m4t.height.exr" -o "$T/f/pm.obj" >/dev/null && ok || bad "floating painting + height"
+{ printf 'P6\n16 16\n255\n'; head -c 768 /dev/zero | tr '\0' '\377'; } > "$T/white.ppm"
+expect_error "white.ppm: the top colour covers most of the image border" floating --painting "$T/white.ppm" -o "$T/e/x.glb"
+expect_error "nope.png: no such file" floating --painting "$T/nope.png" -o "$T/e/x.glb"
+expect_error "must end in .glb or .obj" floating --painting "$PAINT" -o "$T/e/x.stl"
+expect_error "use one of default" floating --painting "$PAINT" --preset cliffy -o "$T/e/x.glb"
+echo '{"alpha_top": 0.2, "rim": 3}' > "$T/bad_floating.json"
+expect_error 'unknown key "rim"' floating --painting "$PAINT" --config "$T/bad_floating.json" -o "$T/e/x.glb"
+expect_error "metres_per_px" floating --height "$T/s/m4t.height.exr" --metres-per-px 0 -o "$T/e/x.glb"
 "$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/one" --png16 --r16 --mesh glb --preview > "$T/out" || bad "infer"
 for f in height.exr height.png r16 glb preview.png json; do [ -s "$T/i/one.$f" ] || bad "infer: no one.$f"; done
 [ "$(stat -c %s "$T/i/one.r16")" = $((48*48*2)) ] && ok || bad "r16 size"

@@ -1,6 +1,7 @@
 // Floating islands from a painting: segmentation, basemaps, closed meshes,
 // silhouettes, exports read back; and the mesh inspection itself.
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "reefgen/mesh.hpp"
@@ -268,4 +269,47 @@ TEST(Floating, ParamsJsonRoundTripAndErrors) {
   cv::Mat1b speck(16, 16, uchar(0));
   speck(cv::Rect(5, 5, 3, 3)) = kPaintTop;
   expect_error_naming([&] { floating_island(speck, cv::Mat1f(16, 16, 0.f), {}); }, "lower min_area_px");
+}
+
+TEST(Floating, PresetsAreSerialisedParamsAndAllClose) {
+  const fs::path dir = fs::path(REEFGEN_SOURCE_DIR) / "configs" / "floating";
+  EXPECT_EQ(read_json(dir / "default.json"), to_json(FloatingParams{})) << "default.json must be the defaults serialised";
+  const cv::Mat img = cv::imread((fs::path(REEFGEN_SOURCE_DIR) / "docs/examples/floating-painting.png").string());
+  ASSERT_FALSE(img.empty());
+  int n = 0;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    const FloatingParams p = floating_params_from_json(read_json(e.path()), e.path().string());
+    EXPECT_EQ(to_json(p), read_json(e.path())) << e.path() << " must list every field";
+    const cv::Mat1b lab = segment_painting(img, p, "example");
+    const FloatingIsland isl = floating_island(lab, floating_features(lab.size(), p, 1), p);
+    SCOPED_TRACE(e.path().string());
+    expect_closed(isl.mesh);
+    EXPECT_GE(mask_iou(mesh_silhouette(isl.mesh, lab.size(), p.metres_per_px), lab == kPaintTop), 0.95);
+    ++n;
+  }
+  EXPECT_GE(n, 4);
+}
+
+TEST(Floating, SmoothingRemovesRowSteps) {
+  // A blob whose row spans jump (a lobe): without smoothing, the bottom steps
+  // between rows; smoothed, the largest row-to-row step is much smaller.
+  cv::Mat1b lab(96, 96, uchar(0));
+  cv::rectangle(lab, {20, 10}, {50, 80}, cv::Scalar(kPaintTop), cv::FILLED);
+  cv::rectangle(lab, {20, 40}, {80, 55}, cv::Scalar(kPaintTop), cv::FILLED);
+  auto max_step = [&](double smooth) {
+    FloatingParams p;
+    p.smooth_px = smooth;
+    p.feature_m = 0;
+    const FloatingIsland isl = floating_island(lab, cv::Mat1f(lab.size(), 0.f), p);
+    expect_closed(isl.mesh);
+    double m = 0;
+    for (int r = 5; r + 1 < 90; ++r)
+      for (int c = 25; c <= 45; ++c)
+        if (!std::isnan(isl.bottom_m(r, c)) && !std::isnan(isl.bottom_m(r + 1, c)))
+          m = std::max(m, double(std::abs(isl.bottom_m(r + 1, c) - isl.bottom_m(r, c))));
+    return m;
+  };
+  const double raw = max_step(0), smooth = max_step(4);
+  EXPECT_GT(raw, 10.0);
+  EXPECT_LT(smooth, raw / 3);
 }
