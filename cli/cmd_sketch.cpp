@@ -18,9 +18,10 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
       "  reefgen sketch random --seed 3 -o sketch.png          # thresholded noise (Figure 17)\n"
       "  reefgen sketch --from wilbur --seed 2 -o wilbur.png    # a Wilbur-style island, cut into height bands\n"
       "  reefgen sketch --from mapgen4 --seed 2 -o m4.png       # a mapgen4-style island\n"
+      "  reefgen sketch --from wilbur --config configs/terrains/wilbur-highlands.json -o hl.png\n"
       "  reefgen sketch --from out/atoll.height.exr -o atoll.png --subsidence 0.6\n");
   struct FromArgs {
-    std::string from, out;
+    std::string from, out, config;
     uint64_t seed = 1;
     int size = 256;
     double subsidence = 0.0;
@@ -29,6 +30,7 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
   auto f = std::make_shared<FromArgs>();
   sub->add_option("--from", f->from, "mapgen4, wilbur, noise, or a height EXR (metres): its land/water and depth/elevation bands become the five regions");
   sub->add_option("-o,--output", f->out, "PNG file (with --from)");
+  sub->add_option("--config", f->config, "Terrain params JSON for --from mapgen4|wilbur (configs/terrains/KIND*.json)");
   sub->add_option("--seed", f->seed, "Seed (wilbur, noise)")->capture_default_str();
   sub->add_option("--size", f->size, "W (wilbur, noise)")->capture_default_str();
   sub->add_option("--subsidence", f->subsidence, "λ in [0, 1] written in the value channel")->capture_default_str();
@@ -57,13 +59,20 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
   rnd->add_option("--islands", a->p.islands, "Islands per sketch [1, 16]")->capture_default_str();
   rnd->add_option("--subsidence", a->p.subsidence, "λ in [0, 1] (darker colours); -1 = random per island")->capture_default_str();
   rnd->add_option("--roughness", a->p.roughness, "Outline noise amplitude [0, 1]")->capture_default_str();
-  return {sub, [a, f, rnd]() -> int {
+  return {sub, [a, f, rnd, sub]() -> int {
             if (!rnd->parsed()) {
               if (f->from.empty() || f->out.empty())
                 throw Error("sketch: use `reefgen sketch random -o FILE` or `reefgen sketch --from mapgen4|wilbur|noise|H.exr -o FILE`");
               procgen::Sketch s;
+              const bool terrain = f->from == "mapgen4" || f->from == "wilbur";
+              if (!f->config.empty() && !terrain)
+                throw Error("--config " + f->config + ": applies to --from mapgen4 or wilbur only");
               try {
-                if (f->from == "mapgen4" || f->from == "wilbur") {
+                if (terrain && !f->config.empty()) {
+                  s = procgen::height_to_sketch(procgen::configured_terrain(f->from, read_json(f->config), f->config,
+                                                                            sub->count("--size") ? f->size : 0, f->seed),
+                                                f->subsidence, f->bands);
+                } else if (terrain) {
                   s = procgen::height_to_sketch(procgen::named_terrain(f->from, f->size, f->seed), f->subsidence, f->bands);
                 } else if (f->from == "noise") {
                   procgen::SketchParams sp;

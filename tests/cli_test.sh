@@ -143,6 +143,9 @@ expect_error "mapgen4 or wilbur" terrain perlin -o "$T/e/x"
 "$BIN" terrain wilbur --config "$(dirname "$0")/../configs/terrains/wilbur.json" --size 48 --seed 2 -o "$T/s/wc" >/dev/null && ok || bad "terrain --config"
 echo '{"octavs": 3}' > "$T/bad_terrain.json"
 expect_error "octavs" terrain wilbur --config "$T/bad_terrain.json" -o "$T/e/x"
+"$BIN" sketch --from wilbur --config "$(dirname "$0")/../configs/terrains/wilbur-highlands.json" --size 48 -o "$T/s/hl.png" >/dev/null && [ -s "$T/s/hl.png" ] && ok || bad "sketch --from wilbur --config"
+expect_error "octavs" sketch --from wilbur --config "$T/bad_terrain.json" -o "$T/e/x.png"
+expect_error "applies to --from mapgen4 or wilbur" sketch --from noise --config "$T/bad_terrain.json" -o "$T/e/x.png"
 
 # 5b. Floating islands: painting → closed GLB + OBJ + sidecar + preview; a
 # height field's land; same seed, same bytes; the error paths.

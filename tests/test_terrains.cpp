@@ -112,3 +112,18 @@ TEST(TerrainParams, JsonConfigsRoundTripAndErrors) {
   EXPECT_THROW(configured_terrain("mapgen4", {{"spacing", "wide"}}, "cfg.json", 48, 3), Error);
   EXPECT_THROW(configured_terrain("perlin", nlohmann::json::object(), "cfg.json", 48, 3), Error);
 }
+
+TEST(TerrainParams, EveryShippedConfigMakesAnIsland) {
+  // configs/terrains/KIND[-variant].json: the kind is the name's first word.
+  int n = 0;
+  for (const auto& e : fs::directory_iterator(std::string(REEFGEN_SOURCE_DIR) + "/configs/terrains")) {
+    const std::string name = e.path().stem().string(), kind = name.substr(0, name.find('-'));
+    const cv::Mat1f h = configured_terrain(kind, read_json(e.path()), e.path().string(), 64, 5);
+    double lo, hi;
+    cv::minMaxLoc(h, &lo, &hi);
+    EXPECT_GT(hi, 0.0) << name << ": no land";
+    EXPECT_LT(lo, 0.0) << name << ": no sea";
+    ++n;
+  }
+  EXPECT_GE(n, 6);
+}

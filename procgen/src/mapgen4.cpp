@@ -58,6 +58,9 @@ cv::Mat1f mapgen4_height(const Mapgen4Params& p, uint64_t seed) {
   if (!(p.k_fbm >= 0 && p.k_fbm <= 4 && p.k_d >= 0 && p.k_d <= 4)) throw std::invalid_argument("mapgen4: k_fbm, k_d must be in [0, 4]");
   if (!(p.frequency > 0 && p.frequency <= 64)) throw std::invalid_argument("mapgen4: frequency must be in (0, 64]");
   if (!(p.peak_m > 0 && p.depth_m > 0)) throw std::invalid_argument("mapgen4: peak_m and depth_m must be > 0");
+  if (p.falloff != "chebyshev" && p.falloff != "euclidean")
+    throw std::invalid_argument("mapgen4: falloff \"" + p.falloff + "\" must be chebyshev or euclidean");
+  const bool round_falloff = p.falloff == "euclidean";
 
   std::vector<cv::Point2d> pts = poisson_disk(p.spacing, seed);
   // Boundary rings (on the edge and one spacing outside) so that the
@@ -74,7 +77,8 @@ cv::Mat1f mapgen4_height(const Mapgen4Params& p, uint64_t seed) {
   const GradientNoise2 fbm(derive_seed(seed, 2, "mapgen4-fbm")), n1(derive_seed(seed, 3, "ridge1")),
       n2(derive_seed(seed, 4, "ridge2"));
   auto elevation = [&](double x, double y) {
-    const double d = std::max(std::abs(x), std::abs(y));
+    // Chebyshev distance (the recipe's) gives squarish coasts; Euclidean, round ones.
+    const double d = round_falloff ? std::hypot(x, y) : std::max(std::abs(x), std::abs(y));
     double e = (p.k_fbm * fbm.fbm(float(x * p.frequency), float(y * p.frequency), 5) + p.k_d * (0.75 - 2 * d * d)) / 2;
     // Ridges near the peak seeds: R = n1 + n2 (lower frequency twice), r = max(0, 1-|R|).
     double near = 0;

@@ -78,7 +78,7 @@ cv::Mat1f named_terrain(const std::string& kind, int size_px, uint64_t seed) {
 
 #define REEFGEN_WILBUR_FIELDS(X) X(size_px) X(octaves) X(frequency) X(exponent) X(peak_m) X(depth_m)
 #define REEFGEN_MAPGEN4_FIELDS(X) \
-  X(size_px) X(spacing) X(mountain_spacing) X(k_fbm) X(k_d) X(frequency) X(peak_m) X(depth_m)
+  X(size_px) X(spacing) X(mountain_spacing) X(k_fbm) X(k_d) X(frequency) X(peak_m) X(depth_m) X(falloff)
 
 // Field walks for params_json.hpp.
 template <class F>

@@ -58,6 +58,7 @@ struct Mapgen4Params {
   double frequency = 2.0;         // fBm features per canvas half-width, (0, 64]
   double peak_m = 500.0;          // height of e = 1, (0, 1e4]
   double depth_m = 100.0;         // ocean floor depth, (0, 1e4]
+  std::string falloff = "chebyshev";  // distance d of the falloff: "chebyshev" (square coasts) or "euclidean" (round)
 };
 cv::Mat1f mapgen4_height(const Mapgen4Params& p, uint64_t seed);
 
