@@ -12,6 +12,12 @@ for p in $($BIN presets | awk '{print $1}'); do
   $BIN generate --preset "$p" -o "out/presets/$p" --preview >/dev/null
 done
 $BIN -q generate --random 4 --seed 1 --levels 3 --preview --out out/random >/dev/null
+# The other island systems: mapgen4- and Wilbur-style terrains, a floating island.
+mkdir -p out/islands
+$BIN -q terrain mapgen4 --seed 2 -o out/islands/mapgen4 --preview >/dev/null
+$BIN -q terrain wilbur --seed 5 -o out/islands/wilbur --preview >/dev/null
+$BIN -q floating --painting docs/examples/floating-painting.png -o out/islands/floating.glb \
+  -o out/islands/floating.obj --preview out/islands/floating.png >/dev/null
 
 # Pipeline in miniature (~1 min): 128 pairs, 150 steps of a small pix2pix.
 rm -rf out/pipeline
@@ -27,5 +33,6 @@ echo "  out/presets/NAME.preview.png   look at these first (presets: $($BIN pres
 echo "  out/presets/NAME.height.exr    heights in metres, channel Y, sea level 0"
 echo "  out/presets/NAME.label.png     HSV label map; NAME.json the sidecar"
 echo "  out/random/                    4 random islands at 3 subsidence levels each"
+echo "  out/islands/                   mapgen4- and Wilbur-style terrains; floating.{glb,obj,png} from docs/examples/floating-painting.png"
 echo "  out/pipeline/                  dataset -> 150-step training (run/log.csv, run/val/*.png)"
 echo "                                 -> sketch.png -> island.{height.exr,preview.png,glb,r16} (an untrained model: a demo of the plumbing)"
