@@ -14,8 +14,8 @@ namespace reefgen {
 
 namespace {
 
-// Metres per pixel a reefgen EXR states (generate writes metres_per_pixel,
-// infer metres_per_px); 0 when it states none.
+// Metres per pixel a reefgen EXR states (metres_per_px: what infer wrote
+// before 2026-11-23); 0 when it states none.
 double exr_metres_per_px(const ExrAttributes& attrs) {
   for (const char* key : {"reefgen:metres_per_pixel", "reefgen:metres_per_px"}) {
     const auto it = attrs.find(key);

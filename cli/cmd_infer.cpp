@@ -147,7 +147,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                   side["files"][kind] = p.filename().string();
                 };
                 const fs::path exr = prefix.string() + ".height.exr";
-                write_exr_height(exr, h, {{"reefgen:version", kVersion}, {"reefgen:metres_per_px", std::to_string(mpp)}});
+                write_exr_height(exr, h, {{"reefgen:version", kVersion}, {"reefgen:metres_per_pixel", std::to_string(mpp)}});
                 add("height_exr", exr);
                 if (a->png16) {
                   const fs::path p = prefix.string() + ".height.png";

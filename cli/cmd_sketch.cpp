@@ -150,7 +150,10 @@ Command add_terrain_command(CLI::App& app, const GlobalOptions&) {
             const fs::path prefix(a->out);
             if (prefix.has_parent_path()) ensure_writable_dir(prefix.parent_path());
             write_exr_height(prefix.string() + ".height.exr", h,
-                             {{"reefgen:generator", a->kind}, {"reefgen:seed", std::to_string(a->seed)}});
+                             {{"reefgen:generator", a->kind}, {"reefgen:seed", std::to_string(a->seed)},
+                              // reefgen's canvas convention (DESIGN: 6 km across), so that
+                              // `reefgen floating --height` and previews know the scale.
+                              {"reefgen:metres_per_pixel", std::to_string(6000.0 / h.cols)}});
             if (a->preview) write_png(prefix.string() + ".preview.png", render_preview(h));
             std::printf("%s.height.exr\n", prefix.c_str());
             return 0;
