@@ -126,7 +126,7 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
               labels = cv::Mat1b(terrain.size());
               for (int r = 0; r < terrain.rows; ++r)
                 for (int c = 0; c < terrain.cols; ++c) labels(r, c) = terrain(r, c) > 0 ? procgen::kPaintTop : procgen::kPaintBackground;
-              if (cv::countNonZero(labels) == 0) throw Error(a->height + ": no land (no height above 0 m) to float");
+              if (cv::countNonZero(labels) == 0) throw Error(a->height + ": no land (no height above 0 m) to float; use a terrain with land, or paint the outline (--painting)");
               h0 = cv::max(terrain, 0.f);
             }
             const std::string source = a->painting.empty() ? a->height : a->painting;

@@ -171,6 +171,7 @@ expect_error "use one of default" floating --painting "$PAINT" --preset cliffy -
 echo '{"alpha_top": 0.2, "rim": 3}' > "$T/bad_floating.json"
 expect_error 'unknown key "rim"' floating --painting "$PAINT" --config "$T/bad_floating.json" -o "$T/e/x.glb"
 expect_error "metres_per_px" floating --height "$T/s/m4t.height.exr" --metres-per-px 0 -o "$T/e/x.glb"
+expect_error "no land" floating --height "$T/p/atoll.height.exr" -o "$T/e/x.glb"   # the atoll preset is all below 0 m
 "$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/one" --png16 --r16 --mesh glb --preview > "$T/out" || bad "infer"
 for f in height.exr height.png r16 glb preview.png json; do [ -s "$T/i/one.$f" ] || bad "infer: no one.$f"; done
 [ "$(stat -c %s "$T/i/one.r16")" = $((48*48*2)) ] && ok || bad "r16 size"
