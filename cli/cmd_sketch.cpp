@@ -2,6 +2,7 @@
 #include <cstdio>
 
 #include "app.hpp"
+#include "reefgen/infer/export.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/preview.hpp"
@@ -122,15 +123,19 @@ Command add_terrain_command(CLI::App& app, const GlobalOptions&) {
       "Examples:\n"
       "  reefgen terrain mapgen4 --seed 2 -o out/m4 --preview\n"
       "  reefgen terrain wilbur --seed 5 --size 512 -o out/w5\n"
-      "  reefgen terrain wilbur --config configs/terrains/wilbur.json --seed 5 -o out/w5\n");
+      "  reefgen terrain wilbur --config configs/terrains/wilbur.json --seed 5 -o out/w5\n"
+      "  reefgen terrain mapgen4 --config configs/terrains/mapgen4-round.json -o out/m4r --mesh glb\n");
   struct Args {
     std::string kind, out, config;
     uint64_t seed = 1;
     int size = 256;
     bool preview = false;
+    std::string mesh;
   };
   auto a = std::make_shared<Args>();
   sub->add_option("kind", a->kind, "mapgen4 or wilbur")->required();
+  sub->add_option("--mesh", a->mesh, "Also a grid mesh: glb or obj (PREFIX.glb / PREFIX.obj; metres, +Y up)")
+      ->check(CLI::IsMember({"glb", "obj"}));
   sub->add_option("--config", a->config, "Params JSON (configs/terrains/KIND.json is the defaults serialised)");
   sub->add_option("-o,--output", a->out, "Output prefix: PREFIX.height.exr (+ PREFIX.preview.png)")->required();
   sub->add_option("--seed", a->seed, "Seed")->capture_default_str();
@@ -155,6 +160,12 @@ Command add_terrain_command(CLI::App& app, const GlobalOptions&) {
                               // `reefgen floating --height` and previews know the scale.
                               {"reefgen:metres_per_pixel", std::to_string(6000.0 / h.cols)}});
             if (a->preview) write_png(prefix.string() + ".preview.png", render_preview(h));
+            if (!a->mesh.empty()) {
+              const infer::MeshOptions mo{6000.0 / h.cols, 1.0};
+              const std::string path = prefix.string() + "." + a->mesh;
+              if (a->mesh == "glb") infer::write_glb(path, h, mo);
+              else infer::write_obj(path, h, mo);
+            }
             std::printf("%s.height.exr\n", prefix.c_str());
             return 0;
           }};

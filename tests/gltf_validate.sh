@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Khronos' glTF validator (npm gltf-validator, pinned) on GLB files reefgen
-# writes: zero errors and zero warnings. Skipped (exit 77) where Node.js/npm
+# writes (floating islands, and a height-field grid mesh as infer writes it): zero errors and zero warnings. Skipped (exit 77) where Node.js/npm
 # or the npm registry are not available, saying so.
 set -u
 BIN="$1"; CACHE="$2"
@@ -14,7 +14,7 @@ T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
 PAINT="$(dirname "$0")/../docs/examples/floating-painting.png"
 "$BIN" -q floating --painting "$PAINT" -o "$T/default.glb" >/dev/null || { echo "FAIL: floating"; exit 1; }
 "$BIN" -q floating --painting "$PAINT" --preset spire -o "$T/spire.glb" >/dev/null || { echo "FAIL: floating spire"; exit 1; }
-"$BIN" -q terrain wilbur --seed 2 --size 64 -o "$T/w" >/dev/null && "$BIN" -q floating --height "$T/w.height.exr" -o "$T/terrain.glb" >/dev/null ||
+"$BIN" -q terrain wilbur --seed 2 --size 64 -o "$T/w" --mesh glb >/dev/null && "$BIN" -q floating --height "$T/w.height.exr" -o "$T/terrain.glb" >/dev/null ||
   { echo "FAIL: floating --height"; exit 1; }
 cat > "$T/validate.js" <<'JS'
 const v = require(process.argv[2] + '/node_modules/gltf-validator');
