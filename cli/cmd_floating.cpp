@@ -49,6 +49,7 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
     std::vector<std::string> out;
     uint64_t seed = 1;
     double metres_per_px = 0, depth_stretch = 0, simplify_px = -1;
+    int max_size = 0;
     bool list = false;
   };
   auto a = std::make_shared<Args>();
@@ -61,6 +62,9 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--metres-per-px", a->metres_per_px, "Ground size of a pixel (overrides the params / the EXR's own)");
   sub->add_option("--depth-stretch", a->depth_stretch, "Multiplies the bottom (overrides the params)");
   sub->add_option("--simplify", a->simplify_px, "Silhouette polygon tolerance, px (overrides the params)");
+  sub->add_option("--max-size", a->max_size,
+                  "Mesh at most this many pixels on the long side (the painting is shrunk, its ground size kept; "
+                  "a 2048² painting makes ~4 M triangles); 0 = as painted")->capture_default_str();
   sub->add_option("--preview", a->preview, "Also a shaded oblique view (PNG)");
   sub->add_flag("--presets", a->list, "List the built-in presets and exit");
   return {sub, [a, sub, &g]() -> int {
@@ -114,8 +118,21 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
             procgen::validate(p);
             if (!a->painting.empty()) {
               if (!fs::is_regular_file(a->painting)) throw Error(a->painting + ": no such file (check the path)");
-              const cv::Mat img = cv::imread(a->painting, cv::IMREAD_UNCHANGED);
+              cv::Mat img = cv::imread(a->painting, cv::IMREAD_UNCHANGED);
               if (img.empty()) throw Error(a->painting + ": cannot read the image (missing, or not PNG/JPEG/TIFF/BMP/WebP)");
+              if (a->max_size < 0) throw Error("--max-size must be ≥ 0");
+              const int long_side = std::max(img.cols, img.rows);
+              if (a->max_size > 0 && long_side > a->max_size) {
+                // Shrink with area averaging (edges become blends, which the
+                // segmentation assigns); pixels get bigger, the island keeps its size.
+                const double k = double(a->max_size) / long_side;
+                cv::Mat small;
+                cv::resize(img, small, cv::Size(std::max(1, int(std::lround(img.cols * k))), std::max(1, int(std::lround(img.rows * k)))), 0, 0, cv::INTER_AREA);
+                p.metres_per_px *= double(img.cols) / small.cols;
+                p.feature_px = std::max(1.0, p.feature_px * small.cols / double(img.cols));
+                p.smooth_px *= double(small.cols) / img.cols;
+                img = small;
+              }
               labels = procgen::segment_painting(img, p, a->painting);
               if (terrain.empty()) {
                 h0 = procgen::floating_features(labels.size(), p, a->seed);

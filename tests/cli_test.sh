@@ -163,6 +163,10 @@ done
 [ "$("$BIN" floating --presets | wc -l)" -ge 4 ] && ok || bad "floating: fewer than 4 presets"
 "$BIN" -q floating --height "$T/s/m4t.height.exr" -o "$T/f/m4.glb" >/dev/null && grep -q '"preset": *"terrain-top"' "$T/f/m4.json" && ok || bad "floating --height"
 "$BIN" -q floating --painting "$PAINT" --height "$T/s/m4t.height.exr" -o "$T/f/pm.obj" >/dev/null && ok || bad "floating painting + height"
+# --max-size shrinks the painting but keeps the island's size: the painted rock depth stays (81 m at 1 m/px).
+"$BIN" -q floating --painting "$PAINT" --max-size 128 -o "$T/f/small.glb" > "$T/small.json" || bad "floating --max-size"
+d=$(grep -o '"depth_m":[0-9.]*' "$T/small.json" | cut -d: -f2)
+awk -v v="$d" 'BEGIN { exit !(v > 78 && v < 84) }' && ok || bad "floating --max-size: depth $d, expected ~81 m"
 { printf 'P6\n16 16\n255\n'; head -c 768 /dev/zero | tr '\0' '\377'; } > "$T/white.ppm"
 expect_error "white.ppm: the top colour covers most of the image border" floating --painting "$T/white.ppm" -o "$T/e/x.glb"
 expect_error "nope.png: no such file" floating --painting "$T/nope.png" -o "$T/e/x.glb"
