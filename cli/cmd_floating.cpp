@@ -106,10 +106,9 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
             if (!a->height.empty()) {
               ExrAttributes attrs;
               terrain = read_exr_height(a->height, &attrs);
-              if (!a->painting.empty() || !sub->count("--metres-per-px")) {
+              if (a->painting.empty()) {  // the terrain is the canvas: its pixel size, or reefgen's 6 km across
                 const double mpp = exr_metres_per_px(attrs);
-                // Without a stated size, reefgen's canvas convention: 6 km across.
-                if (a->painting.empty()) p.metres_per_px = mpp > 0 ? mpp : 6000.0 / terrain.cols;
+                p.metres_per_px = mpp > 0 ? mpp : 6000.0 / terrain.cols;
               }
               for (const float v : terrain)
                 if (!std::isfinite(v)) throw Error(a->height + ": height field holds NaN or infinity; regenerate it");
