@@ -20,7 +20,7 @@ TEST(Wilbur, GoldenValuesAndDeterminism) {
   WilburParams p;
   p.size_px = 64;
   const cv::Mat1f h = wilbur_height(p, 1);
-  // Golden values (seed 1, 64 px, defaults): a change in the recipe shows here.
+  // Golden values (seed 1, 64 px, defaults; dual mesh with centroid Voronoi vertices since 2026-11-23). a change in the recipe shows here.
   EXPECT_EQ(land_pixels(h), 1589);
   EXPECT_NEAR(h(32, 32), 14.760653, 1e-3);
   EXPECT_NEAR(h(10, 50), -46.610176, 1e-3);
@@ -67,10 +67,10 @@ TEST(Mapgen4, GoldenValuesAndDeterminism) {
   Mapgen4Params p;
   p.size_px = 64;
   const cv::Mat1f h = mapgen4_height(p, 1);
-  // Golden values (seed 1, 64 px, defaults).
-  EXPECT_EQ(land_pixels(h), 1511);
-  EXPECT_NEAR(h(32, 32), 200.374603, 1e-2);
-  EXPECT_NEAR(h(10, 50), 4.541908, 1e-2);
+  // Golden values (seed 1, 64 px, defaults; dual mesh with centroid Voronoi vertices since 2026-11-23).
+  EXPECT_EQ(land_pixels(h), 1493);
+  EXPECT_NEAR(h(32, 32), 207.122208, 1e-2);
+  EXPECT_NEAR(h(10, 50), 11.373843, 1e-2);
   EXPECT_EQ(h(0, 0), -100.0f);
   EXPECT_EQ(cv::norm(h, mapgen4_height(p, 1), cv::NORM_INF), 0.0);
   EXPECT_GT(cv::norm(h, mapgen4_height(p, 2), cv::NORM_INF), 0.0);

@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <map>
 #include <cmath>
 #include <stdexcept>
 #include <vector>
@@ -99,16 +100,54 @@ cv::Mat1f mapgen4_height(const Mapgen4Params& p, uint64_t seed) {
   std::vector<cv::Vec6f> tris;
   dt.getTriangleList(tris);
 
-  cv::Mat1f e_px(W, W, std::numeric_limits<float>::quiet_NaN());
+  // mapgen4's dual mesh: each Delaunay triangle t has its Voronoi vertex at
+  // its centroid g_t (not the circumcentre: centroids keep cells well shaped
+  // near the boundary), elevation e_t = e(g_t); each point r (a Voronoi
+  // cell) takes the mean of its triangles' elevations. Drawn as mapgen4
+  // draws it: for every Delaunay edge (a, b) between triangles t and t′, the
+  // two triangles (a, g_t, g_t′) and (b, g_t′, g_t), so the facets follow the
+  // cells' edges (g_t–g_t′), which is where mapgen4's look comes from.
+  std::map<std::pair<float, float>, int> index_of;
+  std::vector<cv::Point2f> site;
+  for (const auto& q : pts) {
+    const cv::Point2f v = to_px(q);
+    if (index_of.emplace(std::make_pair(v.x, v.y), int(site.size())).second) site.push_back(v);
+  }
+  struct Tri {
+    int v[3];
+    cv::Point2f g;
+    double e;
+  };
+  std::vector<Tri> tri;
   for (const auto& t : tris) {
-    const cv::Point2f a(t[0], t[1]), b(t[2], t[3]), c(t[4], t[5]);
-    bool outer = false;  // triangles touching Subdiv2D's virtual outer vertices
-    for (const auto& v : {a, b, c}) outer |= v.x < -margin * 0.9f || v.y < -margin * 0.9f || v.x > W + margin * 0.9f || v.y > W + margin * 0.9f;
-    if (outer) continue;
-    auto elev = [&](const cv::Point2f& v) { return elevation(v.x / W * 2.0 - 1, 1 - v.y / W * 2.0); };
-    const double ea = elev(a), eb = elev(b), ec = elev(c);
+    Tri x{};
+    bool ok = true;  // skips triangles touching Subdiv2D's virtual outer vertices
+    for (int k = 0; k < 3; ++k) {
+      const auto it = index_of.find({t[2 * k], t[2 * k + 1]});
+      if (it == index_of.end()) ok = false;
+      else x.v[k] = it->second;
+    }
+    if (!ok) continue;
+    x.g = (site[size_t(x.v[0])] + site[size_t(x.v[1])] + site[size_t(x.v[2])]) / 3.f;
+    x.e = elevation(x.g.x / W * 2.0 - 1, 1 - x.g.y / W * 2.0);
+    tri.push_back(x);
+  }
+  std::vector<double> e_sum(site.size(), 0.0);
+  std::vector<int> e_n(site.size(), 0);
+  std::map<std::pair<int, int>, std::vector<int>> edge_tris;  // Delaunay edge → its one or two triangles
+  for (int i = 0; i < int(tri.size()); ++i)
+    for (int k = 0; k < 3; ++k) {
+      const int a = tri[size_t(i)].v[k], b = tri[size_t(i)].v[(k + 1) % 3];
+      e_sum[size_t(a)] += tri[size_t(i)].e;
+      ++e_n[size_t(a)];
+      edge_tris[{std::min(a, b), std::max(a, b)}].push_back(i);
+    }
+  auto e_site = [&](int r) { return e_n[size_t(r)] ? e_sum[size_t(r)] / e_n[size_t(r)] : 0.0; };
+
+  cv::Mat1f e_px(W, W, std::numeric_limits<float>::quiet_NaN());
+  auto fill = [&](cv::Point2f a, double ea, cv::Point2f b, double eb, cv::Point2f c, double ec) {
     const double den = double(b.y - c.y) * (a.x - c.x) + double(c.x - b.x) * (a.y - c.y);
-    if (std::abs(den) < 1e-12) continue;
+    if (std::abs(den) < 1e-12) return;
     const int x0 = std::max(0, int(std::floor(std::min({a.x, b.x, c.x})))), x1 = std::min(W - 1, int(std::ceil(std::max({a.x, b.x, c.x}))));
     const int y0 = std::max(0, int(std::floor(std::min({a.y, b.y, c.y})))), y1 = std::min(W - 1, int(std::ceil(std::max({a.y, b.y, c.y}))));
     for (int y = y0; y <= y1; ++y)
@@ -120,6 +159,18 @@ cv::Mat1f mapgen4_height(const Mapgen4Params& p, uint64_t seed) {
         if (l1 < -1e-9 || l2 < -1e-9 || l3 < -1e-9) continue;
         e_px(y, x) = float(l1 * ea + l2 * eb + l3 * ec);
       }
+  };
+  for (const auto& [edge, ts] : edge_tris) {
+    const auto [a, b] = edge;
+    const cv::Point2f pa = site[size_t(a)], pb = site[size_t(b)];
+    const Tri& t = tri[size_t(ts[0])];
+    if (ts.size() == 2) {
+      const Tri& u = tri[size_t(ts[1])];
+      fill(pa, e_site(a), t.g, t.e, u.g, u.e);
+      fill(pb, e_site(b), u.g, u.e, t.g, t.e);
+    } else {  // hull edge (outside the canvas: the rings): close the fan at the edge
+      fill(pa, e_site(a), pb, e_site(b), t.g, t.e);
+    }
   }
   cv::Mat1f h(W, W);
   for (int y = 0; y < W; ++y)

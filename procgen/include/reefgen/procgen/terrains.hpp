@@ -46,8 +46,9 @@ namespace reefgen::procgen {
 // coarser second Poisson sampling, the paint map
 //   e = (k_fbm·fBm + k_d·(0.75 − 2d²)) / 2,  d = Chebyshev distance from the centre,
 // ridges R = n₁ + n₂, r = max(0, 1 − |R|) weighted by the nearness of a peak,
-// s = saturate(5e), e ← max(e, min(3e, s·r)); e evaluated at the points and
-// interpolated linearly over each triangle (the low-poly look), then metres:
+// s = saturate(5e), e ← max(e, min(3e, s·r)); e evaluated at the triangles'
+// centroids (centroid-based Voronoi vertices), cells take their triangles'
+// mean, drawn as mapgen4 draws its dual mesh (the low-poly look), then metres:
 // land = peak_m·e, water = depth_m·e/0.5 (clamped at −depth_m).
 struct Mapgen4Params {
   int size_px = 256;              // W, [16, 4096]
