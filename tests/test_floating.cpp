@@ -248,6 +248,24 @@ TEST(Floating, ObjAndGlbReadBackClosed) {
   }
   const Mesh glb = read_glb(d / "f.glb");
   ASSERT_EQ(glb.normals.size(), glb.positions.size());
+  // Colours and texture coordinates survive both formats.
+  const Mesh obj = read_obj(d / "f.obj");
+  ASSERT_EQ(glb.colors.size(), glb.positions.size());
+  ASSERT_EQ(obj.uvs.size(), glb.positions.size());
+  for (size_t i = 0; i < glb.positions.size(); i += 5) {
+    EXPECT_EQ(glb.colors[i], isl.mesh.colors[i]);
+    EXPECT_LE(cv::norm(obj.colors[i] - isl.mesh.colors[i]), 1e-4);
+    EXPECT_EQ(glb.uvs[i], isl.mesh.uvs[i]);
+    EXPECT_LE(cv::norm(obj.uvs[i] - isl.mesh.uvs[i]), 1e-4);
+    // The uv is where the vertex lies on the painting (u = column, v = row, in [0, 1]).
+    EXPECT_NEAR(isl.mesh.uvs[i][0], (isl.mesh.positions[i][0] / p.metres_per_px + lab.cols / 2.0) / lab.cols, 1e-5);
+  }
+  // Top faces are grass, bottom faces rock.
+  for (const auto& t : isl.mesh.triangles) {
+    const cv::Vec3f a = isl.mesh.positions[t[0]], n = (isl.mesh.positions[t[1]] - a).cross(isl.mesh.positions[t[2]] - a);
+    if (n[1] > 0.9f * cv::norm(n)) EXPECT_GT(isl.mesh.colors[t[0]][1], 0.3f);   // green
+    if (n[1] < -0.9f * cv::norm(n)) EXPECT_LT(isl.mesh.colors[t[0]][1], 0.2f);  // brown
+  }
   for (const auto& n : glb.normals) EXPECT_NEAR(cv::norm(n), 1.0, 1e-4);
   // Corrupt files: one error naming the file.
   write_text_atomic(d / "bad.glb", "glTF but not really");

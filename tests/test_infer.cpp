@@ -83,22 +83,31 @@ TEST(Export, ObjReadsBack) {
   std::ifstream f(d / "m.obj");
   std::string tag, line;
   std::vector<cv::Vec3f> v;
+  std::vector<cv::Vec2f> vt;
   int faces = 0;
   while (f >> tag) {
     if (tag == "v") {
       cv::Vec3f p;
       f >> p[0] >> p[1] >> p[2];
       v.push_back(p);
-    } else if (tag == "f") {
-      long a, b, c;
-      f >> a >> b >> c;
+    } else if (tag == "f") {  // "f a/a b/b c/c": vertex / texture coordinate
+      std::string ta, tb, tc;
+      f >> ta >> tb >> tc;
+      const long a = std::stol(ta), b = std::stol(tb), c = std::stol(tc);
       EXPECT_TRUE(a >= 1 && b >= 1 && c >= 1 && a <= 256 && b <= 256 && c <= 256);
       ++faces;
+    } else if (tag == "vt") {
+      cv::Vec2f t;
+      f >> t[0] >> t[1];
+      vt.push_back(t);
     } else {
       std::getline(f, line);
     }
   }
   ASSERT_EQ(v.size(), 256u);
+  ASSERT_EQ(vt.size(), 256u);
+  EXPECT_NEAR(vt[5 * 16 + 7][0], 7.5 / 16, 1e-4);  // the canvas drapes on: u along columns,
+  EXPECT_NEAR(vt[5 * 16 + 7][1], 1 - 5.5 / 16, 1e-4);  // OBJ's v up
   EXPECT_EQ(faces, 15 * 15 * 2);
   EXPECT_NEAR(v[5 * 16 + 7][1], 2.0 * h(5, 7), 1e-2);  // exaggerated height, +Y up
   EXPECT_NEAR(v[1][0] - v[0][0], 10.0, 1e-3);          // spacing in metres
@@ -124,21 +133,28 @@ TEST(Export, GlbReadsBack) {
   const uint32_t bin_len = u32_at(b, bin_at);
   EXPECT_EQ(bin_len, j["buffers"][0]["byteLength"].get<uint32_t>());
   EXPECT_EQ(bin_at + 8 + bin_len, b.size());
-  EXPECT_EQ(j["accessors"][0]["count"], 256);
-  EXPECT_EQ(j["accessors"][2]["count"], 15 * 15 * 6);
-  // Vertex (5, 7): its y is the height.
-  float p[3];
-  std::memcpy(p, b.data() + bin_at + 8 + (5 * 16 + 7) * 12, 12);
+  const auto& prim = j["meshes"][0]["primitives"][0];
+  const auto& acc = j["accessors"];
+  const int pos = prim["attributes"]["POSITION"], idx = prim["indices"], uv = prim["attributes"]["TEXCOORD_0"];
+  EXPECT_EQ(acc[pos]["count"], 256);
+  EXPECT_EQ(acc[idx]["count"], 15 * 15 * 6);
+  auto at = [&](int accessor) { return bin_at + 8 + j["bufferViews"][acc[accessor]["bufferView"].get<int>()]["byteOffset"].get<size_t>(); };
+  // Vertex (5, 7): its y is the height, its uv the pixel centre on the canvas.
+  float p[3], t[2];
+  std::memcpy(p, b.data() + at(pos) + (5 * 16 + 7) * 12, 12);
   EXPECT_FLOAT_EQ(p[1], h(5, 7));
+  std::memcpy(t, b.data() + at(uv) + (5 * 16 + 7) * 8, 8);
+  EXPECT_FLOAT_EQ(t[0], 7.5f / 16);
+  EXPECT_FLOAT_EQ(t[1], 5.5f / 16);
   // Indices in range, every triangle facing up (+Y normal).
-  const size_t idx_off = bin_at + 8 + j["bufferViews"][2]["byteOffset"].get<size_t>();
+  const size_t idx_off = at(idx);
   for (int t = 0; t < 15 * 15 * 2; ++t) {
     uint32_t ix[3];
     std::memcpy(ix, b.data() + idx_off + size_t(t) * 12, 12);
     cv::Vec3f q[3];
     for (int k = 0; k < 3; ++k) {
       ASSERT_LT(ix[k], 256u);
-      std::memcpy(&q[k], b.data() + bin_at + 8 + ix[k] * 12, 12);
+      std::memcpy(&q[k], b.data() + at(pos) + ix[k] * 12, 12);
     }
     EXPECT_GT((q[1] - q[0]).cross(q[2] - q[0])[1], 0.f) << "triangle " << t;
   }

@@ -18,6 +18,8 @@ namespace reefgen {
 namespace {
 
 void check_indices(const Mesh& m, const std::string& what) {
+  if (!m.uvs.empty() && m.uvs.size() != m.positions.size()) throw Error(what + ": one uv per vertex needed");
+  if (!m.colors.empty() && m.colors.size() != m.positions.size()) throw Error(what + ": one colour per vertex needed");
   for (const auto& t : m.triangles)
     for (uint32_t i : t)
       if (i >= m.positions.size()) throw Error(what + ": triangle index " + std::to_string(i) + " out of range");
@@ -52,19 +54,38 @@ std::vector<cv::Vec3f> vertex_normals(const Mesh& m) {
   return out;
 }
 
+std::vector<cv::Vec2f> planar_uvs(const Mesh& m, double ex, double ez) {
+  if (!(ex > 0 && ez > 0)) throw Error("planar_uvs: extent must be > 0");
+  std::vector<cv::Vec2f> uv(m.positions.size());
+  for (size_t i = 0; i < uv.size(); ++i)
+    uv[i] = {float(m.positions[i][0] / ex + 0.5), float(m.positions[i][2] / ez + 0.5)};  // glTF: v down, as image rows
+  return uv;
+}
+
 void write_obj(const fs::path& path, const Mesh& m, const std::string& comment) {
   check_indices(m, path.string());
   std::string out;
   out.reserve(m.positions.size() * 36 + m.triangles.size() * 24 + comment.size() + 32);
   out += "# " + comment + "\no island\n";
-  char line[96];
-  for (const auto& p : m.positions) {
-    std::snprintf(line, sizeof line, "v %.3f %.3f %.3f\n", p[0], p[1], p[2]);
+  char line[128];
+  for (size_t i = 0; i < m.positions.size(); ++i) {
+    const auto& p = m.positions[i];
+    if (m.colors.empty()) {
+      std::snprintf(line, sizeof line, "v %.3f %.3f %.3f\n", p[0], p[1], p[2]);
+    } else {  // the common "v x y z r g b" extension (Blender, MeshLab)
+      const auto& c = m.colors[i];
+      std::snprintf(line, sizeof line, "v %.3f %.3f %.3f %.4f %.4f %.4f\n", p[0], p[1], p[2], c[0], c[1], c[2]);
+    }
+    out += line;
+  }
+  for (const auto& t : m.uvs) {
+    std::snprintf(line, sizeof line, "vt %.5f %.5f\n", t[0], 1.0f - t[1]);  // OBJ: v up
     out += line;
   }
   for (const auto& t : m.triangles) {
-    std::snprintf(line, sizeof line, "f %lu %lu %lu\n", (unsigned long)t[0] + 1, (unsigned long)t[1] + 1,
-                  (unsigned long)t[2] + 1);
+    const unsigned long a = t[0] + 1ul, b = t[1] + 1ul, c = t[2] + 1ul;
+    if (m.uvs.empty()) std::snprintf(line, sizeof line, "f %lu %lu %lu\n", a, b, c);
+    else std::snprintf(line, sizeof line, "f %lu/%lu %lu/%lu %lu/%lu\n", a, a, b, b, c, c);
     out += line;
   }
   write_text_atomic(path, out);
@@ -81,25 +102,43 @@ void write_glb(const fs::path& path, const Mesh& m, const std::string& name) {
       mx[k] = std::max(mx[k], p[k]);
     }
   const size_t nv = m.positions.size();
-  const size_t pos_bytes = nv * 12, nrm_bytes = nv * 12, idx_bytes = m.triangles.size() * 12;
-  const size_t bin_len = pos_bytes + nrm_bytes + idx_bytes;  // all multiples of 4
   using nlohmann::json;
-  const json j = {
-      {"asset", {{"version", "2.0"}, {"generator", "reefgen"}}},
-      {"scene", 0},
-      {"scenes", {{{"nodes", {0}}}}},
-      {"nodes", {{{"mesh", 0}, {"name", name}}}},
-      {"meshes", {{{"primitives", {{{"attributes", {{"POSITION", 0}, {"NORMAL", 1}}}, {"indices", 2}, {"mode", 4}}}}}}},
-      {"buffers", {{{"byteLength", bin_len}}}},
-      {"bufferViews",
-       {{{"buffer", 0}, {"byteOffset", 0}, {"byteLength", pos_bytes}, {"target", 34962}},
-        {{"buffer", 0}, {"byteOffset", pos_bytes}, {"byteLength", nrm_bytes}, {"target", 34962}},
-        {{"buffer", 0}, {"byteOffset", pos_bytes + nrm_bytes}, {"byteLength", idx_bytes}, {"target", 34963}}}},
-      {"accessors",
-       {{{"bufferView", 0}, {"componentType", 5126}, {"count", nv}, {"type", "VEC3"},
-         {"min", {mn[0], mn[1], mn[2]}}, {"max", {mx[0], mx[1], mx[2]}}},
-        {{"bufferView", 1}, {"componentType", 5126}, {"count", nv}, {"type", "VEC3"}},
-        {{"bufferView", 2}, {"componentType", 5125}, {"count", m.triangles.size() * 3}, {"type", "SCALAR"}}}}};
+  // One buffer of consecutive views: positions, normals, [uvs], [colours], indices.
+  std::string bin;
+  json views = json::array(), accessors = json::array(), attributes = json::object();
+  auto add_view = [&](const void* data, size_t bytes, int target) {
+    views.push_back({{"buffer", 0}, {"byteOffset", bin.size()}, {"byteLength", bytes}, {"target", target}});
+    bin.append(static_cast<const char*>(data), bytes);  // x86-64 and aarch64: little-endian, as glTF requires
+    return int(views.size() - 1);
+  };
+  auto add_attribute = [&](const char* name, const void* data, size_t elem_bytes, const char* type) {
+    json acc = {{"bufferView", add_view(data, nv * elem_bytes, 34962)}, {"componentType", 5126}, {"count", nv}, {"type", type}};
+    if (std::string(name) == "POSITION") acc["min"] = {mn[0], mn[1], mn[2]}, acc["max"] = {mx[0], mx[1], mx[2]};
+    accessors.push_back(acc);
+    attributes[name] = accessors.size() - 1;
+  };
+  add_attribute("POSITION", m.positions.data(), 12, "VEC3");
+  add_attribute("NORMAL", nrm.data(), 12, "VEC3");
+  if (!m.uvs.empty()) add_attribute("TEXCOORD_0", m.uvs.data(), 8, "VEC2");
+  if (!m.colors.empty()) add_attribute("COLOR_0", m.colors.data(), 12, "VEC3");
+  accessors.push_back({{"bufferView", add_view(m.triangles.data(), m.triangles.size() * 12, 34963)},
+                       {"componentType", 5125}, {"count", m.triangles.size() * 3}, {"type", "SCALAR"}});
+  json primitive = {{"attributes", attributes}, {"indices", accessors.size() - 1}, {"mode", 4}};
+  json j = {{"asset", {{"version", "2.0"}, {"generator", "reefgen"}}},
+            {"scene", 0},
+            {"scenes", {{{"nodes", {0}}}}},
+            {"nodes", {{{"mesh", 0}, {"name", name}}}},
+            {"buffers", {{{"byteLength", bin.size()}}}},
+            {"bufferViews", views},
+            {"accessors", accessors}};
+  if (!m.colors.empty()) {
+    // COLOR_0 multiplies the base colour: a white, matte material shows it as is.
+    j["materials"] = {{{"name", name + "-vertex-colours"},
+                       {"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 1}}, {"metallicFactor", 0}, {"roughnessFactor", 1}}}}};
+    primitive["material"] = 0;
+  }
+  j["meshes"] = {{{"primitives", {primitive}}}};
+  const size_t bin_len = bin.size();  // every view a multiple of 4 bytes
   std::string js = j.dump();
   while (js.size() % 4) js += ' ';
   const size_t total = 12 + 8 + js.size() + 8 + bin_len;
@@ -115,10 +154,7 @@ void write_glb(const fs::path& path, const Mesh& m, const std::string& name) {
   out += js;
   u32(uint32_t(bin_len));
   u32(0x004E4942);  // "BIN\0"
-  // x86-64 and aarch64 are little-endian, as glTF requires.
-  out.append(reinterpret_cast<const char*>(m.positions.data()), pos_bytes);
-  out.append(reinterpret_cast<const char*>(nrm.data()), nrm_bytes);
-  out.append(reinterpret_cast<const char*>(m.triangles.data()), idx_bytes);
+  out += bin;
   write_file_atomic(path, out.data(), out.size());
 }
 
@@ -136,9 +172,14 @@ Mesh read_obj(const fs::path& path) {
     std::string tag;
     if (!(s >> tag) || tag[0] == '#') continue;
     if (tag == "v") {
-      cv::Vec3f p;
+      cv::Vec3f p, c;
       if (!(s >> p[0] >> p[1] >> p[2])) fail("vertex needs three numbers");
       m.positions.push_back(p);
+      if (s >> c[0] >> c[1] >> c[2]) m.colors.push_back(c);
+    } else if (tag == "vt") {
+      cv::Vec2f t;
+      if (!(s >> t[0] >> t[1])) fail("texture coordinate needs two numbers");
+      m.uvs.push_back({t[0], 1.0f - t[1]});
     } else if (tag == "f") {
       std::vector<long> ix;
       std::string tok;
@@ -211,6 +252,16 @@ Mesh read_glb(const fs::path& path) {
       return v;
     };
     for (size_t k = 0; k < ni; k += 3) m.triangles.push_back({index(k), index(k + 1), index(k + 2)});
+    if (prim.at("attributes").contains("TEXCOORD_0")) {
+      const auto [tp, nt] = view(prim["attributes"]["TEXCOORD_0"].get<int>(), 8);
+      m.uvs.resize(nt);
+      std::memcpy(static_cast<void*>(m.uvs.data()), tp, nt * 8);
+    }
+    if (prim.at("attributes").contains("COLOR_0")) {
+      const auto [cp, nc] = view(prim["attributes"]["COLOR_0"].get<int>(), 12);
+      m.colors.resize(nc);
+      std::memcpy(static_cast<void*>(m.colors.data()), cp, nc * 12);
+    }
     if (prim.at("attributes").contains("NORMAL")) {
       const auto [np, nn] = view(prim["attributes"]["NORMAL"].get<int>(), 12);
       m.normals.resize(nn);

@@ -103,6 +103,11 @@ Mesh grid_mesh(const cv::Mat1f& h, const MeshOptions& o) {
       m.triangles.push_back({a, cc, b});  // counter-clockwise from above
       m.triangles.push_back({b, cc, d});
     }
+  // Texture coordinates over the canvas: the preview (or any top-view map of
+  // the same extent) drapes onto the mesh; pixel centres, like the vertices.
+  m.uvs.resize(m.positions.size());
+  for (int r = 0; r < h.rows; ++r)
+    for (int c = 0; c < h.cols; ++c) m.uvs[size_t(r) * size_t(h.cols) + size_t(c)] = {(c + 0.5f) / h.cols, (r + 0.5f) / h.rows};
   return m;
 }
 

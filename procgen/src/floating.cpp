@@ -296,13 +296,17 @@ ShellStats add_shell(const std::vector<cv::Point>& poly, const cv::Rect& bbox, c
   const uint32_t none = std::numeric_limits<uint32_t>::max();
   std::vector<Pair> corner(size_t(w) * size_t(h), {none, none});
   std::vector<Pair> hcross(size_t(w) * size_t(h), {none, none}), vcross(size_t(w) * size_t(h), {none, none});
-  auto add = [&](float x, float y, float z) {
+  // Vertex colours (linear RGB of the default palette's grass and rock): the
+  // strip blends from grass at the top rim to rock at the bottom rim.
+  const cv::Vec3f grass(0.070f, 0.434f, 0.080f), rock(0.262f, 0.102f, 0.024f);
+  auto add = [&](float x, float y, float z, const cv::Vec3f& colour) {
     out.positions.emplace_back(x, y, z);
+    out.colors.push_back(colour);
     return uint32_t(out.positions.size() - 1);
   };
   auto corner_of = [&](int i, int j) {
     Pair& q = corner[size_t(i) * size_t(w) + size_t(j)];
-    if (q.top == none) q = {add(X(j), zt(i, j), Z(i)), add(X(j), zb(i, j), Z(i))};
+    if (q.top == none) q = {add(X(j), zt(i, j), Z(i), grass), add(X(j), zb(i, j), Z(i), rock)};
     return q;
   };
   // Crossing on the edge from grid vertex a to b (4-neighbours), shared by the two cells.
@@ -314,7 +318,7 @@ ShellStats add_shell(const std::vector<cv::Point>& poly, const cv::Rect& bbox, c
       const float fa = f(ia, ja), fb = f(ib, jb), t = fa / (fa - fb);
       auto lerp = [&](float a, float b) { return a + t * (b - a); };
       const float x = lerp(X(ja), X(jb)), z = lerp(Z(ia), Z(ib));
-      q = {add(x, lerp(zt(ia, ja), zt(ib, jb)), z), add(x, lerp(zb(ia, ja), zb(ib, jb)), z)};
+      q = {add(x, lerp(zt(ia, ja), zt(ib, jb)), z, grass), add(x, lerp(zb(ia, ja), zb(ib, jb)), z, rock)};
     }
     return q;
   };
@@ -397,6 +401,8 @@ FloatingIsland floating_island(const cv::Mat1b& labels, const cv::Mat1f& h0_m, c
     throw Error("floating: no top blob has " + std::to_string(p.min_area_px) +
                 " pixels or more; paint a bigger top or lower min_area_px");
   isl.top_max_m = top_max;
+  // The painting drapes onto the top: texture coordinates over the canvas.
+  isl.mesh.uvs = planar_uvs(isl.mesh, labels.cols * p.metres_per_px, labels.rows * p.metres_per_px);
   return isl;
 }
 

@@ -17,14 +17,22 @@ struct Mesh {
   std::vector<cv::Vec3f> positions;                  // metres, x right, y up, z towards the viewer
   std::vector<std::array<uint32_t, 3>> triangles;    // indices into positions, CCW from outside
   std::vector<cv::Vec3f> normals;                    // per vertex; empty = area-weighted from the faces
+  std::vector<cv::Vec2f> uvs;                        // per vertex texture coordinates, [0, 1]; optional
+  std::vector<cv::Vec3f> colors;                     // per vertex linear RGB, [0, 1]; optional
 };
+// Top-down planar texture coordinates: u along x, v along z, [0, 1] over the
+// given extent (metres, centred on the origin), so a top-view image of that
+// extent (a preview, a painting) drapes onto the mesh.
+std::vector<cv::Vec2f> planar_uvs(const Mesh& m, double extent_x_m, double extent_z_m);
 
 // Area-weighted vertex normals (unit length; +Y for isolated vertices).
 std::vector<cv::Vec3f> vertex_normals(const Mesh& m);
 
-// Wavefront OBJ ("v x y z" then "f a b c", 1-based), `comment` on the first line.
+// Wavefront OBJ ("v x y z [r g b]", "vt u v", then "f a b c" or "f a/a b/b c/c",
+// 1-based), `comment` on the first line.
 void write_obj(const std::filesystem::path& path, const Mesh& m, const std::string& comment);
-// Binary glTF 2.0: POSITION, NORMAL, uint32 indices, one node named `name`.
+// Binary glTF 2.0: POSITION, NORMAL, [TEXCOORD_0], [COLOR_0 with a plain
+// matte material so importers show the colours], uint32 indices, one node named `name`.
 void write_glb(const std::filesystem::path& path, const Mesh& m, const std::string& name);
 
 // Read back what the writers produce (triangles only; OBJ "f a/b/c" forms and

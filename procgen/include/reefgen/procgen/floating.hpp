@@ -70,7 +70,8 @@ struct Basemaps {
 Basemaps floating_basemaps(const cv::Mat1b& blob, double metres_per_px);
 
 struct FloatingIsland {
-  Mesh mesh;              // closed, outward-wound, one shell per blob
+  Mesh mesh;              // closed, outward-wound, one shell per blob; grass/rock vertex
+                          // colours; uvs drape the painting (top view) over it
   int islands = 0;        // shells
   double top_max_m = 0;   // highest top point
   double depth_m = 0;     // deepest bottom point (positive)
