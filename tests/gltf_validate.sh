@@ -6,9 +6,12 @@ set -u
 BIN="$1"; CACHE="$2"
 command -v node >/dev/null && command -v npm >/dev/null || { echo "SKIP: node/npm not installed"; exit 77; }
 if [ ! -f "$CACHE/node_modules/gltf-validator/package.json" ]; then
-  mkdir -p "$CACHE"
-  (cd "$CACHE" && npm install --silent --no-audit --no-fund gltf-validator@2.0.0-dev.3.10 >/dev/null 2>&1) ||
-    { echo "SKIP: npm could not install gltf-validator (no registry?)"; exit 77; }
+  # Installed beside and moved into place whole (an interrupted install leaves
+  # nothing half-done); bounded, so a slow or unreachable registry cannot hold CI up.
+  tmp="$CACHE.tmp.$$"; rm -rf "$tmp" "$CACHE"; mkdir -p "$tmp"
+  (cd "$tmp" && timeout 180 npm install --silent --no-audit --no-fund gltf-validator@2.0.0-dev.3.10 >/dev/null 2>&1) ||
+    { rm -rf "$tmp"; echo "SKIP: npm could not install gltf-validator (no registry?)"; exit 77; }
+  mv "$tmp" "$CACHE"
 fi
 T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
 PAINT="$(dirname "$0")/../docs/examples/floating-painting.png"
