@@ -101,6 +101,7 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
 
             // The top silhouette and the features H₀.
             cv::Mat1b labels;
+            cv::Mat3f top_rgb;  // painted top colours (snow stays white on the mesh)
             cv::Mat1f h0;
             cv::Mat1f terrain;
             if (!a->height.empty()) {
@@ -132,7 +133,7 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
                 p.smooth_px *= double(small.cols) / img.cols;
                 img = small;
               }
-              labels = procgen::segment_painting(img, p, a->painting);
+              labels = procgen::segment_painting(img, p, a->painting, &top_rgb);
               if (terrain.empty()) {
                 h0 = procgen::floating_features(labels.size(), p, a->seed);
               } else {  // the terrain's land relief under the painted outline
@@ -148,7 +149,7 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
             const std::string source = a->painting.empty() ? a->height : a->painting;
             procgen::FloatingIsland isl;
             try {
-              isl = procgen::floating_island(labels, h0, p);
+              isl = procgen::floating_island(labels, h0, p, top_rgb);
             } catch (const Error& e) {
               throw Error(source + ": " + e.what());
             }

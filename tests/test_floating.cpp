@@ -331,3 +331,29 @@ TEST(Floating, SmoothingRemovesRowSteps) {
   EXPECT_GT(raw, 10.0);
   EXPECT_LT(smooth, raw / 3);
 }
+
+TEST(Floating, PaintedTopColoursReachTheMesh) {
+  // Snow painted white stays white on the top; green stays green; rock below.
+  cv::Mat3f rgb;
+  const cv::Mat1b lab = segment_painting(painting(), {}, "p.png", &rgb);
+  FloatingParams p;
+  const FloatingIsland isl = floating_island(lab, floating_features(lab.size(), p, 7), p, rgb);
+  auto colour_near = [&](double col, double row, bool top) {  // colour of the top (or bottom) vertex nearest a pixel
+    const cv::Vec3f at(float((col - 63.5) * p.metres_per_px), 0, float((row - 63.5) * p.metres_per_px));
+    double best = 1e30;
+    cv::Vec3f c;
+    for (size_t i = 0; i < isl.mesh.positions.size(); ++i) {
+      const cv::Vec3f& v = isl.mesh.positions[i];
+      if ((v[1] > -p.rim_m / 2) != top) continue;  // top vertices sit above the rim plane's neighbourhood
+      const double d = std::hypot(v[0] - at[0], v[2] - at[2]);
+      if (d < best) best = d, c = isl.mesh.colors[i];
+    }
+    return c;
+  };
+  const cv::Vec3f snow = colour_near(52, 39, true), grass = colour_near(84, 45, true), rock = colour_near(64, 45, false);
+  EXPECT_GT(snow[0], 0.9f);
+  EXPECT_GT(snow[2], 0.9f);
+  EXPECT_NEAR(grass[1], 0.434f, 0.01f);  // #4caf50 in linear RGB
+  EXPECT_LT(grass[0], 0.1f);
+  EXPECT_NEAR(rock[0], 0.258f, 0.01f);  // #8b5a2b in linear RGB
+}

@@ -44,6 +44,17 @@ cv::Vec3i parse_colour(const std::string& s) {  // "#rrggbb" → (r, g, b)
   return {hex(1) * 16 + hex(2), hex(3) * 16 + hex(4), hex(5) * 16 + hex(6)};
 }
 
+// Linear RGB of an sRGB "#rrggbb" (glTF's COLOR_0 is linear).
+cv::Vec3f linear_rgb(const std::string& hex) {
+  const cv::Vec3i c = parse_colour(hex);
+  cv::Vec3f out;
+  for (int k = 0; k < 3; ++k) {
+    const double v = c[k] / 255.0;
+    out[k] = float(v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4));
+  }
+  return out;
+}
+
 }  // namespace
 
 void validate(const FloatingParams& p) {
@@ -77,7 +88,7 @@ FloatingParams floating_params_from_json(const nlohmann::json& j, const std::str
   return p;
 }
 
-cv::Mat1b segment_painting(const cv::Mat& image, const FloatingParams& p, const std::string& origin) {
+cv::Mat1b segment_painting(const cv::Mat& image, const FloatingParams& p, const std::string& origin, cv::Mat3f* top_rgb) {
   validate(p);
   if (image.empty()) throw Error(origin + ": empty image");
   cv::Mat img8;
@@ -94,22 +105,25 @@ cv::Mat1b segment_painting(const cv::Mat& image, const FloatingParams& p, const 
   struct Entry {
     cv::Vec3i rgb;
     uint8_t cls;
+    cv::Vec3f linear;
   };
   std::vector<Entry> palette;
-  for (const auto& c : p.top_colours) palette.push_back({parse_colour(c), kPaintTop});
-  for (const auto& c : p.bottom_colours) palette.push_back({parse_colour(c), kPaintBottom});
-  for (const auto& c : p.background_colours) palette.push_back({parse_colour(c), kPaintBackground});
+  for (const auto& c : p.top_colours) palette.push_back({parse_colour(c), kPaintTop, linear_rgb(c)});
+  for (const auto& c : p.bottom_colours) palette.push_back({parse_colour(c), kPaintBottom, linear_rgb(c)});
+  for (const auto& c : p.background_colours) palette.push_back({parse_colour(c), kPaintBackground, linear_rgb(c)});
   cv::Mat1b out(bgra.size());
+  if (top_rgb) *top_rgb = cv::Mat3f(bgra.size(), cv::Vec3f(0, 0, 0));
   for (int r = 0; r < bgra.rows; ++r)
     for (int c = 0; c < bgra.cols; ++c) {
       const cv::Vec4b px = bgra.at<cv::Vec4b>(r, c);
       uint8_t cls = kPaintBackground;
+      size_t chosen = 0;  // palette entry the pixel takes its class from
       if (px[3] >= 128) {
         const cv::Vec3d rgb(px[2], px[1], px[0]);
         double best = std::numeric_limits<double>::max();
         for (const auto& e : palette) {  // nearest palette colour; first listed wins ties
           const double d = cv::norm(rgb - cv::Vec3d(e.rgb), cv::NORM_L2SQR);
-          if (d < best) best = d, cls = e.cls;
+          if (d < best) best = d, cls = e.cls, chosen = size_t(&e - palette.data());
         }
         // Anti-aliased and soft-brush pixels are blends of two colours; a blend
         // of brown and sky can be nearer to green than to either. So blends
@@ -123,10 +137,11 @@ cv::Mat1b segment_painting(const cv::Mat& image, const FloatingParams& p, const 
             if (len2 <= 0) continue;
             const double t = std::clamp((rgb - a).dot(ab) / len2, 0.0, 1.0);
             const double d = cv::norm(rgb - (a + t * ab), cv::NORM_L2SQR);
-            if (d < best) best = d, cls = t < 0.5 ? palette[i].cls : palette[j].cls;
+            if (d < best) best = d, chosen = t < 0.5 ? i : j, cls = palette[chosen].cls;
           }
       }
       out(r, c) = cls;
+      if (top_rgb && cls == kPaintTop) (*top_rgb)(r, c) = palette[chosen].linear;
     }
   if (cv::countNonZero(out == kPaintTop) == 0)
     throw Error(origin + ": no pixel is nearest to a top colour; paint the island's top in one of the top_colours");
@@ -206,8 +221,8 @@ struct ShellStats {
 };
 
 ShellStats add_shell(const std::vector<cv::Point>& poly, const cv::Rect& bbox, const cv::Mat1f& h0_m,
-                     double painted_depth_m, const FloatingParams& p, cv::Size canvas, Mesh& out, cv::Mat1f& top_canvas,
-                     cv::Mat1f& bottom_canvas) {
+                     double painted_depth_m, const FloatingParams& p, const cv::Mat3f& top_rgb, const cv::Vec3f& rock,
+                     cv::Size canvas, Mesh& out, cv::Mat1f& top_canvas, cv::Mat1f& bottom_canvas) {
   const int x0 = bbox.x - 2, y0 = bbox.y - 2, w = bbox.width + 4, h = bbox.height + 4;
   const double mpp = p.metres_per_px;
   std::vector<cv::Point> local(poly);
@@ -296,9 +311,11 @@ ShellStats add_shell(const std::vector<cv::Point>& poly, const cv::Rect& bbox, c
   const uint32_t none = std::numeric_limits<uint32_t>::max();
   std::vector<Pair> corner(size_t(w) * size_t(h), {none, none});
   std::vector<Pair> hcross(size_t(w) * size_t(h), {none, none}), vcross(size_t(w) * size_t(h), {none, none});
-  // Vertex colours (linear RGB of the default palette's grass and rock): the
-  // strip blends from grass at the top rim to rock at the bottom rim.
-  const cv::Vec3f grass(0.070f, 0.434f, 0.080f), rock(0.262f, 0.102f, 0.024f);
+  // Vertex colours: the painted top colour under each top vertex, rock below;
+  // the strip blends from one to the other over the rim.
+  auto top_colour = [&](int i, int j) {
+    return top_rgb(std::clamp(y0 + i, 0, top_rgb.rows - 1), std::clamp(x0 + j, 0, top_rgb.cols - 1));
+  };
   auto add = [&](float x, float y, float z, const cv::Vec3f& colour) {
     out.positions.emplace_back(x, y, z);
     out.colors.push_back(colour);
@@ -306,7 +323,7 @@ ShellStats add_shell(const std::vector<cv::Point>& poly, const cv::Rect& bbox, c
   };
   auto corner_of = [&](int i, int j) {
     Pair& q = corner[size_t(i) * size_t(w) + size_t(j)];
-    if (q.top == none) q = {add(X(j), zt(i, j), Z(i), grass), add(X(j), zb(i, j), Z(i), rock)};
+    if (q.top == none) q = {add(X(j), zt(i, j), Z(i), top_colour(i, j)), add(X(j), zb(i, j), Z(i), rock)};
     return q;
   };
   // Crossing on the edge from grid vertex a to b (4-neighbours), shared by the two cells.
@@ -318,7 +335,8 @@ ShellStats add_shell(const std::vector<cv::Point>& poly, const cv::Rect& bbox, c
       const float fa = f(ia, ja), fb = f(ib, jb), t = fa / (fa - fb);
       auto lerp = [&](float a, float b) { return a + t * (b - a); };
       const float x = lerp(X(ja), X(jb)), z = lerp(Z(ia), Z(ib));
-      q = {add(x, lerp(zt(ia, ja), zt(ib, jb)), z, grass), add(x, lerp(zb(ia, ja), zb(ib, jb)), z, rock)};
+      const cv::Vec3f colour = fa > 0 ? top_colour(ia, ja) : top_colour(ib, jb);  // the inside end's
+      q = {add(x, lerp(zt(ia, ja), zt(ib, jb)), z, colour), add(x, lerp(zb(ia, ja), zb(ib, jb)), z, rock)};
     }
     return q;
   };
@@ -356,10 +374,36 @@ ShellStats add_shell(const std::vector<cv::Point>& poly, const cv::Rect& bbox, c
 
 }  // namespace
 
-FloatingIsland floating_island(const cv::Mat1b& labels, const cv::Mat1f& h0_m, const FloatingParams& p) {
+FloatingIsland floating_island(const cv::Mat1b& labels, const cv::Mat1f& h0_m, const FloatingParams& p,
+                               const cv::Mat3f& top_rgb_in) {
   validate(p);
   if (labels.empty() || labels.size() != h0_m.size())
     throw Error("floating: the feature field must have the painting's size");
+  if (!top_rgb_in.empty() && top_rgb_in.size() != labels.size())
+    throw Error("floating: the top colours must have the painting's size");
+  // Top colour per pixel, grown a few pixels past the painted top (the mesh
+  // reaches half a pixel beyond it, and the polygon may cut corners).
+  const cv::Vec3f first_top = linear_rgb(p.top_colours.front());
+  const cv::Vec3f rock = p.bottom_colours.empty() ? linear_rgb("#8b5a2b") : linear_rgb(p.bottom_colours.front());
+  cv::Mat3f top_rgb(labels.size(), first_top);
+  if (!top_rgb_in.empty()) {
+    cv::Mat1b known = labels == kPaintTop;
+    top_rgb_in.copyTo(top_rgb, known);
+    for (int pass = 0; pass < 3; ++pass) {
+      const cv::Mat1b before = known.clone();
+      for (int r = 0; r < labels.rows; ++r)
+        for (int c = 0; c < labels.cols; ++c) {
+          if (before(r, c)) continue;
+          for (const cv::Point d : {cv::Point(-1, 0), cv::Point(1, 0), cv::Point(0, -1), cv::Point(0, 1)}) {
+            const int rr = r + d.y, cc = c + d.x;
+            if (rr < 0 || cc < 0 || rr >= labels.rows || cc >= labels.cols || !before(rr, cc)) continue;
+            top_rgb(r, c) = top_rgb(rr, cc);
+            known(r, c) = 255;
+            break;
+          }
+        }
+    }
+  }
   FloatingIsland isl;
   isl.top_m = cv::Mat1f(labels.size(), std::numeric_limits<float>::quiet_NaN());
   isl.bottom_m = isl.top_m.clone();
@@ -392,7 +436,7 @@ FloatingIsland floating_island(const cv::Mat1b& labels, const cv::Mat1f& h0_m, c
     const int rock_row = rock_bottom_row[size_t(union_id(contour[0].y, contour[0].x))];
     const double painted_depth_m = rock_row > lowest_top_row ? (rock_row - lowest_top_row) * p.metres_per_px : 0.0;
     const ShellStats st =
-        add_shell(poly, bbox, h0_m, painted_depth_m, p, labels.size(), isl.mesh, isl.top_m, isl.bottom_m);
+        add_shell(poly, bbox, h0_m, painted_depth_m, p, top_rgb, rock, labels.size(), isl.mesh, isl.top_m, isl.bottom_m);
     top_max = std::max(top_max, st.top_max_m);
     isl.depth_m = std::max(isl.depth_m, st.depth_m);
     ++isl.islands;

@@ -57,7 +57,10 @@ enum PaintClass : uint8_t { kPaintBackground = 0, kPaintTop = 1, kPaintBottom = 
 // Segments an 8- or 16-bit BGR/BGRA/grey image by the palette. Throws
 // reefgen::Error naming `origin` when there is no top, or when a top colour
 // covers most of the border (a white canvas read as snow).
-cv::Mat1b segment_painting(const cv::Mat& image, const FloatingParams& p, const std::string& origin);
+// When `top_rgb` is given, it receives per pixel the linear RGB of the top
+// colour the pixel was assigned to (zero elsewhere): snow stays white on the mesh.
+cv::Mat1b segment_painting(const cv::Mat& image, const FloatingParams& p, const std::string& origin,
+                           cv::Mat3f* top_rgb = nullptr);
 
 // Noise features H₀ ∈ [0, feature_m] (metres) of the given size.
 cv::Mat1f floating_features(cv::Size size, const FloatingParams& p, uint64_t seed);
@@ -70,8 +73,8 @@ struct Basemaps {
 Basemaps floating_basemaps(const cv::Mat1b& blob, double metres_per_px);
 
 struct FloatingIsland {
-  Mesh mesh;              // closed, outward-wound, one shell per blob; grass/rock vertex
-                          // colours; uvs drape the painting (top view) over it
+  Mesh mesh;              // closed, outward-wound, one shell per blob; vertex colours
+                          // (painted top colours, rock); uvs drape the painting (top view) over it
   int islands = 0;        // shells
   double top_max_m = 0;   // highest top point
   double depth_m = 0;     // deepest bottom point (positive)
@@ -79,7 +82,10 @@ struct FloatingIsland {
 };
 // `labels` from segment_painting (or any mask: kPaintTop where the top is);
 // `h0_m` the features (same size). Throws reefgen::Error if no blob is big enough.
-FloatingIsland floating_island(const cv::Mat1b& labels, const cv::Mat1f& h0_m, const FloatingParams& p);
+// `top_rgb` (optional, from segment_painting) colours the top's vertices;
+// without it the top is the first top colour. The rock is the first bottom colour.
+FloatingIsland floating_island(const cv::Mat1b& labels, const cv::Mat1f& h0_m, const FloatingParams& p,
+                               const cv::Mat3f& top_rgb = cv::Mat3f());
 
 // The mesh seen from above, rasterised at the canvas' pixel centres (255 = covered).
 cv::Mat1b mesh_silhouette(const Mesh& m, cv::Size canvas, double metres_per_px);
