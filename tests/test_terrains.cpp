@@ -20,7 +20,7 @@ TEST(Wilbur, GoldenValuesAndDeterminism) {
   WilburParams p;
   p.size_px = 64;
   const cv::Mat1f h = wilbur_height(p, 1);
-  // Golden values (seed 1, 64 px, defaults; dual mesh with centroid Voronoi vertices since 2026-11-23). a change in the recipe shows here.
+  // Golden values (seed 1, 64 px, defaults): a change in the recipe shows here.
   EXPECT_EQ(land_pixels(h), 1589);
   EXPECT_NEAR(h(32, 32), 14.760653, 1e-3);
   EXPECT_NEAR(h(10, 50), -46.610176, 1e-3);
