@@ -1,9 +1,12 @@
 #include "reefgen/augment/dataset.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
+#include "reefgen/procgen/curves.hpp"
+#include "reefgen/procgen/erosion.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
 #include "reefgen/procgen/terrains.hpp"
@@ -18,7 +21,11 @@ void to_json(json& j, const DatasetParams& p) {
            {"val_fraction", p.val_fraction}, {"test_fraction", p.test_fraction}, {"p_affine", p.p_affine},
            {"scale_min", p.scale_min},   {"scale_max", p.scale_max},     {"p_translate", p.p_translate},
            {"p_paste", p.p_paste},       {"paste_scale", p.paste_scale}, {"max_iou", p.max_iou},
-           {"p_mapgen4", p.p_mapgen4},   {"p_wilbur", p.p_wilbur}};
+           {"p_mapgen4", p.p_mapgen4},   {"p_wilbur", p.p_wilbur},
+           {"continuous_subsidence", p.continuous_subsidence}, {"subsidence_min", p.subsidence_min},
+           {"subsidence_max", p.subsidence_max}, {"whole_islands", p.whole_islands}, {"border_px", p.border_px},
+           {"p_erosion", p.p_erosion}};
+  procgen::to_json(j["erosion"], p.erosion);
 }
 
 DatasetParams dataset_params_from_json(const json& j, const std::string& origin) {
@@ -27,9 +34,13 @@ DatasetParams dataset_params_from_json(const json& j, const std::string& origin)
   json known;
   to_json(known, p);
   for (auto it = j.begin(); it != j.end(); ++it) {
-    if (it.key() == "description") continue;
+    if (it.key() == "description" || it.key() == "erosion") continue;
     if (!known.contains(it.key())) throw Error(origin + ": unknown key \"" + it.key() + "\" in the dataset config");
-    if (!it->is_number()) throw Error(origin + ": " + it.key() + " must be a number");
+    if (known[it.key()].is_boolean()) {
+      if (!it->is_boolean()) throw Error(origin + ": " + it.key() + " must be true or false");
+    } else if (!it->is_number()) {
+      throw Error(origin + ": " + it.key() + " must be a number");
+    }
   }
   auto num = [&](const char* k, double& v, double lo, double hi) {
     if (j.contains(k)) v = j[k].get<double>();
@@ -55,6 +66,16 @@ DatasetParams dataset_params_from_json(const json& j, const std::string& origin)
   num("max_iou", p.max_iou, 0, 1);
   num("p_mapgen4", p.p_mapgen4, 0, 1);
   num("p_wilbur", p.p_wilbur, 0, 1 - p.p_mapgen4);
+  if (j.contains("continuous_subsidence")) p.continuous_subsidence = j["continuous_subsidence"].get<bool>();
+  if (j.contains("whole_islands")) p.whole_islands = j["whole_islands"].get<bool>();
+  num("subsidence_min", p.subsidence_min, 0, 1);
+  num("subsidence_max", p.subsidence_max, p.subsidence_min, 1);
+  double border = p.border_px;
+  num("border_px", border, 1, 64);
+  if (border != std::floor(border)) throw Error(origin + ": border_px must be an integer");
+  p.border_px = static_cast<int>(border);
+  num("p_erosion", p.p_erosion, 0, 1);
+  if (j.contains("erosion")) p.erosion = procgen::erosion_params_from_json(j["erosion"], origin);
   return p;
 }
 
@@ -79,24 +100,51 @@ PairInfo pair_info(uint64_t seed, int64_t index, const DatasetParams& p) {
   info.configuration = index / p.levels;
   info.level = static_cast<int>(index % p.levels);
   info.subsidence = procgen::subsidence_levels(p.levels)[info.level];
+  if (p.continuous_subsidence)  // own stream: the other draws of a pair do not move
+    info.subsidence = Rng(seed, static_cast<uint64_t>(index), "subsidence").uniform(p.subsidence_min, p.subsidence_max);
   info.split = split_of(seed, info.configuration, p);
   return info;
 }
 
+bool border_is_abyss(const cv::Mat1b& label, int border_px) {
+  const int W = label.cols, H = label.rows, b = std::min({border_px, W / 2, H / 2});
+  for (int y = 0; y < H; ++y) {
+    const uint8_t* row = label.ptr<uint8_t>(y);
+    const bool edge_row = y < b || y >= H - b;
+    for (int x = 0; x < W; ++x)
+      if ((edge_row || x < b || x >= W - b) && row[x] != kAbyss) return false;
+  }
+  return true;
+}
+
 namespace {
-Pair render(const procgen::IslandSpec& spec, int W) {
+// Erosion settings of a render: none, or the params with the seed and the
+// canvas scale (metres per pixel of the final W-pixel canvas).
+struct ErosionJob {
+  const procgen::ErosionParams* params = nullptr;
+  uint64_t seed = 0;
+  double metres_per_px = 0;
+};
+
+Pair render(const procgen::IslandSpec& spec, int W, const ErosionJob& e = {}) {
   procgen::RenderOptions o;
   o.size_px = W;
-  const auto f = procgen::generate(spec, o);
+  auto f = procgen::generate(spec, o);
+  if (e.params) {
+    cv::Mat1f rho(W, W);
+    for (int y = 0; y < W; ++y)
+      for (int x = 0; x < W; ++x) rho(y, x) = static_cast<float>(procgen::sample_curve(spec.resistance, f.xt(y, x) / 5.0));
+    procgen::erode(f.height_m, rho, e.metres_per_px, e.seed, *e.params);
+  }
   return {f.height_m, f.label, cv::Mat1f(W, W, static_cast<float>(spec.subsidence))};
 }
 
 // An island rendered at scale·W and centred on a W×W ocean: the same as
 // shrinking a full render, sharper, and 1/scale² cheaper.
-Pair render_scaled(const procgen::IslandSpec& spec, int W, double scale) {
+Pair render_scaled(const procgen::IslandSpec& spec, int W, double scale, const ErosionJob& e = {}) {
   const int w = std::max(8, static_cast<int>(std::lround(W * scale)));
-  if (w >= W) return render(spec, W);
-  const Pair small = render(spec, w);
+  if (w >= W) return render(spec, W, e);
+  const Pair small = render(spec, w, e);
   Pair out{cv::Mat1f(W, W, -100.f), cv::Mat1b(W, W, uint8_t(kAbyss)),
            cv::Mat1f(W, W, static_cast<float>(spec.subsidence))};
   const cv::Rect r((W - w) / 2, (W - w) / 2, w, w);
@@ -124,6 +172,15 @@ Pair make_pair(uint64_t seed, int64_t index, const DatasetParams& p, PairInfo* o
   const int dx = static_cast<int>(rng.uniform_int(0, p.size_px - 1)), dy = static_cast<int>(rng.uniform_int(0, p.size_px - 1));
   // Other island systems (issue 6) from their own RNG stream, so that the
   // pairs of datasets without them stay byte-identical.
+  // Erosion and its seed from their own stream, for the same reason.
+  ErosionJob erosion;
+  if (p.p_erosion > 0) {
+    Rng er(seed, static_cast<uint64_t>(index), "erosion");
+    if (er.uniform() < p.p_erosion) {
+      erosion = {&p.erosion, er.next_u64(), spec.world_size_m / p.size_px};
+      aug["erosion"] = true;
+    }
+  }
   std::string source = "curves";
   if (p.p_mapgen4 + p.p_wilbur > 0) {
     Rng src(seed, static_cast<uint64_t>(index), "source");
@@ -139,15 +196,18 @@ Pair make_pair(uint64_t seed, int64_t index, const DatasetParams& p, PairInfo* o
     info.subsidence = 0.0;
     aug["source"] = source;
   } else if (!do_paste) {
-    pair = render(spec, p.size_px);
+    pair = render(spec, p.size_px, erosion);
   } else {
     // Companions are sub-configurations of the same configuration, so a pasted
     // island never leaks across splits.
-    std::vector<Pair> islands = {render_scaled(spec, p.size_px, p.paste_scale)};
+    std::vector<Pair> islands = {render_scaled(spec, p.size_px, p.paste_scale, erosion)};
     for (int k = 0; k < extra; ++k) {
       auto s = procgen::random_spec(seed ^ 0xC0FFEEull, static_cast<uint64_t>(info.configuration) * 8 + k);
       s.subsidence = info.subsidence;
-      islands.push_back(render_scaled(s, p.size_px, p.paste_scale));
+      Pair companion = render_scaled(s, p.size_px, p.paste_scale, erosion);
+      // A companion is moved by a wrap-around shift: it must be whole.
+      if (p.whole_islands && !border_is_abyss(companion.label, p.border_px)) continue;
+      islands.push_back(std::move(companion));
     }
     const auto r = copy_paste(islands, paste_seed, p.max_iou);
     pair = r.pair;
@@ -158,8 +218,12 @@ Pair make_pair(uint64_t seed, int64_t index, const DatasetParams& p, PairInfo* o
     aug["affine"] = {{"angle_deg", angle}, {"scale", scale}, {"flip_x", flip}};
   }
   if (do_translate) {
-    pair = translate_wrap(pair, dx, dy);
-    aug["translate"] = {dx, dy};
+    if (p.whole_islands && !border_is_abyss(pair.label, p.border_px)) {
+      aug["translate_skipped"] = "island touches the canvas edge";
+    } else {
+      pair = translate_wrap(pair, dx, dy);
+      aug["translate"] = {dx, dy};
+    }
   }
   info.augmentation = aug;
   if (out_info) *out_info = info;

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "reefgen/augment/augment.hpp"
+#include "reefgen/procgen/erosion.hpp"
 
 namespace reefgen::augment {
 
@@ -26,6 +27,21 @@ struct DatasetParams {
   double max_iou = 0.10;       // footprint IoU bound for copy-paste, [0, 1]
   double p_mapgen4 = 0;        // probability a pair is a mapgen4-style island cut into height bands, [0, 1]
   double p_wilbur = 0;         // same for Wilbur-style islands; p_mapgen4 + p_wilbur ≤ 1
+  // Subsidence: `levels` evenly spaced values per configuration (the paper's
+  // ladder), or with continuous_subsidence each pair draws λ ~ U[min, max]
+  // (the authors' code draws 1 − λ in [0.1, 1]): any painted brightness is
+  // then inside the training distribution.
+  bool continuous_subsidence = false;
+  double subsidence_min = 0;   // [0, 1]
+  double subsidence_max = 1;   // [subsidence_min, 1]
+  // Whole islands: a wrap-around translation (of the sample or of a pasted
+  // island) only happens when the footprint leaves a border ring of
+  // `border_px` pixels all abyss; otherwise an island cut by the canvas edge
+  // would come back as an island cut by a straight line inside the canvas.
+  bool whole_islands = true;
+  int border_px = 2;           // [1, 64]
+  double p_erosion = 0;        // probability a curve island is eroded (procgen/erosion.hpp), [0, 1]
+  procgen::ErosionParams erosion;  // JSON: optional object "erosion"
 };
 
 void to_json(nlohmann::json& j, const DatasetParams& p);
@@ -49,5 +65,9 @@ struct PairInfo {
 PairInfo pair_info(uint64_t seed, int64_t index, const DatasetParams& p);
 // Generates and augments pair `index`.
 Pair make_pair(uint64_t seed, int64_t index, const DatasetParams& p, PairInfo* info = nullptr);
+
+// True when the ring of `border_px` pixels along the canvas edge is all abyss:
+// the island is whole inside the canvas and may wrap-translate.
+bool border_is_abyss(const cv::Mat1b& label, int border_px);
 
 }  // namespace reefgen::augment
