@@ -11,6 +11,7 @@
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
+#include <algorithm>
 
 using namespace reefgen;
 using namespace reefgen::augment;
@@ -168,4 +169,77 @@ TEST(Dataset, OtherIslandSystemsAsPairs) {
   p.p_mapgen4 = 0.6;
   p.p_wilbur = 0.6;
   EXPECT_THROW(dataset_params_from_json(nlohmann::json(p), "cfg"), Error);
+}
+
+// Issue 11: no pair may show an island cut by a straight line inside the
+// canvas. A wrap translation is the only way such a line appears, so undo it
+// and check that the canvas it moved had an all-abyss border ring. Also: the
+// rule must have had work to do (translations happened and some were refused).
+TEST(Dataset, WholeIslandsBeforeEveryWrapTranslation) {
+  DatasetParams p = dataset_params_from_json(read_json(std::string(REEFGEN_SOURCE_DIR) + "/configs/dataset/shipped.json"), "shipped.json");
+  p.size_px = 64;  // same recipe, tiny canvas: 500+ pairs in a second or two
+  p.p_translate = 0.6;
+  p.p_erosion = 0;  // heights do not matter here
+  int translated = 0, skipped = 0, pasted = 0;
+  for (int64_t i = 0; i < 520; ++i) {
+    PairInfo info;
+    const Pair pair = make_pair(3, i, p, &info);
+    if (info.augmentation.contains("paste")) ++pasted;
+    if (info.augmentation.contains("translate_skipped")) ++skipped;
+    if (!info.augmentation.contains("translate")) continue;
+    ++translated;
+    const int dx = info.augmentation["translate"][0], dy = info.augmentation["translate"][1];
+    const Pair before = translate_wrap(pair, -dx, -dy);
+    ASSERT_TRUE(border_is_abyss(before.label, p.border_px)) << "pair " << i << " was translated with land on the border";
+    // Heights on that ring are open ocean too (no seam in the height field).
+    for (int x = 0; x < 64; ++x) {
+      ASSERT_LT(before.height_m(0, x), -60.f) << "pair " << i;
+      ASSERT_LT(before.height_m(x, 0), -60.f) << "pair " << i;
+    }
+  }
+  EXPECT_GT(translated, 150);
+  EXPECT_GT(skipped, 5);  // islands do touch the border (scale > 1, wind): the rule was exercised
+  EXPECT_GT(pasted, 50);
+}
+
+TEST(Dataset, BorderIsAbyss) {
+  cv::Mat1b l(16, 16, uint8_t(kAbyss));
+  EXPECT_TRUE(border_is_abyss(l, 2));
+  l(1, 8) = 0;  // inside the 2-px ring
+  EXPECT_FALSE(border_is_abyss(l, 2));
+  EXPECT_TRUE(border_is_abyss(l, 1));
+}
+
+TEST(Dataset, ContinuousSubsidenceCoversTheRange) {
+  DatasetParams p;
+  p.size_px = 32;
+  p.continuous_subsidence = true;
+  p.levels = 3;
+  std::vector<double> lams;
+  for (int64_t i = 0; i < 300; ++i) lams.push_back(pair_info(9, i, p).subsidence);
+  std::sort(lams.begin(), lams.end());
+  lams.erase(std::unique(lams.begin(), lams.end()), lams.end());
+  EXPECT_EQ(lams.size(), 300u);  // every pair its own value, not 3 levels
+  EXPECT_LT(lams.front(), 0.02);
+  EXPECT_GT(lams.back(), 0.98);
+  // The ladder configs are unchanged: 4 levels, exactly the paper's values.
+  DatasetParams ladder = dataset_params_from_json(read_json(std::string(REEFGEN_SOURCE_DIR) + "/configs/dataset/paper.json"), "paper.json");
+  EXPECT_FALSE(ladder.continuous_subsidence);
+  EXPECT_DOUBLE_EQ(pair_info(9, 5, ladder).subsidence, 1.0 / 3.0);
+}
+
+TEST(Dataset, ConfigErrorsNameTheKey) {
+  auto err = [](const char* text) {
+    try {
+      dataset_params_from_json(nlohmann::json::parse(text), "x.json");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(err(R"({"continuous_subsidence": 1})").find("continuous_subsidence must be true or false"), std::string::npos);
+  EXPECT_NE(err(R"({"border_px": 2.5})").find("border_px"), std::string::npos);
+  EXPECT_NE(err(R"({"subsidence_min": 0.5, "subsidence_max": 0.2})").find("subsidence_max"), std::string::npos);
+  EXPECT_NE(err(R"({"erosion": {"rain": 1}})").find("erosion.rain"), std::string::npos);
+  EXPECT_NE(err(R"({"erosion": {"thermal_iterations": 2.5}})").find("integer"), std::string::npos);
 }

@@ -10,7 +10,8 @@ namespace reefgen::model {
 namespace {
 nlohmann::json options_json(const UNetOptions& o) {
   return {{"in_channels", o.in_channels}, {"out_channels", o.out_channels}, {"ngf", o.ngf},
-          {"depth", o.depth}, {"norm", to_string(o.norm)}, {"dropout", o.dropout}};
+          {"depth", o.depth}, {"norm", to_string(o.norm)}, {"dropout", o.dropout},
+          {"upsample", to_string(o.upsample)}};
 }
 }  // namespace
 
@@ -45,6 +46,7 @@ GeneratorFile load_generator(const std::filesystem::path& path) {
     o.depth = j.at("depth");
     o.norm = norm_from_string(j.at("norm"));
     o.dropout = j.at("dropout");
+    o.upsample = upsample_from_string(j.value("upsample", "transpose"));  // files before it: pix2pix's
     c10::IValue v;
     a.read("height_range_m", v);
     const auto r = v.toDoubleVector();

@@ -22,6 +22,22 @@ std::string to_string(Norm n) {
   return "?";
 }
 
+Upsample upsample_from_string(const std::string& s) {
+  if (s == "transpose") return Upsample::Transpose;
+  if (s == "nearest") return Upsample::Nearest;
+  if (s == "bilinear") return Upsample::Bilinear;
+  throw std::invalid_argument("upsample '" + s + "': use transpose, nearest or bilinear");
+}
+
+std::string to_string(Upsample u) {
+  switch (u) {
+    case Upsample::Transpose: return "transpose";
+    case Upsample::Nearest: return "nearest";
+    case Upsample::Bilinear: return "bilinear";
+  }
+  return "?";
+}
+
 namespace {
 
 // A normalisation layer chosen at run time; empty for Norm::None.
@@ -67,14 +83,30 @@ struct UNetLevelImpl : nn::Module {
     if (!outermost && !innermost) down_norm = register_module("down_norm", NormLayer(o.norm, inner));
     // Inner levels receive their own output concatenated with the skip.
     const int up_in = innermost ? inner : 2 * inner;
-    up_conv = register_module(
-        "up_conv", nn::ConvTranspose2d(nn::ConvTranspose2dOptions(up_in, out, 4).stride(2).padding(1).bias(
-                       outermost || bias)));
+    upsample = o.upsample;
+    if (upsample == Upsample::Transpose)
+      up_conv = register_module(
+          "up_conv", nn::ConvTranspose2d(nn::ConvTranspose2dOptions(up_in, out, 4).stride(2).padding(1).bias(
+                         outermost || bias)));
+    else
+      up_resize_conv = register_module(
+          "up_conv", nn::Conv2d(nn::Conv2dOptions(up_in, out, 3).stride(1).padding(1).bias(outermost || bias)));
     if (!outermost) up_norm = register_module("up_norm", NormLayer(o.norm, out));
     dropout = (k >= 4 && k <= o.depth - 2) ? o.dropout : 0.0;
   }
+  // x {N,C,s,s} -> {N,out,2s,2s}
+  torch::Tensor up(const torch::Tensor& x) {
+    if (upsample == Upsample::Transpose) return up_conv->forward(x);
+    namespace F = torch::nn::functional;
+    auto o = F::InterpolateFuncOptions().scale_factor(std::vector<double>{2.0, 2.0});
+    if (upsample == Upsample::Nearest) o.mode(torch::kNearest);
+    else o.mode(torch::kBilinear).align_corners(false);
+    return up_resize_conv->forward(F::interpolate(x, o));
+  }
   bool outermost, innermost;
   double dropout;
+  Upsample upsample = Upsample::Transpose;
+  nn::Conv2d up_resize_conv{nullptr};
   nn::Conv2d down_conv{nullptr};
   NormLayer down_norm{nullptr}, up_norm{nullptr};
   nn::ConvTranspose2d up_conv{nullptr};
@@ -115,11 +147,11 @@ torch::Tensor UNetGeneratorImpl::forward(torch::Tensor x) {
   torch::Tensor u = d;  // {N,8ngf,S/2^depth,..}
   for (int k = depth - 1; k >= 1; --k) {
     auto L = level(k);
-    u = L->up_norm->forward(L->up_conv->forward(torch::relu_(u)));  // u is a fresh cat/conv output
+    u = L->up_norm->forward(L->up(torch::relu_(u)));  // u is a fresh cat/conv output
     if (L->dropout > 0) u = torch::dropout(u, L->dropout, is_training() && dropout_enabled_);
     u = torch::cat({skips[k - 1], u}, 1);  // skip first, as in torch.cat([x, model(x)], 1)
   }
-  return torch::tanh(level(0)->up_conv->forward(torch::relu_(u)));  // {N,out,S,S}
+  return torch::tanh(level(0)->up(torch::relu_(u)));  // {N,out,S,S}
 }
 
 PatchDiscriminatorImpl::PatchDiscriminatorImpl(const PatchOptions& o) : options_(o) {

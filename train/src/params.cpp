@@ -12,7 +12,7 @@ using nlohmann::json;
 // One list of fields: serialisation, parsing and the unknown-key check all
 // come from it, so a new field cannot be forgotten in one of them.
 #define REEFGEN_TRAIN_FIELDS(X)                                                                        \
-  X(seed) X(ngf) X(ndf) X(depth) X(d_layers) X(norm) X(dropout) X(lr) X(beta1) X(beta2) X(lambda_l1) \
+  X(seed) X(ngf) X(ndf) X(depth) X(d_layers) X(norm) X(upsample) X(dropout) X(lr) X(beta1) X(beta2) X(lambda_l1) \
   X(batch_size) X(epochs) X(epochs_decay) X(jitter) X(jitter_scale) X(flip) X(log_every) X(val_every) \
   X(val_samples) X(val_max_pairs) X(checkpoint_every) X(loader_threads) X(prefetch) X(threads)         \
   X(deterministic)
@@ -59,6 +59,8 @@ void validate(const TrainParams& p, const std::string& origin) {
   range("d_layers", p.d_layers, 1, 8);
   if (p.norm != "batch" && p.norm != "instance" && p.norm != "none")
     throw Error(origin + ": norm = '" + p.norm + "'; use batch, instance or none");
+  if (p.upsample != "transpose" && p.upsample != "nearest" && p.upsample != "bilinear")
+    throw Error(origin + ": upsample = '" + p.upsample + "'; use transpose, nearest or bilinear");
   range("dropout", p.dropout, 0, 1, false, true);
   range("lr", p.lr, 0, 1, true);
   range("beta1", p.beta1, 0, 1, false, true);
@@ -84,6 +86,7 @@ Pix2PixOptions pix2pix_options(const TrainParams& p) {
   o.g.ngf = p.ngf;
   o.g.depth = p.depth;
   o.g.norm = model::norm_from_string(p.norm);
+  o.g.upsample = model::upsample_from_string(p.upsample);
   o.g.dropout = p.dropout;
   o.d.ndf = p.ndf;
   o.d.n_layers = p.d_layers;

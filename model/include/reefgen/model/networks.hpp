@@ -13,6 +13,14 @@ enum class Norm { Batch, Instance, None };
 Norm norm_from_string(const std::string& s);  // "batch" | "instance" | "none"
 std::string to_string(Norm n);
 
+// How the decoder doubles the resolution. pix2pix: a 4×4 stride-2 transposed
+// convolution, whose uneven kernel overlap draws 2-px checkerboards (Odena et
+// al. 2016). Resize-convolution (nearest or bilinear ×2, then a 3×3
+// convolution) cannot: every output pixel sees the same kernel taps.
+enum class Upsample { Transpose, Nearest, Bilinear };
+Upsample upsample_from_string(const std::string& s);  // "transpose" | "nearest" | "bilinear"
+std::string to_string(Upsample u);
+
 struct UNetOptions {
   int in_channels = 3;     // RGB label sketch in [-1, 1]; [1, 64]
   int out_channels = 1;    // height normalised to [-1, 1]; [1, 64]
@@ -20,6 +28,7 @@ struct UNetOptions {
   int depth = 8;           // down-samplings; the input side must be a multiple of 2^depth; [5, 12]
   Norm norm = Norm::Batch; // pix2pix default; convolutions have a bias only without BatchNorm
   double dropout = 0.5;    // after the decoder blocks of the ngf*8 levels 4..depth-2; [0, 1)
+  Upsample upsample = Upsample::Transpose;  // pix2pix default; resize-convolution has no checkerboards
 };
 
 struct PatchOptions {

@@ -18,6 +18,7 @@ struct TrainParams {
   int depth = 8;                // U-Net down-samplings; the side must be a multiple of 2^depth, [5, 12]
   int d_layers = 3;             // PatchGAN layers: 3 = 70x70 patches, [1, 8]
   std::string norm = "batch";   // batch | instance | none
+  std::string upsample = "transpose";  // G's decoder: transpose (pix2pix) | nearest | bilinear (resize-convolution)
   double dropout = 0.5;         // in G's three innermost decoder blocks, [0, 1)
   // Optimisation
   double lr = 2e-4;             // Adam learning rate, (0, 1]
