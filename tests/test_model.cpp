@@ -48,6 +48,44 @@ TEST(Networks, ShapesAndOutputRange) {
   EXPECT_THROW(UNetGenerator(model::UNetOptions{3, 1, 64, 4}), std::invalid_argument);
 }
 
+// 2-px checkerboard of a field: mean |h00 − h01 − h10 + h11| over 2×2 cells
+// of the central half (away from the zero padding's border effects).
+static double central_checkerboard(const torch::Tensor& y) {  // {1,1,S,S}
+  const int64_t S = y.size(-1), a = S / 4, b = 3 * S / 4;
+  const auto c = y[0][0].slice(0, a, b).slice(1, a, b);
+  const auto e = c.slice(0, 0, c.size(0), 2), o = c.slice(0, 1, c.size(0), 2);
+  const auto d = e.slice(1, 0, c.size(1), 2) - e.slice(1, 1, c.size(1), 2) - o.slice(1, 0, c.size(1), 2) +
+                 o.slice(1, 1, c.size(1), 2);
+  return d.abs().mean().item<double>();
+}
+
+// Resize-convolution cannot draw checkerboards: on a constant input the
+// decoder sees constant (nearest-upsampled) maps, so the output is constant
+// away from the border. The same net with transposed convolutions, same
+// seed, draws the 2-px pattern (its even and odd outputs use different taps).
+TEST(Networks, ResizeConvolutionHasNoCheckerboard) {
+  auto run = [](model::Upsample u) {
+    torch::manual_seed(3);
+    model::UNetOptions o;
+    o.ngf = 4;
+    o.depth = 5;
+    o.norm = model::Norm::None;
+    o.upsample = u;
+    UNetGenerator g(o);
+    model::init_pix2pix(*g, 0.3);
+    g->eval();
+    torch::NoGradGuard ng;
+    return g->forward(torch::full({1, 3, 256, 256}, 0.3f));
+  };
+  const double resize = central_checkerboard(run(model::Upsample::Nearest));
+  const double transpose = central_checkerboard(run(model::Upsample::Transpose));
+  EXPECT_LT(resize, 1e-6);
+  EXPECT_GT(transpose, 1e-3);
+  EXPECT_LT(central_checkerboard(run(model::Upsample::Bilinear)), 1e-6);
+  EXPECT_EQ(model::upsample_from_string("bilinear"), model::Upsample::Bilinear);
+  EXPECT_THROW(model::upsample_from_string("pixelshuffle"), std::invalid_argument);
+}
+
 TEST(Networks, PatchGanReceptiveFieldIs70) {
   PatchDiscriminator d(model::PatchOptions{4, 2, 3, model::Norm::None});
   model::init_pix2pix(*d);

@@ -1,4 +1,5 @@
 #include "reefgen/infer/eval.hpp"
+#include "reefgen/io.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -169,6 +170,50 @@ cv::Mat3b perturb(const cv::Mat3b& img, Perturbation p, uint64_t seed) {
     }
   }
   return out;
+}
+
+}  // namespace reefgen::infer
+
+namespace reefgen::infer {
+
+double checkerboard_m(const cv::Mat1f& h) {
+  if (h.rows < 2 || h.cols < 2) return 0;
+  double sum = 0;
+  for (int y = 0; y + 1 < h.rows; ++y) {
+    const float* a = h.ptr<float>(y);
+    const float* b = h.ptr<float>(y + 1);
+    for (int x = 0; x + 1 < h.cols; ++x) sum += std::abs(double(a[x]) - a[x + 1] - b[x] + b[x + 1]);
+  }
+  return sum / (double(h.rows - 1) * (h.cols - 1));
+}
+
+SketchChecks sketch_checks(const cv::Mat1f& pred_m, const DecodedSketch& s, double young_max) {
+  if (pred_m.size() != s.label.size()) throw reefgen::Error("sketch_checks: prediction and sketch differ in size");
+  SketchChecks c;
+  std::vector<float> reef;
+  for (int y = 0; y < pred_m.rows; ++y)
+    for (int x = 0; x < pred_m.cols; ++x) {
+      const int r = s.label(y, x);
+      const float h = pred_m(y, x);
+      const bool young = s.subsidence(y, x) <= young_max;
+      if (r == kReef) reef.push_back(h);
+      if (!young) continue;
+      if (r == kIsland || r == kBeach) {
+        ++c.land_px;
+        c.land_above_0 += h > 0;
+      } else if (r == kAbyss) {
+        ++c.abyss_px;
+        c.abyss_below_0 += h < 0;
+        c.abyss_below_20 += h < -20;
+      }
+    }
+  if (!reef.empty()) {
+    const size_t k = std::min(reef.size() - 1, size_t(0.95 * double(reef.size())));
+    std::nth_element(reef.begin(), reef.begin() + long(k), reef.end());
+    c.reef_crest_m = reef[k];
+  }
+  c.checkerboard_m = checkerboard_m(pred_m);
+  return c;
 }
 
 }  // namespace reefgen::infer

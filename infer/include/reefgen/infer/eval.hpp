@@ -6,8 +6,12 @@
 #include <cstdint>
 #include <string>
 
+#include <cmath>
+
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
+
+#include "reefgen/labels.hpp"
 
 namespace reefgen::infer {
 
@@ -39,5 +43,25 @@ double slope_distance_deg(const cv::Mat1f& a, const cv::Mat1f& b, double metres_
 enum class Perturbation { None, Blur, Jpeg50, HueJitter, BrushNoise };
 const char* perturbation_name(Perturbation p);
 cv::Mat3b perturb(const cv::Mat3b& sketch_bgr, Perturbation p, uint64_t seed);
+
+}  // namespace reefgen::infer
+
+namespace reefgen::infer {
+
+// 2-px checkerboard amplitude of a height field: mean |h00 − h01 − h10 + h11|
+// over every 2×2 window, metres. Transposed-convolution artefacts raise it;
+// a clean procedural field is ≈ 0.1 m at 256².
+double checkerboard_m(const cv::Mat1f& height_m);
+
+// What a painted sketch's result should show, without ground truth
+// (docs/MODEL.md): young (λ ≤ young_max) island and beach above the sea,
+// young abyss deep, the reef crest just below the surface.
+struct SketchChecks {
+  int64_t land_px = 0, land_above_0 = 0;      // painted island + beach at λ ≤ young_max
+  int64_t abyss_px = 0, abyss_below_0 = 0, abyss_below_20 = 0;  // painted abyss at λ ≤ young_max
+  double reef_crest_m = std::nan("");         // 95th percentile of the reef pixels' heights (any λ)
+  double checkerboard_m = 0;
+};
+SketchChecks sketch_checks(const cv::Mat1f& pred_m, const DecodedSketch& sketch, double young_max = 0.1);
 
 }  // namespace reefgen::infer

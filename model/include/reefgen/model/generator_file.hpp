@@ -12,7 +12,13 @@
 namespace reefgen::model {
 
 inline constexpr const char* kGeneratorFormat = "reefgen-generator";
-inline constexpr int64_t kGeneratorFormatVersion = 1;
+// Version 2 adds the weights' storage type (float32 or float16, always loaded
+// as float32) and a SHA-256 of the stored weights, checked on load: a file
+// with flipped bytes is refused instead of producing wrong terrains. Version 1
+// files (float32, no checksum) still load.
+inline constexpr int64_t kGeneratorFormatVersion = 2;
+
+enum class WeightStorage { Float32, Float16 };
 
 struct GeneratorFile {
   UNetGenerator g{nullptr};
@@ -20,11 +26,17 @@ struct GeneratorFile {
   int size_px = 256;       // the side it was trained at
   int64_t train_step = 0;  // steps done when exported
   std::string reefgen_version;
+  std::string weights_sha256;  // empty for version-1 files
+  WeightStorage storage = WeightStorage::Float32;
 };
 
 // Written atomically (temp + rename); throws std::runtime_error naming the path.
 void save_generator(const std::filesystem::path& path, UNetGenerator& g, const HeightRange& range, int size_px,
-                    int64_t train_step);
+                    int64_t train_step, WeightStorage storage = WeightStorage::Float32);
+
+// SHA-256 over G's parameters and buffers as stored (name, dtype, shape and
+// raw bytes, in the module's fixed order).
+std::string weights_sha256(torch::nn::Module& g);
 // Throws std::runtime_error naming the path and the fix for a missing,
 // truncated, foreign or incompatible file.
 GeneratorFile load_generator(const std::filesystem::path& path);
