@@ -11,6 +11,7 @@
 #include "reefgen/infer/eval.hpp"
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/io.hpp"
+#include "reefgen/model/shipped.hpp"
 #include "reefgen/preview.hpp"
 #include "reefgen/train/data.hpp"
 #include "reefgen/train/fused_adam.hpp"
@@ -37,7 +38,8 @@ Command add_eval_command(CLI::App& app, const GlobalOptions& g) {
     std::optional<int> threads;
   };
   auto a = std::make_shared<Args>();
-  sub->add_option("-m,--model", a->model, "Generator exported by `reefgen train`")->required();
+  sub->add_option("-m,--model", a->model, "Generator exported by `reefgen train`"
+                                          "; default: the shipped model (models/reef-256.pt, docs/MODEL.md)");
   sub->add_option("--data", a->data, "Dataset folder (`reefgen dataset build`)")->required();
   sub->add_option("--split", a->split, "train, val or test")->capture_default_str();
   sub->add_option("--out", a->out, "Folder for eval.json, eval.md, worst.png (default: print JSON only)");
@@ -50,6 +52,7 @@ Command add_eval_command(CLI::App& app, const GlobalOptions& g) {
             torch::set_num_threads(a->threads.value_or(default_threads()));
             train::keep_freed_memory();
             if (a->max_pairs < 1) throw Error("--max-pairs must be ≥ 1");
+            a->model = model::resolve_model_path(a->model).string();
             model::GeneratorFile gen = model::load_generator(a->model);
             const train::DatasetInfo data = train::open_dataset(a->data);
             const auto& pairs = data.split(a->split);

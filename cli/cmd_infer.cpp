@@ -7,6 +7,7 @@
 #include "reefgen/infer/export.hpp"
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/io.hpp"
+#include "reefgen/model/shipped.hpp"
 #include "reefgen/preview.hpp"
 #include "reefgen/train/fused_adam.hpp"
 #include "reefgen/version.hpp"
@@ -41,6 +42,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
       "darker = more subsidence. Any size (resized to the model's side and back), PNG/JPEG,\n"
       "8/16-bit, alpha, anti-aliased brushes.\n\n"
       "Examples:\n"
+      "  reefgen infer sketch.png -o out/island --preview                 # the shipped model\n"
       "  reefgen infer sketch.png -m runs/paper/generator.pt -o out/island --preview\n"
       "  reefgen infer sketches/ -m generator.pt -o out/ --png16 --r16\n"
       "  reefgen infer sketch.png -m generator.pt -o out/island --mesh out/island.glb --exaggeration 3\n"
@@ -55,7 +57,8 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
   };
   auto a = std::make_shared<Args>();
   sub->add_option("sketches", a->inputs, "Sketch images or folders of them")->required();
-  sub->add_option("-m,--model", a->model, "Generator exported by `reefgen train` (RUN/generator.pt)")->required();
+  sub->add_option("-m,--model", a->model, "Generator exported by `reefgen train` (RUN/generator.pt)"
+                                          "; default: the shipped model (models/reef-256.pt, docs/MODEL.md)");
   sub->add_option("-o,--output", a->out,
                   "One sketch: output prefix (PREFIX.height.exr, PREFIX.json, ...). Several: a folder")->required();
   sub->add_flag("--png16", a->png16, "Also PREFIX.height.png: 16-bit linear, range in the sidecar");
@@ -101,6 +104,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
             }
             if (!(a->exaggeration > 0 && a->exaggeration <= 100)) throw Error("--exaggeration must be in (0, 100]");
             if (!(a->world_size_m > 0)) throw Error("--world-size must be > 0");
+            a->model = model::resolve_model_path(a->model).string();
             model::GeneratorFile gen = model::load_generator(a->model);
             if (a->stochastic && (gen.g->options().depth < 6 || gen.g->options().dropout == 0))
               throw Error("--stochastic: " + a->model + " has no dropout layers (depth " +

@@ -36,6 +36,7 @@ int main(int argc, char** argv) {
                                                   reefgen::add_floating_command(app, g),
                                                   reefgen::add_eval_command(app, g),
                                                   reefgen::add_eval_sketches_command(app, g),
+                                                  reefgen::add_model_command(app, g),
                                                   reefgen::add_bench_command(app, g)};
   try {
     app.parse(argc, argv);

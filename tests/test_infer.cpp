@@ -10,6 +10,7 @@
 #include "reefgen/infer/export.hpp"
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/procgen/sketch.hpp"
+#include "reefgen/sha256.hpp"
 #include "test_util.hpp"
 
 using namespace reefgen;
@@ -254,4 +255,57 @@ TEST(Sketch, GoldenRegionCountsAndNesting) {
       EXPECT_LE(std::abs(int(s.label(r, c)) - int(s.label(r + 1, c))), 1);
     }
   EXPECT_THROW(procgen::random_sketch(procgen::SketchParams{64, 0}, 1), std::invalid_argument);
+}
+
+TEST(Sha256, KnownVectors) {  // FIPS 180-4 examples
+  EXPECT_EQ(sha256_hex("", 0), "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+  EXPECT_EQ(sha256_hex("abc", 3), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+  const std::string two_blocks = "abcdbcdecdefdefgefghfghighijhijkijkljklmklmnlmnomnopnopq";
+  EXPECT_EQ(sha256_hex(two_blocks.data(), two_blocks.size()),
+            "248d6a61d20638b8e5c026930c3e6039a33ce45964ff2167f6ecedd419db06c1");
+  Sha256 million;  // fed in uneven pieces across block boundaries
+  const std::string a(999, 'a');
+  for (int i = 0; i < 1001; ++i) million.update(a.data(), a.size());  // 999 999 bytes
+  million.update("a", 1);
+  EXPECT_EQ(million.hex(), "cdc76e5c9914fb9281a1c7e284d73e67f1809a48a497200e046d39ccc7112cd0");
+}
+
+// The shipped model's storage: float16 on disk, float32 in memory, results
+// within a small tolerance of the float32 file; a flipped byte is refused.
+TEST(GeneratorFile, Float16StorageAndChecksum) {
+  const fs::path dir = temp_dir("g16");
+  torch::manual_seed(4);
+  model::UNetOptions o;
+  o.ngf = 8;
+  o.depth = 6;
+  o.norm = model::Norm::Instance;
+  o.upsample = model::Upsample::Nearest;
+  model::UNetGenerator g(o);
+  model::init_pix2pix(*g);
+  model::save_generator(dir / "g32.pt", g, {-100, 560}, 64, 7);
+  model::save_generator(dir / "g16.pt", g, {-100, 560}, 64, 7, model::WeightStorage::Float16);
+  EXPECT_LT(fs::file_size(dir / "g16.pt"), fs::file_size(dir / "g32.pt") * 6 / 10);
+  auto a = model::load_generator(dir / "g32.pt");
+  auto b = model::load_generator(dir / "g16.pt");
+  EXPECT_EQ(b.storage, model::WeightStorage::Float16);
+  EXPECT_EQ(b.g->options().upsample, model::Upsample::Nearest);
+  EXPECT_EQ(b.train_step, 7);
+  for (const auto& p : b.g->parameters()) EXPECT_EQ(p.scalar_type(), torch::kFloat32);
+  const auto ha = infer_heights(a, {sketch(3, 64)}, {})[0], hb = infer_heights(b, {sketch(3, 64)}, {})[0];
+  EXPECT_LT(cv::norm(ha, hb, cv::NORM_INF), 1.0);  // metres, over a 660 m range
+  // Flipped bytes in the weights: refused, naming the file.
+  const std::string bytes = bytes_of(dir / "g16.pt");
+  int refused = 0;
+  for (double at : {0.3, 0.5, 0.7}) {
+    std::string bad = bytes;
+    bad[size_t(at * double(bad.size()))] ^= 0x5a;
+    { std::ofstream(dir / "bad.pt", std::ios::binary) << bad; }
+    try {
+      model::load_generator(dir / "bad.pt");
+    } catch (const std::exception& e) {
+      ++refused;
+      EXPECT_NE(std::string(e.what()).find("bad.pt"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_EQ(refused, 3);
 }

@@ -42,12 +42,18 @@ void save_generator(const std::filesystem::path& path, UNetGenerator& g, const H
   a.write("train_step", c10::IValue(train_step));
   // The stored copy: float16 halves the file (the shipped model, models/);
   // only floating-point tensors change type (BatchNorm's counter stays int64).
-  auto stored = std::dynamic_pointer_cast<UNetGeneratorImpl>(g->clone());
-  if (storage == WeightStorage::Float16) {
+  UNetGenerator stored(g->options());
+  {
     torch::NoGradGuard ng;
-    for (auto& t : stored->parameters()) t.set_data(t.to(torch::kHalf));
-    for (auto& t : stored->buffers())
-      if (t.is_floating_point()) t.set_data(t.to(torch::kHalf));
+    const auto half = storage == WeightStorage::Float16;
+    auto copy = [&](torch::OrderedDict<std::string, torch::Tensor> to, torch::OrderedDict<std::string, torch::Tensor> from) {
+      for (auto& item : to) {
+        const torch::Tensor& src = from[item.key()];
+        item.value().set_data(half && src.is_floating_point() ? src.to(torch::kHalf) : src.clone());
+      }
+    };
+    copy(stored->named_parameters(), g->named_parameters());
+    copy(stored->named_buffers(), g->named_buffers());
   }
   a.write("weights_dtype", c10::IValue(std::string(storage == WeightStorage::Float16 ? "float16" : "float32")));
   a.write("weights_sha256", c10::IValue(weights_sha256(*stored)));
@@ -94,9 +100,15 @@ GeneratorFile load_generator(const std::filesystem::path& path) {
       f.storage = dtype == "float16" ? WeightStorage::Float16 : WeightStorage::Float32;
       f.weights_sha256 = read_string(a, "weights_sha256");
     }
+    if (f.storage == WeightStorage::Float16) {  // read into tensors of the stored type
+      torch::NoGradGuard ng;
+      for (auto& t : f.g->parameters()) t.set_data(t.to(torch::kHalf));
+      for (auto& t : f.g->buffers())
+        if (t.is_floating_point()) t.set_data(t.to(torch::kHalf));
+    }
     torch::serialize::InputArchive weights;
     a.read("G", weights);
-    f.g->load(weights);  // tensors take the stored type
+    f.g->load(weights);
   } catch (const std::exception& e) {
     throw std::runtime_error(path.string() + ": not a usable reefgen generator (" + first_line(e.what()) +
                              "); re-export it with this version of reefgen");

@@ -1,0 +1,69 @@
+// reefgen model: look into and repackage generator files (docs/MODEL.md).
+// `pack` stores the weights as float16 with their SHA-256 (how the shipped
+// model is made); `info` loads a file, which verifies it, and prints what it is.
+#include <cstdio>
+
+#include "app.hpp"
+#include "reefgen/io.hpp"
+#include "reefgen/model/generator_file.hpp"
+#include "reefgen/model/shipped.hpp"
+
+namespace reefgen {
+
+using nlohmann::json;
+
+Command add_model_command(CLI::App& app, const GlobalOptions&) {
+  auto* sub = app.add_subcommand(
+      "model",
+      "Inspect or repackage generator files\n\n"
+      "Examples:\n"
+      "  reefgen model info                                  # the shipped model: verified, described\n"
+      "  reefgen model info runs/try/generator.pt\n"
+      "  reefgen model pack runs/try/generator.pt -o models/reef-256.pt --storage float16\n");
+  sub->require_subcommand(1);
+  struct Args {
+    std::string in, out, storage = "float16";
+  };
+  auto a = std::make_shared<Args>();
+  auto* info = sub->add_subcommand("info", "Load (and so verify) a generator file; print its options, size and checksum");
+  info->add_option("generator", a->in, "Generator file (default: the shipped model)");
+  auto* pack = sub->add_subcommand("pack", "Rewrite a generator file with float16 or float32 weights and a SHA-256");
+  pack->add_option("generator", a->in, "Generator exported by `reefgen train`")->required();
+  pack->add_option("-o,--out", a->out, "Output file (not the input)")->required();
+  pack->add_option("--storage", a->storage, "float16 (half the size; computes in float32) or float32")
+      ->capture_default_str();
+  return {sub, [a, info, pack]() -> int {
+            const fs::path in = model::resolve_model_path(a->in);
+            model::GeneratorFile f = model::load_generator(in);
+            const auto& o = f.g->options();
+            if (info->parsed()) {
+              const json j = {{"path", in.string()},
+                              {"bytes", fs::file_size(in)},
+                              {"weights", f.storage == model::WeightStorage::Float16 ? "float16" : "float32"},
+                              {"weights_sha256", f.weights_sha256.empty() ? json(nullptr) : json(f.weights_sha256)},
+                              {"parameters", model::count_parameters(*f.g)},
+                              {"ngf", o.ngf},
+                              {"depth", o.depth},
+                              {"norm", model::to_string(o.norm)},
+                              {"upsample", model::to_string(o.upsample)},
+                              {"size_px", f.size_px},
+                              {"height_range_m", {f.range.lo_m, f.range.hi_m}},
+                              {"train_step", f.train_step},
+                              {"reefgen_version", f.reefgen_version}};
+              std::printf("%s\n", j.dump(1).c_str());
+              return 0;
+            }
+            if (a->storage != "float16" && a->storage != "float32")
+              throw Error("--storage " + a->storage + ": use float16 or float32");
+            std::error_code ec;
+            if (fs::exists(a->out) && fs::equivalent(in, a->out, ec))
+              throw Error(a->out + ": is the input; write the packed file elsewhere");
+            model::save_generator(a->out, f.g, f.range, f.size_px, f.train_step,
+                                  a->storage == "float16" ? model::WeightStorage::Float16 : model::WeightStorage::Float32);
+            model::load_generator(a->out);  // read back: the checksum holds
+            std::printf("%s\n", a->out.c_str());
+            return 0;
+          }};
+}
+
+}  // namespace reefgen
