@@ -280,7 +280,17 @@ RunResult run_training(const TrainParams& params, const RunOptions& run) {
   };
 
   RunResult result{step, total, false};
-  if (step >= end) return result;
+  auto export_generator = [&] {
+    try {
+      model::save_generator(run.out / "generator.pt", p.G(), data.range, data.size_px, step);
+    } catch (const std::exception& e) {
+      throw Error(e.what());
+    }
+  };
+  if (step >= end) {  // nothing left to train: the generator still matches the checkpoint
+    export_generator();
+    return result;
+  }
   Prefetcher loader(make_batch, step, end, params.loader_threads, params.prefetch);
   using clock = std::chrono::steady_clock;
   while (step < end) {
@@ -329,11 +339,7 @@ RunResult run_training(const TrainParams& params, const RunOptions& run) {
   result.step = step;
   // The loop ends at the end of the run, at --max-steps or on a signal: every
   // case leaves a usable generator next to the checkpoint.
-  try {
-    model::save_generator(run.out / "generator.pt", p.G(), data.range, data.size_px, step);
-  } catch (const std::exception& e) {
-    throw Error(e.what());
-  }
+  export_generator();
   return result;
 }
 
