@@ -4,6 +4,9 @@
 #include <fstream>
 #include <thread>
 
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
@@ -187,6 +190,35 @@ TEST(Train, ResumeEqualsUninterruptedBitForBit) {
   EXPECT_EQ(log_without_timing(base / "full" / "log.csv"), log_without_timing(base / "sig" / "log.csv"));
   EXPECT_EQ(read_text(base / "full" / "val.csv"), read_text(base / "sig" / "val.csv"));
 
+  // Resuming a folder without a checkpoint is refused (it used to start a fresh default run).
+  RunOptions empty = run_in(data, base / "empty");
+  empty.resume = true;
+  expect_error_naming([&] { run_training(params, empty); }, "no checkpoint.pt to resume");
+  // A second process on a run folder in use is refused, naming the folder.
+  {
+    const DirLock held(base / "full", "run folder");
+    RunOptions busy = run_in(data, base / "full");
+    busy.resume = true;
+    expect_error_naming([&] { run_training(params, busy); }, "another reefgen process");
+  }
+  // Temp files of a dead process are removed on resume; a live one's are kept.
+  {
+    pid_t child = fork();
+    if (child == 0) _exit(0);
+    int status = 0;
+    waitpid(child, &status, 0);  // a PID that no longer runs
+    const fs::path stale = base / "full" / ("checkpoint.pt.tmp-" + std::to_string(child));
+    const fs::path stale2 = base / "full" / ("log.csv.tmp." + std::to_string(child) + ".3");
+    const fs::path live = base / "full" / ("log.csv.tmp." + std::to_string(getppid()) + ".1");
+    for (const auto& f : {stale, stale2, live}) write_text_atomic(f, "x");
+    RunOptions again = run_in(data, base / "full");
+    again.resume = true;
+    run_training(params, again);  // the run is complete: it only re-exports
+    EXPECT_FALSE(fs::exists(stale));
+    EXPECT_FALSE(fs::exists(stale2));
+    EXPECT_TRUE(fs::exists(live));
+    fs::remove(live);
+  }
   // A run folder is never silently reused.
   expect_error_naming([&] { run_training(params, run_in(data, base / "full")); }, "--resume");
   // Resuming with a different config is refused, naming the key.

@@ -2,6 +2,9 @@
 
 #include <zlib.h>
 
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/file.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -271,6 +274,79 @@ std::string file_checksum(const fs::path& path) {
   char buf[17];
   std::snprintf(buf, sizeof buf, "%016llx", (unsigned long long)h);
   return buf;
+}
+
+}  // namespace reefgen
+
+namespace reefgen {
+
+DirLock::DirLock(const fs::path& dir, const std::string& what) {
+  const fs::path lock = dir / ".reefgen.lock";
+  fd_ = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd_ < 0) throw Error(lock.string() + ": cannot create the lock file (" + std::strerror(errno) + "); check the folder's permissions");
+  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    std::string other;
+    {
+      std::ifstream f(lock);
+      std::getline(f, other);
+    }
+    ::close(fd_);
+    fd_ = -1;
+    throw Error(dir.string() + ": another reefgen process" + (other.empty() ? "" : " (PID " + other + ")") +
+                " is using this " + what + "; wait for it to finish or choose another folder");
+  }
+  const std::string pid = std::to_string(::getpid()) + "\n";
+  if (::ftruncate(fd_, 0) == 0) {
+    const ssize_t n = ::pwrite(fd_, pid.data(), pid.size(), 0);
+    (void)n;  // the PID is only a hint in the message above
+  }
+}
+
+DirLock::~DirLock() {
+  if (fd_ >= 0) ::close(fd_);  // releases the flock
+}
+
+int remove_stale_temps(const fs::path& dir) {
+  std::error_code ec;
+  int removed = 0;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    if (!e.is_regular_file(ec)) continue;
+    const std::string name = e.path().filename().string();
+    long pid = 0;
+    size_t at = name.rfind(".tmp.");
+    if (at != std::string::npos) {  // NAME.tmp.PID.N
+      const std::string rest = name.substr(at + 5);
+      const size_t dot = rest.find('.');
+      if (dot == std::string::npos || dot == 0) continue;
+      const std::string p = rest.substr(0, dot), n = rest.substr(dot + 1);
+      if (p.find_first_not_of("0123456789") != std::string::npos || n.empty() ||
+          n.find_first_not_of("0123456789") != std::string::npos)
+        continue;
+      pid = std::stol(p);
+    } else if ((at = name.rfind(".tmp-")) != std::string::npos) {  // NAME.tmp-PID
+      const std::string p = name.substr(at + 5);
+      if (p.empty() || p.find_first_not_of("0123456789") != std::string::npos) continue;
+      pid = std::stol(p);
+    } else {
+      continue;
+    }
+    if (pid <= 0 || pid == ::getpid()) continue;
+    if (::kill(pid_t(pid), 0) == 0 || errno != ESRCH) continue;  // alive (or not ours to judge)
+    if (fs::remove(e.path(), ec)) ++removed;
+  }
+  return removed;
+}
+
+void refuse_output_over_input(const std::vector<fs::path>& inputs, const std::vector<fs::path>& outputs) {
+  std::error_code ec;
+  for (const auto& out : outputs)
+    for (const auto& in : inputs) {
+      const bool same = fs::absolute(out, ec).lexically_normal() == fs::absolute(in, ec).lexically_normal() ||
+                        (fs::exists(out, ec) && fs::exists(in, ec) && fs::equivalent(out, in, ec));
+      if (same)
+        throw Error(out.string() + ": this output is also an input (" + in.string() +
+                    "); choose another output name so the input is not overwritten");
+    }
 }
 
 }  // namespace reefgen

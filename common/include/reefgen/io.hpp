@@ -63,6 +63,30 @@ void write_exr_height(const fs::path& path, const cv::Mat1f& height_m, const Exr
 // type are returned in `attrs` when not null.
 cv::Mat1f read_exr_height(const fs::path& path, ExrAttributes* attrs = nullptr);
 
+// An exclusive lock on a folder (a run folder, a dataset being built), held
+// for the object's lifetime through DIR/.reefgen.lock (flock: released by the
+// kernel when the process dies, so a kill -9 never leaves a stale lock).
+// Throws Error naming the folder and the other process when it is taken.
+class DirLock {
+ public:
+  DirLock(const fs::path& dir, const std::string& what);
+  ~DirLock();
+  DirLock(const DirLock&) = delete;
+  DirLock& operator=(const DirLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
+// Removes temporary files left by killed processes in `dir` (not recursive):
+// NAME.tmp.PID.N (write_file_atomic) and NAME.tmp-PID (LibTorch archives)
+// whose PID is not a live process. Returns how many were removed.
+int remove_stale_temps(const fs::path& dir);
+
+// Throws Error when an output path is one of the inputs (same file by inode,
+// or the same path): a run must never overwrite what it reads.
+void refuse_output_over_input(const std::vector<fs::path>& inputs, const std::vector<fs::path>& outputs);
+
 // A stable checksum for manifests: FNV-1a 64 of the file's bytes, as hex.
 std::string file_checksum(const fs::path& path);
 
