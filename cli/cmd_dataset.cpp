@@ -94,6 +94,12 @@ int run_build(const BuildArgs& a, const GlobalOptions& g) {
   const fs::path dir = a.out;
   ensure_writable_dir(dir);
   for (auto s : {Split::kTrain, Split::kVal, Split::kTest}) ensure_writable_dir(dir / split_name(s));
+  // One builder per shard of a folder (shards of one folder may run side by
+  // side); a killed builder's temp files are dropped, its finished pairs kept.
+  const DirLock lock(dir, "dataset shard " + a.shard,
+                     ".reefgen.shard-" + std::to_string(shard_i) + "-of-" + std::to_string(shard_n) + ".lock");
+  remove_stale_temps(dir);
+  for (auto s : {Split::kTrain, Split::kVal, Split::kTest}) remove_stale_temps(dir / split_name(s));
 
   json meta = {{"tool", "reefgen"},
                {"format", 1},

@@ -1,6 +1,7 @@
 // reefgen infer: painted sketches -> height fields in the formats terrain
 // tools import (docs/INFERENCE.md). Thin: inputs -> infer library -> files.
 #include <cstdio>
+#include <map>
 #include <optional>
 
 #include "app.hpp"
@@ -111,6 +112,25 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                           std::to_string(gen.g->options().depth) + ", dropout " + std::to_string(gen.g->options().dropout) +
                           "), so outputs cannot vary; drop --stochastic");
             const fs::path out_dir = many ? fs::path(a->out) : fs::path(a->out).parent_path();
+            {
+              // Every file this run may write, checked before any is written:
+              // no output may be an input, no two sketches may share a result name.
+              std::vector<fs::path> outs;
+              std::map<std::string, fs::path> stems;
+              for (const auto& in : inputs) {
+                const fs::path prefix = many ? out_dir / in.stem() : fs::path(a->out);
+                if (many) {
+                  const auto [it, fresh] = stems.emplace(in.stem().string(), in);
+                  if (!fresh)
+                    throw Error(in.string() + " and " + it->second.string() + " would both write " + prefix.string() +
+                                ".*; rename one of them or infer them into different -o folders");
+                }
+                for (const char* ext : {".height.exr", ".height.png", ".r16", ".preview.png", ".json", ".obj", ".glb"})
+                  outs.push_back(prefix.string() + ext);
+              }
+              if (!mesh_path.empty()) outs.push_back(mesh_path);
+              refuse_output_over_input(inputs, outs);
+            }
             ensure_writable_dir(out_dir.empty() ? fs::path(".") : out_dir);
             Progress progress("infer", inputs.size(), g.quiet);
             infer::InferOptions io;

@@ -6,6 +6,7 @@ BIN="$1"
 T=$(mktemp -d)
 trap 'rm -rf "$T"' EXIT
 fail=0; pass=0
+PY=/usr/bin/python3; [ -x "$PY" ] || PY=python3
 ok() { pass=$((pass+1)); }
 bad() { echo "FAIL: $*"; fail=$((fail+1)); }
 
@@ -126,6 +127,7 @@ echo '{"lr": -2}' > "$T/bad_tr.json"
 expect_error "lr" train --config "$T/bad_tr.json" $TR --out "$T/e/run"
 head -c 1000 "$T/t1/checkpoint.pt" > "$T/t3.pt"; mkdir -p "$T/t3"; cp "$T/t1/run.json" "$T/t3/"; mv "$T/t3.pt" "$T/t3/checkpoint.pt"
 expect_error "truncated" train $TR --out "$T/t3" --resume
+expect_error "no checkpoint.pt to resume" train $TR --out "$T/e/fresh" --resume
 
 # 6. Sketches -> inference with the model trained above; exports; eval.
 M="$T/t1/generator.pt"
@@ -202,6 +204,33 @@ expect_error "b.png" infer "$T/s/mixed" -m "$M" -o "$T/e"   # a.png's results re
 cmp -s "$T/ev1/eval.json" "$T/ev2/eval.json" && ok || bad "eval not reproducible"
 for f in eval.json eval.md worst.png; do [ -s "$T/ev1/$f" ] || bad "eval: no $f"; done
 grep -q '"jpeg_q50"' "$T/ev1/eval.json" && ok || bad "eval: no perturbed results"
+# Never overwrite an input; two sketches with one stem refused (issue 13).
+mkdir -p "$T/s/a" "$T/s/b"; cp "$T/s/one.png" "$T/s/a/x.png"; cp "$T/s/one.png" "$T/s/b/x.png"
+expect_error "would both write" infer "$T/s/a" "$T/s/b" -m "$M" -o "$T/e"
+cp "$T/s/one.png" "$T/s/y.preview.png"; before=$(sha256sum < "$T/s/y.preview.png")
+"$BIN" -q infer "$T/s/y.preview.png" -m "$M" -o "$T/s/y" --preview >/dev/null 2>&1 && bad "infer overwrote its input" || ok
+[ "$(sha256sum < "$T/s/y.preview.png")" = "$before" ] && [ ! -e "$T/s/y.height.exr" ] && ok || bad "input changed or outputs left"
+
+# 6b. The shipped model (models/): no -m needed; it meets the painted-sketch
+# bars of issue 11 on tests/data/painted (docs/MODEL.md).
+SHIPPED="$(dirname "$0")/../models/reef-256.pt"
+if [ -f "$SHIPPED" ]; then
+  "$BIN" -q model info > "$T/mi.json" && grep -q '"weights": "float16"' "$T/mi.json" && ok || bad "model info: $(cat "$T/mi.json")"
+  "$BIN" -q infer "$(dirname "$0")/data/painted/01-young-volcano.png" -o "$T/i/shipped" --preview >/dev/null && [ -s "$T/i/shipped.height.exr" ] && ok || bad "infer with the shipped model"
+  "$BIN" -q eval-sketches "$(dirname "$0")/data/painted" --out "$T/es" > "$T/es.json" || bad "eval-sketches"
+  [ -s "$T/es/grid.png" ] && ok || bad "eval-sketches: no grid.png"
+  "$PY" - "$T/es.json" <<'PY' && ok || bad "shipped model misses a painted-sketch bar: $(head -c 600 "$T/es.json")"
+import json, sys
+o = json.load(open(sys.argv[1]))["overall"]
+assert o["young_land_above_0"] >= 0.97, o
+assert o["young_abyss_below_minus20"] >= 0.97, o
+assert o["checkerboard_m_mean"] <= 0.5, o
+PY
+  cp "$SHIPPED" "$T/corrupt.pt"; printf '\x55' | dd of="$T/corrupt.pt" bs=1 seek=9000000 conv=notrunc 2>/dev/null
+  expect_error "SHA-256" infer "$T/s/one.png" -m "$T/corrupt.pt" -o "$T/e/x"
+else
+  bad "models/reef-256.pt missing"
+fi
 
 # 7. --version, --help with examples.
 "$BIN" --version | grep -q "reefgen [0-9]" && ok || bad "--version"

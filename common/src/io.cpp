@@ -280,25 +280,17 @@ std::string file_checksum(const fs::path& path) {
 
 namespace reefgen {
 
-DirLock::DirLock(const fs::path& dir, const std::string& what) {
-  const fs::path lock = dir / ".reefgen.lock";
+DirLock::DirLock(const fs::path& dir, const std::string& what, const std::string& lock_name) {
+  const fs::path lock = dir / lock_name;
   fd_ = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
   if (fd_ < 0) throw Error(lock.string() + ": cannot create the lock file (" + std::strerror(errno) + "); check the folder's permissions");
   if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
-    std::string other;
-    {
-      std::ifstream f(lock);
-      std::getline(f, other);
-    }
     ::close(fd_);
     fd_ = -1;
-    throw Error(dir.string() + ": another reefgen process" + (other.empty() ? "" : " (PID " + other + ")") +
-                " is using this " + what + "; wait for it to finish or choose another folder");
-  }
-  const std::string pid = std::to_string(::getpid()) + "\n";
-  if (::ftruncate(fd_, 0) == 0) {
-    const ssize_t n = ::pwrite(fd_, pid.data(), pid.size(), 0);
-    (void)n;  // the PID is only a hint in the message above
+    // The file stays empty (no PID in it): two builds of one dataset must
+    // leave byte-identical folders.
+    throw Error(dir.string() + ": another reefgen process is using this " + what +
+                "; wait for it to finish or choose another folder");
   }
 }
 

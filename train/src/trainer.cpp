@@ -188,14 +188,14 @@ RunResult run_training(const TrainParams& params, const RunOptions& run) {
   const int64_t total = steps_constant + steps_decay;
   const int64_t end = run.max_steps >= 0 ? std::min(total, run.max_steps) : total;
 
+  const fs::path ckpt = run.out / "checkpoint.pt";
+  if (run.resume && !fs::exists(ckpt))  // checked before anything is created
+    throw Error(run.out.string() + ": no checkpoint.pt to resume from; start a new run without --resume " +
+                "(in an empty or new --out folder)");
   ensure_writable_dir(run.out);
   // One process per run folder: two would interleave log.csv and overwrite
   // each other's checkpoints.
   const DirLock lock(run.out, "run folder");
-  const fs::path ckpt = run.out / "checkpoint.pt";
-  if (run.resume && !fs::exists(ckpt))
-    throw Error(run.out.string() + ": no checkpoint.pt to resume from; start a new run without --resume " +
-                "(in an empty or new --out folder)");
   if (run.resume) {  // temp files of a killed run (kill -9 mid-write) are never completed: drop them
     remove_stale_temps(run.out);
     if (fs::is_directory(run.out / "val")) remove_stale_temps(run.out / "val");

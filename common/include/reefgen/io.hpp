@@ -69,7 +69,7 @@ cv::Mat1f read_exr_height(const fs::path& path, ExrAttributes* attrs = nullptr);
 // Throws Error naming the folder and the other process when it is taken.
 class DirLock {
  public:
-  DirLock(const fs::path& dir, const std::string& what);
+  DirLock(const fs::path& dir, const std::string& what, const std::string& lock_name = ".reefgen.lock");
   ~DirLock();
   DirLock(const DirLock&) = delete;
   DirLock& operator=(const DirLock&) = delete;
