@@ -1,12 +1,16 @@
 #!/usr/bin/env bash
-# The main job on built-in defaults: sets up, builds, generates every preset
-# and a few random islands, then runs the learning pipeline end to end in
-# miniature (a small dataset, a short training, a sketch, inference) into ./out.
-# A real model needs a real training run: docs/TRAINING.md.
+# The main job on built-in defaults: sets up, builds, turns a painted sketch
+# into an island with the shipped model (models/, docs/MODEL.md), generates
+# every preset and a few random islands, then runs the learning pipeline end
+# to end in miniature (a small dataset, a short training, inference) into ./out.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/build.sh
 BIN=build/cli/reefgen
+# The main job: a painted sketch -> a terrain, no training needed.
+mkdir -p out/shipped
+$BIN -q infer docs/examples/painted-sketch.png -o out/shipped/island --preview --png16 --r16 --mesh glb >/dev/null
+$BIN -q eval-sketches tests/data/painted --out out/shipped/painted >/dev/null
 mkdir -p out/presets
 for p in $($BIN presets | awk '{print $1}'); do
   $BIN generate --preset "$p" -o "out/presets/$p" --preview >/dev/null
@@ -29,6 +33,10 @@ $BIN -q infer out/pipeline/sketch.png -m out/pipeline/run/generator.pt -o out/pi
 
 echo
 echo "Written to $(pwd)/out:"
+echo "  out/shipped/island.preview.png docs/examples/painted-sketch.png turned into an island by the shipped model"
+echo "                                 (island.height.exr metres, .height.png 16-bit, .r16, .glb); paint your own:"
+echo "                                 $BIN infer my-sketch.png -o out/mine --preview   (colours: docs/INFERENCE.md)"
+echo "  out/shipped/painted/grid.png   the 14 test sketches of tests/data/painted and their islands"
 echo "  out/presets/NAME.preview.png   look at these first (presets: $($BIN presets | awk '{print $1}' | paste -sd' '))"
 echo "  out/presets/NAME.height.exr    heights in metres, channel Y, sea level 0"
 echo "  out/presets/NAME.label.png     HSV label map; NAME.json the sidecar"
