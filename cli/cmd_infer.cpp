@@ -52,6 +52,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
     std::vector<std::string> inputs;
     std::string model, out, mesh;
     bool png16 = false, r16 = false, preview = false, stochastic = false, running_stats = false;
+    std::string precision = "fp32";  // auto once bf16 is measured faster (docs/BENCHMARKS.md)
     uint64_t seed = 0;
     double exaggeration = 1.0, world_size_m = 6000;
     std::optional<int> threads;
@@ -70,6 +71,9 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_flag("--preview", a->preview, "Also PREFIX.preview.png: coloured, hill-shaded");
   sub->add_flag("--stochastic", a->stochastic, "Dropout on (pix2pix's noise): a different island per --seed");
   sub->add_option("--seed", a->seed, "Dropout masks for --stochastic")->capture_default_str();
+  sub->add_option("--precision", a->precision,
+                  "auto (bf16 where the CPU has avx512_bf16/AMX-bf16, else fp32), fp32 or bf16; bf16 heights stay within 1 m of fp32")
+      ->capture_default_str();
   sub->add_flag("--running-stats", a->running_stats,
                 "BatchNorm running statistics (eval mode) instead of pix2pix's test-time batch statistics");
   sub->add_option("--threads", a->threads, "LibTorch threads (default: all cores)");
@@ -136,6 +140,12 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
             infer::InferOptions io;
             io.stochastic = a->stochastic;
             io.running_stats = a->running_stats;
+            try {
+              io.precision = infer::precision_from_string(a->precision);
+              infer::resolve(io.precision, gen);
+            } catch (const std::invalid_argument& e) {
+              throw Error("--precision: " + std::string(e.what()));
+            }
             io.seed = a->seed;
             std::vector<Outputs> written(inputs.size());
             // Chunks of 32 sketches: memory stays bounded for folders of any
@@ -160,7 +170,8 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                     {"model", {{"path", fs::absolute(a->model).string()}, {"train_step", gen.train_step},
                                {"ngf", gen.g->options().ngf}, {"reefgen_version", gen.reefgen_version}}},
                     {"mode", {{"stochastic", a->stochastic}, {"seed", a->seed},
-                              {"batchnorm", a->running_stats ? "running statistics" : "batch statistics"}}},
+                              {"batchnorm", a->running_stats ? "running statistics" : "batch statistics"},
+                              {"precision", infer::to_string(infer::resolve(io.precision, gen))}}},
                     {"size_px", {h.cols, h.rows}},
                     {"metres_per_px", mpp},
                     {"height_range_m", {hmin, hmax}},

@@ -19,6 +19,7 @@ PKGS=(
   # The OpenMP build shares libgomp's threads with LibTorch (no oversubscription).
   libopenblas0-openmp
   python3 python3-torch python3-numpy  # reference comparisons (scripts/reference)
+  python3-opencv         # tests/cli_test.sh compares EXRs (bf16 vs fp32); scripts/paint_sketches.py
 )
 
 missing=()

@@ -226,6 +226,17 @@ assert o["young_land_above_0"] >= 0.97, o
 assert o["young_abyss_below_minus20"] >= 0.97, o
 assert o["checkerboard_m_mean"] <= 0.5, o
 PY
+  # bf16 inference of the shipped model stays within 1 m of fp32 (99th percentile; mean ≤ 0.25 m).
+  for s in 01-young-volcano 06-long-arc 12-atoll-dark; do
+    "$BIN" -q infer "$(dirname "$0")/data/painted/$s.png" -o "$T/i/p32-$s" --precision fp32 >/dev/null || bad "infer fp32"
+    "$BIN" -q infer "$(dirname "$0")/data/painted/$s.png" -o "$T/i/pbf-$s" --precision bf16 >/dev/null || bad "infer bf16"
+    OPENCV_IO_ENABLE_OPENEXR=1 "$PY" - "$T/i/p32-$s.height.exr" "$T/i/pbf-$s.height.exr" <<'PY' && ok || bad "bf16 vs fp32 on $s"
+import sys, cv2, numpy as np
+a, b = (cv2.imread(f, cv2.IMREAD_UNCHANGED) for f in sys.argv[1:3])
+d = np.abs(a - b)
+assert d.mean() <= 0.25 and np.percentile(d, 99) <= 1.0 and d.max() > 0, (d.mean(), np.percentile(d, 99), d.max())
+PY
+  done
   cp "$SHIPPED" "$T/corrupt.pt"; printf '\x55' | dd of="$T/corrupt.pt" bs=1 seek=9000000 conv=notrunc 2>/dev/null
   expect_error "SHA-256" infer "$T/s/one.png" -m "$T/corrupt.pt" -o "$T/e/x"
 else

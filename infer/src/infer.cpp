@@ -1,10 +1,49 @@
 #include "reefgen/infer/infer.hpp"
 
+#include <cpuid.h>
+
+#include <stdexcept>
+
 #include <opencv2/imgproc.hpp>
 
 #include "reefgen/rng.hpp"
 
 namespace reefgen::infer {
+
+Precision precision_from_string(const std::string& s) {
+  if (s == "auto") return Precision::Auto;
+  if (s == "fp32") return Precision::Fp32;
+  if (s == "bf16") return Precision::Bf16;
+  throw std::invalid_argument("precision '" + s + "': use auto, fp32 or bf16");
+}
+
+const char* to_string(Precision p) {
+  return p == Precision::Auto ? "auto" : p == Precision::Fp32 ? "fp32" : "bf16";
+}
+
+bool cpu_has_native_bf16() {
+  unsigned a = 0, b = 0, c = 0, d = 0;
+  if (!__get_cpuid_count(7, 0, &a, &b, &c, &d)) return false;
+  const bool amx_bf16 = (d >> 22) & 1u;
+  unsigned a1 = 0, b1 = 0, c1 = 0, d1 = 0;
+  const bool avx512_bf16 = a >= 1 && __get_cpuid_count(7, 1, &a1, &b1, &c1, &d1) && ((a1 >> 5) & 1u);
+  return amx_bf16 || avx512_bf16;
+}
+
+Precision resolve(Precision p) {
+  if (p != Precision::Auto) return p;
+  return cpu_has_native_bf16() ? Precision::Bf16 : Precision::Fp32;
+}
+
+Precision resolve(Precision p, const model::GeneratorFile& g) {
+  // LibTorch 1.13's bf16 path (oneDNN) refuses the transposed convolution of
+  // the 1×1 innermost level: pix2pix's own decoder stays float32.
+  const bool resize = g.g->options().upsample != model::Upsample::Transpose;
+  if (p == Precision::Bf16 && !resize)
+    throw std::invalid_argument("bf16 needs a resize-convolution generator (upsample nearest or bilinear); this one "
+                                "uses transposed convolutions: use --precision fp32 or auto");
+  return resize ? resolve(p) : Precision::Fp32;
+}
 
 cv::Mat3b canonical_sketch(const DecodedSketch& s, int size_px) {
   cv::Mat1b label = s.label;
@@ -15,6 +54,14 @@ cv::Mat3b canonical_sketch(const DecodedSketch& s, int size_px) {
   }
   return encode_labels(label, sub);
 }
+
+namespace {
+// The layer of a bf16 copy that stays float32: the output convolution, whose
+// bf16 rounding alone would be > 1 m near the top of the range. (Keeping the
+// next one in float32 too did not measurably reduce the error: it comes from
+// the bf16 weights and activations of the whole net.)
+bool keep_fp32(const std::string& name) { return name.rfind("levels.0.up_conv.", 0) == 0; }
+}  // namespace
 
 std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<DecodedSketch>& sketches,
                                      const InferOptions& o) {
@@ -34,7 +81,28 @@ std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<
     const size_t n = std::min(batch, inputs.size() - i);
     if (o.stochastic) torch::manual_seed(derive_seed(o.seed, 0, "infer-dropout"));
     const torch::Tensor x = torch::stack(std::vector<torch::Tensor>(inputs.begin() + long(i), inputs.begin() + long(i + n)));
-    const torch::Tensor y = g.g->forward(x);  // {n,1,S,S}
+    torch::Tensor y;
+    if (resolve(o.precision, g) == Precision::Bf16) {
+      // A bf16 copy of G, made once per loaded file (same modes as g). The
+      // output layer stays float32: bf16's 8-bit mantissa alone would round
+      // heights near the top of the range by more than a metre.
+      if (!g.g_bf16) {
+        g.g_bf16 = model::UNetGenerator(g.g->options());
+        auto dst = g.g_bf16->named_parameters(), src = g.g->named_parameters();
+        for (auto& t : dst)
+          t.value().set_data(keep_fp32(t.key()) ? src[t.key()].detach().clone()
+                                                 : src[t.key()].detach().to(torch::kBFloat16));
+        auto dstb = g.g_bf16->named_buffers(), srcb = g.g->named_buffers();
+        for (auto& t : dstb)
+          t.value().set_data(srcb[t.key()].is_floating_point() ? srcb[t.key()].detach().to(torch::kBFloat16)
+                                                                 : srcb[t.key()].detach().clone());
+      }
+      g.g_bf16->train(g.g->is_training());
+      g.g_bf16->set_dropout_enabled(g.g->dropout_enabled());
+      y = g.g_bf16->forward(x.to(torch::kBFloat16)).to(torch::kFloat32);  // {n,1,S,S}
+    } else {
+      y = g.g->forward(x);  // {n,1,S,S}
+    }
     for (size_t k = 0; k < n; ++k) outs.push_back(y[long(k)]);
   }
   std::vector<cv::Mat1f> heights;

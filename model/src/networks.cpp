@@ -95,7 +95,11 @@ struct UNetLevelImpl : nn::Module {
     dropout = (k >= 4 && k <= o.depth - 2) ? o.dropout : 0.0;
   }
   // x {N,C,s,s} -> {N,out,2s,2s}
-  torch::Tensor up(const torch::Tensor& x) {
+  torch::Tensor up(torch::Tensor x) {
+    // Mixed precision: a layer kept in float32 inside a bfloat16 net (the
+    // output layer, see infer) takes its input in its own type.
+    const auto& w = upsample == Upsample::Transpose ? up_conv->weight : up_resize_conv->weight;
+    if (x.scalar_type() != w.scalar_type()) x = x.to(w.scalar_type());
     if (upsample == Upsample::Transpose) return up_conv->forward(x);
     namespace F = torch::nn::functional;
     auto o = F::InterpolateFuncOptions().scale_factor(std::vector<double>{2.0, 2.0});

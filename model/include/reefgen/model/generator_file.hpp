@@ -22,6 +22,7 @@ enum class WeightStorage { Float32, Float16 };
 
 struct GeneratorFile {
   UNetGenerator g{nullptr};
+  UNetGenerator g_bf16{nullptr};  // a bfloat16 copy, made on first use by bf16 inference
   HeightRange range;
   int size_px = 256;       // the side it was trained at
   int64_t train_step = 0;  // steps done when exported
