@@ -51,7 +51,7 @@ Command add_eval_sketches_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--out", a->out, "Folder for sketches.json and grid.png (default: print JSON only)");
   sub->add_option("--young-max", a->young_max, "Subsidence up to which a pixel counts as young (bright)")
       ->capture_default_str();
-  sub->add_option("--threads", a->threads, "LibTorch threads (default: all cores)");
+  sub->add_option("--threads", a->threads, "LibTorch threads (default: all cores)")->check(CLI::Range(1, 256));
   return {sub, [a, &g]() -> int {
             torch::set_num_threads(a->threads.value_or(default_threads()));
             train::keep_freed_memory();

@@ -80,6 +80,18 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
               const std::string ext = fs::path(o).extension().string();
               if (ext != ".glb" && ext != ".obj") throw Error("-o " + o + ": the mesh file must end in .glb or .obj");
             }
+            {  // no output may be an input (the painting, the height field, the config)
+              std::vector<fs::path> ins, outs(a->out.begin(), a->out.end());
+              for (const auto& i : {a->painting, a->height, a->config})
+                if (!i.empty()) ins.push_back(i);
+              if (!a->preview.empty()) outs.push_back(a->preview);
+              outs.push_back(fs::path(a->out.front()).replace_extension(".json"));
+              refuse_output_over_input(ins, outs);
+              for (size_t i = 0; i < outs.size(); ++i)
+                for (size_t k = i + 1; k < outs.size(); ++k)
+                  if (fs::path(outs[i]).lexically_normal() == fs::path(outs[k]).lexically_normal())
+                    throw Error(outs[i].string() + ": named twice as an output; give each output its own name");
+            }
             if (!a->preset.empty() && !a->config.empty()) throw Error("floating: use --preset or --config, not both");
             // Params: a preset, a file, or defaults (terrain-top for a height field alone).
             std::string preset = a->preset;

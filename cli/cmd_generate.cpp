@@ -54,6 +54,11 @@ int run_single(const GenerateArgs& a, const GlobalOptions&) {
   if (!std::isnan(a.subsidence)) spec.subsidence = a.subsidence;
   if (a.seed_given) spec.noise.seed = a.seed;
   const fs::path prefix = a.prefix;
+  if (!a.spec_file.empty()) {  // the sidecar PREFIX.json must never replace the spec it was made from
+    std::vector<fs::path> outs;
+    for (const char* ext : {".height.exr", ".label.png", ".preview.png", ".json"}) outs.push_back(prefix.string() + ext);
+    refuse_output_over_input({a.spec_file}, outs);
+  }
   ensure_writable_dir(prefix.parent_path());
   RenderOptions opt;
   opt.size_px = a.size;
@@ -141,7 +146,7 @@ Command add_generate_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--seed", a->seed, "Random seed (random mode) or detail-noise seed (preset/spec)")
       ->each([a](const std::string&) { a->seed_given = true; });
   sub->add_flag("--preview", a->preview, "Also write PREFIX.preview.png (hill-shaded colours)");
-  sub->add_option("--threads", a->threads, "Worker threads for --random (default: all cores)");
+  sub->add_option("--threads", a->threads, "Worker threads for --random (default: all cores)")->check(CLI::Range(1, 256));
   sub->add_option("--levels", a->levels, "Subsidence levels per random configuration, evenly spaced on [0, 1]")->capture_default_str();
   sub->add_option("--warp-grid", a->warp_grid, "Cells of the wind displacement grid across the canvas")->capture_default_str();
   return {sub, [a, &g]() -> int {

@@ -76,7 +76,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
       ->capture_default_str();
   sub->add_flag("--running-stats", a->running_stats,
                 "BatchNorm running statistics (eval mode) instead of pix2pix's test-time batch statistics");
-  sub->add_option("--threads", a->threads, "LibTorch threads (default: all cores)");
+  sub->add_option("--threads", a->threads, "LibTorch threads (default: all cores)")->check(CLI::Range(1, 256));
   return {sub, [a, &g]() -> int {
             torch::set_num_threads(a->threads.value_or(default_threads()));
             train::keep_freed_memory();

@@ -11,6 +11,18 @@
 
 namespace reefgen {
 
+namespace {
+// Sketches are PNG (lossless, the palette survives): a name with another
+// extension would hold PNG bytes under a misleading name.
+void require_png_name(const fs::path& p) {
+  std::string e = p.extension().string();
+  for (auto& c : e) c = char(std::tolower(static_cast<unsigned char>(c)));
+  if (e != ".png")
+    throw Error(p.string() + ": sketches are written as PNG; name the output *.png");
+}
+}  // namespace
+
+
 Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
   auto* sub = app.add_subcommand(
       "sketch",
@@ -84,12 +96,17 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
                   const fs::path exr(f->from);
                   if (exr.extension() != ".exr")
                     throw Error("--from " + f->from + ": use mapgen4, wilbur, noise, or a height field .exr");
-                  s = procgen::height_to_sketch(read_exr_height(exr), f->subsidence, f->bands);
+                  refuse_output_over_input({exr}, {fs::path(f->out)});
+                  const cv::Mat1f h = read_exr_height(exr);
+                  if (cv::checkRange(h, true) == false)
+                    throw Error(exr.string() + ": the height field holds NaN or infinite values; fix or regenerate it");
+                  s = procgen::height_to_sketch(h, f->subsidence, f->bands);
                 }
               } catch (const std::invalid_argument& e) {
                 throw Error(std::string(e.what()));
               }
               const fs::path path(f->out);
+              require_png_name(path);
               if (path.has_parent_path()) ensure_writable_dir(path.parent_path());
               write_png(path, encode_labels(s.label, s.subsidence));
               std::printf("%s\n", path.c_str());
@@ -102,6 +119,7 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
               throw Error(std::string(e.what()));
             }
             const bool many = a->count > 1;
+            if (!many) require_png_name(a->out);
             if (many) ensure_writable_dir(a->out);
             for (int i = 0; i < a->count; ++i) {
               const procgen::Sketch s = procgen::random_sketch(a->p, a->seed + uint64_t(i));

@@ -39,7 +39,7 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_flag("--resume", a->resume, "Continue the run in --out from its checkpoint (its run.json config unless --config)");
   sub->add_option("--max-steps", a->max_steps, "Stop after this many steps in all (checkpoint written); the lr schedule still spans the whole run");
   sub->add_option("--seed", a->seed, "Overrides the config's seed");
-  sub->add_option("--threads", a->threads, "LibTorch threads (default: all cores)");
+  sub->add_option("--threads", a->threads, "LibTorch threads (default: all cores)")->check(CLI::Range(1, 256));
   sub->add_option("--ngf", a->ngf, "Overrides G's filters");
   sub->add_option("--ndf", a->ndf, "Overrides D's filters");
   sub->add_option("--depth", a->depth, "Overrides G's down-samplings (side must be a multiple of 2^depth)");

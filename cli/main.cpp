@@ -1,6 +1,9 @@
 // reefgen: coral-reef island terrains from curves or painted sketches.
 // Thin main: parse, dispatch, turn every exception into one line + exit 1.
+#include <algorithm>
 #include <cstdio>
+#include <string>
+#include <vector>
 #include <exception>
 
 #include "app.hpp"
@@ -38,16 +41,54 @@ int main(int argc, char** argv) {
                                                   reefgen::add_eval_sketches_command(app, g),
                                                   reefgen::add_model_command(app, g),
                                                   reefgen::add_bench_command(app, g)};
+  // An unknown command word is named, with the nearest known one.
+  for (int i = 1; i < argc; ++i) {
+    const std::string w = argv[i];
+    if (w == "-q" || w == "--quiet") continue;
+    if (w.empty() || w[0] == '-') break;  // other options: CLI11 reports what is wrong
+    std::string best;
+    size_t best_d = 99;
+    bool known = false;
+    for (const auto& c : commands) {
+      const std::string n = c.sub->get_name();
+      if (n == w) known = true;
+      // Levenshtein distance, small words only.
+      std::vector<size_t> prev(n.size() + 1), cur(n.size() + 1);
+      for (size_t k = 0; k <= n.size(); ++k) prev[k] = k;
+      for (size_t a = 1; a <= w.size(); ++a) {
+        cur[0] = a;
+        for (size_t k = 1; k <= n.size(); ++k)
+          cur[k] = std::min({prev[k] + 1, cur[k - 1] + 1, prev[k - 1] + (w[a - 1] == n[k - 1] ? 0 : 1)});
+        std::swap(prev, cur);
+      }
+      if (prev[n.size()] < best_d) best_d = prev[n.size()], best = n;
+    }
+    if (!known) {
+      std::fprintf(stderr, "reefgen: error: unknown command '%s'%s (see reefgen --help)\n", w.c_str(),
+                   best_d <= 3 ? ("; did you mean '" + best + "'?").c_str() : "");
+      return 109;
+    }
+    break;  // the first word is the command; later words belong to it
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    // One line, as every other error: the problem, then where to look.
+    std::string what = e.what();
+    for (auto& ch : what)
+      if (ch == '\n') ch = ' ';
+    std::fprintf(stderr, "reefgen: error: %s (see reefgen --help)\n", what.c_str());
+    return e.get_exit_code();
   }
   try {
     for (const auto& c : commands)
       if (c.sub->parsed()) return c.run();
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "reefgen: error: %s\n", e.what());
+    // Library texts may span lines (LibTorch appends a stack trace): keep the first.
+    std::string what = e.what();
+    what = what.substr(0, what.find('\n'));
+    std::fprintf(stderr, "reefgen: error: %s\n", what.c_str());
     return 1;
   }
   return 0;

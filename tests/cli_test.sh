@@ -243,6 +243,22 @@ else
   bad "models/reef-256.pt missing"
 fi
 
+# 6c. More of issue 13's probes: outputs never replace inputs, names honoured,
+# bounded threads, one-line errors with the command named.
+"$BIN" generate --preset atoll --size 48 -o "$T/s/h" >/dev/null
+expect_error "also an input" sketch --from "$T/s/h.height.exr" -o "$T/s/h.height.exr"
+expect_error "name the output \*.png" sketch --from "$T/s/h.height.exr" -o "$T/e/x.exr"
+expect_error "name the output \*.png" sketch random --seed 1 -o "$T/e/x.jpg"
+cp "$PAINT" "$T/s/paint.png"
+expect_error "also an input" floating --painting "$T/s/paint.png" -o "$T/e/f.glb" --preview "$T/s/paint.png"
+expect_error "named twice" floating --painting "$T/s/paint.png" -o "$T/e/f.glb" --preview "$T/e/f.json"
+cp "$(dirname "$0")/../configs/presets/atoll.json" "$T/s/island.json"
+expect_error "also an input" generate --spec "$T/s/island.json" -o "$T/s/island"
+expect_error "not in range 1 to 256" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --threads 100000
+expect_error "not in range 1 to 256" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --threads 0
+expect_error "did you mean 'infer'" infr "$T/s/one.png"
+expect_error "bf16 needs a resize-convolution generator" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --precision bf16
+
 # 7. --version, --help with examples.
 "$BIN" --version | grep -q "reefgen [0-9]" && ok || bad "--version"
 "$BIN" generate --help | grep -q "Examples" && ok || bad "generate --help has no examples"
