@@ -24,6 +24,7 @@ int depth_for(int size) {
 std::function<int()> add_bench_model_commands(CLI::App* bench) {
   struct Args {
     int ngf = 64, size = 256, reps = 5, threads = default_threads(), batch = 8;
+    std::string upsample = "transpose", norm = "batch", precision = "fp32";
   };
   auto a = std::make_shared<Args>();
   auto* tr = bench->add_subcommand("train", "seconds per pix2pix training iteration (batch 1), median of --reps");
@@ -35,6 +36,11 @@ std::function<int()> add_bench_model_commands(CLI::App* bench) {
     s->add_option("--threads", a->threads, "LibTorch threads (default: all cores)");
   }
   in->add_option("--batch", a->batch, "Batch size for the throughput figure")->capture_default_str();
+  for (auto* s : {tr, in}) {
+    s->add_option("--upsample", a->upsample, "G's decoder: transpose (pix2pix), nearest or bilinear")->capture_default_str();
+    s->add_option("--norm", a->norm, "batch (pix2pix) or instance")->capture_default_str();
+  }
+  in->add_option("--precision", a->precision, "fp32 or bf16 (inference only)")->capture_default_str();
   return [a, tr, in]() -> int {
     if (a->reps < 1 || a->threads < 1 || a->batch < 1) throw Error("--reps, --threads and --batch must be ≥ 1");
     if (a->size < 32 || (a->size & (a->size - 1))) throw Error("--size must be a power of two ≥ 32");
@@ -44,6 +50,13 @@ std::function<int()> add_bench_model_commands(CLI::App* bench) {
     train::Pix2PixOptions o;
     o.g.ngf = a->ngf;
     o.g.depth = depth_for(a->size);
+    try {
+      o.g.upsample = model::upsample_from_string(a->upsample);
+      o.g.norm = o.d.norm = model::norm_from_string(a->norm);
+    } catch (const std::invalid_argument& e) {
+      throw Error(e.what());
+    }
+    if (a->precision != "fp32" && a->precision != "bf16") throw Error("--precision: use fp32 or bf16");
     o.d.ndf = a->ngf;
     train::Pix2Pix p(o);
     const auto x = torch::rand({1, 3, a->size, a->size}) * 2 - 1;
@@ -60,25 +73,34 @@ std::function<int()> add_bench_model_commands(CLI::App* bench) {
     (void)in;
     c10::InferenceMode inference;  // as infer_heights
     auto& g = p.G();
+    if (a->precision == "bf16") {
+      // As infer_heights' bf16 copy: every layer bf16 but the output convolution.
+      for (auto& t : g->named_parameters())
+        if (t.key().rfind("levels.0.up_conv.", 0) != 0) t.value().set_data(t.value().to(torch::kBFloat16));
+      for (auto& t : g->buffers())
+        if (t.is_floating_point()) t.set_data(t.to(torch::kBFloat16));
+    }
+    const auto in_type = a->precision == "bf16" ? torch::kBFloat16 : torch::kFloat32;
+    const auto x_in = x.to(in_type);
     g->train();  // pix2pix's test-time mode (batch statistics), dropout off: our default
     g->set_dropout_enabled(false);
-    g->forward(x);
-    for (int r = 0; r < a->reps; ++r) t.push_back(seconds_of([&] { g->forward(x); }));
+    g->forward(x_in);
+    for (int r = 0; r < a->reps; ++r) t.push_back(seconds_of([&] { g->forward(x_in); }));
     const double batchstats = median(t);
     t.clear();
     g->eval();
-    g->forward(x);
-    for (int r = 0; r < a->reps; ++r) t.push_back(seconds_of([&] { g->forward(x); }));
+    g->forward(x_in);
+    for (int r = 0; r < a->reps; ++r) t.push_back(seconds_of([&] { g->forward(x_in); }));
     const double running = median(t);
-    const auto xb = torch::rand({a->batch, 3, a->size, a->size}) * 2 - 1;
+    const auto xb = (torch::rand({a->batch, 3, a->size, a->size}) * 2 - 1).to(in_type);
     g->train();
     g->forward(xb);
     t.clear();
     for (int r = 0; r < std::max(1, a->reps / 2); ++r) t.push_back(seconds_of([&] { g->forward(xb); }));
-    std::printf("{\"bench\": \"infer\", \"impl\": \"reefgen\", \"ngf\": %d, \"size\": %d, \"threads\": %d, "
-                "\"reps\": %d, \"ms_batchstats\": %.2f, \"ms_running_stats\": %.2f, \"batch\": %d, "
+    std::printf("{\"bench\": \"infer\", \"impl\": \"reefgen\", \"upsample\": \"%s\", \"norm\": \"%s\", \"precision\": \"%s\", "
+                "\"ngf\": %d, \"size\": %d, \"threads\": %d, \"reps\": %d, \"ms_batchstats\": %.2f, \"ms_running_stats\": %.2f, \"batch\": %d, "
                 "\"sketches_per_s\": %.2f}\n",
-                a->ngf, a->size, a->threads, a->reps, batchstats * 1e3, running * 1e3, a->batch,
+                a->upsample.c_str(), a->norm.c_str(), a->precision.c_str(), a->ngf, a->size, a->threads, a->reps, batchstats * 1e3, running * 1e3, a->batch,
                 a->batch / median(t));
     return 0;
   };

@@ -52,7 +52,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
     std::vector<std::string> inputs;
     std::string model, out, mesh;
     bool png16 = false, r16 = false, preview = false, stochastic = false, running_stats = false;
-    std::string precision = "fp32";  // auto once bf16 is measured faster (docs/BENCHMARKS.md)
+    std::string precision = "fp32";  // bf16 measured no faster without AMX (docs/BENCHMARKS.md)
     uint64_t seed = 0;
     double exaggeration = 1.0, world_size_m = 6000;
     std::optional<int> threads;
@@ -72,7 +72,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_flag("--stochastic", a->stochastic, "Dropout on (pix2pix's noise): a different island per --seed");
   sub->add_option("--seed", a->seed, "Dropout masks for --stochastic")->capture_default_str();
   sub->add_option("--precision", a->precision,
-                  "auto (bf16 where the CPU has avx512_bf16/AMX-bf16, else fp32), fp32 or bf16; bf16 heights stay within 1 m of fp32")
+                  "fp32, bf16 (heights within ~1 m of fp32), or auto (bf16 where the CPU has AMX-bf16, else fp32)")
       ->capture_default_str();
   sub->add_flag("--running-stats", a->running_stats,
                 "BatchNorm running statistics (eval mode) instead of pix2pix's test-time batch statistics");

@@ -30,9 +30,17 @@ bool cpu_has_native_bf16() {
   return amx_bf16 || avx512_bf16;
 }
 
+bool cpu_has_amx_bf16() {
+  unsigned a = 0, b = 0, c = 0, d = 0;
+  return __get_cpuid_count(7, 0, &a, &b, &c, &d) && ((d >> 22) & 1u);
+}
+
 Precision resolve(Precision p) {
   if (p != Precision::Auto) return p;
-  return cpu_has_native_bf16() ? Precision::Bf16 : Precision::Fp32;
+  // Measured (docs/BENCHMARKS.md): on an AMD EPYC with avx512_bf16 but no AMX,
+  // LibTorch 1.13's bf16 forward of the shipped model was no faster than fp32
+  // (51 vs 49 ms); oneDNN's AMX kernels are where bf16 pays (DESIGN §6).
+  return cpu_has_amx_bf16() ? Precision::Bf16 : Precision::Fp32;
 }
 
 Precision resolve(Precision p, const model::GeneratorFile& g) {

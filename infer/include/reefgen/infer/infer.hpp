@@ -14,11 +14,13 @@ namespace reefgen::infer {
 // Number format of the generator's arithmetic. bf16 runs oneDNN's bfloat16
 // convolutions (fast where the CPU has avx512_bf16 or AMX-bf16), with the
 // weights rounded to bf16 and float32 accumulation; heights stay within 1 m of
-// float32 (tested). auto = bf16 where the CPU has native bf16, else fp32.
+// float32 (tested). auto = bf16 where the CPU has AMX-bf16, else fp32 (on
+// avx512_bf16 alone it measured no faster).
 enum class Precision { Auto, Fp32, Bf16 };
 Precision precision_from_string(const std::string& s);  // "auto" | "fp32" | "bf16"
 const char* to_string(Precision p);
 bool cpu_has_native_bf16();  // avx512_bf16 or amx_bf16, read with cpuid
+bool cpu_has_amx_bf16();
 Precision resolve(Precision p);  // auto -> fp32 or bf16 on this CPU
 // For one generator: auto -> fp32 for transposed-convolution generators;
 // explicit bf16 on one of those throws std::invalid_argument.
