@@ -1,4 +1,5 @@
 #pragma once
+#include <cmath>
 // Shared plumbing of the reefgen subcommands.
 #include <unistd.h>
 
@@ -120,6 +121,26 @@ inline void parallel_for(size_t n, int threads, const std::function<void(size_t)
   worker();
   for (auto& th : pool) th.join();
   if (error) std::rethrow_exception(error);
+}
+
+// CLI11 validator: a finite number in [lo, hi]. CLI::Range lets NaN through
+// (every comparison with NaN is false), which silently ignored `--subsidence nan`.
+inline CLI::Validator finite_in(double lo, double hi) {
+  return CLI::Validator(
+      [lo, hi](std::string& s) -> std::string {
+        double v = 0;
+        try {
+          size_t used = 0;
+          v = std::stod(s, &used);
+          if (used != s.size()) return "'" + s + "' is not a number";
+        } catch (const std::exception&) {
+          return "'" + s + "' is not a number";
+        }
+        if (!std::isfinite(v) || v < lo || v > hi)
+          return "value " + s + " must be a finite number in [" + CLI::detail::to_string(lo) + ", " + CLI::detail::to_string(hi) + "]";
+        return {};
+      },
+      "FLOAT in [" + CLI::detail::to_string(lo) + ", " + CLI::detail::to_string(hi) + "]");
 }
 
 }  // namespace reefgen

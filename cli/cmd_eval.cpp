@@ -46,7 +46,7 @@ Command add_eval_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--max-pairs", a->max_pairs, "Use the first N pairs of the split")->capture_default_str();
   sub->add_flag("--no-perturb", a->no_perturb, "Clean sketches only");
   sub->add_flag("--running-stats", a->running_stats, "BatchNorm running statistics instead of batch statistics");
-  sub->add_option("--world-size", a->world_size_m, "Canvas width in metres (slopes)")->capture_default_str();
+  sub->add_option("--world-size", a->world_size_m, "Canvas width in metres (slopes)")->capture_default_str()->check(finite_in(1, 1e7));
   sub->add_option("--threads", a->threads, "LibTorch threads (default: all cores)")->check(CLI::Range(1, 256));
   return {sub, [a, &g]() -> int {
             torch::set_num_threads(a->threads.value_or(default_threads()));

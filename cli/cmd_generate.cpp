@@ -141,7 +141,7 @@ Command add_generate_command(CLI::App& app, const GlobalOptions& g) {
   src->require_option(1);
   sub->add_option("-o,--output", a->prefix, "Output prefix: PREFIX.height.exr, .label.png, .json (and .preview.png)");
   sub->add_option("--out", a->out_dir, "Output folder for --random");
-  sub->add_option("--subsidence", a->subsidence, "Override the subsidence λ in [0, 1]");
+  sub->add_option("--subsidence", a->subsidence, "Override the subsidence λ in [0, 1]")->check(finite_in(0, 1));
   sub->add_option("--size", a->size, "Width W of the W×W output in pixels")->capture_default_str();
   sub->add_option("--seed", a->seed, "Random seed (random mode) or detail-noise seed (preset/spec)")
       ->each([a](const std::string&) { a->seed_given = true; });

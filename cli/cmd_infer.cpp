@@ -67,7 +67,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_flag("--r16", a->r16, "Also PREFIX.r16: little-endian RAW for Unity/Unreal (import numbers printed)");
   sub->add_option("--mesh", a->mesh, "Also a grid mesh: obj or glb (per sketch), or a path ending in .obj/.glb (one sketch)");
   sub->add_option("--exaggeration", a->exaggeration, "Vertical exaggeration of the mesh")->capture_default_str();
-  sub->add_option("--world-size", a->world_size_m, "Canvas width in metres (mesh spacing, RAW import numbers)")->capture_default_str();
+  sub->add_option("--world-size", a->world_size_m, "Canvas width in metres (mesh spacing, RAW import numbers)")->capture_default_str()->check(finite_in(1, 1e7));
   sub->add_flag("--preview", a->preview, "Also PREFIX.preview.png: coloured, hill-shaded");
   sub->add_flag("--stochastic", a->stochastic, "Dropout on (pix2pix's noise): a different island per --seed");
   sub->add_option("--seed", a->seed, "Dropout masks for --stochastic")->capture_default_str();

@@ -46,7 +46,7 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
   sub->add_option("--config", f->config, "Terrain params JSON for --from mapgen4|wilbur (configs/terrains/KIND*.json)");
   sub->add_option("--seed", f->seed, "Seed (wilbur, noise)")->capture_default_str();
   sub->add_option("--size", f->size, "W (wilbur, noise)")->capture_default_str();
-  sub->add_option("--subsidence", f->subsidence, "λ in [0, 1] written in the value channel")->capture_default_str();
+  sub->add_option("--subsidence", f->subsidence, "λ in [0, 1] written in the value channel")->capture_default_str()->check(finite_in(0, 1));
   sub->add_option("--beach-top", f->bands.beach_top_m, "Land below this (m) is beach")->capture_default_str();
   sub->add_option("--lagoon-depth", f->bands.lagoon_depth_m, "Water shallower than this (m) is lagoon")->capture_default_str();
   sub->add_option("--reef-depth", f->bands.reef_depth_m, "Then reef down to this depth (m); deeper is abyss")->capture_default_str();
@@ -70,7 +70,7 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
   rnd->add_option("--count", a->count, "Number of sketches (seeds seed, seed+1, ...)")->capture_default_str();
   rnd->add_option("--size", a->p.size_px, "W")->capture_default_str();
   rnd->add_option("--islands", a->p.islands, "Islands per sketch [1, 16]")->capture_default_str();
-  rnd->add_option("--subsidence", a->p.subsidence, "λ in [0, 1] (darker colours); -1 = random per island")->capture_default_str();
+  rnd->add_option("--subsidence", a->p.subsidence, "λ in [0, 1] (darker colours); -1 = random per island")->capture_default_str()->check(finite_in(-1, 1));
   rnd->add_option("--roughness", a->p.roughness, "Outline noise amplitude [0, 1]")->capture_default_str();
   return {sub, [a, f, rnd, sub]() -> int {
             if (!rnd->parsed()) {

@@ -257,6 +257,8 @@ expect_error "also an input" generate --spec "$T/s/island.json" -o "$T/s/island"
 expect_error "not in range 1 to 256" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --threads 100000
 expect_error "not in range 1 to 256" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --threads 0
 expect_error "did you mean 'infer'" infr "$T/s/one.png"
+expect_error "must be a finite number" generate --preset atoll --subsidence nan -o "$T/e/x"
+expect_error "must be a finite number" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --world-size inf
 expect_error "bf16 needs a resize-convolution generator" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --precision bf16
 
 # 7. --version, --help with examples.
