@@ -49,7 +49,7 @@ expect_error "broken.json: invalid JSON" generate --spec "$T/broken.json" -o "$T
 expect_error "subsidence = 2 is out of range" generate --spec "$T/range.json" -o "$T/e/x"
 expect_error 'unknown key "profle"' generate --spec "$T/typo.json" -o "$T/e/x"
 expect_error "unknown preset" generate --preset volcano -o "$T/e/x"
-expect_error "subsidence must be in" generate --preset atoll --subsidence 1.5 -o "$T/e/x"
+expect_error "subsidence: value 1.5 must be a finite number in \[0, 1\]" generate --preset atoll --subsidence 1.5 -o "$T/e/x"
 expect_error "size" generate --preset atoll --size 3 -o "$T/e/x"
 expect_error "afile" generate --preset atoll -o "$T/afile/sub/x"
 expect_error "needs --out" generate --random 2
