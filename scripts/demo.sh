@@ -37,7 +37,7 @@ echo "  out/shipped/island.preview.png docs/examples/painted-sketch.png turned i
 echo "                                 (island.height.exr metres, .height.png 16-bit, .r16, .glb); paint your own:"
 echo "                                 $BIN infer my-sketch.png -o out/mine --preview   (colours: docs/INFERENCE.md)"
 echo "  out/shipped/painted/grid.png   the 14 test sketches of tests/data/painted and their islands"
-echo "  out/presets/NAME.preview.png   the curve generator's presets ( $($BIN presets | awk '{print $1}' | paste -sd' '))"
+echo "  out/presets/NAME.preview.png   the curve generator's presets ($($BIN presets | awk '{print $1}' | paste -sd' '))"
 echo "  out/presets/NAME.height.exr    heights in metres, channel Y, sea level 0"
 echo "  out/presets/NAME.label.png     HSV label map; NAME.json the sidecar"
 echo "  out/random/                    4 random islands at 3 subsidence levels each"
