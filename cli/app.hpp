@@ -1,5 +1,6 @@
 #pragma once
 #include <cmath>
+#include <filesystem>
 // Shared plumbing of the reefgen subcommands.
 #include <unistd.h>
 
@@ -141,6 +142,13 @@ inline CLI::Validator finite_in(double lo, double hi) {
         return {};
       },
       "FLOAT in [" + CLI::detail::to_string(lo) + ", " + CLI::detail::to_string(hi) + "]");
+}
+
+// An image file a sketch can be read from, by extension (case-insensitive).
+inline bool is_image(const std::filesystem::path& p) {
+  std::string e = p.extension().string();
+  for (auto& ch : e) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+  return e == ".png" || e == ".jpg" || e == ".jpeg" || e == ".tif" || e == ".tiff" || e == ".bmp" || e == ".webp";
 }
 
 }  // namespace reefgen

@@ -22,11 +22,6 @@ namespace reefgen {
 using nlohmann::json;
 
 namespace {
-bool is_sketch_file(const fs::path& p) {
-  std::string e = p.extension().string();
-  for (auto& ch : e) ch = char(std::tolower(ch));
-  return e == ".png" || e == ".jpg" || e == ".jpeg";
-}
 double share(int64_t a, int64_t b) { return b ? double(a) / double(b) : std::nan(""); }
 json num(double v) { return std::isfinite(v) ? json(std::round(v * 1e4) / 1e4) : json(nullptr); }
 }  // namespace
@@ -46,7 +41,7 @@ Command add_eval_sketches_command(CLI::App& app, const GlobalOptions& g) {
     std::optional<int> threads;
   };
   auto a = std::make_shared<Args>();
-  sub->add_option("sketches", a->dir, "Folder of painted sketches (PNG/JPEG)")->required();
+  sub->add_option("sketches", a->dir, "Folder of painted sketches (PNG, JPEG, TIFF, BMP, WebP)")->required();
   sub->add_option("-m,--model", a->model, "Generator file (default: the shipped model, models/)");
   sub->add_option("--out", a->out, "Folder for sketches.json and grid.png (default: print JSON only)");
   sub->add_option("--young-max", a->young_max, "Subsidence up to which a pixel counts as young (bright)")
@@ -59,9 +54,9 @@ Command add_eval_sketches_command(CLI::App& app, const GlobalOptions& g) {
             if (!fs::is_directory(a->dir)) throw Error(a->dir + ": not a folder of sketches");
             std::vector<fs::path> files;
             for (const auto& e : fs::directory_iterator(a->dir))
-              if (e.is_regular_file() && is_sketch_file(e.path())) files.push_back(e.path());
+              if (e.is_regular_file() && is_image(e.path())) files.push_back(e.path());
             std::sort(files.begin(), files.end());
-            if (files.empty()) throw Error(a->dir + ": no PNG or JPEG sketches in it");
+            if (files.empty()) throw Error(a->dir + ": no sketch images (.png, .jpg, ...) in it");
             const fs::path model_path = model::resolve_model_path(a->model);
             model::GeneratorFile gen = model::load_generator(model_path);
             if (!a->out.empty()) ensure_writable_dir(a->out);

@@ -17,12 +17,6 @@ namespace reefgen {
 
 namespace {
 
-bool is_image(const fs::path& p) {
-  std::string e = p.extension().string();
-  for (auto& ch : e) ch = char(std::tolower(ch));
-  return e == ".png" || e == ".jpg" || e == ".jpeg" || e == ".tif" || e == ".tiff" || e == ".bmp" || e == ".webp";
-}
-
 // Files written for one sketch, removed again if a later one fails: no
 // half-finished result set is left under the final names.
 struct Outputs {

@@ -52,6 +52,20 @@ model::GeneratorFile tiny_generator(const fs::path& dir, bool batch_norm = true)
   return model::load_generator(dir / "g.pt");
 }
 
+// An initialised ngf-8, depth-6 generator with the shipped model's kind of
+// decoder: the float16 and bf16 tests start from one.
+model::UNetGenerator small_resize_net(uint64_t seed, model::Upsample up) {
+  torch::manual_seed(seed);
+  model::UNetOptions o;
+  o.ngf = 8;
+  o.depth = 6;
+  o.norm = model::Norm::Instance;
+  o.upsample = up;
+  model::UNetGenerator g(o);
+  model::init_pix2pix(*g);
+  return g;
+}
+
 DecodedSketch sketch(uint64_t seed, int size) {
   procgen::SketchParams p;
   p.size_px = size;
@@ -275,14 +289,7 @@ TEST(Sha256, KnownVectors) {  // FIPS 180-4 examples
 // within a small tolerance of the float32 file; a flipped byte is refused.
 TEST(GeneratorFile, Float16StorageAndChecksum) {
   const fs::path dir = temp_dir("g16");
-  torch::manual_seed(4);
-  model::UNetOptions o;
-  o.ngf = 8;
-  o.depth = 6;
-  o.norm = model::Norm::Instance;
-  o.upsample = model::Upsample::Nearest;
-  model::UNetGenerator g(o);
-  model::init_pix2pix(*g);
+  model::UNetGenerator g = small_resize_net(4, model::Upsample::Nearest);
   model::save_generator(dir / "g32.pt", g, {-100, 560}, 64, 7);
   model::save_generator(dir / "g16.pt", g, {-100, 560}, 64, 7, model::WeightStorage::Float16);
   EXPECT_LT(fs::file_size(dir / "g16.pt"), fs::file_size(dir / "g32.pt") * 6 / 10);
@@ -315,14 +322,7 @@ TEST(GeneratorFile, Float16StorageAndChecksum) {
 // architecture (bilinear resize-convolution, InstanceNorm) and on pix2pix's.
 TEST(Infer, Bf16WithinOneMetreOfFp32) {
   const fs::path dir = temp_dir("bf16");
-  torch::manual_seed(5);
-  model::UNetOptions o;
-  o.ngf = 8;
-  o.depth = 6;
-  o.norm = model::Norm::Instance;
-  o.upsample = model::Upsample::Bilinear;
-  model::UNetGenerator g(o);
-  model::init_pix2pix(*g);
+  model::UNetGenerator g = small_resize_net(5, model::Upsample::Bilinear);
   model::save_generator(dir / "g.pt", g, {-100, 560}, 64, 1);
   auto f = model::load_generator(dir / "g.pt");
   InferOptions fp32, bf16;
