@@ -18,6 +18,7 @@ PKGS=(
   # training step is ~7x slower (7.0 s vs 1.0 s measured, docs/BENCHMARKS.md).
   # The OpenMP build shares libgomp's threads with LibTorch (no oversubscription).
   libopenblas0-openmp
+  libdnnl-dev            # oneDNN directly: the fast inference engine (model/src/fast_unet.cpp)
   python3 python3-torch python3-numpy  # reference comparisons (scripts/reference)
   python3-opencv         # tests/cli_test.sh compares EXRs (bf16 vs fp32); scripts/paint_sketches.py
 )
