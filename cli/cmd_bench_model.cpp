@@ -7,6 +7,7 @@
 
 #include "app.hpp"
 #include "reefgen/io.hpp"
+#include "reefgen/model/fast_unet.hpp"
 #include "reefgen/train/pix2pix.hpp"
 
 namespace reefgen {
@@ -24,7 +25,7 @@ int depth_for(int size) {
 std::function<int()> add_bench_model_commands(CLI::App* bench) {
   struct Args {
     int ngf = 64, size = 256, reps = 5, threads = default_threads(), batch = 8;
-    std::string upsample = "transpose", norm = "batch", precision = "fp32";
+    std::string upsample = "transpose", norm = "batch", precision = "fp32", engine = "onednn";
   };
   auto a = std::make_shared<Args>();
   auto* tr = bench->add_subcommand("train", "seconds per pix2pix training iteration (batch 1), median of --reps");
@@ -41,6 +42,9 @@ std::function<int()> add_bench_model_commands(CLI::App* bench) {
     s->add_option("--norm", a->norm, "batch (pix2pix) or instance")->capture_default_str();
   }
   in->add_option("--precision", a->precision, "fp32 or bf16 (inference only)")->capture_default_str();
+  in->add_option("--engine", a->engine, "onednn (reefgen's engine, what infer runs) or torch (LibTorch's forward)")
+      ->check(CLI::IsMember({"onednn", "torch"}))
+      ->capture_default_str();
   return [a, tr, in]() -> int {
     if (a->reps < 1 || a->threads < 1 || a->batch < 1) throw Error("--reps, --threads and --batch must be ≥ 1");
     if (a->size < 32 || (a->size & (a->size - 1))) throw Error("--size must be a power of two ≥ 32");
@@ -73,35 +77,44 @@ std::function<int()> add_bench_model_commands(CLI::App* bench) {
     (void)in;
     c10::InferenceMode inference;  // as infer_heights
     auto& g = p.G();
-    if (a->precision == "bf16") {
-      // As infer_heights' bf16 copy: every layer bf16 but the output convolution.
+    const bool bf16 = a->precision == "bf16";
+    if (bf16 && a->engine == "torch") {
+      // As the LibTorch bf16 copy: every layer bf16 but the output convolution.
       for (auto& t : g->named_parameters())
         if (t.key().rfind("levels.0.up_conv.", 0) != 0) t.value().set_data(t.value().to(torch::kBFloat16));
       for (auto& t : g->buffers())
         if (t.is_floating_point()) t.set_data(t.to(torch::kBFloat16));
     }
-    const auto in_type = a->precision == "bf16" ? torch::kBFloat16 : torch::kFloat32;
-    const auto x_in = x.to(in_type);
-    g->train();  // pix2pix's test-time mode (batch statistics), dropout off: our default
     g->set_dropout_enabled(false);
-    g->forward(x_in);
-    for (int r = 0; r < a->reps; ++r) t.push_back(seconds_of([&] { g->forward(x_in); }));
-    const double batchstats = median(t);
-    t.clear();
-    g->eval();
-    g->forward(x_in);
-    for (int r = 0; r < a->reps; ++r) t.push_back(seconds_of([&] { g->forward(x_in); }));
-    const double running = median(t);
-    const auto xb = (torch::rand({a->batch, 3, a->size, a->size}) * 2 - 1).to(in_type);
-    g->train();
-    g->forward(xb);
-    t.clear();
-    for (int r = 0; r < std::max(1, a->reps / 2); ++r) t.push_back(seconds_of([&] { g->forward(xb); }));
-    std::printf("{\"bench\": \"infer\", \"impl\": \"reefgen\", \"upsample\": \"%s\", \"norm\": \"%s\", \"precision\": \"%s\", "
+    // Median seconds per forward of `n` sketches, G in train mode (batch
+    // statistics, pix2pix's test time) or eval mode (running statistics).
+    auto measure = [&](bool train_mode, int n, int reps) {
+      g->train(train_mode);
+      const auto xb = torch::rand({n, 3, a->size, a->size}) * 2 - 1;
+      std::function<void()> f;
+      std::shared_ptr<model::FastUNet> fast;
+      if (a->engine == "onednn") {
+        fast = std::make_shared<model::FastUNet>(
+            *g, model::FastUNetOptions{n, a->size, bf16 ? model::FastPrecision::Bf16 : model::FastPrecision::Fp32});
+        f = [&] { fast->forward(xb); };
+      } else {
+        const auto xin = xb.to(bf16 ? torch::kBFloat16 : torch::kFloat32);
+        f = [&, xin] { g->forward(xin); };
+      }
+      f();  // warm-up
+      std::vector<double> ts;
+      for (int r = 0; r < reps; ++r) ts.push_back(seconds_of(f));
+      return median(ts);
+    };
+    const double batchstats = measure(true, 1, a->reps);
+    const double running = measure(false, 1, a->reps);
+    // Throughput: running statistics batch freely (batch statistics run one sketch per forward).
+    const double batch_s = measure(false, a->batch, std::max(1, a->reps / 2));
+    std::printf("{\"bench\": \"infer\", \"impl\": \"reefgen\", \"engine\": \"%s\", \"upsample\": \"%s\", \"norm\": \"%s\", \"precision\": \"%s\", "
                 "\"ngf\": %d, \"size\": %d, \"threads\": %d, \"reps\": %d, \"ms_batchstats\": %.2f, \"ms_running_stats\": %.2f, \"batch\": %d, "
                 "\"sketches_per_s\": %.2f}\n",
-                a->upsample.c_str(), a->norm.c_str(), a->precision.c_str(), a->ngf, a->size, a->threads, a->reps, batchstats * 1e3, running * 1e3, a->batch,
-                a->batch / median(t));
+                a->engine.c_str(), a->upsample.c_str(), a->norm.c_str(), a->precision.c_str(), a->ngf, a->size, a->threads, a->reps,
+                batchstats * 1e3, running * 1e3, a->batch, a->batch / batch_s);
     return 0;
   };
 }

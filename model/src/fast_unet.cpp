@@ -89,17 +89,49 @@ REEFGEN_CLONES void sums_row(const float* x, int64_t npix, int64_t C, double* su
     }
 }
 
-// Dot product with 16 independent partial sums (vectorises without
-// reassociating: the same order, hence the same bits, on every run).
-REEFGEN_CLONES float dot(const float* a, const float* b, int64_t n) {
-  float acc[16] = {};
-  int64_t i = 0;
-  for (; i + 16 <= n; i += 16)
-    for (int l = 0; l < 16; ++l) acc[l] += a[i + l] * b[i + l];
-  float s = 0.f;
-  for (; i < n; ++i) s += a[i] * b[i];
-  for (int l = 0; l < 16; ++l) s += acc[l];
-  return s;
+// Dot products with 16 independent partial sums: vectorises without
+// reassociating (the same order, hence the same bits, on every run).
+// out[t] = src · w[t*C .. t*C+C) for the T weight vectors of w.
+REEFGEN_CLONES void dots(const float* src, const float* w, int64_t T, int64_t C, float* out) {
+  for (int64_t t = 0; t < T; ++t) {
+    const float* b = w + t * C;
+    float acc[16] = {};
+    int64_t i = 0;
+    for (; i + 16 <= C; i += 16)
+      for (int l = 0; l < 16; ++l) acc[l] += src[i + l] * b[i + l];
+    float s = 0.f;
+    for (; i < C; ++i) s += src[i] * b[i];
+    for (int l = 0; l < 16; ++l) s += acc[l];
+    out[t] = s;
+  }
+}
+
+// The transposed output layer for one output row y and one output channel:
+// pixel (y, x) sums the 2×2 input pixels of its parity (see output_layer).
+REEFGEN_CLONES void transposed_out_row(const float* src, int64_t s, int64_t C, const float* w /*{4,4,C}*/,
+                                       int64_t y, float bias, float* out /*S floats*/) {
+  const int64_t m = y >> 1, py = y & 1;
+  const int64_t iy[2] = {py ? m : m - 1, py ? m + 1 : m}, ky[2] = {py ? 2 : 3, py ? 0 : 1};
+  for (int64_t x = 0; x < 2 * s; ++x) {
+    const int64_t mx = x >> 1, px = x & 1;
+    const int64_t ix[2] = {px ? mx : mx - 1, px ? mx + 1 : mx}, kx[2] = {px ? 2 : 3, px ? 0 : 1};
+    float acc[16] = {};
+    float tail = 0.f;
+    for (int a = 0; a < 2; ++a) {
+      if (iy[a] < 0 || iy[a] >= s) continue;
+      for (int c = 0; c < 2; ++c) {
+        if (ix[c] < 0 || ix[c] >= s) continue;
+        const float* p = src + (iy[a] * s + ix[c]) * C;
+        const float* q = w + (ky[a] * 4 + kx[c]) * C;
+        int64_t i = 0;
+        for (; i + 16 <= C; i += 16)
+          for (int l = 0; l < 16; ++l) acc[l] += p[i + l] * q[i + l];
+        for (; i < C; ++i) tail += p[i] * q[i];
+      }
+    }
+    for (int l = 0; l < 16; ++l) tail += acc[l];
+    out[x] = std::tanh(tail + bias);
+  }
 }
 
 // Bilinear (align_corners=false) or nearest ×2 of one output row, nhwc, as
@@ -118,6 +150,13 @@ REEFGEN_CLONES void upsample_row_f32(const float* r0, const float* r1, float wy0
     const float *a = r0 + j0 * C, *b = r0 + j1 * C, *c = r1 + j0 * C, *d = r1 + j1 * C;
     for (int64_t k = 0; k < C; ++k) o[k] = (a[k] * wx0 + b[k] * wx1) * wy0 + (c[k] * wx0 + d[k] * wx1) * wy1;
   }
+}
+
+REEFGEN_CLONES void bf16_to_f32(const bf16_t* a, float* b, int64_t n) {
+  for (int64_t i = 0; i < n; ++i) b[i] = from_bf16(a[i]);
+}
+REEFGEN_CLONES void f32_to_bf16(const float* a, bf16_t* b, int64_t n) {
+  for (int64_t i = 0; i < n; ++i) b[i] = to_bf16(a[i]);
 }
 
 struct Norm2 {
@@ -321,56 +360,81 @@ struct FastUNet::Impl {
           upsample_row_f32(in + i0 * s * C, in + i1 * s * C, wy0, wy1, s, C, out, bilinear);
         } else {
           const bf16_t* in = static_cast<const bf16_t*>(src.get_data_handle()) + n * s * s * C;
-          for (int64_t k = 0; k < s * C; ++k) r0f[size_t(k)] = from_bf16(in[i0 * s * C + k]);
-          for (int64_t k = 0; k < s * C; ++k) r1f[size_t(k)] = from_bf16(in[i1 * s * C + k]);
+          bf16_to_f32(in + i0 * s * C, r0f.data(), s * C);
+          bf16_to_f32(in + i1 * s * C, r1f.data(), s * C);
           upsample_row_f32(r0f.data(), r1f.data(), wy0, wy1, s, C, outf.data(), bilinear);
           bf16_t* out = static_cast<bf16_t*>(dst.get_data_handle()) + (n * 2 * s + oy) * 2 * s * C;
-          for (int64_t k = 0; k < 2 * s * C; ++k) out[k] = to_bf16(outf[size_t(k)]);
+          f32_to_bf16(outf.data(), out, 2 * s * C);
         }
       }
     });
   }
 
-  // The output layer, fused with tanh: src f32 nhwc (C channels) -> out nchw.
-  // Transposed: src side S/2, 4×4 stride 2; resize: src side S (upsampled), 3×3.
+  // The output layer, fused with tanh: cat[0] (f32 nhwc, C channels, side
+  // S/2) -> out nchw {N,out,S,S}.
+  // Transposed: each output pixel sums the 2×2 input pixels of its parity.
+  // Resize: conv3×3(up(x)) with up linear and per-pixel: the channels are
+  // contracted first, on the S/2 grid (9 dot products per pixel and output
+  // channel, a quarter of the work at S), and the nine scalar maps are then
+  // upsampled on the fly. Exact up to float rounding.
   void output_layer(const float* src, int64_t C, float* out) {
-    const int64_t N = o.batch, S = o.size_px, OC = u.out_channels;
-    const bool tr = u.upsample == Upsample::Transpose;
-    const int64_t s = tr ? S / 2 : S, K = tr ? 4 : 3;
+    const int64_t N = o.batch, S = o.size_px, s = S / 2, OC = u.out_channels;
     const float* w = out_w.data_ptr<float>();
     const float* b = out_b.data_ptr<float>();
-    at::parallel_for(0, N * S, kRowGrain, [&](int64_t b0, int64_t b1) {
+    if (u.upsample == Upsample::Transpose) {
+      at::parallel_for(0, N * OC * S, kRowGrain, [&](int64_t b0, int64_t b1) {
+        for (int64_t r = b0; r < b1; ++r) {
+          const int64_t n = r / (OC * S), oc = (r / S) % OC, y = r % S;
+          transposed_out_row(src + n * s * s * C, s, C, w + oc * 16 * C, y, b[oc], out + r * S);
+        }
+      });
+      return;
+    }
+    // taps[((n*s + i)*s + j)*OC*9 + oc*9 + t] = cat0[n,i,j,:] · w[oc, t, :]
+    std::vector<float> taps(size_t(N * s * s * OC * 9));
+    at::parallel_for(0, N * s * s, 64, [&](int64_t b0, int64_t b1) {
+      for (int64_t p = b0; p < b1; ++p) dots(src + p * C, w, OC * 9, C, &taps[size_t(p * OC * 9)]);
+    });
+    // Source index and weights of each upsampled coordinate, as PyTorch's
+    // interpolation computes them (align_corners=false; nearest = floor(o/2)).
+    std::vector<int64_t> i0(static_cast<size_t>(S)), i1(static_cast<size_t>(S));
+    std::vector<float> w0(static_cast<size_t>(S)), w1(static_cast<size_t>(S));
+    const bool bilinear = u.upsample == Upsample::Bilinear;
+    for (int64_t q = 0; q < S; ++q) {
+      if (bilinear) {
+        const float t = std::max(0.f, (q + 0.5f) * 0.5f - 0.5f);
+        i0[size_t(q)] = int64_t(t);
+        i1[size_t(q)] = std::min(i0[size_t(q)] + 1, s - 1);
+        w1[size_t(q)] = t - float(i0[size_t(q)]);
+        w0[size_t(q)] = 1.f - w1[size_t(q)];
+      } else {
+        i0[size_t(q)] = i1[size_t(q)] = q >> 1;
+        w0[size_t(q)] = 1.f;
+        w1[size_t(q)] = 0.f;
+      }
+    }
+    at::parallel_for(0, N * OC * S, kRowGrain, [&](int64_t b0, int64_t b1) {
       for (int64_t r = b0; r < b1; ++r) {
-        const int64_t n = r / S, y = r % S;
-        for (int64_t x = 0; x < S; ++x)
-          for (int64_t oc = 0; oc < OC; ++oc) {
-            float acc = 0.f;
-            if (tr) {
-              // Output row y = 2m+py takes input rows m-1 (tap 3), m (tap 1) when
-              // py = 0 and m (tap 2), m+1 (tap 0) when py = 1; columns alike.
-              const int64_t m = y >> 1, py = y & 1, mx = x >> 1, px = x & 1;
-              const int64_t iy[2] = {py ? m : m - 1, py ? m + 1 : m}, ky[2] = {py ? 2 : 3, py ? 0 : 1};
-              const int64_t ix[2] = {px ? mx : mx - 1, px ? mx + 1 : mx}, kx[2] = {px ? 2 : 3, px ? 0 : 1};
-              for (int a = 0; a < 2; ++a) {
-                if (iy[a] < 0 || iy[a] >= s) continue;
-                for (int c = 0; c < 2; ++c) {
-                  if (ix[c] < 0 || ix[c] >= s) continue;
-                  acc += dot(src + ((n * s + iy[a]) * s + ix[c]) * C, w + ((oc * K + ky[a]) * K + kx[c]) * C, C);
-                }
-              }
-            } else {
-              for (int64_t dy = 0; dy < 3; ++dy) {
-                const int64_t yy = y + dy - 1;
-                if (yy < 0 || yy >= s) continue;
-                for (int64_t dx = 0; dx < 3; ++dx) {
-                  const int64_t xx = x + dx - 1;
-                  if (xx < 0 || xx >= s) continue;
-                  acc += dot(src + ((n * s + yy) * s + xx) * C, w + ((oc * K + dy) * K + dx) * C, C);
-                }
-              }
+        const int64_t n = r / (OC * S), oc = (r / S) % OC, y = r % S;
+        const float* tp = taps.data() + n * s * s * OC * 9 + oc * 9;
+        for (int64_t x = 0; x < S; ++x) {
+          float acc = 0.f;
+          for (int64_t dy = 0; dy < 3; ++dy) {
+            const int64_t yy = y + dy - 1;
+            if (yy < 0 || yy >= S) continue;
+            const size_t Y = size_t(yy);
+            for (int64_t dx = 0; dx < 3; ++dx) {
+              const int64_t xx = x + dx - 1;
+              if (xx < 0 || xx >= S) continue;
+              const size_t X = size_t(xx);
+              const int64_t t = dy * 3 + dx;
+              auto at = [&](int64_t i, int64_t j) { return tp[(i * s + j) * OC * 9 + t]; };
+              acc += (at(i0[Y], i0[X]) * w0[X] + at(i0[Y], i1[X]) * w1[X]) * w0[Y] +
+                     (at(i1[Y], i0[X]) * w0[X] + at(i1[Y], i1[X]) * w1[X]) * w1[Y];
             }
-            out[((n * OC + oc) * S + y) * S + x] = std::tanh(acc + b[oc]);
           }
+          out[r * S + x] = std::tanh(acc + b[oc]);
+        }
       }
     });
   }
@@ -482,7 +546,6 @@ FastUNet::FastUNet(UNetGeneratorImpl& g, const FastUNetOptions& options) : impl_
     const torch::Tensor w = P(lv(0) + ".up_conv.weight");
     m.out_w = (u.upsample == Upsample::Transpose ? w.permute({1, 2, 3, 0}) : w.permute({0, 2, 3, 1})).contiguous();
     m.out_b = P(lv(0) + ".up_conv.bias").contiguous();
-    if (u.upsample != Upsample::Transpose) m.ups[0] = dnnl::memory(nhwc(N, 2 * m.ch(0), S, dt::f32), m.eng);
   }
 }
 
@@ -505,8 +568,7 @@ torch::Tensor FastUNet::forward(const torch::Tensor& x_) {
     const float* xs = x.data_ptr<float>();
     const int64_t n = x.numel();
     if (bf) {
-      bf16_t* d = static_cast<bf16_t*>(m.ptr(m.x_in));
-      for (int64_t i = 0; i < n; ++i) d[i] = to_bf16(xs[i]);
+      f32_to_bf16(xs, static_cast<bf16_t*>(m.ptr(m.x_in)), n);
     } else {
       std::memcpy(m.ptr(m.x_in), xs, size_t(n) * 4);
     }
@@ -553,12 +615,7 @@ torch::Tensor FastUNet::forward(const torch::Tensor& x_) {
   }
   torch::Tensor y = torch::empty({N, u.out_channels, S, S});  // {N,out,S,S}
   const int64_t C = 2 * m.ch(0);
-  if (u.upsample == Upsample::Transpose) {
-    m.output_layer(static_cast<const float*>(m.ptr(m.cat[0])), C, y.data_ptr<float>());
-  } else {
-    m.upsample(m.cat[0], m.ups[0], S / 2, C, false);
-    m.output_layer(static_cast<const float*>(m.ptr(m.ups[0])), C, y.data_ptr<float>());
-  }
+  m.output_layer(static_cast<const float*>(m.ptr(m.cat[0])), C, y.data_ptr<float>());
   return y;
 }
 
