@@ -46,7 +46,8 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
     std::vector<std::string> inputs;
     std::string model, out, mesh;
     bool png16 = false, r16 = false, preview = false, stochastic = false, running_stats = false;
-    std::string precision = "fp32";  // bf16 measured no faster without AMX (docs/BENCHMARKS.md)
+    std::string precision = "fp32";  // the same heights on every CPU; bf16/auto are faster (docs/BENCHMARKS.md)
+    std::string engine = "auto";
     uint64_t seed = 0;
     double exaggeration = 1.0, world_size_m = 6000;
     std::optional<int> threads;
@@ -66,7 +67,12 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_flag("--stochastic", a->stochastic, "Dropout on (pix2pix's noise): a different island per --seed");
   sub->add_option("--seed", a->seed, "Dropout masks for --stochastic")->capture_default_str();
   sub->add_option("--precision", a->precision,
-                  "fp32, bf16 (heights within ~1 m of fp32), or auto (bf16 where the CPU has AMX-bf16, else fp32)")
+                  "fp32, bf16 (heights within ~1 m of fp32, ~1.6x faster), or auto (bf16 where the CPU has "
+                  "avx512_bf16 or AMX-bf16, else fp32)")
+      ->capture_default_str();
+  sub->add_option("--engine", a->engine,
+                  "onednn (reefgen's engine), torch (LibTorch's forward, the reference) or auto (onednn; torch "
+                  "with --stochastic)")
       ->capture_default_str();
   sub->add_flag("--running-stats", a->running_stats,
                 "BatchNorm running statistics (eval mode) instead of pix2pix's test-time batch statistics");
@@ -136,9 +142,10 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
             io.running_stats = a->running_stats;
             try {
               io.precision = infer::precision_from_string(a->precision);
-              infer::resolve(io.precision, gen);
+              io.engine = infer::engine_from_string(a->engine);
+              infer::resolve(io, gen);
             } catch (const std::invalid_argument& e) {
-              throw Error("--precision: " + std::string(e.what()));
+              throw Error("--precision/--engine: " + std::string(e.what()));
             }
             io.seed = a->seed;
             std::vector<Outputs> written(inputs.size());
@@ -165,7 +172,8 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                                {"ngf", gen.g->options().ngf}, {"reefgen_version", gen.reefgen_version}}},
                     {"mode", {{"stochastic", a->stochastic}, {"seed", a->seed},
                               {"batchnorm", a->running_stats ? "running statistics" : "batch statistics"},
-                              {"precision", infer::to_string(infer::resolve(io.precision, gen))}}},
+                              {"precision", infer::to_string(infer::resolve(io, gen))},
+                              {"engine", infer::to_string(infer::resolve_engine(io))}}},
                     {"size_px", {h.cols, h.rows}},
                     {"metres_per_px", mpp},
                     {"height_range_m", {hmin, hmax}},

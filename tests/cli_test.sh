@@ -259,7 +259,19 @@ expect_error "not in range 1 to 256" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --
 expect_error "did you mean 'infer'" infr "$T/s/one.png"
 expect_error "must be a finite number" generate --preset atoll --subsidence nan -o "$T/e/x"
 expect_error "must be a finite number" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --world-size inf
-expect_error "bf16 needs a resize-convolution generator" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --precision bf16
+expect_error "bf16 on the torch engine needs a resize-convolution generator" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --precision bf16 --engine torch
+expect_error "the onednn engine has no dropout" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --stochastic --engine onednn
+expect_error "engine 'gpu'" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --engine gpu
+# reefgen's engine runs pix2pix's transposed generator in bf16 too, and records what ran.
+"$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/tbf" --precision bf16 >/dev/null \
+  && "$PY" -c "import json,sys; m=json.load(open(sys.argv[1]))['mode']; assert m['engine']=='onednn' and m['precision']=='bf16', m" "$T/i/tbf.json" \
+  && ok || bad "bf16 on a transposed generator with the onednn engine"
+"$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/tt" --engine torch >/dev/null && "$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/to" --engine onednn >/dev/null \
+  && OPENCV_IO_ENABLE_OPENEXR=1 "$PY" - "$T/i/tt.height.exr" "$T/i/to.height.exr" <<'PY' && ok || bad "onednn vs torch engine"
+import sys, cv2, numpy as np
+a, b = (cv2.imread(f, cv2.IMREAD_UNCHANGED) for f in sys.argv[1:3])
+assert np.abs(a - b).max() <= 0.01, np.abs(a - b).max()
+PY
 
 # 7. --version, --help with examples.
 "$BIN" --version | grep -q "reefgen [0-9]" && ok || bad "--version"

@@ -325,9 +325,12 @@ TEST(Infer, Bf16WithinOneMetreOfFp32) {
   model::UNetGenerator g = small_resize_net(5, model::Upsample::Bilinear);
   model::save_generator(dir / "g.pt", g, {-100, 560}, 64, 1);
   auto f = model::load_generator(dir / "g.pt");
-  InferOptions fp32, bf16;
-  bf16.precision = Precision::Bf16;
+  for (Engine engine : {Engine::OneDnn, Engine::Torch})
   for (uint64_t seed : {1, 2, 3}) {
+    InferOptions fp32, bf16;
+    bf16.precision = Precision::Bf16;
+    fp32.engine = Engine::Torch;  // the reference
+    bf16.engine = engine;
     const auto a = infer_heights(f, {sketch(seed, 64)}, fp32)[0];
     const auto b = infer_heights(f, {sketch(seed, 64)}, bf16)[0];
     double lo, hi;
@@ -345,12 +348,51 @@ TEST(Infer, Bf16WithinOneMetreOfFp32) {
     EXPECT_LT(v.back(), 2.0) << "seed " << seed;
     EXPECT_GT(v.back(), 0.0) << "bf16 path not taken";
   }
-  EXPECT_EQ(resolve(Precision::Fp32, f), Precision::Fp32);
-  EXPECT_EQ(resolve(Precision::Auto, f), cpu_has_amx_bf16() ? Precision::Bf16 : Precision::Fp32);
+  auto opts = [](Precision p, Engine e, bool stochastic = false) {
+    InferOptions o;
+    o.precision = p;
+    o.engine = e;
+    o.stochastic = stochastic;
+    return o;
+  };
+  EXPECT_EQ(resolve(opts(Precision::Fp32, Engine::Auto), f), Precision::Fp32);
+  EXPECT_EQ(resolve(opts(Precision::Auto, Engine::Auto), f), cpu_has_native_bf16() ? Precision::Bf16 : Precision::Fp32);
   if (cpu_has_amx_bf16()) EXPECT_TRUE(cpu_has_native_bf16());
   EXPECT_THROW(precision_from_string("fp8"), std::invalid_argument);
-  // pix2pix's transposed-convolution generator: auto stays fp32, bf16 is refused.
+  EXPECT_THROW(engine_from_string("cuda"), std::invalid_argument);
+  // pix2pix's transposed-convolution generator: LibTorch's bf16 refuses it,
+  // reefgen's engine runs it.
   auto t = tiny_generator(dir);
-  EXPECT_EQ(resolve(Precision::Auto, t), Precision::Fp32);
-  EXPECT_THROW(resolve(Precision::Bf16, t), std::invalid_argument);
+  EXPECT_EQ(resolve(opts(Precision::Auto, Engine::Torch), t), Precision::Fp32);
+  EXPECT_THROW(resolve(opts(Precision::Bf16, Engine::Torch), t), std::invalid_argument);
+  EXPECT_EQ(resolve(opts(Precision::Bf16, Engine::OneDnn), t), Precision::Bf16);
+  // Dropout masks exist only on LibTorch's path.
+  EXPECT_EQ(resolve_engine(opts(Precision::Fp32, Engine::Auto)), Engine::OneDnn);
+  EXPECT_EQ(resolve_engine(opts(Precision::Fp32, Engine::Auto, true)), Engine::Torch);
+  EXPECT_THROW(resolve_engine(opts(Precision::Fp32, Engine::OneDnn, true)), std::invalid_argument);
+}
+
+// The two engines give the same heights (fp32) for both decoder kinds, in
+// both BatchNorm modes, alone and batched.
+TEST(Infer, OneDnnEngineEqualsLibTorch) {
+  const fs::path dir = temp_dir("engines");
+  model::UNetGenerator g = small_resize_net(6, model::Upsample::Bilinear);
+  model::save_generator(dir / "g.pt", g, {-100, 560}, 64, 1);
+  std::vector<model::GeneratorFile> files;
+  files.push_back(model::load_generator(dir / "g.pt"));
+  files.push_back(tiny_generator(dir));
+  for (auto& file : files) {
+    model::GeneratorFile* f = &file;
+    for (bool running : {false, true}) {
+      InferOptions a, b;
+      a.engine = Engine::Torch;
+      b.engine = Engine::OneDnn;
+      a.running_stats = b.running_stats = running;
+      const std::vector<DecodedSketch> three{sketch(1, f->size_px), sketch(2, f->size_px), sketch(3, f->size_px)};
+      const auto ha = infer_heights(*f, three, a), hb = infer_heights(*f, three, b);
+      for (size_t i = 0; i < 3; ++i)
+        EXPECT_LT(cv::norm(ha[i], hb[i], cv::NORM_INF), 0.01) << "sketch " << i << (running ? " running stats" : "");
+      EXPECT_GT(cv::norm(ha[0], ha[1], cv::NORM_INF), 0.1) << "different sketches must give different heights";
+    }
+  }
 }

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "reefgen/model/fast_unet.hpp"
 #include "reefgen/model/networks.hpp"
 #include "reefgen/train/pix2pix.hpp"
 #include "reference_io.hpp"
@@ -163,9 +164,16 @@ TEST(Reference, ForwardMatchesPythonWithin1e4) {
   torch::NoGradGuard no_grad;
   g->train();
   g->set_dropout_enabled(false);
+  const model::FastUNetOptions fo{int(x.size(0)), int(x.size(-1)), model::FastPrecision::Fp32};
+  // reefgen's oneDNN engine (what infer runs), built before the pass below
+  // updates the running statistics: batch statistics do not depend on them.
+  model::FastUNet fast_train(*g, fo);
   EXPECT_LT(max_abs_diff(g->forward(x), ref.at("out.G.train")), 1e-4) << "G, BatchNorm batch statistics";
+  EXPECT_LT(max_abs_diff(fast_train.forward(x), ref.at("out.G.train")), 1e-4) << "oneDNN engine, batch statistics";
   g->eval();  // running statistics as updated by the pass above
   EXPECT_LT(max_abs_diff(g->forward(x), ref.at("out.G.eval")), 1e-4) << "G, BatchNorm running statistics";
+  EXPECT_LT(max_abs_diff(model::FastUNet(*g, fo).forward(x), ref.at("out.G.eval")), 1e-4)
+      << "oneDNN engine, running statistics";
   const auto xy = torch::cat({x, y}, 1);
   d->train();
   EXPECT_LT(max_abs_diff(d->forward(xy), ref.at("out.D.train")), 1e-4) << "D, train mode";

@@ -37,20 +37,40 @@ bool cpu_has_amx_bf16() {
 
 Precision resolve(Precision p) {
   if (p != Precision::Auto) return p;
-  // Measured (docs/BENCHMARKS.md): on an AMD EPYC with avx512_bf16 but no AMX,
-  // LibTorch 1.13's bf16 forward of the shipped model was no faster than fp32
-  // (51 vs 49 ms); oneDNN's AMX kernels are where bf16 pays (DESIGN §6).
-  return cpu_has_amx_bf16() ? Precision::Bf16 : Precision::Fp32;
+  // Measured (docs/BENCHMARKS.md): with the oneDNN engine, bf16 ran the
+  // shipped model in 20 ms vs 32 ms fp32 on an AMD EPYC with avx512_bf16
+  // (no AMX); without native bf16 instructions it would be emulated.
+  return cpu_has_native_bf16() ? Precision::Bf16 : Precision::Fp32;
 }
 
-Precision resolve(Precision p, const model::GeneratorFile& g) {
+Engine engine_from_string(const std::string& s) {
+  if (s == "auto") return Engine::Auto;
+  if (s == "onednn") return Engine::OneDnn;
+  if (s == "torch") return Engine::Torch;
+  throw std::invalid_argument("engine '" + s + "': use auto, onednn or torch");
+}
+
+const char* to_string(Engine e) { return e == Engine::Auto ? "auto" : e == Engine::OneDnn ? "onednn" : "torch"; }
+
+Engine resolve_engine(const InferOptions& o) {
+  if (o.engine == Engine::OneDnn && o.stochastic)
+    throw std::invalid_argument("the onednn engine has no dropout: --stochastic needs --engine torch or auto");
+  if (o.engine != Engine::Auto) return o.engine;
+  return o.stochastic ? Engine::Torch : Engine::OneDnn;
+}
+
+Precision resolve(const InferOptions& o, const model::GeneratorFile& g) {
+  const Engine e = resolve_engine(o);
   // LibTorch 1.13's bf16 path (oneDNN) refuses the transposed convolution of
-  // the 1×1 innermost level: pix2pix's own decoder stays float32.
+  // the 1×1 innermost level: on the torch engine pix2pix's decoder stays fp32.
   const bool resize = g.g->options().upsample != model::Upsample::Transpose;
-  if (p == Precision::Bf16 && !resize)
-    throw std::invalid_argument("bf16 needs a resize-convolution generator (upsample nearest or bilinear); this one "
-                                "uses transposed convolutions: use --precision fp32 or auto");
-  return resize ? resolve(p) : Precision::Fp32;
+  if (e == Engine::Torch && !resize) {
+    if (o.precision == Precision::Bf16)
+      throw std::invalid_argument("bf16 on the torch engine needs a resize-convolution generator (upsample nearest or "
+                                  "bilinear); use --engine onednn, or --precision fp32 or auto");
+    return Precision::Fp32;
+  }
+  return resolve(o.precision);
 }
 
 cv::Mat3b canonical_sketch(const DecodedSketch& s, int size_px) {
@@ -79,6 +99,8 @@ std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<
   // so that mode runs one sketch per forward; running statistics batch freely.
   g.g->train(!o.running_stats);
   g.g->set_dropout_enabled(o.stochastic);
+  const Engine engine = resolve_engine(o);
+  const Precision precision = resolve(o, g);
   std::vector<torch::Tensor> inputs;
   for (const auto& s : sketches) inputs.push_back(model::label_to_tensor(canonical_sketch(s, g.size_px)));
   std::vector<torch::Tensor> outs;
@@ -90,7 +112,21 @@ std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<
     if (o.stochastic) torch::manual_seed(derive_seed(o.seed, 0, "infer-dropout"));
     const torch::Tensor x = torch::stack(std::vector<torch::Tensor>(inputs.begin() + long(i), inputs.begin() + long(i + n)));
     torch::Tensor y;
-    if (resolve(o.precision, g) == Precision::Bf16) {
+    if (engine == Engine::OneDnn) {
+      const bool train_mode = !o.running_stats;
+      const std::string key = std::to_string(n) + "/" + std::to_string(g.size_px) + "/" +
+                              (precision == Precision::Bf16 ? "bf16" : "fp32") + (train_mode ? "/batch" : "/running");
+      auto& fast = g.fast[key];
+      if (!fast) {
+        g.g->train(train_mode);
+        g.g->set_dropout_enabled(false);
+        fast = std::make_shared<model::FastUNet>(
+            *g.g, model::FastUNetOptions{int(n), g.size_px,
+                                         precision == Precision::Bf16 ? model::FastPrecision::Bf16
+                                                                      : model::FastPrecision::Fp32});
+      }
+      y = fast->forward(x);  // {n,1,S,S}
+    } else if (precision == Precision::Bf16) {
       // A bf16 copy of G, made once per loaded file (same modes as g). The
       // output layer stays float32: bf16's 8-bit mantissa alone would round
       // heights near the top of the range by more than a metre.

@@ -14,24 +14,37 @@ namespace reefgen::infer {
 // Number format of the generator's arithmetic. bf16 runs oneDNN's bfloat16
 // convolutions (fast where the CPU has avx512_bf16 or AMX-bf16), with the
 // weights rounded to bf16 and float32 accumulation; heights stay within 1 m of
-// float32 (tested). auto = bf16 where the CPU has AMX-bf16, else fp32 (on
-// avx512_bf16 alone it measured no faster).
+// float32 (tested). auto = bf16 where the CPU has avx512_bf16 or AMX-bf16 and
+// the oneDNN engine runs (1.6–1.7× its fp32 there), else fp32.
 enum class Precision { Auto, Fp32, Bf16 };
 Precision precision_from_string(const std::string& s);  // "auto" | "fp32" | "bf16"
 const char* to_string(Precision p);
 bool cpu_has_native_bf16();  // avx512_bf16 or amx_bf16, read with cpuid
 bool cpu_has_amx_bf16();
 Precision resolve(Precision p);  // auto -> fp32 or bf16 on this CPU
-// For one generator: auto -> fp32 for transposed-convolution generators;
-// explicit bf16 on one of those throws std::invalid_argument.
-Precision resolve(Precision p, const model::GeneratorFile& g);
+
+// What runs the generator. onednn: reefgen's engine (model/fast_unet.hpp),
+// 1.5× LibTorch in fp32 and 2.5× in bf16 on the shipped model; torch:
+// LibTorch's own forward (the reference). auto = onednn, except in
+// --stochastic mode (dropout masks come from LibTorch's generator).
+enum class Engine { Auto, OneDnn, Torch };
+Engine engine_from_string(const std::string& s);  // "auto" | "onednn" | "torch"
+const char* to_string(Engine e);
 
 struct InferOptions {
-  Precision precision = Precision::Fp32;  // the CLI's default is auto
+  Precision precision = Precision::Fp32;  // the CLI's default too: the same heights on every CPU
+  Engine engine = Engine::Auto;
   bool stochastic = false;     // dropout on (pix2pix's noise source): varied outputs per --seed
   bool running_stats = false;  // BatchNorm running statistics instead of pix2pix's test-time batch statistics
   uint64_t seed = 0;           // dropout masks when stochastic
 };
+
+// The engine and precision these options run with this generator on this
+// CPU. Throws std::invalid_argument for bf16 with the torch engine on a
+// transposed-convolution generator (LibTorch's bf16 refuses its 1×1 layer)
+// and for the onednn engine in stochastic mode.
+Engine resolve_engine(const InferOptions& o);
+Precision resolve(const InferOptions& o, const model::GeneratorFile& g);
 
 // The decoded sketch re-encoded in the canonical palette at the model's size:
 // regions by nearest neighbour (never blended), subsidence bilinear.

@@ -6,7 +6,11 @@
 #include <filesystem>
 #include <string>
 
+#include <map>
+#include <memory>
+
 #include "reefgen/model/codec.hpp"
+#include "reefgen/model/fast_unet.hpp"
 #include "reefgen/model/networks.hpp"
 
 namespace reefgen::model {
@@ -22,7 +26,9 @@ enum class WeightStorage { Float32, Float16 };
 
 struct GeneratorFile {
   UNetGenerator g{nullptr};
-  UNetGenerator g_bf16{nullptr};  // a bfloat16 copy, made on first use by bf16 inference
+  UNetGenerator g_bf16{nullptr};  // a bfloat16 copy, made on first use by LibTorch bf16 inference
+  // oneDNN engines built on first use, one per (batch, side, precision, mode).
+  std::map<std::string, std::shared_ptr<FastUNet>> fast;
   HeightRange range;
   int size_px = 256;       // the side it was trained at
   int64_t train_step = 0;  // steps done when exported
