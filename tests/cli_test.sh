@@ -260,7 +260,6 @@ expect_error "did you mean 'infer'" infr "$T/s/one.png"
 expect_error "must be a finite number" generate --preset atoll --subsidence nan -o "$T/e/x"
 expect_error "must be a finite number" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --world-size inf
 expect_error "bf16 on the torch engine needs a resize-convolution generator" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --precision bf16 --engine torch
-expect_error "the onednn engine has no dropout" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --stochastic --engine onednn
 expect_error "engine 'gpu'" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --engine gpu
 # reefgen's engine runs pix2pix's transposed generator in bf16 too, and records what ran.
 "$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/tbf" --precision bf16 >/dev/null \
