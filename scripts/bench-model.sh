@@ -3,6 +3,9 @@
 # ROUNDS alternating runs of `reefgen bench WHAT` and scripts/reference/bench_ref.py,
 # medians of each, and reefgen's speed-up over the reference (> 1: reefgen is faster).
 #   bash scripts/bench-model.sh [train|infer|all] [ROUNDS] [extra flags, e.g. --ngf 32]
+# Flags for reefgen only (the reference has no such choice) go in RG_FLAGS:
+#   RG_FLAGS="--engine torch" bash scripts/bench-model.sh infer 5
+#   RG_FLAGS="--precision bf16" bash scripts/bench-model.sh infer 5
 set -euo pipefail
 cd "$(dirname "$0")/.."
 what=${1:-all}; rounds=${2:-3}; shift $(( $# > 2 ? 2 : $# )) || true
@@ -12,7 +15,7 @@ py=/usr/bin/python3; [ -x "$py" ] || py=python3
 run() {  # run WHAT KEY REPS
   local w=$1 key=$2 reps=$3 c=() p=()
   for r in $(seq 1 "$rounds"); do
-    c+=("$(build/cli/reefgen bench "$w" --reps "$reps" "${@:4}" 2>/dev/null | "$py" -c "import json,sys; print(json.load(sys.stdin)['$key'])")")
+    c+=("$(build/cli/reefgen bench "$w" --reps "$reps" "${@:4}" ${RG_FLAGS:-} 2>/dev/null | "$py" -c "import json,sys; print(json.load(sys.stdin)['$key'])")")
     p+=("$("$py" scripts/reference/bench_ref.py "$w" --reps "$reps" "${@:4}" | "$py" -c "import json,sys; print(json.load(sys.stdin)['$key'])")")
   done
   "$py" - "$w" "$key" "${c[*]}" "${p[*]}" <<'PY'

@@ -106,34 +106,6 @@ REEFGEN_CLONES void dots(const float* src, const float* w, int64_t T, int64_t C,
   }
 }
 
-// The transposed output layer for one output row y and one output channel:
-// pixel (y, x) sums the 2×2 input pixels of its parity (see output_layer).
-REEFGEN_CLONES void transposed_out_row(const float* src, int64_t s, int64_t C, const float* w /*{4,4,C}*/,
-                                       int64_t y, float bias, float* out /*S floats*/) {
-  const int64_t m = y >> 1, py = y & 1;
-  const int64_t iy[2] = {py ? m : m - 1, py ? m + 1 : m}, ky[2] = {py ? 2 : 3, py ? 0 : 1};
-  for (int64_t x = 0; x < 2 * s; ++x) {
-    const int64_t mx = x >> 1, px = x & 1;
-    const int64_t ix[2] = {px ? mx : mx - 1, px ? mx + 1 : mx}, kx[2] = {px ? 2 : 3, px ? 0 : 1};
-    float acc[16] = {};
-    float tail = 0.f;
-    for (int a = 0; a < 2; ++a) {
-      if (iy[a] < 0 || iy[a] >= s) continue;
-      for (int c = 0; c < 2; ++c) {
-        if (ix[c] < 0 || ix[c] >= s) continue;
-        const float* p = src + (iy[a] * s + ix[c]) * C;
-        const float* q = w + (ky[a] * 4 + kx[c]) * C;
-        int64_t i = 0;
-        for (; i + 16 <= C; i += 16)
-          for (int l = 0; l < 16; ++l) acc[l] += p[i + l] * q[i + l];
-        for (; i < C; ++i) tail += p[i] * q[i];
-      }
-    }
-    for (int l = 0; l < 16; ++l) tail += acc[l];
-    out[x] = std::tanh(tail + bias);
-  }
-}
-
 // Bilinear (align_corners=false) or nearest ×2 of one output row, nhwc, as
 // PyTorch computes it: ((x00 w0x + x01 w1x) w0y + (x10 w0x + x11 w1x) w1y).
 REEFGEN_CLONES void upsample_row_f32(const float* r0, const float* r1, float wy0, float wy1, int64_t side_in,
@@ -371,30 +343,49 @@ struct FastUNet::Impl {
   }
 
   // The output layer, fused with tanh: cat[0] (f32 nhwc, C channels, side
-  // S/2) -> out nchw {N,out,S,S}.
-  // Transposed: each output pixel sums the 2×2 input pixels of its parity.
-  // Resize: conv3×3(up(x)) with up linear and per-pixel: the channels are
-  // contracted first, on the S/2 grid (9 dot products per pixel and output
-  // channel, a quarter of the work at S), and the nine scalar maps are then
-  // upsampled on the fly. Exact up to float rounding.
+  // s = S/2) -> out nchw {N,out,S,S}. Its few output channels would waste
+  // most of a blocked convolution, so the channels are contracted first, on
+  // the s grid: taps[pixel][oc][t] = cat0[pixel] · w[oc][t] for the K×K
+  // kernel taps t (dense dot products, the input row stays in cache); each
+  // output pixel then sums a few of these scalars.
+  // Transposed 4×4 stride 2: output (2m+py, 2n+px) takes 2×2 input pixels of
+  // its parity. Resize (conv3×3 of the ×2 upsampled input; both are linear and
+  // act per pixel): the nine tap maps are upsampled on the fly — a quarter of
+  // the work of convolving at S. Exact up to float rounding.
   void output_layer(const float* src, int64_t C, float* out) {
     const int64_t N = o.batch, S = o.size_px, s = S / 2, OC = u.out_channels;
+    const bool tr = u.upsample == Upsample::Transpose;
+    const int64_t T = tr ? 16 : 9;
     const float* w = out_w.data_ptr<float>();
     const float* b = out_b.data_ptr<float>();
-    if (u.upsample == Upsample::Transpose) {
+    std::vector<float> taps(size_t(N * s * s * OC * T));
+    at::parallel_for(0, N * s * s, 64, [&](int64_t b0, int64_t b1) {
+      for (int64_t p = b0; p < b1; ++p) dots(src + p * C, w, OC * T, C, &taps[size_t(p * OC * T)]);
+    });
+    if (tr) {
       at::parallel_for(0, N * OC * S, kRowGrain, [&](int64_t b0, int64_t b1) {
         for (int64_t r = b0; r < b1; ++r) {
           const int64_t n = r / (OC * S), oc = (r / S) % OC, y = r % S;
-          transposed_out_row(src + n * s * s * C, s, C, w + oc * 16 * C, y, b[oc], out + r * S);
+          const float* tp = taps.data() + n * s * s * OC * T + oc * T;
+          // Row y = 2m+py: input rows m-1 (kernel row 3), m (1) when py = 0;
+          // m (2), m+1 (0) when py = 1. Columns alike.
+          const int64_t m = y >> 1, py = y & 1;
+          const int64_t iy[2] = {py ? m : m - 1, py ? m + 1 : m}, ky[2] = {py ? 2 : 3, py ? 0 : 1};
+          for (int64_t x = 0; x < S; ++x) {
+            const int64_t mx = x >> 1, px = x & 1;
+            const int64_t ix[2] = {px ? mx : mx - 1, px ? mx + 1 : mx}, kx[2] = {px ? 2 : 3, px ? 0 : 1};
+            float acc = 0.f;
+            for (int a = 0; a < 2; ++a) {
+              if (iy[a] < 0 || iy[a] >= s) continue;
+              for (int c = 0; c < 2; ++c)
+                if (ix[c] >= 0 && ix[c] < s) acc += tp[(iy[a] * s + ix[c]) * OC * T + ky[a] * 4 + kx[c]];
+            }
+            out[r * S + x] = std::tanh(acc + b[oc]);
+          }
         }
       });
       return;
     }
-    // taps[((n*s + i)*s + j)*OC*9 + oc*9 + t] = cat0[n,i,j,:] · w[oc, t, :]
-    std::vector<float> taps(size_t(N * s * s * OC * 9));
-    at::parallel_for(0, N * s * s, 64, [&](int64_t b0, int64_t b1) {
-      for (int64_t p = b0; p < b1; ++p) dots(src + p * C, w, OC * 9, C, &taps[size_t(p * OC * 9)]);
-    });
     // Source index and weights of each upsampled coordinate, as PyTorch's
     // interpolation computes them (align_corners=false; nearest = floor(o/2)).
     std::vector<int64_t> i0(static_cast<size_t>(S)), i1(static_cast<size_t>(S));
