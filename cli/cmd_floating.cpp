@@ -173,44 +173,41 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
             const double iou = procgen::mask_iou(procgen::mesh_silhouette(isl.mesh, labels.size(), p.metres_per_px),
                                                  labels == procgen::kPaintTop);
 
-            std::vector<fs::path> written;
-            try {
-              for (const auto& o : a->out) {
-                const fs::path path(o);
-                ensure_writable_dir(path.has_parent_path() ? path.parent_path() : fs::path("."));
+            // Staged, renamed into place together: a failure (an output that
+            // is a folder, a full disk) leaves earlier files as they were.
+            StagedOutputs staged;
+            for (const auto& o : a->out) {
+              const fs::path path(o);
+              ensure_writable_dir(path.has_parent_path() ? path.parent_path() : fs::path("."));
+              staged.write(path, [&](const fs::path& t) {
                 if (path.extension() == ".obj")
-                  write_obj(path, isl.mesh, "reefgen floating island: metres, +Y up, closed 2-manifold");
+                  write_obj(t, isl.mesh, "reefgen floating island: metres, +Y up, closed 2-manifold");
                 else
-                  write_glb(path, isl.mesh, "floating-island");
-                written.push_back(path);
-              }
-              if (!a->preview.empty()) {
-                const fs::path path(a->preview);
-                ensure_writable_dir(path.has_parent_path() ? path.parent_path() : fs::path("."));
-                write_png(path, procgen::render_mesh(isl.mesh, 768));
-                written.push_back(path);
-              }
-              const nlohmann::json side = {
-                  {"reefgen_version", kVersion},
-                  {"source", fs::absolute(source).string()},
-                  {"features", terrain.empty() ? "noise" : fs::absolute(a->height).string()},
-                  {"seed", a->seed},
-                  {"preset", preset},
-                  {"params", procgen::to_json(p)},
-                  {"mesh", {{"files", a->out}, {"units", "metres"}, {"up", "+Y"},
-                            {"vertices", isl.mesh.positions.size()}, {"triangles", isl.mesh.triangles.size()},
-                            {"shells", isl.islands}, {"closed_2_manifold", true}, {"volume_m3", rep.volume_m3}}},
-                  {"top_max_m", isl.top_max_m},
-                  {"depth_m", isl.depth_m},
-                  {"silhouette_iou", iou}};
-              const fs::path js = fs::path(a->out.front()).replace_extension(".json");
-              write_json_atomic(js, side);  // last: its presence marks a complete result
-              written.push_back(js);
-              std::printf("%s\n", side.dump().c_str());
-            } catch (...) {
-              for (const auto& w : written) fs::remove(w);
-              throw;
+                  write_glb(t, isl.mesh, "floating-island");
+              });
             }
+            if (!a->preview.empty()) {
+              const fs::path path(a->preview);
+              ensure_writable_dir(path.has_parent_path() ? path.parent_path() : fs::path("."));
+              staged.write(path, [&](const fs::path& t) { write_png(t, procgen::render_mesh(isl.mesh, 768)); });
+            }
+            const nlohmann::json side = {
+                {"reefgen_version", kVersion},
+                {"source", fs::absolute(source).string()},
+                {"features", terrain.empty() ? "noise" : fs::absolute(a->height).string()},
+                {"seed", a->seed},
+                {"preset", preset},
+                {"params", procgen::to_json(p)},
+                {"mesh", {{"files", a->out}, {"units", "metres"}, {"up", "+Y"},
+                          {"vertices", isl.mesh.positions.size()}, {"triangles", isl.mesh.triangles.size()},
+                          {"shells", isl.islands}, {"closed_2_manifold", true}, {"volume_m3", rep.volume_m3}}},
+                {"top_max_m", isl.top_max_m},
+                {"depth_m", isl.depth_m},
+                {"silhouette_iou", iou}};
+            const fs::path js = fs::path(a->out.front()).replace_extension(".json");
+            staged.write(js, [&](const fs::path& t) { write_json_atomic(t, side); });  // last
+            staged.commit();
+            std::printf("%s\n", side.dump().c_str());
             if (!g.quiet)
               std::fprintf(stderr, "floating: %d shell(s), %zu triangles, top %.1f m, depth %.1f m, silhouette IoU %.3f\n",
                            isl.islands, isl.mesh.triangles.size(), isl.top_max_m, isl.depth_m, iou);

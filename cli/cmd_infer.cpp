@@ -17,16 +17,6 @@ namespace reefgen {
 
 namespace {
 
-// Files written for one sketch, removed again if a later one fails: no
-// half-finished result set is left under the final names.
-struct Outputs {
-  std::vector<fs::path> files;
-  void discard() {
-    std::error_code ec;
-    for (const auto& f : files) fs::remove(f, ec);
-  }
-};
-
 }  // namespace
 
 Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
@@ -148,12 +138,16 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
               throw Error("--precision/--engine: " + std::string(e.what()));
             }
             io.seed = a->seed;
-            std::vector<Outputs> written(inputs.size());
             // Chunks of 32 sketches: memory stays bounded for folders of any
-            // size; a failure in a later chunk still removes every file of the run.
+            // size. Every output is staged and renamed into place at the end:
+            // a failure anywhere (a bad sketch after the first chunk, a mesh
+            // path in a missing folder) leaves the files of an earlier run
+            // exactly as they were and writes nothing.
             constexpr size_t kChunk = 32;
             std::vector<cv::Mat1f> heights;
-            try {
+            StagedOutputs staged;
+            std::vector<fs::path> results;
+            {
               for (size_t i = 0; i < inputs.size(); ++i) {
                 if (i % kChunk == 0) {
                   std::vector<DecodedSketch> sketches;
@@ -179,22 +173,21 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                     {"height_range_m", {hmin, hmax}},
                     {"model_range_m", {lo, hi}},
                     {"files", nlohmann::json::object()}};
-                auto add = [&](const std::string& kind, const fs::path& p) {
-                  written[i].files.push_back(p);
-                  side["files"][kind] = p.filename().string();
-                };
+                auto add = [&](const std::string& kind, const fs::path& p) { side["files"][kind] = p.filename().string(); };
                 const fs::path exr = prefix.string() + ".height.exr";
-                write_exr_height(exr, h, {{"reefgen:version", kVersion}, {"reefgen:metres_per_pixel", std::to_string(mpp)}});
+                staged.write(exr, [&](const fs::path& t) {
+                  write_exr_height(t, h, {{"reefgen:version", kVersion}, {"reefgen:metres_per_pixel", std::to_string(mpp)}});
+                });
                 add("height_exr", exr);
                 if (a->png16) {
                   const fs::path p = prefix.string() + ".height.png";
-                  infer::write_png16(p, h, lo, hi);
+                  staged.write(p, [&](const fs::path& t) { infer::write_png16(t, h, lo, hi); });
                   add("height_png16", p);
                   side["png16"] = {{"encoding", "linear: metres = lo + v/65535·(hi − lo)"}, {"lo_m", lo}, {"hi_m", hi}};
                 }
                 if (a->r16) {
                   const fs::path p = prefix.string() + ".r16";
-                  infer::write_r16(p, h, lo, hi);
+                  staged.write(p, [&](const fs::path& t) { infer::write_r16(t, h, lo, hi); });
                   add("height_r16", p);
                   const std::string note = infer::r16_import_note(h.cols, h.rows, lo, hi, mpp);
                   side["r16"] = {{"width", h.cols}, {"height", h.rows}, {"byte_order", "little-endian"},
@@ -204,8 +197,10 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                 if (!mesh_format.empty()) {
                   const fs::path p = mesh_path.empty() ? fs::path(prefix.string() + "." + mesh_format) : mesh_path;
                   infer::MeshOptions mo{mpp, a->exaggeration};
-                  if (mesh_format == "obj") infer::write_obj(p, h, mo);
-                  else infer::write_glb(p, h, mo);
+                  staged.write(p, [&](const fs::path& t) {
+                    if (mesh_format == "obj") infer::write_obj(t, h, mo);
+                    else infer::write_glb(t, h, mo);
+                  });
                   add("mesh", p);
                   side["mesh"] = {{"format", mesh_format}, {"up", "+Y"}, {"units", "metres"}, {"exaggeration", a->exaggeration}};
                 }
@@ -213,19 +208,17 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                   const fs::path p = prefix.string() + ".preview.png";
                   PreviewOptions po;
                   po.metres_per_px = mpp;
-                  write_png(p, render_preview(h, po));
+                  staged.write(p, [&](const fs::path& t) { write_png(t, render_preview(h, po)); });
                   add("preview", p);
                 }
                 const fs::path js = prefix.string() + ".json";
-                write_json_atomic(js, side);  // last: its presence marks a complete result
-                written[i].files.push_back(js);
-                std::printf("%s\n", exr.c_str());
+                staged.write(js, [&](const fs::path& t) { write_json_atomic(t, side); });  // last of its sketch
+                results.push_back(exr);
                 progress.tick(i + 1);
               }
-            } catch (...) {
-              for (auto& w : written) w.discard();
-              throw;
             }
+            staged.commit();
+            for (const auto& r : results) std::printf("%s\n", r.c_str());
             return 0;
           }};
 }

@@ -121,15 +121,17 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
             const bool many = a->count > 1;
             if (!many) require_png_name(a->out);
             if (many) ensure_writable_dir(a->out);
+            StagedOutputs staged;  // all or nothing: a failure keeps an earlier set as it was
             for (int i = 0; i < a->count; ++i) {
               const procgen::Sketch s = procgen::random_sketch(a->p, a->seed + uint64_t(i));
               char name[32];
               std::snprintf(name, sizeof name, "sketch_%04d.png", i);
               const fs::path path = many ? fs::path(a->out) / name : fs::path(a->out);
               if (!many && path.has_parent_path()) ensure_writable_dir(path.parent_path());
-              write_png(path, encode_labels(s.label, s.subsidence));
-              std::printf("%s\n", path.c_str());
+              staged.write(path, [&](const fs::path& t) { write_png(t, encode_labels(s.label, s.subsidence)); });
             }
+            staged.commit();
+            for (const auto& path : staged.finals()) std::printf("%s\n", path.c_str());
             return 0;
           }};
 }
@@ -172,18 +174,24 @@ Command add_terrain_command(CLI::App& app, const GlobalOptions&) {
             }
             const fs::path prefix(a->out);
             if (prefix.has_parent_path()) ensure_writable_dir(prefix.parent_path());
-            write_exr_height(prefix.string() + ".height.exr", h,
-                             {{"reefgen:generator", a->kind}, {"reefgen:seed", std::to_string(a->seed)},
-                              // reefgen's canvas convention (DESIGN: 6 km across), so that
-                              // `reefgen floating --height` and previews know the scale.
-                              {"reefgen:metres_per_pixel", std::to_string(6000.0 / h.cols)}});
-            if (a->preview) write_png(prefix.string() + ".preview.png", render_preview(h));
+            StagedOutputs staged;  // all or nothing: a failure keeps an earlier result as it was
+            staged.write(prefix.string() + ".height.exr", [&](const fs::path& t) {
+              write_exr_height(t, h,
+                               {{"reefgen:generator", a->kind}, {"reefgen:seed", std::to_string(a->seed)},
+                                // reefgen's canvas convention (DESIGN: 6 km across), so that
+                                // `reefgen floating --height` and previews know the scale.
+                                {"reefgen:metres_per_pixel", std::to_string(6000.0 / h.cols)}});
+            });
+            if (a->preview)
+              staged.write(prefix.string() + ".preview.png", [&](const fs::path& t) { write_png(t, render_preview(h)); });
             if (!a->mesh.empty()) {
               const infer::MeshOptions mo{6000.0 / h.cols, 1.0};
-              const std::string path = prefix.string() + "." + a->mesh;
-              if (a->mesh == "glb") infer::write_glb(path, h, mo);
-              else infer::write_obj(path, h, mo);
+              staged.write(prefix.string() + "." + a->mesh, [&](const fs::path& t) {
+                if (a->mesh == "glb") infer::write_glb(t, h, mo);
+                else infer::write_obj(t, h, mo);
+              });
             }
+            staged.commit();
             std::printf("%s.height.exr\n", prefix.c_str());
             return 0;
           }};

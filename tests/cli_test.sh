@@ -272,6 +272,37 @@ a, b = (cv2.imread(f, cv2.IMREAD_UNCHANGED) for f in sys.argv[1:3])
 assert np.abs(a - b).max() <= 0.01, np.abs(a - b).max()
 PY
 
+# 6d. A failed re-run leaves every earlier file exactly as it was, and no
+# temporary files (issue 13): outputs are staged and renamed in at the end.
+snap() { (cd "$1" && find . -type f | sort | xargs -r md5sum); }
+keeps() {  # keeps DIR LABEL ARGS...: the run must fail and DIR must not change
+  local dir="$1" label="$2"; shift 2
+  snap "$dir" > "$T/before"
+  if "$BIN" -q "$@" >/dev/null 2>"$T/err"; then bad "$label: no error"; return; fi
+  snap "$dir" > "$T/after"
+  cmp -s "$T/before" "$T/after" && ok || bad "$label: earlier files changed: $(diff "$T/before" "$T/after" | head -5)"
+  [ -z "$(find "$dir" -name '*.tmp.*')" ] && ok || bad "$label: temporary files left: $(find "$dir" -name '*.tmp.*')"
+}
+mkdir -p "$T/k"
+"$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/k/x" --preview >/dev/null || bad "keep: first infer"
+keeps "$T/k" "infer with a mesh in a missing folder" infer "$T/s/again.png" -m "$M" -o "$T/k/x" --preview --mesh "$T/nonexistent/x.glb"
+mkdir -p "$T/k/x.r16"  # an output name taken by a folder
+keeps "$T/k" "infer with an output that is a folder" infer "$T/s/again.png" -m "$M" -o "$T/k/x" --preview --r16
+grep -q "x.r16: it is a folder" "$T/err" && ok || bad "folder output: message $(cat "$T/err")"
+mkdir -p "$T/k/many"; for i in $(seq -w 1 33); do cp "$T/s/one.png" "$T/k/many/s$i.png"; done
+"$BIN" -q infer "$T/k/many" -m "$M" -o "$T/k/out" >/dev/null || bad "keep: infer folder"
+printf 'not a png' > "$T/k/many/zz-bad.png"  # after the first chunk of 32
+keeps "$T/k/out" "infer folder with a bad sketch after the first chunk" infer "$T/k/many" -m "$M" -o "$T/k/out"
+"$BIN" -q generate --preset young-volcano --size 48 -o "$T/k/g" >/dev/null || bad "keep: generate"
+mkdir -p "$T/k/g.preview.png"
+keeps "$T/k" "generate with a folder where the preview goes" generate --preset atoll --size 48 -o "$T/k/g" --preview
+"$BIN" -q floating --painting "$PAINT" --seed 3 -o "$T/k/f.glb" >/dev/null || bad "keep: floating"
+mkdir -p "$T/k/f.obj"
+keeps "$T/k" "floating with an output that is a folder" floating --painting "$PAINT" --seed 5 -o "$T/k/f.glb" -o "$T/k/f.obj"
+"$BIN" -q terrain wilbur --size 64 -o "$T/k/w" >/dev/null || bad "keep: terrain"
+mkdir -p "$T/k/w.glb"
+keeps "$T/k" "terrain with a mesh name taken by a folder" terrain wilbur --size 64 --seed 9 -o "$T/k/w" --preview --mesh glb
+
 # 7. --version, --help with examples.
 "$BIN" --version | grep -q "reefgen [0-9]" && ok || bad "--version"
 "$BIN" generate --help | grep -q "Examples" && ok || bad "generate --help has no examples"

@@ -65,6 +65,47 @@ void write_file_atomic(const fs::path& path, const void* data, size_t size) {
   commit_temp(tmp, path);
 }
 
+StagedOutputs::~StagedOutputs() {
+  if (committed_) return;
+  std::error_code ec;
+  for (const auto& t : temps_) fs::remove(t, ec);
+}
+
+void StagedOutputs::write(const fs::path& final_path, const std::function<void(const fs::path&)>& writer) {
+  if (committed_) throw Error("internal: " + final_path.string() + " staged after commit");
+  std::error_code ec;
+  if (fs::is_directory(final_path, ec))
+    throw Error("cannot write " + final_path.string() + ": it is a folder (choose another output name)");
+  for (const auto& f : finals_)
+    if (f == final_path || fs::weakly_canonical(f, ec) == fs::weakly_canonical(final_path, ec))
+      throw Error("two outputs of this run are named " + final_path.string() + " (give each its own name)");
+  const fs::path tmp = temp_path_for(final_path);
+  temps_.push_back(tmp);
+  finals_.push_back(final_path);
+  try {
+    writer(tmp);
+  } catch (const std::exception& e) {
+    // The writer names the temporary file; the user knows the final one.
+    std::string what = e.what();
+    const std::string t = tmp.string(), f = final_path.string();
+    for (size_t at = what.find(t); at != std::string::npos; at = what.find(t, at + f.size()))
+      what.replace(at, t.size(), f);
+    throw Error(what);
+  }
+}
+
+void StagedOutputs::commit() {
+  std::error_code ec;
+  for (size_t i = 0; i < temps_.size(); ++i) {
+    if (fs::is_directory(finals_[i], ec))
+      throw Error("cannot write " + finals_[i].string() + ": it is a folder (choose another output name)");
+    if (!fs::exists(temps_[i], ec))
+      throw Error("cannot write " + finals_[i].string() + ": its staged copy " + temps_[i].string() + " vanished");
+  }
+  for (size_t i = 0; i < temps_.size(); ++i) commit_temp(temps_[i], finals_[i]);
+  committed_ = true;
+}
+
 AtomicTextWriter::AtomicTextWriter(const fs::path& path) : path_(path), tmp_(temp_path_for(path)) {
   f_ = std::fopen(tmp_.c_str(), "wb");
   if (!f_)

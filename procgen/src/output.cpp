@@ -42,28 +42,22 @@ WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFiel
                          {"reefgen:units", "metres, sea level 0"},
                          {"reefgen:metres_per_pixel", std::to_string(mpp)},
                          {"reefgen:sidecar", json_path.filename().string()}};
-  // Each file is atomic on its own; if a later one fails, the earlier ones of
-  // this island are removed so that no incomplete island is left behind.
-  try {
-    write_exr_height(height_path, f.height_m, attrs);
-    out.files.push_back(height_path);
-    write_png(label_path, encode_labels(f.label, spec.subsidence));
-    out.files.push_back(label_path);
-    if (preview) {
-      PreviewOptions po;
-      po.land_top_m = spec.heights.peak_m;
-      po.sea_floor_m = spec.heights.floor_m;
-      po.metres_per_px = mpp;
-      write_png(preview_path, render_preview(f.height_m, po));
-      out.files.push_back(preview_path);
-    }
-    write_json_atomic(json_path, out.sidecar);
-    out.files.push_back(json_path);
-  } catch (...) {
-    std::error_code ec;
-    for (const auto& p : out.files) std::filesystem::remove(p, ec);
-    throw;
+  // All or nothing: the files are staged and renamed into place together, so
+  // a failure (a folder where the preview goes, a full disk) leaves an earlier
+  // island of this name exactly as it was, and no half-written new one.
+  StagedOutputs staged;
+  staged.write(height_path, [&](const fs::path& p) { write_exr_height(p, f.height_m, attrs); });
+  staged.write(label_path, [&](const fs::path& p) { write_png(p, encode_labels(f.label, spec.subsidence)); });
+  if (preview) {
+    PreviewOptions po;
+    po.land_top_m = spec.heights.peak_m;
+    po.sea_floor_m = spec.heights.floor_m;
+    po.metres_per_px = mpp;
+    staged.write(preview_path, [&](const fs::path& p) { write_png(p, render_preview(f.height_m, po)); });
   }
+  staged.write(json_path, [&](const fs::path& p) { write_json_atomic(p, out.sidecar); });  // last
+  staged.commit();
+  out.files = staged.finals();
   return out;
 }
 

@@ -3,6 +3,7 @@
 // file in the destination folder and is renamed into place, so a crash, a
 // full disk or a kill never leaves a half-written file under the final name.
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -44,6 +45,32 @@ class AtomicTextWriter {
  private:
   fs::path path_, tmp_;
   FILE* f_ = nullptr;
+};
+
+// The outputs of one run, all or nothing. Each file is written under a
+// temporary name beside its final one (NAME.tmp.PID.N, which
+// remove_stale_temps recognises) and commit() renames them all into place
+// once everything has been written. A run that fails before commit() — bad
+// input, full disk, an output path that is a folder — leaves every file that
+// existed before it exactly as it was, and nothing new: the destructor removes
+// what was staged.
+class StagedOutputs {
+ public:
+  StagedOutputs() = default;
+  ~StagedOutputs();
+  StagedOutputs(const StagedOutputs&) = delete;
+  StagedOutputs& operator=(const StagedOutputs&) = delete;
+  // Runs writer(temp path) for the final path; errors name the final path.
+  // Throws Error when the final path is a folder or already staged in this run.
+  void write(const fs::path& final_path, const std::function<void(const fs::path&)>& writer);
+  // Renames every staged file into place, in staging order (stage sidecars
+  // last). Checks first that no destination has become a folder.
+  void commit();
+  const std::vector<fs::path>& finals() const { return finals_; }
+
+ private:
+  std::vector<fs::path> temps_, finals_;
+  bool committed_ = false;
 };
 
 // Throws Error unless `dir` exists (or can be created) and is writable.
