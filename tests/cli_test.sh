@@ -303,6 +303,16 @@ keeps "$T/k" "floating with an output that is a folder" floating --painting "$PA
 mkdir -p "$T/k/w.glb"
 keeps "$T/k" "terrain with a mesh name taken by a folder" terrain wilbur --size 64 --seed 9 -o "$T/k/w" --preview --mesh glb
 
+# 6e. Integers must be integers in range, named otherwise (no silent coercion).
+echo '{"noise": {"seed": -1}}' > "$T/neg.json"; echo '{"noise": {"seed": 1e30}}' > "$T/huge.json"
+echo '{"noise": {"octaves": 2.7}}' > "$T/frac.json"; echo '{"count": 2.7, "size_px": 32}' > "$T/dsfrac.json"
+echo '{"batch_size": 2.5}' > "$T/trfrac.json"
+expect_error "noise.seed = -1 must not be negative" generate --spec "$T/neg.json" -o "$T/e/x"
+expect_error "noise.seed = 1e+30 is out of range" generate --spec "$T/huge.json" -o "$T/e/x"
+expect_error "noise.octaves = 2.7 must be a whole number" generate --spec "$T/frac.json" -o "$T/e/x"
+expect_error "count = 2.7 must be a whole number" dataset build --config "$T/dsfrac.json" --out "$T/e/d"
+expect_error "batch_size = 2.5 must be a whole number" train --config "$T/trfrac.json" --data "$T/e" --out "$T/e/r"
+
 # 7. --version, --help with examples.
 "$BIN" --version | grep -q "reefgen [0-9]" && ok || bad "--version"
 "$BIN" generate --help | grep -q "Examples" && ok || bad "generate --help has no examples"

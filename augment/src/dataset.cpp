@@ -52,6 +52,8 @@ DatasetParams dataset_params_from_json(const json& j, const std::string& origin)
   num("count", count, 1, 1e8);
   num("size_px", size, 16, 4096);
   num("levels", levels, 1, 64);
+  for (const auto& [k, v] : {std::pair<const char*, double>{"count", count}, {"size_px", size}, {"levels", levels}})
+    if (v != std::floor(v)) throw Error(origin + ": " + k + " = " + j[k].dump() + " must be a whole number");
   p.count = static_cast<int64_t>(count);
   p.size_px = static_cast<int>(size);
   p.levels = static_cast<int>(levels);

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "reefgen/io.hpp"
+#include "reefgen/json_read.hpp"
 
 namespace reefgen::procgen {
 
@@ -36,7 +37,7 @@ P params_from_json(const nlohmann::json& j, const std::string& origin, const std
   try {
     fields(p, [&](const char* k, auto& v) {
       key = k;
-      if (j.contains(k)) j.at(k).get_to(v);
+      if (j.contains(k)) read_json_value(j.at(k), v, origin + ": " + k);
     });
   } catch (const nlohmann::json::exception& e) {
     throw Error(origin + ": \"" + key + "\" has the wrong type of value (" + std::string(e.what()) + ")");

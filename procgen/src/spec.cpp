@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "reefgen/io.hpp"
+#include "reefgen/json_read.hpp"
 
 namespace reefgen::procgen {
 
@@ -46,7 +47,7 @@ class Fields {
     auto it = j_.find(key);
     if (it == j_.end()) return;
     try {
-      out = it->template get<T>();
+      read_json_value(*it, out, path_ + "." + key);
     } catch (const json::exception&) {
       throw Error(path_ + "." + key + " has the wrong type (" + it->type_name() + ")");
     }

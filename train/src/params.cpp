@@ -1,5 +1,7 @@
 #include "reefgen/train/params.hpp"
 
+#include "reefgen/json_read.hpp"
+
 #include <cmath>
 #include <set>
 
@@ -36,7 +38,7 @@ TrainParams train_params_from_json(const json& j, const std::string& origin) {
   TrainParams p;
   try {
 #define X(f) \
-  if (j.contains(#f)) j.at(#f).get_to(p.f);
+  if (j.contains(#f)) read_json_value(j.at(#f), p.f, origin + ": " #f);
     REEFGEN_TRAIN_FIELDS(X)
 #undef X
   } catch (const json::exception& e) {
