@@ -67,6 +67,9 @@ Command add_eval_command(CLI::App& app, const GlobalOptions& g) {
               labels.push_back(cv::imread(lp.string(), cv::IMREAD_COLOR));
               if (labels.back().empty()) throw Error(lp.string() + ": unreadable label image");
               truths.push_back(read_exr_height(data.dir / pairs[i].height));
+              if (!cv::checkRange(truths.back(), true))
+                throw Error((data.dir / pairs[i].height).string() +
+                            ": the true heights hold NaN or infinite values; rebuild the dataset (reefgen dataset build)");
               clean.push_back(decode_sketch(labels.back(), lp.string()));
             }
             std::vector<infer::Perturbation> kinds = {infer::Perturbation::None};

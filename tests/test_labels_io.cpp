@@ -1,5 +1,7 @@
 // Label encoding/decoding and file I/O: round trips, tolerant decoding of
 // painted sketches, error paths.
+#include <limits>
+
 #include <gtest/gtest.h>
 
 
@@ -124,6 +126,55 @@ TEST(Io, ExrRoundTripWithAttributes) {
   EXPECT_EQ(cv::norm(back, h, cv::NORM_INF), 0.0);
   EXPECT_EQ(attrs["reefgen:test"], "hello");
   EXPECT_EQ(count_files(d), 1);  // no temporary files left behind
+  fs::remove_all(d);
+}
+
+TEST(Io, ExrRefusesNonFiniteHeights) {
+  const fs::path d = temp_dir("nan");
+  cv::Mat1f h(4, 4, 1.f);
+  h(2, 1) = std::numeric_limits<float>::infinity();
+  expect_error_naming([&] { write_exr_height(d / "h.exr", h); }, "NaN or infinite");
+  h(2, 1) = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_THROW(write_exr_height(d / "h.exr", h), Error);
+  EXPECT_EQ(count_files(d), 0);
+  fs::remove_all(d);
+}
+
+TEST(Io, StagedOutputsAllOrNothing) {
+  const fs::path d = temp_dir("staged");
+  write_text_atomic(d / "a.txt", "old a");
+  write_text_atomic(d / "b.txt", "old b");
+  {  // a failure before commit: the old files stay, nothing new, no temporaries
+    StagedOutputs s;
+    s.write(d / "a.txt", [](const fs::path& t) { write_text_atomic(t, "new a"); });
+    s.write(d / "c.txt", [](const fs::path& t) { write_text_atomic(t, "new c"); });
+    expect_error_naming([&] { s.write(d / "b.txt", [](const fs::path&) { throw Error("disk full"); }); }, "disk full");
+  }
+  EXPECT_EQ(read_text(d / "a.txt"), "old a");
+  EXPECT_EQ(read_text(d / "b.txt"), "old b");
+  EXPECT_EQ(count_files(d), 2);
+  {  // errors name the final file, not the temporary one
+    StagedOutputs s;
+    expect_error_naming([&] { s.write(d / "no" / "x.txt", [](const fs::path& t) { write_text_atomic(t, "x"); }); },
+                        (d / "no" / "x.txt").string() + ":");
+    fs::create_directories(d / "dir.txt");
+    expect_error_naming([&] { s.write(d / "dir.txt", [](const fs::path& t) { write_text_atomic(t, "x"); }); },
+                        "it is a folder");
+    s.write(d / "a.txt", [](const fs::path& t) { write_text_atomic(t, "x"); });
+    expect_error_naming([&] { s.write(d / "." / "a.txt", [](const fs::path& t) { write_text_atomic(t, "y"); }); },
+                        "two outputs");
+    fs::remove(d / "dir.txt");
+  }
+  EXPECT_EQ(read_text(d / "a.txt"), "old a");
+  {  // commit replaces and adds, in one go
+    StagedOutputs s;
+    s.write(d / "a.txt", [](const fs::path& t) { write_text_atomic(t, "new a"); });
+    s.write(d / "c.txt", [](const fs::path& t) { write_text_atomic(t, "new c"); });
+    s.commit();
+  }
+  EXPECT_EQ(read_text(d / "a.txt"), "new a");
+  EXPECT_EQ(read_text(d / "c.txt"), "new c");
+  EXPECT_EQ(count_files(d), 3);
   fs::remove_all(d);
 }
 

@@ -253,6 +253,11 @@ void write_png(const fs::path& path, const cv::Mat& image, int level) {
 
 void write_exr_height(const fs::path& path, const cv::Mat1f& height_m, const ExrAttributes& attrs, int zip_level) {
   CV_Assert(height_m.isContinuous());
+  // No tool downstream survives a NaN or an infinite height: refuse to write
+  // one rather than hand it on (it comes from parameters out of sane range).
+  if (!cv::checkRange(height_m, true))
+    throw Error("cannot write " + path.string() +
+                ": the heights hold NaN or infinite values (a parameter far out of range? check the config)");
   Imf::Header header(height_m.cols, height_m.rows);
   // Level 0 stores the floats uncompressed: noisy float32 heights shrink by
   // only ~20 % under ZIP, which costs more time than generating them.

@@ -58,6 +58,8 @@ cv::Mat1f mapgen4_height(const Mapgen4Params& p, uint64_t seed) {
     throw std::invalid_argument("mapgen4: mountain_spacing must be in [spacing, 2]");
   if (!(p.k_fbm >= 0 && p.k_fbm <= 4 && p.k_d >= 0 && p.k_d <= 4)) throw std::invalid_argument("mapgen4: k_fbm, k_d must be in [0, 4]");
   if (!(p.frequency > 0 && p.frequency <= 64)) throw std::invalid_argument("mapgen4: frequency must be in (0, 64]");
+  if (!(p.peak_m > 0 && p.peak_m <= 1e4)) throw std::invalid_argument("mapgen4: peak_m must be in (0, 1e4]");
+  if (!(p.depth_m > 0 && p.depth_m <= 1e4)) throw std::invalid_argument("mapgen4: depth_m must be in (0, 1e4]");
   if (!(p.peak_m > 0 && p.depth_m > 0)) throw std::invalid_argument("mapgen4: peak_m and depth_m must be > 0");
   if (p.falloff != "chebyshev" && p.falloff != "euclidean")
     throw std::invalid_argument("mapgen4: falloff \"" + p.falloff + "\" must be chebyshev or euclidean");
