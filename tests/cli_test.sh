@@ -314,6 +314,14 @@ expect_error "count = 2.7 must be a whole number" dataset build --config "$T/dsf
 expect_error "batch_size = 2.5 must be a whole number" train --config "$T/trfrac.json" --data "$T/e" --out "$T/e/r"
 echo '{"depth_m": 1e308}' > "$T/m4deep.json"
 expect_error "mapgen4: depth_m must be in (0, 1e4]" terrain mapgen4 --config "$T/m4deep.json" -o "$T/e/x"
+# A 30000² PNG (its header is enough) is refused before anything is decoded.
+"$PY" - "$T/huge.png" <<'PY'
+import struct, sys, zlib
+ihdr = struct.pack(">IIBBBBB", 30000, 30000, 8, 2, 0, 0, 0)
+chunk = lambda t, d: struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d))
+open(sys.argv[1], "wb").write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IEND", b""))
+PY
+expect_error "30000×30000 pixels; sketches may be at most 8192" infer "$T/huge.png" -m "$M" -o "$T/e/x"
 
 # 7. --version, --help with examples.
 "$BIN" --version | grep -q "reefgen [0-9]" && ok || bad "--version"

@@ -1,6 +1,8 @@
 #include "reefgen/labels.hpp"
 
 #include <algorithm>
+#include <cstdio>
+#include <cstring>
 #include <cmath>
 
 #include <opencv2/imgcodecs.hpp>
@@ -142,9 +144,32 @@ DecodedSketch decode_sketch(const cv::Mat& image, const std::string& name) {
   return out;
 }
 
+namespace {
+// Width and height from a PNG's IHDR (bytes 16..23), or {0,0} if not a PNG:
+// checked before decoding, so a 30000² file is refused instead of taking 10 GB.
+std::pair<uint32_t, uint32_t> png_size(const std::filesystem::path& path) {
+  unsigned char b[24] = {};
+  FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return {0, 0};
+  const size_t n = std::fread(b, 1, sizeof b, f);
+  std::fclose(f);
+  static const unsigned char sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (n < 24 || std::memcmp(b, sig, 8) != 0) return {0, 0};
+  auto be32 = [&](int at) { return uint32_t(b[at]) << 24 | uint32_t(b[at + 1]) << 16 | uint32_t(b[at + 2]) << 8 | b[at + 3]; };
+  return {be32(16), be32(20)};
+}
+}  // namespace
+
 DecodedSketch read_sketch(const std::filesystem::path& path) {
   if (!std::filesystem::exists(path)) throw Error("cannot read " + path.string() + ": no such file");
+  const auto too_big = [&](uint64_t w, uint64_t h) {
+    return Error("cannot read " + path.string() + ": " + std::to_string(w) + "×" + std::to_string(h) +
+                 " pixels; sketches may be at most " + std::to_string(kMaxSketchSide) + " pixels a side (scale it down)");
+  };
+  const auto [pw, ph] = png_size(path);
+  if (pw > uint32_t(kMaxSketchSide) || ph > uint32_t(kMaxSketchSide)) throw too_big(pw, ph);
   cv::Mat img = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+  if (img.cols > kMaxSketchSide || img.rows > kMaxSketchSide) throw too_big(uint64_t(img.cols), uint64_t(img.rows));
   if (img.empty())
     throw Error("cannot read " + path.string() + ": not an image OpenCV can decode (use PNG or JPEG)");
   return decode_sketch(img, path.string());

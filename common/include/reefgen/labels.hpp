@@ -41,6 +41,8 @@ struct DecodedSketch {
 // nearest coloured pixel; transparent pixels (alpha < 50 %) are abyss.
 // Throws Error when no pixel carries a region colour.
 DecodedSketch decode_sketch(const cv::Mat& image, const std::string& name = "sketch");
+// Sketches larger than this a side are refused (a PNG before decoding: memory).
+inline constexpr int kMaxSketchSide = 8192;
 // Reads any image OpenCV can read (PNG, JPEG, TIFF, ...), keeping depth and alpha.
 DecodedSketch read_sketch(const std::filesystem::path& path);
 
