@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# libFuzzer on reefgen's untrusted inputs (issue 13): the sketch decoder, every
+# JSON config, the generator-file loader. Builds with clang + ASan + UBSan in
+# build-fuzz/, fuzzes each TARGET for SECONDS, then merges what raised the
+# coverage into tests/fuzz/corpus/TARGET (replayed by ctest fuzz_corpus_*).
+#   bash scripts/fuzz.sh [sketch|config|generator|all] [SECONDS=600]
+# Findings (crash-*, leak-*, oom-*, timeout-*) land in $FUZZ_OUT (default
+# /tmp/reefgen-fuzz/TARGET) and make the script exit non-zero.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+what=${1:-all}; secs=${2:-600}
+out=${FUZZ_OUT:-/tmp/reefgen-fuzz}
+command -v clang++ >/dev/null || { echo "fuzz: clang++ missing (apt-get install clang libclang-rt-14-dev)" >&2; exit 1; }
+targets=(sketch config generator); [ "$what" = all ] || targets=("$what")
+cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
+  -DREEFGEN_FUZZ=ON >/dev/null
+ninja -C build-fuzz $(printf 'tests/fuzz_%s ' "${targets[@]}") >/dev/null
+status=0
+for t in "${targets[@]}"; do
+  work="$out/$t"; mkdir -p "$work/corpus" "$work/findings"
+  corpus="tests/fuzz/corpus/$t"
+  echo "fuzz: $t for ${secs}s (corpus $corpus, findings $work/findings)" >&2
+  # ASan's allocator limit stands in for "a hostile file must not make us allocate GBs".
+  ASAN_OPTIONS=allocator_may_return_null=1:detect_leaks=1 \
+  build-fuzz/tests/fuzz_$t "$work/corpus" "$corpus" -max_total_time="$secs" -rss_limit_mb=4096 -timeout=20 \
+    -artifact_prefix="$work/findings/" -print_final_stats=1 2>"$work/log.txt" || status=1
+  grep -E "^stat::number_of_executed_units|^#[0-9]+.*DONE" "$work/log.txt" | tail -2 >&2 || true
+  # Keep only inputs that add coverage: the repo's corpus stays small.
+  mkdir -p "$work/merged"
+  build-fuzz/tests/fuzz_$t -merge=1 "$work/merged" "$corpus" "$work/corpus" >/dev/null 2>&1 || true
+  for f in "$work/merged"/*; do [ -e "$corpus/$(basename "$f")" ] || cp "$f" "$corpus/"; done
+  ls "$work/findings" | grep -q . && { echo "fuzz: $t FOUND: $(ls "$work/findings")" >&2; status=1; }
+done
+exit $status
