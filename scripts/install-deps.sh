@@ -19,6 +19,8 @@ PKGS=(
   # The OpenMP build shares libgomp's threads with LibTorch (no oversubscription).
   libopenblas0-openmp
   libdnnl-dev            # oneDNN directly: the fast inference engine (model/src/fast_unet.cpp)
+  libcpp-httplib-dev     # reefgen studio's local web server
+  nodejs                 # npm fetches three.js (the studio's 3D view) and playwright-core at configure time
   python3 python3-torch python3-numpy  # reference comparisons (scripts/reference)
   python3-opencv         # tests/cli_test.sh compares EXRs (bf16 vs fp32); scripts/paint_sketches.py
 )
@@ -39,4 +41,7 @@ echo "install-deps: installing ${missing[*]}" >&2
 export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+# npm comes with some nodejs builds and not with Debian's own: add Debian's if absent.
+command -v npm >/dev/null || $SUDO apt-get install -y -qq --no-install-recommends npm >/dev/null || \
+  echo "install-deps: no npm; the studio page will have no 3D view" >&2
 echo "install-deps: done" >&2

@@ -5,9 +5,11 @@
 set -u
 BIN="$1"; MODULES="$(cd "$2" 2>/dev/null && pwd || echo "$2")"; shift 2
 CHROMIUM=${CHROMIUM:-/usr/bin/chromium}
-[ -x "$CHROMIUM" ] || { echo "SKIP: no chromium at $CHROMIUM (apt-get install chromium)"; exit 77; }
-command -v node >/dev/null || { echo "SKIP: no node (apt-get install nodejs)"; exit 77; }
-[ -d "$MODULES/playwright-core" ] || { echo "SKIP: playwright-core not installed in $MODULES (npm was missing at configure time)"; exit 77; }
+# CI sets REEFGEN_REQUIRE_BROWSER=1: a missing piece is then a failure, not a skip.
+skip() { if [ "${REEFGEN_REQUIRE_BROWSER:-0}" = 1 ]; then echo "FAIL (required): $*"; exit 1; fi; echo "SKIP: $*"; exit 77; }
+[ -x "$CHROMIUM" ] || skip "no chromium at $CHROMIUM (apt-get install chromium)"
+command -v node >/dev/null || skip "no node (apt-get install nodejs)"
+[ -d "$MODULES/playwright-core" ] || skip "playwright-core not installed in $MODULES (npm was missing at configure time)"
 T=$(mktemp -d)
 "$BIN" -q studio --port 0 --out "$T/out" > "$T/url" 2>"$T/err" &
 pid=$!

@@ -1,0 +1,195 @@
+// reefgen studio's HTTP API (issue 14): a real server on a free loopback port,
+// a real client. The answers equal the CLI's code paths; bad requests get a
+// 4xx with one line; nothing is written outside the output folder.
+#include <httplib.h>
+
+#include <thread>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "reefgen/infer/infer.hpp"
+#include "reefgen/io.hpp"
+#include "reefgen/labels.hpp"
+#include "reefgen/model/generator_file.hpp"
+#include "reefgen/procgen/generator.hpp"
+#include "reefgen/procgen/spec.hpp"
+#include "reefgen/studio/server.hpp"
+#include "test_util.hpp"
+
+using namespace reefgen;
+using json = nlohmann::json;
+namespace fs = std::filesystem;
+
+namespace {
+
+const fs::path kRoot = REEFGEN_SOURCE_DIR;
+
+struct Heights {
+  json meta;
+  cv::Mat1f h;
+};
+Heights parse_heights(const std::string& body) {
+  EXPECT_GE(body.size(), 4u);
+  uint32_t n = 0;
+  for (int i = 0; i < 4; ++i) n |= uint32_t(uint8_t(body[size_t(i)])) << (8 * i);
+  EXPECT_EQ((4 + n) % 4, 0u) << "floats must start 4-byte aligned";
+  Heights r;
+  r.meta = json::parse(body.substr(4, n));
+  const int s = r.meta.at("size");
+  EXPECT_EQ(body.size(), 4 + n + size_t(s) * size_t(s) * 4);
+  r.h = cv::Mat1f(s, s);
+  std::memcpy(r.h.ptr<float>(), body.data() + 4 + n, size_t(s) * size_t(s) * 4);
+  return r;
+}
+
+std::string file_bytes(const fs::path& p) { return read_text(p); }
+
+class Studio : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    out = test::temp_dir("studio");
+    studio::StudioOptions o;
+    o.port = 0;
+    o.model = kRoot / "models" / "reef-256.pt";
+    o.out_dir = out / "exports";
+    o.assets_dir = REEFGEN_STUDIO_ASSETS;
+    o.max_body_bytes = 1 << 20;
+    o.precision = "fp32";
+    o.presets = {{"round", R"({"outlines": [0.3, 0.38, 0.55, 0.68, 0.98]})"}};
+    server = std::make_unique<studio::StudioServer>(o);
+    port = server->bind();
+    thread = std::thread([this] { server->serve(); });
+    client = std::make_unique<httplib::Client>("127.0.0.1", port);
+    client->set_read_timeout(60, 0);
+    for (int i = 0; i < 100 && !client->Get("/api/info"); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  void TearDown() override {
+    server->stop();
+    thread.join();
+    fs::remove_all(out);
+  }
+  static void expect_error(const httplib::Result& r, int status, const std::string& needle) {
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, status) << r->body;
+    const json j = json::parse(r->body, nullptr, false);
+    ASSERT_TRUE(j.is_object() && j.contains("error")) << r->body;
+    const std::string msg = j["error"];
+    EXPECT_NE(msg.find(needle), std::string::npos) << msg;
+    EXPECT_EQ(msg.find('\n'), std::string::npos) << "one line: " << msg;
+  }
+  fs::path out;
+  std::unique_ptr<studio::StudioServer> server;
+  std::thread thread;
+  std::unique_ptr<httplib::Client> client;
+  int port = 0;
+};
+
+}  // namespace
+
+TEST(Base64, RoundTripAndRefusal) {
+  for (const std::string& s : std::vector<std::string>{"", "a", "ab", "abc", "abcd", std::string("\0\xff\x10 z", 5)})
+    EXPECT_EQ(studio::base64_decode(studio::base64_encode(s.data(), s.size())), s);
+  EXPECT_EQ(studio::base64_encode("Man", 3), "TWFu");
+  EXPECT_THROW(studio::base64_decode("TW*u"), Error);
+}
+
+TEST_F(Studio, InferAnswersWhatTheCliComputes) {
+  const fs::path sketch = kRoot / "docs" / "examples" / "painted-sketch.png";
+  auto r = client->Post("/api/infer", file_bytes(sketch), "image/png");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  EXPECT_EQ(r->get_header_value("Content-Type"), "application/octet-stream");
+  const Heights got = parse_heights(r->body);
+  model::GeneratorFile g = model::load_generator(kRoot / "models" / "reef-256.pt");
+  infer::InferOptions io;
+  const cv::Mat1f want = infer::infer_heights(g, {read_sketch(sketch)}, io)[0];
+  ASSERT_EQ(got.h.size(), want.size());
+  EXPECT_EQ(cv::norm(got.h, want, cv::NORM_INF), 0.0) << "the studio must give the CLI's heights";
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(want, &lo, &hi);
+  EXPECT_DOUBLE_EQ(got.meta["max_m"].get<double>(), hi);
+  EXPECT_GT(got.meta["max_m"].get<double>(), 50.0) << "the painted island has land";
+}
+
+TEST_F(Studio, GenerateAnswersWhatTheGeneratorComputes) {
+  const std::string spec = R"({"outlines": [0.3, 0.38, 0.55, 0.68, 0.98], "subsidence": 0.3})";
+  auto r = client->Post("/api/generate?size=128", spec, "application/json");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  const Heights got = parse_heights(r->body);
+  procgen::RenderOptions ro;
+  ro.size_px = 128;
+  const auto f = procgen::generate(procgen::spec_from_json(json::parse(spec), "spec"), ro);
+  EXPECT_EQ(cv::norm(got.h, f.height_m, cv::NORM_INF), 0.0);
+  const std::string png = studio::base64_decode(got.meta["label_png"]);
+  const cv::Mat label = cv::imdecode(std::vector<uchar>(png.begin(), png.end()), cv::IMREAD_COLOR);
+  EXPECT_EQ(cv::norm(label, encode_labels(f.label, 0.3), cv::NORM_INF), 0.0);
+  auto p = client->Get("/api/presets");
+  ASSERT_TRUE(p);
+  EXPECT_TRUE(json::parse(p->body).contains("round"));
+  auto info = client->Get("/api/info");
+  ASSERT_TRUE(info);
+  EXPECT_EQ(json::parse(info->body)["model"]["size_px"], 256);
+}
+
+TEST_F(Studio, ExportsWriteOnlyIntoTheOutputFolder) {
+  const std::string sketch = file_bytes(kRoot / "docs" / "examples" / "painted-sketch.png");
+  const json body = {{"sketch_png", studio::base64_encode(sketch.data(), sketch.size())}};
+  for (const char* f : {"exr", "png16", "r16", "glb", "obj", "sketch"}) {
+    auto r = client->Post(std::string("/api/export?format=") + f + "&name=isle", body.dump(), "application/json");
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 200) << f << ": " << r->body;
+    const fs::path written = r->get_header_value("X-Reefgen-Path");
+    EXPECT_EQ(fs::canonical(written).parent_path(), fs::canonical(out / "exports")) << f;
+    EXPECT_EQ(file_bytes(written), r->body) << f << ": the download is the file written";
+  }
+  EXPECT_EQ(read_exr_height(out / "exports" / "isle.height.exr").cols, 256);
+  EXPECT_EQ(fs::file_size(out / "exports" / "isle.r16"), 257u * 257u * 2) << "Unity sizes: 2^n + 1";
+  EXPECT_EQ(file_bytes(out / "exports" / "isle.glb").substr(0, 4), "glTF");
+  const json spec_body = {{"spec", json::parse(R"({"outlines": [0.3, 0.38, 0.55, 0.68, 0.98]})")}, {"size", 64}};
+  auto s = client->Post("/api/export?format=spec&name=mine", spec_body.dump(), "application/json");
+  ASSERT_TRUE(s);
+  ASSERT_EQ(s->status, 200) << s->body;
+  EXPECT_NO_THROW(procgen::spec_from_json(read_json(out / "exports" / "mine.spec.json"), "round trip"));
+  // Names that would leave the folder, or hide in it, are refused; nothing is written.
+  for (const char* name : {"../evil", "..", "a/b", "%2e%2e%2fx", ".hidden", ""}) {
+    auto r = client->Post(std::string("/api/export?format=exr&name=") + name, body.dump(), "application/json");
+    expect_error(r, 400, "name");
+  }
+  EXPECT_FALSE(fs::exists(out / "evil.height.exr"));
+  expect_error(client->Post("/api/export?format=tiff&name=x", body.dump(), "application/json"), 400, "format 'tiff'");
+  expect_error(client->Post("/api/export?format=spec&name=x", body.dump(), "application/json"), 400, "needs a spec");
+  // Static files: no path outside the page's folder.
+  auto t = client->Get("/../../etc/passwd");
+  ASSERT_TRUE(t);
+  EXPECT_NE(t->status, 200);
+  auto idx = client->Get("/");
+  ASSERT_TRUE(idx);
+  EXPECT_EQ(idx->status, 200);
+  EXPECT_NE(idx->body.find("reefgen studio"), std::string::npos);
+}
+
+TEST_F(Studio, BadAndOversizeRequestsAreRefused) {
+  expect_error(client->Post("/api/infer", "not an image", "image/png"), 400, "not an image");
+  expect_error(client->Post("/api/infer", "", "image/png"), 400, "empty body");
+  // Larger than --max-side (1024).
+  cv::Mat3b big(1100, 1100, cv::Vec3b(0, 0, 255));
+  std::vector<uchar> png;
+  cv::imencode(".png", big, png);
+  expect_error(client->Post("/api/infer", std::string(png.begin(), png.end()), "image/png"), 400, "at most 1024");
+  // A body over the limit (1 MiB here): 413, before any decoding.
+  auto r = client->Post("/api/infer", std::string(2 << 20, 'x'), "image/png");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 413);
+  // An image without any region colour, a broken spec, a spec with a bad value.
+  cv::Mat3b grey(64, 64, cv::Vec3b(128, 128, 128));
+  cv::imencode(".png", grey, png);
+  auto g = client->Post("/api/infer", std::string(png.begin(), png.end()), "image/png");
+  ASSERT_TRUE(g);
+  EXPECT_EQ(g->status, 400) << g->body;
+  expect_error(client->Post("/api/generate", "{\"outlines\": [", "application/json"), 400, "not valid JSON");
+  expect_error(client->Post("/api/generate", R"({"subsidence": 7})", "application/json"), 400, "subsidence = 7");
+  expect_error(client->Post("/api/generate?size=5000", "{}", "application/json"), 400, "size must be in");
+}
