@@ -43,13 +43,13 @@ async function readHeights(res) {
   return { meta, h: new Float32Array(buf, 4 + n, meta.size * meta.size) };
 }
 async function runUpdate(makeRequest, t0) {
-  const id = ++latestRequest;
+  const id = ++latestRequest, forMode = mode;
   try {
     const res = await makeRequest();
     if (!res) return;
     const { meta: j, h } = await readHeights(res);
     const t1 = performance.now();
-    if (id !== latestRequest) return;  // an older answer arriving late
+    if (id !== latestRequest || forMode !== mode) return;  // an older answer, or the other mode's
     showHeights(h, j.size, j);
     if (j.label_png) showLabel(j.label_png);
     const t2 = performance.now();
@@ -326,6 +326,7 @@ function requestGenerate() {
   generatePending = true;
   requestAnimationFrame(() => {
     generatePending = false;
+    if (mode !== 'curves') return;
     const t0 = performance.now();
     runUpdate(() => api('/api/generate?size=256', JSON.stringify(specForServer()), 'application/json'), t0);
   });

@@ -94,9 +94,12 @@ try {
     await page.mouse.move(sx + 40, sy, { steps: 5 }); await page.mouse.up();
     await page.waitForFunction((n) => window.__reefgen.updates > n, n0, { timeout: 10000 });
   }
-  if (shot) {
+  if (shot) {  // docs/studio.png: the example painting, as a user would load it
     await page.click('#mode-paint');
-    await page.waitForTimeout(800);
+    const n1 = await page.evaluate(() => window.__reefgen.updates);
+    await page.setInputFiles('#load', process.env.REEFGEN_SHOT_SKETCH || 'docs/examples/painted-sketch.png');
+    await page.waitForFunction((n) => window.__reefgen.updates > n + 1, n1, { timeout: 15000 });
+    await page.waitForTimeout(500);
     await page.screenshot({ path: shot });
   }
   if (consoleErrors.length) fail('page errors: ' + consoleErrors.join(' | '));
