@@ -213,6 +213,11 @@ struct StudioServer::Impl {
       for (const auto& [name, text] : o.presets) j[name] = json::parse(text);
       res.set_content(j.dump(), "application/json");
     }));
+    svr.Get("/api/defaults", guarded([](const httplib::Request&, httplib::Response& res) {
+      json j;
+      procgen::to_json(j, procgen::IslandSpec{});  // the paper's profile and resistance curves among them
+      res.set_content(j.dump(), "application/json");
+    }));
     svr.Post("/api/infer", guarded([this](const httplib::Request& req, httplib::Response& res) {
       const DecodedSketch s = sketch_of(req.body);
       latest_wins(res, [&] {

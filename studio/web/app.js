@@ -163,7 +163,7 @@ function requestInfer() {
 const curves = $('curves');
 const cctx = curves.getContext('2d');
 const K = 12;  // control radii per outline
-let spec = null, labelImage = null, drag = null, windDraft = null;
+let spec = null, labelImage = null, drag = null, windDraft = null, defaults = null;
 function defaultSpec() {
   return { outlines: [0.3, 0.38, 0.55, 0.68, 0.98], wind: [], subsidence: 0 };
 }
@@ -179,8 +179,9 @@ function loadSpec(s) {
   delete spec.description;
   spec.outlines = spec.outlines.map(expand);
   spec.wind = spec.wind || [];
-  spec.profile = spec.profile || null;
-  spec.resistance = spec.resistance || null;
+  // Missing curves are the paper's (GET /api/defaults), shown and editable.
+  spec.profile = spec.profile || (defaults && defaults.profile.slice()) || null;
+  spec.resistance = spec.resistance || (defaults && defaults.resistance.slice()) || null;
   $('subsidence').value = Math.round(100 * (spec.subsidence || 0));
   drawCurves();
   drawCurveEditor('profile');
@@ -524,6 +525,7 @@ for (const [id, r] of [[3, 0.42], [2, 0.34], [1, 0.26], [0, 0.2]]) {
   pctx.arc(paint.width / 2, paint.height / 2, r * paint.width, 0, 2 * Math.PI);
   pctx.fill();
 }
+try { defaults = await (await api('/api/defaults')).json(); } catch (e) { status('defaults: ' + e.message); }
 loadSpec(defaultSpec());
 try {
   const presets = await (await api('/api/presets')).json();

@@ -6,6 +6,7 @@
 // JSON API (docs/STUDIO.md):
 //   GET  /api/info                 model, limits, version
 //   GET  /api/presets              {name: spec} of the built-in island presets
+//   GET  /api/defaults             the default spec (the paper's profile and resistance curves)
 //   POST /api/infer                body: a sketch image (PNG/JPEG, ≤ max_side²)
 //                                  -> heights: [uint32 LE n][n bytes JSON {size, min_m, max_m, lo_m,
 //                                     hi_m, metres_per_px, ms}][size² float32 LE metres, row 0 = north]
