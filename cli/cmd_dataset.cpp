@@ -320,7 +320,7 @@ Command add_dataset_command(CLI::App& app, const GlobalOptions& g) {
   auto a = std::make_shared<BuildArgs>();
   auto* build = sub->add_subcommand("build", "Build (or resume) a dataset into --out");
   build->add_option("--config", a->config, "Dataset config JSON (configs/dataset/*.json)");
-  build->add_option("--out", a->out, "Dataset folder")->required();
+  build->add_option("-o,--out,--output", a->out, "Dataset folder")->required();
   build->add_option("--count", a->count, "Override the number of pairs");
   build->add_option("--seed", a->seed, "Global seed")->capture_default_str();
   build->add_option("--threads", a->threads, "Worker threads (default: all cores)");

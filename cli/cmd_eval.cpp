@@ -42,7 +42,7 @@ Command add_eval_command(CLI::App& app, const GlobalOptions& g) {
                                           "; default: the shipped model (models/reef-256.pt, docs/MODEL.md)");
   sub->add_option("--data", a->data, "Dataset folder (`reefgen dataset build`)")->required();
   sub->add_option("--split", a->split, "train, val or test")->capture_default_str();
-  sub->add_option("--out", a->out, "Folder for eval.json, eval.md, worst.png (default: print JSON only)");
+  sub->add_option("-o,--out,--output", a->out, "Folder for eval.json, eval.md, worst.png (default: print JSON only)");
   sub->add_option("--max-pairs", a->max_pairs, "Use the first N pairs of the split")->capture_default_str();
   sub->add_flag("--no-perturb", a->no_perturb, "Clean sketches only");
   sub->add_flag("--running-stats", a->running_stats, "BatchNorm running statistics instead of batch statistics");

@@ -43,7 +43,7 @@ Command add_eval_sketches_command(CLI::App& app, const GlobalOptions& g) {
   auto a = std::make_shared<Args>();
   sub->add_option("sketches", a->dir, "Folder of painted sketches (PNG, JPEG, TIFF, BMP, WebP)")->required();
   sub->add_option("-m,--model", a->model, "Generator file (default: the shipped model, models/)");
-  sub->add_option("--out", a->out, "Folder for sketches.json and grid.png (default: print JSON only)");
+  sub->add_option("-o,--out,--output", a->out, "Folder for sketches.json and grid.png (default: print JSON only)");
   sub->add_option("--young-max", a->young_max, "Subsidence up to which a pixel counts as young (bright)")
       ->capture_default_str();
   sub->add_option("--threads", a->threads, "LibTorch threads (default: all cores)")->check(CLI::Range(1, 256));

@@ -55,7 +55,7 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
   auto a = std::make_shared<Args>();
   sub->add_option("--painting", a->painting, "Painting (PNG/JPEG/…, 8 or 16 bit, alpha = background)");
   sub->add_option("--height", a->height, "Height field EXR (metres): its land is the top, or the features under a painting");
-  sub->add_option("-o,--output", a->out, "Mesh file(s): .glb or .obj (repeat for both); a .json sidecar is written beside the first");
+  sub->add_option("-o,--output,--out", a->out, "Mesh file(s): .glb or .obj (repeat for both); a .json sidecar is written beside the first");
   sub->add_option("--preset", a->preset, "Built-in params (configs/floating/): default, spire, mesa, terrain-top");
   sub->add_option("--config", a->config, "Params JSON (configs/floating/*.json are examples)");
   sub->add_option("--seed", a->seed, "Seed of the noise features")->capture_default_str();

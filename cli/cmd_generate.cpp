@@ -136,7 +136,7 @@ Command add_generate_command(CLI::App& app, const GlobalOptions& g) {
                                              "  reefgen generate --random 50 --seed 1 --out out/random --threads 2\n");
   auto* src = sub->add_option_group("source", "What to generate");
   src->add_option("--preset", a->preset, "Built-in preset (see `reefgen presets`)");
-  src->add_option("--spec", a->spec_file, "Island spec JSON (docs/SPEC.md)");
+  src->add_option("--spec,--config", a->spec_file, "Island spec JSON (docs/SPEC.md); --config is the same");
   src->add_option("--random", a->random, "N random configurations (paper's data generation), each at --levels subsidence levels");
   src->require_option(1);
   sub->add_option("-o,--output", a->prefix, "Output prefix: PREFIX.height.exr, .label.png, .json (and .preview.png)");

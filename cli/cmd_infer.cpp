@@ -46,7 +46,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("sketches", a->inputs, "Sketch images or folders of them")->required();
   sub->add_option("-m,--model", a->model, "Generator exported by `reefgen train` (RUN/generator.pt)"
                                           "; default: the shipped model (models/reef-256.pt, docs/MODEL.md)");
-  sub->add_option("-o,--output", a->out,
+  sub->add_option("-o,--output,--out", a->out,
                   "One sketch: output prefix (PREFIX.height.exr, PREFIX.json, ...). Several: a folder")->required();
   sub->add_flag("--png16", a->png16, "Also PREFIX.height.png: 16-bit linear, range in the sidecar");
   sub->add_flag("--r16", a->r16, "Also PREFIX.r16: little-endian RAW for Unity/Unreal (import numbers printed)");

@@ -29,7 +29,7 @@ Command add_model_command(CLI::App& app, const GlobalOptions&) {
   info->add_option("generator", a->in, "Generator file (default: the shipped model)");
   auto* pack = sub->add_subcommand("pack", "Rewrite a generator file with float16 or float32 weights and a SHA-256");
   pack->add_option("generator", a->in, "Generator exported by `reefgen train`")->required();
-  pack->add_option("-o,--out", a->out, "Output file (not the input)")->required();
+  pack->add_option("-o,--out,--output", a->out, "Output file (not the input)")->required();
   pack->add_option("--storage", a->storage, "float16 (half the size; computes in float32) or float32")
       ->capture_default_str();
   return {sub, [a, info, pack]() -> int {

@@ -38,7 +38,7 @@ Command add_studio_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--host", a->o.host, "Address to listen on (loopback only by default)")->capture_default_str();
   sub->add_option("--port", a->o.port, "Port (0: any free one)")->capture_default_str()->check(CLI::Range(0, 65535));
   sub->add_option("-m,--model", a->model, "Generator file; default: the shipped model (models/reef-256.pt)");
-  sub->add_option("-o,--out", a->out, "The only folder the studio writes exports to")->capture_default_str();
+  sub->add_option("-o,--out,--output", a->out, "The only folder the studio writes exports to")->capture_default_str();
   sub->add_option("--precision", a->o.precision, "fp32, bf16 or auto (as infer)")->capture_default_str();
   sub->add_option("--max-side", a->o.max_side, "Largest sketch / island side accepted, pixels")
       ->capture_default_str()

@@ -35,7 +35,7 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
   auto a = std::make_shared<Args>();
   sub->add_option("--config", a->config, "Training config JSON (configs/train/*.json); default: built-in paper settings");
   sub->add_option("--data", a->data, "Dataset folder made by `reefgen dataset build`")->required();
-  sub->add_option("--out", a->out, "Run folder (created)")->required();
+  sub->add_option("-o,--out,--output", a->out, "Run folder (created)")->required();
   sub->add_flag("--resume", a->resume, "Continue the run in --out from its checkpoint (its run.json config unless --config)");
   sub->add_option("--max-steps", a->max_steps, "Stop after this many steps in all (checkpoint written); the lr schedule still spans the whole run");
   sub->add_option("--seed", a->seed, "Overrides the config's seed");

@@ -1,6 +1,7 @@
 // reefgen: coral-reef island terrains from curves or painted sketches.
 // Thin main: parse, dispatch, turn every exception into one line + exit 1.
 #include <algorithm>
+#include <cstdlib>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -28,8 +29,11 @@ int main(int argc, char** argv) {
                "  reefgen bench generate\n"};
   app.set_version_flag("--version", std::string("reefgen ") + reefgen::kVersion);
   app.require_subcommand(1);
+  // Global flags anywhere on the line (clig.dev): options a subcommand does
+  // not know fall through to reefgen's own (-q after the command works).
+  app.fallthrough();
   reefgen::GlobalOptions g;
-  app.add_flag("-q,--quiet", g.quiet, "No progress or log lines on stderr");
+  app.add_flag("-q,--quiet", g.quiet, "No progress or log lines on stderr (anywhere on the line)");
   const std::vector<reefgen::Command> commands = {reefgen::add_generate_command(app, g),
                                                   reefgen::add_presets_command(app, g),
                                                   reefgen::add_dataset_command(app, g),
@@ -46,7 +50,11 @@ int main(int argc, char** argv) {
   // An unknown command word is named, with the nearest known one.
   for (int i = 1; i < argc; ++i) {
     const std::string w = argv[i];
-    if (w == "-q" || w == "--quiet") continue;
+    if (w == "-q" || w == "--quiet" || w.rfind("--threads=", 0) == 0) continue;
+    if (w == "--threads") {
+      ++i;
+      continue;
+    }
     if (w.empty() || w[0] == '-') break;  // other options: CLI11 reports what is wrong
     std::string best;
     size_t best_d = 99;
@@ -72,8 +80,33 @@ int main(int argc, char** argv) {
     }
     break;  // the first word is the command; later words belong to it
   }
+  // `reefgen --threads N CMD ...` = `reefgen CMD ... --threads N`: --threads
+  // belongs to the commands that compute, and may come before them.
+  std::vector<std::string> args(argv + 1, argv + argc);
+  {
+    std::vector<std::string> lead, moved;
+    size_t i = 0;
+    for (; i < args.size() && !args[i].empty() && args[i][0] == '-'; ++i) {
+      if (args[i] == "--threads" && i + 1 < args.size()) {
+        moved.push_back(args[i]);
+        moved.push_back(args[++i]);
+      } else if (args[i].rfind("--threads=", 0) == 0) {
+        moved.push_back(args[i]);
+      } else {
+        lead.push_back(args[i]);
+      }
+    }
+    if (!moved.empty() && i < args.size()) {
+      std::vector<std::string> out = lead;
+      out.insert(out.end(), args.begin() + long(i), args.end());
+      out.insert(out.end(), moved.begin(), moved.end());
+      args = out;
+    }
+  }
   try {
-    app.parse(argc, argv);
+    std::vector<const char*> av{argv[0]};
+    for (const auto& a : args) av.push_back(a.c_str());
+    app.parse(int(av.size()), av.data());
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
     // One line, as every other error: the problem, then where to look.
@@ -83,6 +116,9 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "reefgen: error: %s (see reefgen --help)\n", what.c_str());
     return e.get_exit_code();
   }
+  // REEFGEN_PARSE_ONLY=1: check the command line and stop (tests/doc_commands.sh
+  // parses every command the docs show).
+  if (const char* p = std::getenv("REEFGEN_PARSE_ONLY"); p && std::string(p) == "1") return 0;
   try {
     for (const auto& c : commands)
       if (c.sub->parsed()) return c.run();
