@@ -323,6 +323,14 @@ open(sys.argv[1], "wb").write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chun
 PY
 expect_error "30000×30000 pixels; sketches may be at most 8192" infer "$T/huge.png" -m "$M" -o "$T/e/x"
 
+# 6f. clig.dev conventions: global flags anywhere, option aliases.
+"$BIN" generate --preset atoll --size 32 -o "$T/g/qa" --preview -q 2>"$T/err" >/dev/null && [ ! -s "$T/err" ] && ok || bad "-q after the command: $(cat "$T/err")"
+"$BIN" --threads 1 generate --random 1 --levels 1 --size 32 --out "$T/g/thr" -q >/dev/null && ok || bad "--threads before the command"
+"$BIN" -q generate --config docs/examples/spec.json --size 32 --output "$T/g/alias" >/dev/null 2>&1 \
+  || "$BIN" -q generate --config "$(dirname "$0")/../docs/examples/spec.json" --size 32 --output "$T/g/alias" >/dev/null
+[ -s "$T/g/alias.height.exr" ] && ok || bad "--config / --output aliases of generate"
+"$BIN" -q infer "$T/s/one.png" -m "$M" --out "$T/i/alias" >/dev/null && [ -s "$T/i/alias.height.exr" ] && ok || bad "--out alias of infer"
+
 # 7. --version, --help with examples.
 "$BIN" --version | grep -q "reefgen [0-9]" && ok || bad "--version"
 "$BIN" generate --help | grep -q "Examples" && ok || bad "generate --help has no examples"
