@@ -21,7 +21,7 @@ for t in "${targets[@]}"; do
   corpus="tests/fuzz/corpus/$t"
   echo "fuzz: $t for ${secs}s (corpus $corpus, findings $work/findings)" >&2
   # ASan's allocator limit stands in for "a hostile file must not make us allocate GBs".
-  ASAN_OPTIONS=allocator_may_return_null=1:detect_leaks=1 \
+  ASAN_OPTIONS=allocator_may_return_null=1:detect_leaks=1 LSAN_OPTIONS=suppressions=$PWD/tests/fuzz/lsan.supp \
   build-fuzz/tests/fuzz_$t "$work/corpus" "$corpus" -max_total_time="$secs" -rss_limit_mb=4096 -timeout=20 \
     -artifact_prefix="$work/findings/" -print_final_stats=1 2>"$work/log.txt" || status=1
   grep -E "^stat::number_of_executed_units|^#[0-9]+.*DONE" "$work/log.txt" | tail -2 >&2 || true
