@@ -128,6 +128,11 @@ expect_error "lr" train --config "$T/bad_tr.json" $TR --out "$T/e/run"
 head -c 1000 "$T/t1/checkpoint.pt" > "$T/t3.pt"; mkdir -p "$T/t3"; cp "$T/t1/run.json" "$T/t3/"; mv "$T/t3.pt" "$T/t3/checkpoint.pt"
 expect_error "truncated" train $TR --out "$T/t3" --resume
 expect_error "no checkpoint.pt to resume" train $TR --out "$T/e/fresh" --resume
+# A checkpoint with flipped bytes inside its tensors is refused (its SHA-256), not resumed from.
+mkdir -p "$T/t4"; cp "$T/t1/run.json" "$T/t1/checkpoint.pt" "$T/t4/"
+size=$(stat -c %s "$T/t4/checkpoint.pt")
+printf '\x5a\xa5' | dd of="$T/t4/checkpoint.pt" bs=1 seek=$((size / 2)) conv=notrunc 2>/dev/null
+expect_error "SHA-256 does not match" train $TR --out "$T/t4" --resume
 
 # 6. Sketches -> inference with the model trained above; exports; eval.
 M="$T/t1/generator.pt"

@@ -13,6 +13,7 @@
 #include "reefgen/model/generator_file.hpp"
 #include "reefgen/preview.hpp"
 #include "reefgen/rng.hpp"
+#include "reefgen/sha256.hpp"
 #include "reefgen/train/data.hpp"
 #include "reefgen/version.hpp"
 
@@ -89,6 +90,47 @@ std::string fmt(double v) {
 
 }  // namespace
 
+namespace {
+
+// SHA-256 of everything a resume restores: G and D (weights and buffers),
+// both Adam states in parameter order, the step, the log window and the RNG.
+// Stored in the checkpoint and recomputed from what was loaded, so a file with
+// flipped bytes (the zip's own CRCs are not checked by LibTorch) is refused.
+std::string checkpoint_sha256(Pix2Pix& p, int64_t step, const torch::Tensor& window, const torch::Tensor& rng) {
+  Sha256 h;
+  h.update(model::weights_sha256(*p.G()));
+  h.update(model::weights_sha256(*p.D()));
+  auto tensor = [&](const torch::Tensor& t0) {
+    if (!t0.defined()) return h.update("-");
+    const torch::Tensor t = t0.contiguous();
+    for (int64_t d : t.sizes()) h.update(&d, sizeof d);
+    h.update(t.data_ptr(), size_t(t.numel() * t.element_size()));
+  };
+  for (torch::optim::Optimizer* opt : {static_cast<torch::optim::Optimizer*>(&p.opt_G()),
+                                       static_cast<torch::optim::Optimizer*>(&p.opt_D())}) {
+    for (auto& group : opt->param_groups())
+      for (auto& param : group.params()) {
+        auto it = opt->state().find(c10::guts::to_string(param.unsafeGetTensorImpl()));
+        if (it == opt->state().end()) {
+          h.update("no-state");
+          continue;
+        }
+        auto& st = static_cast<torch::optim::AdamParamState&>(*it->second);
+        const int64_t n = st.step();
+        h.update(&n, sizeof n);
+        tensor(st.exp_avg());
+        tensor(st.exp_avg_sq());
+        tensor(st.max_exp_avg_sq());
+      }
+  }
+  h.update(&step, sizeof step);
+  tensor(window);
+  tensor(rng);
+  return h.hex();
+}
+
+}  // namespace
+
 void save_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& params, int64_t step,
                      const LogWindow& window) {
   torch::serialize::OutputArchive a;
@@ -97,10 +139,12 @@ void save_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& params
   a.write("reefgen_version", c10::IValue(std::string(kVersion)));
   a.write("config", c10::IValue(json(params).dump()));
   a.write("step", c10::IValue(step));
-  a.write("log_window", torch::tensor({window.sums[0], window.sums[1], window.sums[2], window.sums[3],
-                                       double(window.steps)},
-                                      torch::kFloat64));
-  a.write("torch_rng", at::detail::getDefaultCPUGenerator().get_state());
+  const torch::Tensor log_window = torch::tensor(
+      {window.sums[0], window.sums[1], window.sums[2], window.sums[3], double(window.steps)}, torch::kFloat64);
+  const torch::Tensor rng = at::detail::getDefaultCPUGenerator().get_state();
+  a.write("log_window", log_window);
+  a.write("torch_rng", rng);
+  a.write("sha256", c10::IValue(checkpoint_sha256(p, step, log_window, rng)));
   // Results depend on the thread count (reductions split differently).
   a.write("torch_threads", c10::IValue(int64_t(torch::get_num_threads())));
   torch::serialize::OutputArchive g, d, og, od;
@@ -165,6 +209,9 @@ int64_t load_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& par
       a.read("torch_threads", v);
       *torch_threads = v.toInt();
     }
+    // Checkpoints written before the checksum existed load without it.
+    if (a.try_read("sha256", v) && v.isString() && v.toStringRef() != checkpoint_sha256(p, step, w, rng))
+      throw Error(path.string() + ": the checkpoint's SHA-256 does not match its contents (corrupted copy); " + fix);
     return step;
   } catch (const c10::Error& e) {
     throw Error(path.string() + ": damaged checkpoint (" + model::first_line(e.what_without_backtrace()) + "); " + fix);
