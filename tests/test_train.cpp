@@ -361,8 +361,14 @@ TEST(Data, BadDatasetsNameTheFile) {
   write_png(d / info.train[0].label, cv::Mat3b(32, 32, cv::Vec3b(0, 0, 255)));
   expect_error_naming([&] { load_sample(info, info.train[0], {}, 0); }, info.train[0].label);
   // NaN heights.
-  cv::Mat1f nan(64, 64, std::numeric_limits<float>::quiet_NaN());
-  write_exr_height(d / info.train[1].height, nan);
+  {  // reefgen never writes a NaN (write_exr_height refuses): plant one in an uncompressed file
+    const float mark = 1234.5f, nan = std::numeric_limits<float>::quiet_NaN();
+    write_exr_height(d / info.train[1].height, cv::Mat1f(64, 64, mark), {}, /*zip_level=*/0);
+    std::string bytes = read_text(d / info.train[1].height);
+    const std::string from(reinterpret_cast<const char*>(&mark), 4), to(reinterpret_cast<const char*>(&nan), 4);
+    for (size_t at = bytes.find(from); at != std::string::npos; at = bytes.find(from, at + 4)) bytes.replace(at, 4, to);
+    write_text_atomic(d / info.train[1].height, bytes);
+  }
   expect_error_naming([&] { load_sample(info, info.train[1], {}, 0); }, "NaN");
   // Corrupt label.
   write_text_atomic(d / info.train[2].label, "not a png");
