@@ -283,7 +283,7 @@ TEST(Floating, ParamsJsonRoundTripAndErrors) {
   EXPECT_EQ(to_json(q), to_json(p));
   expect_error_naming([] { floating_params_from_json({{"alpha_tpo", 1}}, "x.json"); }, "x.json: unknown key \"alpha_tpo\"");
   expect_error_naming([] { floating_params_from_json({{"rim_m", 0}}, "x.json"); }, "rim_m");
-  expect_error_naming([] { floating_params_from_json({{"octaves", "five"}}, "x.json"); }, "\"octaves\"");
+  expect_error_naming([] { floating_params_from_json({{"octaves", "five"}}, "x.json"); }, "octaves = \"five\" must be a whole number");
   cv::Mat1b speck(16, 16, uchar(0));
   speck(cv::Rect(5, 5, 3, 3)) = kPaintTop;
   expect_error_naming([&] { floating_island(speck, cv::Mat1f(16, 16, 0.f), {}); }, "lower min_area_px");
