@@ -47,6 +47,23 @@ Command add_studio_command(CLI::App& app, const GlobalOptions& g);
 // `bench train` and `bench infer` under `bench`; returns their runner.
 std::function<int()> add_bench_model_commands(CLI::App* bench);
 
+// `-o PREFIX` writes PREFIX.height.exr and its siblings PREFIX.json, ...;
+// `-o NAME.exr` (or NAME.height.exr) writes exactly that height file and its
+// siblings under NAME (NAME.json, NAME.label.png, ...).
+struct OutputNames {
+  std::filesystem::path prefix, height;
+};
+inline OutputNames output_names(const std::string& o) {
+  std::filesystem::path p(o);
+  if (p.extension() == ".exr") {
+    std::filesystem::path stem = p;
+    stem.replace_extension();
+    if (stem.extension() == ".height") stem.replace_extension();
+    return {stem, p};
+  }
+  return {p, std::filesystem::path(o + ".height.exr")};
+}
+
 // Benchmarks: the median (timings on a shared machine are noisy) and the
 // wall time of one call.
 inline double median(std::vector<double> v) {

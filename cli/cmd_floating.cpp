@@ -65,9 +65,15 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--max-size", a->max_size,
                   "Mesh at most this many pixels on the long side (the painting is shrunk, its ground size kept; "
                   "a 2048² painting makes ~4 M triangles); 0 = as painted")->capture_default_str();
-  sub->add_option("--preview", a->preview, "Also a shaded oblique view (PNG)");
+  sub->add_option("--preview", a->preview,
+                  "Also a shaded oblique view: PNG path, or no value for NAME.preview.png beside the first mesh "
+                  "(as infer/generate --preview)")
+      ->expected(0, 1);
   sub->add_flag("--presets", a->list, "List the built-in presets and exit");
   return {sub, [a, sub, &g]() -> int {
+            // --preview alone: beside the first mesh, as the other commands' --preview.
+            if (sub->count("--preview") && a->preview.empty() && !a->out.empty())
+              a->preview = fs::path(a->out.front()).replace_extension(".preview.png").string();
             const auto& presets = builtin_floating_presets();
             if (a->list) {
               for (const auto& [name, text] : presets) std::printf("%s\n", name.c_str());

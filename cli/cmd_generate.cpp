@@ -53,10 +53,11 @@ int run_single(const GenerateArgs& a, const GlobalOptions&) {
   IslandSpec spec = load_spec(a);
   if (!std::isnan(a.subsidence)) spec.subsidence = a.subsidence;
   if (a.seed_given) spec.noise.seed = a.seed;
-  const fs::path prefix = a.prefix;
+  const OutputNames names = output_names(a.prefix);
+  const fs::path prefix = names.prefix;
   if (!a.spec_file.empty()) {  // the sidecar PREFIX.json must never replace the spec it was made from
-    std::vector<fs::path> outs;
-    for (const char* ext : {".height.exr", ".label.png", ".preview.png", ".json"}) outs.push_back(prefix.string() + ext);
+    std::vector<fs::path> outs{names.height};
+    for (const char* ext : {".label.png", ".preview.png", ".json"}) outs.push_back(prefix.string() + ext);
     refuse_output_over_input({a.spec_file}, outs);
   }
   ensure_writable_dir(prefix.parent_path());
@@ -67,7 +68,7 @@ int run_single(const GenerateArgs& a, const GlobalOptions&) {
   nlohmann::json prov = {{"mode", a.preset.empty() ? "spec" : "preset"},
                          {"source", a.preset.empty() ? a.spec_file : a.preset},
                          {"warp_grid", opt.warp_grid}};
-  const auto w = write_island(prefix, f, spec, prov, a.preview);
+  const auto w = write_island(prefix, f, spec, prov, a.preview, names.height);
   for (const auto& p : w.files) std::printf("%s\n", p.c_str());
   return 0;
 }
@@ -139,7 +140,7 @@ Command add_generate_command(CLI::App& app, const GlobalOptions& g) {
   src->add_option("--spec,--config", a->spec_file, "Island spec JSON (docs/SPEC.md); --config is the same");
   src->add_option("--random", a->random, "N random configurations (paper's data generation), each at --levels subsidence levels");
   src->require_option(1);
-  sub->add_option("-o,--output", a->prefix, "Output prefix: PREFIX.height.exr, .label.png, .json (and .preview.png)");
+  sub->add_option("-o,--output", a->prefix, "Output prefix: PREFIX.height.exr, .label.png, .json (and .preview.png); or NAME.exr: that file, siblings NAME.*");
   sub->add_option("--out", a->out_dir, "Output folder for --random");
   sub->add_option("--subsidence", a->subsidence, "Override the subsidence λ in [0, 1]")->check(finite_in(0, 1));
   sub->add_option("--size", a->size, "Width W of the W×W output in pixels")->capture_default_str();

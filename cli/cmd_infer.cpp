@@ -47,7 +47,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("-m,--model", a->model, "Generator exported by `reefgen train` (RUN/generator.pt)"
                                           "; default: the shipped model (models/reef-256.pt, docs/MODEL.md)");
   sub->add_option("-o,--output,--out", a->out,
-                  "One sketch: output prefix (PREFIX.height.exr, PREFIX.json, ...). Several: a folder")->required();
+                  "One sketch: output prefix (PREFIX.height.exr, PREFIX.json, ...) or NAME.exr (that file, siblings NAME.*). Several: a folder")->required();
   sub->add_flag("--png16", a->png16, "Also PREFIX.height.png: 16-bit linear, range in the sidecar");
   sub->add_flag("--r16", a->r16, "Also PREFIX.r16: little-endian RAW for Unity/Unreal (import numbers printed)");
   sub->add_option("--mesh", a->mesh, "Also a grid mesh: obj or glb (per sketch), or a path ending in .obj/.glb (one sketch)");
@@ -105,14 +105,16 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
               throw Error("--stochastic: " + a->model + " has no dropout layers (depth " +
                           std::to_string(gen.g->options().depth) + ", dropout " + std::to_string(gen.g->options().dropout) +
                           "), so outputs cannot vary; drop --stochastic");
-            const fs::path out_dir = many ? fs::path(a->out) : fs::path(a->out).parent_path();
+            const OutputNames single = output_names(a->out);  // -o PREFIX or -o NAME.exr (one sketch)
+            const fs::path out_dir = many ? fs::path(a->out) : single.prefix.parent_path();
             {
               // Every file this run may write, checked before any is written:
               // no output may be an input, no two sketches may share a result name.
               std::vector<fs::path> outs;
               std::map<std::string, fs::path> stems;
               for (const auto& in : inputs) {
-                const fs::path prefix = many ? out_dir / in.stem() : fs::path(a->out);
+                const fs::path prefix = many ? out_dir / in.stem() : single.prefix;
+                if (!many) outs.push_back(single.height);
                 if (many) {
                   const auto [it, fresh] = stems.emplace(in.stem().string(), in);
                   if (!fresh)
@@ -154,7 +156,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                   for (size_t k = i; k < std::min(inputs.size(), i + kChunk); ++k) sketches.push_back(read_sketch(inputs[k]));
                   heights = infer::infer_heights(gen, sketches, io);
                 }
-                const fs::path prefix = many ? out_dir / inputs[i].stem() : fs::path(a->out);
+                const fs::path prefix = many ? out_dir / inputs[i].stem() : single.prefix;
                 const cv::Mat1f& h = heights[i % kChunk];
                 const double mpp = a->world_size_m / h.cols, lo = gen.range.lo_m, hi = gen.range.hi_m;
                 double hmin, hmax;
@@ -174,7 +176,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                     {"model_range_m", {lo, hi}},
                     {"files", nlohmann::json::object()}};
                 auto add = [&](const std::string& kind, const fs::path& p) { side["files"][kind] = p.filename().string(); };
-                const fs::path exr = prefix.string() + ".height.exr";
+                const fs::path exr = many ? fs::path(prefix.string() + ".height.exr") : single.height;
                 staged.write(exr, [&](const fs::path& t) {
                   write_exr_height(t, h, {{"reefgen:version", kVersion}, {"reefgen:metres_per_pixel", std::to_string(mpp)}});
                 });

@@ -336,6 +336,13 @@ expect_error "30000×30000 pixels; sketches may be at most 8192" infer "$T/huge.
 [ -s "$T/g/alias.height.exr" ] && ok || bad "--config / --output aliases of generate"
 "$BIN" -q infer "$T/s/one.png" -m "$M" --out "$T/i/alias" >/dev/null && [ -s "$T/i/alias.height.exr" ] && ok || bad "--out alias of infer"
 
+# -o with an extension is honoured; floating's --preview works as a switch too.
+"$BIN" -q generate --preset atoll --size 32 -o "$T/g/named.exr" --preview >/dev/null \
+  && [ -s "$T/g/named.exr" ] && [ -s "$T/g/named.label.png" ] && grep -q '"height": "named.exr"' "$T/g/named.json" && ok || bad "generate -o NAME.exr"
+"$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/named.height.exr" --preview >/dev/null \
+  && [ -s "$T/i/named.height.exr" ] && [ -s "$T/i/named.preview.png" ] && [ -s "$T/i/named.json" ] && ok || bad "infer -o NAME.height.exr"
+"$BIN" -q floating --painting "$PAINT" --seed 3 -o "$T/f/sw.glb" --preview >/dev/null && [ -s "$T/f/sw.preview.png" ] && ok || bad "floating --preview as a switch"
+
 # 7. --version, --help with examples.
 "$BIN" --version | grep -q "reefgen [0-9]" && ok || bad "--version"
 "$BIN" generate --help | grep -q "Examples" && ok || bad "generate --help has no examples"

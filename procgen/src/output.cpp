@@ -8,7 +8,7 @@
 namespace reefgen::procgen {
 
 WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFields& f, const IslandSpec& spec,
-                           const nlohmann::json& provenance, bool preview) {
+                           const nlohmann::json& provenance, bool preview, const std::filesystem::path& height_given) {
   const int W = f.height_m.cols;
   double hmin, hmax;
   cv::minMaxLoc(f.height_m, &hmin, &hmax);
@@ -19,7 +19,7 @@ WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFiel
     return p;
   };
   WrittenIsland out;
-  const auto height_path = name(".height.exr"), label_path = name(".label.png"), preview_path = name(".preview.png"),
+  const auto height_path = height_given.empty() ? name(".height.exr") : height_given, label_path = name(".label.png"), preview_path = name(".preview.png"),
              json_path = name(".json");
   nlohmann::json files = {{"height", height_path.filename().string()}, {"label", label_path.filename().string()}};
   if (preview) files["preview"] = preview_path.filename().string();

@@ -19,7 +19,9 @@ struct WrittenIsland {
   nlohmann::json sidecar;
 };
 
+// `height_path` replaces PREFIX.height.exr when given (`-o NAME.exr`).
 WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFields& fields, const IslandSpec& spec,
-                           const nlohmann::json& provenance, bool preview);
+                           const nlohmann::json& provenance, bool preview,
+                           const std::filesystem::path& height_path = {});
 
 }  // namespace reefgen::procgen
