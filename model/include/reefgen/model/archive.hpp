@@ -8,6 +8,10 @@
 
 namespace reefgen::model {
 
+// Every zip entry stored, inside the file and matching its CRC-32: "" or what
+// is wrong (load_archive checks it before LibTorch parses anything).
+std::string check_zip_integrity(const std::filesystem::path& path);
+
 std::string first_line(const std::string& s);
 // Saves to PATH.tmp-PID then renames: a crash or a full disk never leaves a
 // half-written file under the final name.
