@@ -18,7 +18,7 @@ int main(int argc, char** argv) {
                "  reefgen generate --spec my_island.json -o out/mine --size 512\n"
                "  reefgen generate --random 100 --seed 7 --out out/random --threads 2\n"
                "  reefgen presets\n"
-               "  reefgen dataset build --config configs/dataset/paper.json --out data/paper\n"
+               "  reefgen dataset build --config configs/dataset/paper.json --out data/paper --seed 1\n"
                "  reefgen train --data data/paper --out runs/paper\n"
                "  reefgen sketch random --seed 3 -o sketch.png\n"
                "  reefgen terrain mapgen4 --seed 2 -o out/m4 --preview\n"
