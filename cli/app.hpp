@@ -47,6 +47,11 @@ Command add_studio_command(CLI::App& app, const GlobalOptions& g);
 // `bench train` and `bench infer` under `bench`; returns their runner.
 std::function<int()> add_bench_model_commands(CLI::App* bench);
 
+// Ctrl-C (SIGINT) and SIGTERM: long-running commands (train, studio) install
+// this handler and poll the flag to stop cleanly instead of dying mid-write.
+std::atomic<bool>& stop_requested();
+void install_stop_handlers();
+
 // `-o PREFIX` writes PREFIX.height.exr and its siblings PREFIX.json, ...;
 // `-o NAME.exr` (or NAME.height.exr) writes exactly that height file and its
 // siblings under NAME (NAME.json, NAME.label.png, ...).

@@ -3,7 +3,6 @@
 #include <torch/torch.h>
 
 #include <atomic>
-#include <csignal>
 #include <optional>
 #include <cstdio>
 #include <cstdlib>
@@ -15,11 +14,6 @@
 #include "reefgen/studio/server.hpp"
 
 namespace reefgen {
-
-namespace {
-std::atomic<bool> g_stop{false};
-extern "C" void studio_on_signal(int) { g_stop = true; }
-}  // namespace
 
 Command add_studio_command(CLI::App& app, const GlobalOptions& g) {
   auto* sub = app.add_subcommand(
@@ -57,10 +51,9 @@ Command add_studio_command(CLI::App& app, const GlobalOptions& g) {
             studio::StudioServer server(a->o);
             const int port = server.bind();
             const std::string url = "http://" + a->o.host + ":" + std::to_string(port) + "/";
-            std::signal(SIGINT, studio_on_signal);
-            std::signal(SIGTERM, studio_on_signal);
+            install_stop_handlers();
             std::thread watcher([&] {
-              while (!g_stop) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+              while (!stop_requested()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
               server.stop();
             });
             if (!g.quiet) std::fprintf(stderr, "reefgen studio: %s (Ctrl-C to stop; exports go to %s)\n", url.c_str(),
@@ -68,7 +61,7 @@ Command add_studio_command(CLI::App& app, const GlobalOptions& g) {
             std::printf("%s\n", url.c_str());
             std::fflush(stdout);
             server.serve();
-            g_stop = true;
+            stop_requested() = true;
             watcher.join();
             if (!g.quiet) std::fprintf(stderr, "reefgen studio: stopped\n");
             return 0;

@@ -1,6 +1,5 @@
 // reefgen train: pix2pix on a dataset folder (paper §6, docs/TRAINING.md).
 // Thin: flags -> TrainParams, signals -> a stop flag, progress -> stderr.
-#include <csignal>
 #include <cstdio>
 #include <optional>
 
@@ -9,11 +8,6 @@
 #include "reefgen/train/trainer.hpp"
 
 namespace reefgen {
-
-namespace {
-std::atomic<bool> g_stop{false};
-extern "C" void on_signal(int) { g_stop = true; }
-}  // namespace
 
 Command add_train_command(CLI::App& app, const GlobalOptions& g) {
   auto* sub = app.add_subcommand(
@@ -65,14 +59,13 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
             if (a->epochs_decay) j["epochs_decay"] = *a->epochs_decay;
             const train::TrainParams params = train::train_params_from_json(j, origin);
 
-            std::signal(SIGINT, on_signal);
-            std::signal(SIGTERM, on_signal);
+            install_stop_handlers();
             train::RunOptions run;
             run.data = a->data;
             run.out = a->out;
             run.resume = a->resume;
             run.max_steps = a->max_steps;
-            run.stop = &g_stop;
+            run.stop = &stop_requested();
             std::unique_ptr<Progress> progress;
             const bool tty = !g.quiet && ::isatty(2);
             run.on_step = [&](const train::StepReport& r) {

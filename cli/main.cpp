@@ -1,6 +1,8 @@
 // reefgen: coral-reef island terrains from curves or painted sketches.
 // Thin main: parse, dispatch, turn every exception into one line + exit 1.
 #include <algorithm>
+#include <atomic>
+#include <csignal>
 #include <cstdlib>
 #include <cstdio>
 #include <string>
@@ -9,6 +11,18 @@
 
 #include "app.hpp"
 #include "reefgen/version.hpp"
+
+namespace reefgen {
+namespace {
+std::atomic<bool> g_stop{false};
+extern "C" void on_stop_signal(int) { g_stop = true; }
+}  // namespace
+std::atomic<bool>& stop_requested() { return g_stop; }
+void install_stop_handlers() {
+  std::signal(SIGINT, on_stop_signal);
+  std::signal(SIGTERM, on_stop_signal);
+}
+}  // namespace reefgen
 
 int main(int argc, char** argv) {
   CLI::App app{"reefgen " + std::string(reefgen::kVersion) +
