@@ -41,10 +41,13 @@ std::function<int()> add_bench_model_commands(CLI::App* bench) {
     s->add_option("--upsample", a->upsample, "G's decoder: transpose (pix2pix), nearest or bilinear")->capture_default_str();
     s->add_option("--norm", a->norm, "batch (pix2pix) or instance")->capture_default_str();
   }
-  in->add_option("--precision", a->precision, "fp32 or bf16 (inference only)")->capture_default_str();
-  in->add_option("--engine", a->engine, "onednn (reefgen's engine, what infer runs) or torch (LibTorch's forward)")
-      ->check(CLI::IsMember({"onednn", "torch"}))
-      ->capture_default_str();
+  for (auto* s : {tr, in}) {
+    s->add_option("--precision", a->precision, "fp32 or bf16")->capture_default_str();
+    s->add_option("--engine", a->engine,
+                  "onednn (reefgen's engines: what infer and train run) or torch (LibTorch's own kernels)")
+        ->check(CLI::IsMember({"onednn", "torch"}))
+        ->capture_default_str();
+  }
   return [a, tr, in]() -> int {
     if (a->reps < 1 || a->threads < 1 || a->batch < 1) throw Error("--reps, --threads and --batch must be ≥ 1");
     if (a->size < 32 || (a->size & (a->size - 1))) throw Error("--size must be a power of two ≥ 32");
@@ -62,6 +65,11 @@ std::function<int()> add_bench_model_commands(CLI::App* bench) {
     }
     if (a->precision != "fp32" && a->precision != "bf16") throw Error("--precision: use fp32 or bf16");
     o.d.ndf = a->ngf;
+    if (tr->parsed()) {
+      if (a->precision == "bf16" && a->engine == "torch") throw Error("--precision bf16 needs --engine onednn");
+      o.conv.engine = a->engine == "torch" ? model::ConvEngine::Torch : model::ConvEngine::OneDnn;
+      o.conv.precision = a->precision == "bf16" ? model::ConvPrecision::Bf16 : model::ConvPrecision::Fp32;
+    }
     train::Pix2Pix p(o);
     const auto x = torch::rand({1, 3, a->size, a->size}) * 2 - 1;
     const auto y = torch::rand({1, 1, a->size, a->size}) * 2 - 1;
@@ -69,9 +77,11 @@ std::function<int()> add_bench_model_commands(CLI::App* bench) {
     if (tr->parsed()) {
       p.step(x, y);  // warm-up: allocations, oneDNN primitive creation
       for (int r = 0; r < a->reps; ++r) t.push_back(seconds_of([&] { p.step(x, y); }));
-      std::printf("{\"bench\": \"train\", \"impl\": \"reefgen\", \"ngf\": %d, \"size\": %d, \"threads\": %d, "
+      std::printf("{\"bench\": \"train\", \"impl\": \"reefgen\", \"engine\": \"%s\", \"precision\": \"%s\", "
+                  "\"upsample\": \"%s\", \"norm\": \"%s\", \"ngf\": %d, \"size\": %d, \"threads\": %d, "
                   "\"reps\": %d, \"s_per_iter\": %.4f}\n",
-                  a->ngf, a->size, a->threads, a->reps, median(t));
+                  a->engine.c_str(), a->precision.c_str(), a->upsample.c_str(), a->norm.c_str(), a->ngf, a->size,
+                  a->threads, a->reps, median(t));
       return 0;
     }
     (void)in;

@@ -25,6 +25,7 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
     std::optional<uint64_t> seed;
     std::optional<int> threads, ngf, ndf, depth;
     std::optional<double> epochs, epochs_decay;
+    std::optional<std::string> engine, precision;
   };
   auto a = std::make_shared<Args>();
   sub->add_option("--config", a->config, "Training config JSON (configs/train/*.json); default: built-in paper settings");
@@ -39,6 +40,11 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--depth", a->depth, "Overrides G's down-samplings (side must be a multiple of 2^depth)");
   sub->add_option("--epochs", a->epochs, "Overrides epochs at constant lr");
   sub->add_option("--epochs-decay", a->epochs_decay, "Overrides epochs of linear lr decay");
+  sub->add_option("--engine", a->engine, "Convolutions: onednn (default, faster) or torch (LibTorch's own)")
+      ->check(CLI::IsMember({"onednn", "torch"}));
+  sub->add_option("--precision", a->precision,
+                  "Convolutions: fp32 (default), bf16 (fp32 master weights; fast with avx512_bf16/AMX) or auto")
+      ->check(CLI::IsMember({"fp32", "bf16", "auto"}));
   return {sub, [a, &g]() -> int {
             nlohmann::json j = nlohmann::json::object();
             std::string origin = "built-in training defaults";
@@ -57,6 +63,8 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
             if (a->depth) j["depth"] = *a->depth;
             if (a->epochs) j["epochs"] = *a->epochs;
             if (a->epochs_decay) j["epochs_decay"] = *a->epochs_decay;
+            if (a->engine) j["engine"] = *a->engine;
+            if (a->precision) j["precision"] = *a->precision;
             const train::TrainParams params = train::train_params_from_json(j, origin);
 
             install_stop_handlers();

@@ -187,20 +187,26 @@ TEST(Reference, TwoTrainingStepsMatchPython) {
     GTEST_SKIP() << "no Python reference (python3-torch absent): training step not checked";
   }
   const auto ref = test::load_reference(reference_dir());
-  train::Pix2Pix p(options_of(ref));
-  test::copy_weights(*p.G(), ref, "G.");
-  test::copy_weights(*p.D(), ref, "D.");
-  p.G()->set_dropout_enabled(false);
-  const auto& losses = ref.meta.at("losses");
-  for (int s = 0; s < 2; ++s) {
-    const train::Losses l = p.step(ref.at("x"), ref.at("y"));
-    const double got[4] = {l.g_gan, l.g_l1, l.d_real, l.d_fake};
-    for (int k = 0; k < 4; ++k)
-      EXPECT_NEAR(got[k], losses[s][k].get<double>(), 1e-4 * std::max(1.0, std::abs(got[k])))
-          << "step " << s << " loss " << ref.meta.at("loss_names")[k];
+  // LibTorch's convolutions and reefgen's oneDNN ones (what `reefgen train` runs).
+  for (const auto engine : {model::ConvEngine::Torch, model::ConvEngine::OneDnn}) {
+    const std::string name = engine == model::ConvEngine::Torch ? "torch engine" : "onednn engine";
+    train::Pix2PixOptions o = options_of(ref);
+    o.conv.engine = engine;
+    train::Pix2Pix p(o);
+    test::copy_weights(*p.G(), ref, "G.");
+    test::copy_weights(*p.D(), ref, "D.");
+    p.G()->set_dropout_enabled(false);
+    const auto& losses = ref.meta.at("losses");
+    for (int s = 0; s < 2; ++s) {
+      const train::Losses l = p.step(ref.at("x"), ref.at("y"));
+      const double got[4] = {l.g_gan, l.g_l1, l.d_real, l.d_fake};
+      for (int k = 0; k < 4; ++k)
+        EXPECT_NEAR(got[k], losses[s][k].get<double>(), 1e-4 * std::max(1.0, std::abs(got[k])))
+            << name << ", step " << s << " loss " << ref.meta.at("loss_names")[k];
+    }
+    // The weights after two Adam steps: G's eval output.
+    torch::NoGradGuard no_grad;
+    p.G()->eval();
+    EXPECT_LT(max_abs_diff(p.G()->forward(ref.at("x")), ref.at("out.G.after_steps")), 1e-4) << name;
   }
-  // The weights after two Adam steps: G's eval output.
-  torch::NoGradGuard no_grad;
-  p.G()->eval();
-  EXPECT_LT(max_abs_diff(p.G()->forward(ref.at("x")), ref.at("out.G.after_steps")), 1e-4);
 }

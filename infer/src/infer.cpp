@@ -1,6 +1,5 @@
 #include "reefgen/infer/infer.hpp"
 
-#include <cpuid.h>
 
 #include <stdexcept>
 
@@ -19,20 +18,6 @@ Precision precision_from_string(const std::string& s) {
 
 const char* to_string(Precision p) {
   return p == Precision::Auto ? "auto" : p == Precision::Fp32 ? "fp32" : "bf16";
-}
-
-bool cpu_has_native_bf16() {
-  unsigned a = 0, b = 0, c = 0, d = 0;
-  if (!__get_cpuid_count(7, 0, &a, &b, &c, &d)) return false;
-  const bool amx_bf16 = (d >> 22) & 1u;
-  unsigned a1 = 0, b1 = 0, c1 = 0, d1 = 0;
-  const bool avx512_bf16 = a >= 1 && __get_cpuid_count(7, 1, &a1, &b1, &c1, &d1) && ((a1 >> 5) & 1u);
-  return amx_bf16 || avx512_bf16;
-}
-
-bool cpu_has_amx_bf16() {
-  unsigned a = 0, b = 0, c = 0, d = 0;
-  return __get_cpuid_count(7, 0, &a, &b, &c, &d) && ((d >> 22) & 1u);
 }
 
 Precision resolve(Precision p) {

@@ -57,6 +57,21 @@ struct NormLayerImpl : nn::Module {
 };
 TORCH_MODULE(NormLayer);
 
+bool on_onednn(const ConvOptions& o, const torch::Tensor& x, const torch::Tensor& w) {
+  return o.engine == ConvEngine::OneDnn && x.scalar_type() == torch::kFloat32 && w.scalar_type() == torch::kFloat32;
+}
+
+// The module's own forward, or the same convolution on oneDNN.
+torch::Tensor run(nn::Conv2dImpl& c, const torch::Tensor& x, const ConvOptions& o) {
+  if (!on_onednn(o, x, c.weight)) return c.forward(x);
+  const auto& pad = c10::get<torch::ExpandingArray<2>>(c.options.padding());
+  return dnnl_conv2d(x, c.weight, c.bias, {c.options.stride()->at(0), pad->at(0), false}, o.precision);
+}
+torch::Tensor run(nn::ConvTranspose2dImpl& c, const torch::Tensor& x, const ConvOptions& o) {
+  if (!on_onednn(o, x, c.weight)) return c.forward(x);
+  return dnnl_conv2d(x, c.weight, c.bias, {c.options.stride()->at(0), c10::get<torch::ExpandingArray<2>>(c.options.padding())->at(0), true}, o.precision);
+}
+
 nn::Conv2dOptions conv4(int in, int out, int stride, bool bias) {
   return nn::Conv2dOptions(in, out, 4).stride(stride).padding(1).bias(bias);
 }
@@ -95,17 +110,17 @@ struct UNetLevelImpl : nn::Module {
     dropout = (k >= 4 && k <= o.depth - 2) ? o.dropout : 0.0;
   }
   // x {N,C,s,s} -> {N,out,2s,2s}
-  torch::Tensor up(torch::Tensor x) {
+  torch::Tensor up(torch::Tensor x, const ConvOptions& conv) {
     // Mixed precision: a layer kept in float32 inside a bfloat16 net (the
     // output layer, see infer) takes its input in its own type.
     const auto& w = upsample == Upsample::Transpose ? up_conv->weight : up_resize_conv->weight;
     if (x.scalar_type() != w.scalar_type()) x = x.to(w.scalar_type());
-    if (upsample == Upsample::Transpose) return up_conv->forward(x);
+    if (upsample == Upsample::Transpose) return run(*up_conv, x, conv);
     namespace F = torch::nn::functional;
     auto o = F::InterpolateFuncOptions().scale_factor(std::vector<double>{2.0, 2.0});
     if (upsample == Upsample::Nearest) o.mode(torch::kNearest);
     else o.mode(torch::kBilinear).align_corners(false);
-    return up_resize_conv->forward(F::interpolate(x, o));
+    return run(*up_resize_conv, F::interpolate(x, o), conv);
   }
   bool outermost, innermost;
   double dropout;
@@ -138,24 +153,24 @@ torch::Tensor UNetGeneratorImpl::forward(torch::Tensor x) {
   // concatenates, so the skips carry leaky(d), not d: kept, to be the same net.
   std::vector<torch::Tensor> skips;
   skips.reserve(depth);
-  torch::Tensor d = level(0)->down_conv->forward(x);  // {N,ngf,S/2,S/2}
+  torch::Tensor d = run(*level(0)->down_conv, x, conv_);  // {N,ngf,S/2,S/2}
   for (int k = 1; k < depth; ++k) {
     // In place, as the original: no extra activation buffer (d is not needed:
     // neither convolution nor BatchNorm backward uses its own output).
     torch::Tensor a = torch::leaky_relu_(d, 0.2);
     skips.push_back(a);
-    d = level(k)->down_conv->forward(a);  // {N,c_k,S/2^(k+1),..}
+    d = run(*level(k)->down_conv, a, conv_);  // {N,c_k,S/2^(k+1),..}
     if (level(k)->down_norm) d = level(k)->down_norm->forward(d);
   }
   // Up path, innermost first: u has c_k or 2c_k channels at S/2^(k+1).
   torch::Tensor u = d;  // {N,8ngf,S/2^depth,..}
   for (int k = depth - 1; k >= 1; --k) {
     auto L = level(k);
-    u = L->up_norm->forward(L->up(torch::relu_(u)));  // u is a fresh cat/conv output
+    u = L->up_norm->forward(L->up(torch::relu_(u), conv_));  // u is a fresh cat/conv output
     if (L->dropout > 0) u = torch::dropout(u, L->dropout, is_training() && dropout_enabled_);
     u = torch::cat({skips[k - 1], u}, 1);  // skip first, as in torch.cat([x, model(x)], 1)
   }
-  return torch::tanh(level(0)->up(torch::relu_(u)));  // {N,out,S,S}
+  return torch::tanh(level(0)->up(torch::relu_(u), conv_));  // {N,out,S,S}
 }
 
 PatchDiscriminatorImpl::PatchDiscriminatorImpl(const PatchOptions& o) : options_(o) {
@@ -182,7 +197,12 @@ torch::Tensor PatchDiscriminatorImpl::forward(torch::Tensor x) {
   if (x.dim() != 4 || x.size(1) != options_.in_channels)
     throw std::invalid_argument("PatchDiscriminator: input must be {N," + std::to_string(options_.in_channels) +
                                 ",H,W}, got " + c10::str(x.sizes()));
-  return net_->forward(x);
+  if (conv_.engine == ConvEngine::Torch) return net_->forward(x);
+  for (auto& m : *net_) {
+    if (auto* c = m.ptr()->as<nn::Conv2d>()) x = run(*c, x, conv_);
+    else x = m.forward(x);
+  }
+  return x;
 }
 
 void init_pix2pix(torch::nn::Module& net, double gain) {

@@ -70,6 +70,9 @@ torch::Tensor FusedAdam::step(LossClosure closure) {
         adam_update(w + begin, g + begin, m + begin, v + begin, end - begin, b1, one_b1, b2, one_b2, sqrt_bc2, eps,
                     neg_step);
       });
+      // Written through raw pointers: tell whoever caches a copy of p (the
+      // oneDNN convolutions keep packed weights) that it changed.
+      p.unsafeGetTensorImpl()->bump_version();
     }
   }
   return loss;
@@ -87,5 +90,9 @@ namespace reefgen::train {
 void keep_freed_memory() {
   mallopt(M_MMAP_THRESHOLD, 32 << 20);
   mallopt(M_TRIM_THRESHOLD, 1 << 30);
+  // 32 MiB is glibc's largest mmap threshold, and ngf-64 nets have 32 MiB
+  // weights and gradients: without this each step would map, fault in and
+  // unmap them afresh.
+  mallopt(M_MMAP_MAX, 0);
 }
 }  // namespace reefgen::train

@@ -17,7 +17,7 @@ using nlohmann::json;
   X(seed) X(ngf) X(ndf) X(depth) X(d_layers) X(norm) X(upsample) X(dropout) X(lr) X(beta1) X(beta2) X(lambda_l1) \
   X(batch_size) X(epochs) X(epochs_decay) X(jitter) X(jitter_scale) X(flip) X(log_every) X(val_every) \
   X(val_samples) X(val_max_pairs) X(checkpoint_every) X(loader_threads) X(prefetch) X(threads)         \
-  X(deterministic)
+  X(deterministic) X(engine) X(precision)
 
 void to_json(json& j, const TrainParams& p) {
   j = json::object();
@@ -81,6 +81,17 @@ void validate(const TrainParams& p, const std::string& origin) {
   range("loader_threads", p.loader_threads, 1, 64);
   range("prefetch", p.prefetch, 1, 1024);
   range("threads", p.threads, 0, 1024);
+  if (p.engine != "onednn" && p.engine != "torch")
+    throw Error(origin + ": engine = '" + p.engine + "'; use onednn or torch");
+  if (p.precision != "fp32" && p.precision != "bf16" && p.precision != "auto")
+    throw Error(origin + ": precision = '" + p.precision + "'; use fp32, bf16 or auto");
+  if (p.precision == "bf16" && p.engine != "onednn")
+    throw Error(origin + ": precision = 'bf16' needs engine = 'onednn' (LibTorch's bf16 convolutions are no faster here)");
+}
+
+std::string resolved_precision(const TrainParams& p) {
+  if (p.precision != "auto") return p.precision;
+  return p.engine == "onednn" && model::cpu_has_native_bf16() ? "bf16" : "fp32";
 }
 
 Pix2PixOptions pix2pix_options(const TrainParams& p) {
@@ -97,6 +108,8 @@ Pix2PixOptions pix2pix_options(const TrainParams& p) {
   o.beta1 = p.beta1;
   o.beta2 = p.beta2;
   o.lambda_l1 = p.lambda_l1;
+  o.conv.engine = p.engine == "torch" ? model::ConvEngine::Torch : model::ConvEngine::OneDnn;
+  o.conv.precision = resolved_precision(p) == "bf16" ? model::ConvPrecision::Bf16 : model::ConvPrecision::Fp32;
   return o;
 }
 

@@ -20,6 +20,8 @@ Pix2Pix::Pix2Pix(const Pix2PixOptions& o) : options_(o), g_(o.g), d_(o.d), lr_(o
   if (!(o.lr > 0 && o.lr <= 1)) throw std::invalid_argument("Pix2PixOptions: lr must be in (0, 1]");
   if (!(o.beta1 >= 0 && o.beta1 < 1 && o.beta2 >= 0 && o.beta2 < 1))
     throw std::invalid_argument("Pix2PixOptions: betas must be in [0, 1)");
+  g_->set_conv(o.conv);
+  d_->set_conv(o.conv);
   model::init_pix2pix(*g_);
   model::init_pix2pix(*d_);
   opt_g_ = std::make_unique<FusedAdam>(g_->parameters(), adam(o));

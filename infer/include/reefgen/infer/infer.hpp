@@ -7,6 +7,7 @@
 #include <opencv2/core.hpp>
 
 #include "reefgen/labels.hpp"
+#include "reefgen/model/dnnl_conv.hpp"
 #include "reefgen/model/generator_file.hpp"
 
 namespace reefgen::infer {
@@ -19,8 +20,8 @@ namespace reefgen::infer {
 enum class Precision { Auto, Fp32, Bf16 };
 Precision precision_from_string(const std::string& s);  // "auto" | "fp32" | "bf16"
 const char* to_string(Precision p);
-bool cpu_has_native_bf16();  // avx512_bf16 or amx_bf16, read with cpuid
-bool cpu_has_amx_bf16();
+using model::cpu_has_native_bf16;  // avx512_bf16 or amx_bf16, read with cpuid (model/dnnl_conv.hpp)
+using model::cpu_has_amx_bf16;
 Precision resolve(Precision p);  // auto -> fp32 or bf16 on this CPU
 
 // What runs the generator. onednn: reefgen's engine (model/fast_unet.hpp),

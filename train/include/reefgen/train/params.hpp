@@ -42,6 +42,8 @@ struct TrainParams {
   int prefetch = 8;             // batches loaded ahead, [1, 1024]
   int threads = 0;              // LibTorch threads; 0 = all cores
   bool deterministic = true;    // LibTorch deterministic algorithms (resume = uninterrupted, bit for bit)
+  std::string engine = "onednn";  // convolutions: onednn (model/dnnl_conv.hpp, faster) | torch (LibTorch's)
+  std::string precision = "fp32"; // convolutions: fp32 | bf16 (onednn only; fp32 master weights) | auto (bf16 where the CPU has avx512_bf16/AMX)
 };
 
 void to_json(nlohmann::json& j, const TrainParams& p);
@@ -50,6 +52,8 @@ TrainParams train_params_from_json(const nlohmann::json& j, const std::string& o
 void validate(const TrainParams& p, const std::string& origin);
 
 Pix2PixOptions pix2pix_options(const TrainParams& p);
+// "auto" decided on this CPU: "bf16" with avx512_bf16 or AMX-bf16 (and the oneDNN engine), else "fp32".
+std::string resolved_precision(const TrainParams& p);
 
 // Learning rate before step s (0-based) of `total` = steps_constant + steps_decay:
 // lr for the first steps_constant, then linear decay reaching 0 after the last step.

@@ -16,6 +16,7 @@ struct Pix2PixOptions {
   double beta1 = 0.5;         // Adam β1; [0, 1)
   double beta2 = 0.999;       // Adam β2; [0, 1)
   double lambda_l1 = 100.0;   // weight of the L1 term in G's loss; [0, 1e4]
+  model::ConvOptions conv;    // who runs G's and D's convolutions (LibTorch by default)
 };
 
 struct Losses {
