@@ -45,6 +45,8 @@ Grads run(const Case& c, bool dnnl, ConvPrecision prec = ConvPrecision::Fp32) {
 }  // namespace
 
 TEST(DnnlConv, MatchesLibTorchForwardAndGradientsWithin1e4) {
+  // Sides ≤ 8 positions per axis run on the plain (GEMM) layout, larger ones
+  // on oneDNN's packed layouts: both are covered.
   const std::vector<Case> cases = {
       {1, 3, 8, 32, 4, 2, 1, false, true},    // G's first layer
       {2, 16, 32, 16, 4, 2, 1, false, false}, // encoder, batch 2, BatchNorm nets (no bias)
@@ -73,7 +75,9 @@ TEST(DnnlConv, MatchesLibTorchForwardAndGradientsWithin1e4) {
 
 TEST(DnnlConv, Bf16StaysWithinBfloat16Rounding) {
   if (!cpu_has_native_bf16()) GTEST_SKIP() << "no avx512_bf16/AMX: bf16 training is not offered on this CPU";
-  const Case c{1, 64, 32, 16, 4, 2, 1, true, true};
+  // Packed (16x16 input) and plain (4x4 input: ≤ 64 positions) layers.
+  for (const Case& c : {Case{1, 64, 32, 16, 4, 2, 1, true, true}, Case{1, 64, 32, 4, 4, 2, 1, true, true},
+                        Case{1, 64, 32, 16, 4, 2, 1, false, true}}) {
   const Grads a = run(c, false), b = run(c, true, ConvPrecision::Bf16);
   // bf16 keeps 8 bits of mantissa (relative rounding 2^-9 per operand); sums
   // of 256 terms in float32 stay within ~1 %.
@@ -81,12 +85,13 @@ TEST(DnnlConv, Bf16StaysWithinBfloat16Rounding) {
   EXPECT_LT(rel_err(b.dx, a.dx), 2e-2);
   EXPECT_LT(rel_err(b.dw, a.dw), 2e-2);
   EXPECT_GT(rel_err(b.y, a.y), 0.0) << "bf16 changed nothing: the float32 path ran";
+  }
 }
 
 TEST(DnnlConv, PackedWeightsFollowInPlaceUpdates) {
   torch::manual_seed(3);
   auto w = torch::randn({32, 32, 4, 4}).requires_grad_();
-  const auto x = torch::randn({1, 32, 8, 8});
+  const auto x = torch::randn({1, 32, 32, 32})  // 16x16 outputs: blocked, packed weights;
   size_t held = 0;
   {  // the outputs' autograd graphs hold w: let them go before w is freed
     const auto y1 = dnnl_conv2d(x, w, {}, {2, 1, false});

@@ -44,8 +44,8 @@ dnnl::stream& cpu_stream() {
 // One layer shape: the three primitives and the user-side (LibTorch) layouts.
 struct Key {
   int64_t n, cin, h, w, cout, k, stride, pad;
-  bool transposed, bf16, bias;
-  auto tie() const { return std::tie(n, cin, h, w, cout, k, stride, pad, transposed, bf16, bias); }
+  bool transposed, bf16, bias, plain;
+  auto tie() const { return std::tie(n, cin, h, w, cout, k, stride, pad, transposed, bf16, bias, plain); }
   bool operator<(const Key& o) const { return tie() < o.tie(); }
 };
 
@@ -72,8 +72,11 @@ void build(Prims& p, dnnl::algorithm alg, const Key& k) {
   const dt c = k.bf16 ? dt::bf16 : dt::f32;
   const dims src_d{k.n, k.cin, k.h, k.w}, dst_d{k.n, k.cout, p.oh, p.ow}, w_d{k.cout, k.cin, k.k, k.k}, b_d{k.cout};
   const dims st{k.stride, k.stride}, pad{k.pad, k.pad};
-  const dnnl::memory::desc src_any(src_d, c, tag::any), w_any(w_d, c, tag::any), dst_any(dst_d, dt::f32, tag::any),
-      diff_dst_any(dst_d, c, tag::any), diff_src_any(src_d, dt::f32, tag::any), diff_w_any(w_d, dt::f32, tag::any),
+  // Plain layers take LibTorch's weight layout as it is (oneDNN then runs a
+  // GEMM): nothing to pack or unpack.
+  const tag w_tag = k.plain ? (k.transposed ? tag::iohw : tag::oihw) : tag::any;
+  const dnnl::memory::desc src_any(src_d, c, tag::any), w_any(w_d, c, w_tag), dst_any(dst_d, dt::f32, tag::any),
+      diff_dst_any(dst_d, c, tag::any), diff_src_any(src_d, dt::f32, tag::any), diff_w_any(w_d, dt::f32, w_tag),
       b_any(b_d, dt::f32, tag::any);
   const auto fwd_desc = k.bias ? FwdDesc(dnnl::prop_kind::forward_training, alg, src_any, w_any, b_any, dst_any, st, pad, pad)
                                : FwdDesc(dnnl::prop_kind::forward_training, alg, src_any, w_any, dst_any, st, pad, pad);
@@ -163,21 +166,25 @@ struct WeightEntry {
   uint32_t version = 0;
   Buf buf;
 };
-std::map<std::pair<const void*, std::string>, WeightEntry>& weight_cache() {
-  static std::map<std::pair<const void*, std::string>, WeightEntry> c;
+// Per parameter, one entry per packed layout (a layer's forward and backward
+// layouts differ; equal layouts share one copy).
+std::multimap<const void*, WeightEntry>& weight_cache() {
+  static std::multimap<const void*, WeightEntry> c;
   return c;
 }
 
-dnnl::memory packed_weights(const torch::Tensor& w, const Prims& p, const dnnl::memory::desc& want, const char* role) {
+dnnl::memory packed_weights(const torch::Tensor& w, const Prims& p, const dnnl::memory::desc& want) {
   const dnnl::memory user = wrap(p.w_user, w);
   if (want == p.w_user) return user;
   std::lock_guard<std::mutex> lock(g_mutex);
   auto& cache = weight_cache();
   // Copies of freed parameters go first (their address may be reused).
   for (auto it = cache.begin(); it != cache.end();) it = it->second.expired() ? cache.erase(it) : std::next(it);
-  const std::string desc_key = std::string(role) + std::to_string(want.get_size()) + "/" +
-                               std::to_string(int(want.data_type()));
-  WeightEntry& e = weight_cache()[{w.unsafeGetTensorImpl(), desc_key}];
+  WeightEntry* found = nullptr;
+  auto [lo, hi] = cache.equal_range(w.unsafeGetTensorImpl());
+  for (auto it = lo; it != hi && !found; ++it)
+    if (it->second.buf.t.defined() && it->second.buf.m.get_desc() == want) found = &it->second;
+  WeightEntry& e = found ? *found : cache.emplace(w.unsafeGetTensorImpl(), WeightEntry{})->second;
   const uint32_t version = w._version();
   if (!e.expired() && e.data == w.data_ptr() && e.version == version && e.buf.m.get_desc() == want)
     return e.buf.m;
@@ -186,15 +193,27 @@ dnnl::memory packed_weights(const torch::Tensor& w, const Prims& p, const dnnl::
   e.version = version;
   // The same layout as before (an optimiser step): repack in place, no fresh
   // pages to fault in.
-  if (!e.buf.t.defined() || e.buf.m.get_desc() != want) e.buf = alloc(want);
+  if (!e.buf.t.defined()) e.buf = alloc(want);
   reorder_into(user, e.buf.m);
   return e.buf.m;
 }
 
+// Where a layer has few positions per image (pix2pix's 512-channel levels
+// near the bottleneck: ≤ 8×8), its cost is moving the weights, not
+// arithmetic: oneDNN's blocked kernels would repack 16–32 MiB of weights
+// three times per step for a few MFLOP, so those layers keep the plain layout
+// (measured, docs/BENCHMARKS.md: 1.3–3× faster there, slower above 8×8).
+constexpr int64_t kPlainMaxPositions = 64;
+
 Key key_of(const torch::Tensor& x, const torch::Tensor& w, bool bias, int64_t stride, int64_t pad, bool transposed,
            bool bf16) {
-  const int64_t cout = transposed ? w.size(1) : w.size(0);
-  return {x.size(0), x.size(1), x.size(2), x.size(3), cout, w.size(2), stride, pad, transposed, bf16, bias};
+  const int64_t cout = transposed ? w.size(1) : w.size(0), k = w.size(2);
+  Key key{x.size(0), x.size(1), x.size(2), x.size(3), cout, k, stride, pad, transposed, bf16, bias, false};
+  // Positions where the weights are applied: input pixels of a transposed
+  // convolution, output pixels of a convolution.
+  const int64_t positions = transposed ? key.h * key.w : out_side(key.h, key) * out_side(key.w, key);
+  key.plain = positions <= kPlainMaxPositions && cout > 1;
+  return key;
 }
 
 struct DnnlConvFn : torch::autograd::Function<DnnlConvFn> {
@@ -205,7 +224,7 @@ struct DnnlConvFn : torch::autograd::Function<DnnlConvFn> {
     const Key k = key_of(x, w, bias, stride, pad, transposed, bf16);
     const Prims& p = prims(k);
     const Buf src = packed(wrap(p.src_user, x), x, p.src);
-    const dnnl::memory wm = packed_weights(w, p, p.w_fwd, "fwd");
+    const dnnl::memory wm = packed_weights(w, p, p.w_fwd);
     torch::Tensor y = torch::empty({k.n, k.cout, p.oh, p.ow});  // {N,Cout,OH,OW}
     const dnnl::memory y_user = wrap(p.dst_user, y);
     const Buf dst = p.dst == p.dst_user ? Buf{y, y_user} : alloc(p.dst);
@@ -242,7 +261,7 @@ struct DnnlConvFn : torch::autograd::Function<DnnlConvFn> {
       const dnnl::memory dx_user = wrap(p.src_user, dx);
       const Buf diff_src = p.diff_src == p.src_user ? Buf{dx, dx_user} : alloc(p.diff_src);
       p.bwd_data.execute(cpu_stream(), {{DNNL_ARG_DIFF_DST, gy_d.m},
-                                        {DNNL_ARG_WEIGHTS, packed_weights(w, p, p.w_bwd, "bwd")},
+                                        {DNNL_ARG_WEIGHTS, packed_weights(w, p, p.w_bwd)},
                                         {DNNL_ARG_DIFF_SRC, diff_src.m}});
       if (diff_src.t.data_ptr() != dx.data_ptr()) reorder_into(diff_src.m, dx_user);
     }
