@@ -91,7 +91,7 @@ TEST(DnnlConv, Bf16StaysWithinBfloat16Rounding) {
 TEST(DnnlConv, PackedWeightsFollowInPlaceUpdates) {
   torch::manual_seed(3);
   auto w = torch::randn({32, 32, 4, 4}).requires_grad_();
-  const auto x = torch::randn({1, 32, 32, 32})  // 16x16 outputs: blocked, packed weights;
+  const auto x = torch::randn({1, 32, 32, 32});  // 16x16 outputs: blocked, packed weights
   size_t held = 0;
   {  // the outputs' autograd graphs hold w: let them go before w is freed
     const auto y1 = dnnl_conv2d(x, w, {}, {2, 1, false});
