@@ -188,8 +188,10 @@ TEST(Reference, TwoTrainingStepsMatchPython) {
   }
   const auto ref = test::load_reference(reference_dir());
   // LibTorch's convolutions and reefgen's oneDNN ones (what `reefgen train` runs).
+  std::vector<torch::Tensor> torch_grads;  // G's gradients of the first step, LibTorch engine
   for (const auto engine : {model::ConvEngine::Torch, model::ConvEngine::OneDnn}) {
-    const std::string name = engine == model::ConvEngine::Torch ? "torch engine" : "onednn engine";
+    const bool onednn = engine == model::ConvEngine::OneDnn;
+    const std::string name = onednn ? "onednn engine" : "torch engine";
     train::Pix2PixOptions o = options_of(ref);
     o.conv.engine = engine;
     train::Pix2Pix p(o);
@@ -203,10 +205,28 @@ TEST(Reference, TwoTrainingStepsMatchPython) {
       for (int k = 0; k < 4; ++k)
         EXPECT_NEAR(got[k], losses[s][k].get<double>(), 1e-4 * std::max(1.0, std::abs(got[k])))
             << name << ", step " << s << " loss " << ref.meta.at("loss_names")[k];
+      if (s > 0) continue;
+      // The first step's gradients of every G parameter: the engines agree.
+      size_t i = 0;
+      for (const auto& w : p.G()->parameters()) {
+        if (!onednn) {
+          torch_grads.push_back(w.grad().clone());
+          continue;
+        }
+        const torch::Tensor& want = torch_grads.at(i++);
+        EXPECT_LT(max_abs_diff(w.grad(), want) / std::max(1.0, want.abs().max().item<double>()), 1e-4)
+            << name << ": gradient of G parameter " << i - 1;
+      }
     }
-    // The weights after two Adam steps: G's eval output.
+    // The weights after two Adam steps: G's eval output. Adam's first steps
+    // divide each gradient by its own magnitude, so the components that are
+    // rounding noise (BatchNorm over 2x2 maps cancels most of a gradient)
+    // move weights by up to lr whatever their size: scaling the input by
+    // (1 + 1e-7), one float rounding, moves LibTorch's own result here by
+    // 2.1e-4 (measured). 1e-4 holds for LibTorch's kernels, whose rounding
+    // follows the reference's; any other correct kernels are held to 3e-4.
     torch::NoGradGuard no_grad;
     p.G()->eval();
-    EXPECT_LT(max_abs_diff(p.G()->forward(ref.at("x")), ref.at("out.G.after_steps")), 1e-4) << name;
+    EXPECT_LT(max_abs_diff(p.G()->forward(ref.at("x")), ref.at("out.G.after_steps")), onednn ? 3e-4 : 1e-4) << name;
   }
 }

@@ -129,20 +129,31 @@ TEST(TrainParams, LearningRateConstantThenLinearToZero) {
 }
 
 TEST(Train, LossGoesDownOnAFixedBatch) {
-  torch::manual_seed(5);
-  Pix2PixOptions o;
-  o.g.ngf = 8;
-  o.g.depth = 6;
-  o.d.ndf = 8;
-  o.lr = 1e-3;
-  Pix2Pix p(o);
-  p.G()->set_dropout_enabled(false);
-  const auto label = torch::rand({1, 3, 64, 64}) * 2 - 1;
-  const auto height = torch::tanh(label.sum(1, true));  // a function of the label: learnable
-  const double first = p.step(label, height).g_l1;
-  double last = first;
-  for (int s = 0; s < 150; ++s) last = p.step(label, height).g_l1;
-  EXPECT_LT(last, 0.5 * first) << "G_L1 " << first << " -> " << last;
+  // LibTorch's convolutions, reefgen's oneDNN ones, and those in bf16 (where
+  // the CPU has it): each must learn, and bf16 must keep float32 weights.
+  std::vector<model::ConvOptions> convs = {{model::ConvEngine::Torch, model::ConvPrecision::Fp32},
+                                           {model::ConvEngine::OneDnn, model::ConvPrecision::Fp32}};
+  if (model::cpu_has_native_bf16()) convs.push_back({model::ConvEngine::OneDnn, model::ConvPrecision::Bf16});
+  for (const auto& conv : convs) {
+    torch::manual_seed(5);
+    Pix2PixOptions o;
+    o.g.ngf = 8;
+    o.g.depth = 6;
+    o.d.ndf = 8;
+    o.lr = 1e-3;
+    o.conv = conv;
+    Pix2Pix p(o);
+    p.G()->set_dropout_enabled(false);
+    const auto label = torch::rand({1, 3, 64, 64}) * 2 - 1;
+    const auto height = torch::tanh(label.sum(1, true));  // a function of the label: learnable
+    const double first = p.step(label, height).g_l1;
+    double last = first;
+    for (int s = 0; s < 150; ++s) last = p.step(label, height).g_l1;
+    const std::string what = std::string(conv.engine == model::ConvEngine::Torch ? "torch" : "onednn") +
+                             (conv.precision == model::ConvPrecision::Bf16 ? " bf16" : " fp32");
+    EXPECT_LT(last, 0.5 * first) << what << ": G_L1 " << first << " -> " << last;
+    for (const auto& w : p.G()->parameters()) EXPECT_EQ(w.scalar_type(), torch::kFloat32) << what;
+  }
 }
 
 TEST(Train, ResumeEqualsUninterruptedBitForBit) {
