@@ -113,6 +113,10 @@ TEST(TrainParams, JsonRoundTripAndErrors) {
   expect_error_naming([] { train_params_from_json(json{{"lr", -1.0}}, "cfg.json"); }, "lr");
   expect_error_naming([] { train_params_from_json(json{{"learning_rate", 0.1}}, "cfg.json"); }, "learning_rate");
   expect_error_naming([] { train_params_from_json(json{{"norm", "layer"}}, "cfg.json"); }, "norm");
+  expect_error_naming([] { train_params_from_json(json{{"engine", "cuda"}}, "cfg.json"); }, "engine");
+  expect_error_naming([] { train_params_from_json(json{{"precision", "fp16"}}, "cfg.json"); }, "precision");
+  expect_error_naming([] { train_params_from_json(json{{"engine", "torch"}, {"precision", "bf16"}}, "cfg.json"); },
+                      "needs engine = 'onednn'");
   expect_error_naming([] { train_params_from_json(json{{"depth", 3}}, "cfg.json"); }, "depth");
   expect_error_naming([] { train_params_from_json(json{{"ngf", "many"}}, "cfg.json"); }, "cfg.json");
   expect_error_naming([] { train_params_from_json(json{{"epochs", 0}, {"epochs_decay", 0}}, "cfg.json"); }, "epochs");
@@ -238,6 +242,21 @@ TEST(Train, ResumeEqualsUninterruptedBitForBit) {
   RunOptions again = run_in(data, base / "full");
   again.resume = true;
   expect_error_naming([&] { run_training(changed, again); }, "lr");
+  // Another convolution engine or precision changes the results: refused too.
+  TrainParams torch_engine = params;
+  torch_engine.engine = "torch";
+  expect_error_naming([&] { run_training(torch_engine, again); }, "engine");
+  TrainParams bf16 = params;
+  bf16.precision = "bf16";
+  expect_error_naming([&] { run_training(bf16, again); }, "precision");
+  // "auto" is decided once and recorded as what ran.
+  TrainParams automatic = params;
+  automatic.precision = "auto";
+  RunOptions fresh = run_in(data, base / "auto");
+  fresh.max_steps = 1;
+  run_training(automatic, fresh);
+  EXPECT_EQ(read_json(base / "auto" / "run.json").at("config").at("precision"),
+            model::cpu_has_native_bf16() ? "bf16" : "fp32");
   fs::remove_all(base);
   fs::remove_all(data);
 }

@@ -218,8 +218,12 @@ int64_t load_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& par
   }
 }
 
-RunResult run_training(const TrainParams& params, const RunOptions& run) {
-  validate(params, "training config");
+RunResult run_training(const TrainParams& requested, const RunOptions& run) {
+  validate(requested, "training config");
+  // precision "auto" decided once, here: run.json and the checkpoints record
+  // what ran, so a resume on a CPU that would decide otherwise is refused.
+  TrainParams params = requested;
+  params.precision = resolved_precision(requested);
   const DatasetInfo data = open_dataset(run.data);
   if (data.size_px % (1 << params.depth))
     throw Error(run.data.string() + ": pairs are " + std::to_string(data.size_px) + " px, not a multiple of 2^depth = " +
