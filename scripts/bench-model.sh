@@ -6,6 +6,8 @@
 # Flags for reefgen only (the reference has no such choice) go in RG_FLAGS:
 #   RG_FLAGS="--engine torch" bash scripts/bench-model.sh infer 5
 #   RG_FLAGS="--precision bf16" bash scripts/bench-model.sh infer 5
+#   RG_FLAGS="--precision bf16" bash scripts/bench-model.sh train 5   # bf16 convolutions, fp32 weights
+#   RG_FLAGS="--engine torch" bash scripts/bench-model.sh train 5     # LibTorch's own convolutions
 set -euo pipefail
 cd "$(dirname "$0")/.."
 what=${1:-all}; rounds=${2:-3}; shift $(( $# > 2 ? 2 : $# )) || true
@@ -28,6 +30,10 @@ print(f"{w:5s} {key:16s} reefgen {mc:9.3f}  python-reference {mp:9.3f}  speed-up
 PY
 }
 extra=("$@")
+# Every figure is written down next to the CPU it came from.
+cpu=$(sed -n 's/^model name\s*: //p' /proc/cpuinfo | head -1)
+feats=$(grep -o -w -E 'avx512f|avx512_bf16|amx_bf16' /proc/cpuinfo | sort -u | tr '\n' ' ')
+echo "cpu: ${cpu:-unknown} (${feats:-no AVX-512}), $(nproc) cores, $(date -u +%F)"
 if [ "$what" = train ] || [ "$what" = all ]; then run train s_per_iter 3 "${extra[@]}"; fi
 if [ "$what" = infer ] || [ "$what" = all ]; then
   run infer ms_batchstats 10 "${extra[@]}"
