@@ -116,8 +116,11 @@ TEST(CopyPaste, IoUBoundMergeRulesAndAbyssElsewhere) {
       ASSERT_GE(r.pair.height_m(y, x), top - 1e-4f);  // smooth max ≥ max
       // Overshoot ≤ 1/(2k) = 1 m per merge: the abyss floor rises by up to (n − 1) m.
       ASSERT_LE(r.pair.height_m(y, x), top + 1.0f * (r.placed - 1) + 1e-4f);
-      if (!covered) ASSERT_EQ(r.pair.label(y, x), kAbyss);
-      else if (owner >= 0 && r.pair.label(y, x) != kAbyss) ASSERT_EQ(r.pair.label(y, x), moved[owner].label(y, x));
+      if (!covered) {
+        ASSERT_EQ(r.pair.label(y, x), kAbyss);
+      } else if (owner >= 0 && r.pair.label(y, x) != kAbyss) {
+        ASSERT_EQ(r.pair.label(y, x), moved[owner].label(y, x));
+      }
     }
   // Deterministic in the seed.
   EXPECT_TRUE(equal(copy_paste(isl, 5, 0.10).pair.height_m, r.pair.height_m));
