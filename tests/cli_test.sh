@@ -353,6 +353,8 @@ expect_error "noise.seed = 1e+30 is out of range" generate --spec "$T/huge.json"
 expect_error "noise.octaves = 2.7 must be a whole number" generate --spec "$T/frac.json" -o "$T/e/x"
 expect_error "count = 2.7 must be a whole number" dataset build --config "$T/dsfrac.json" --out "$T/e/d"
 expect_error "batch_size = 2.5 must be a whole number" train --config "$T/trfrac.json" --data "$T/e" --out "$T/e/r"
+expect_error "needs engine = 'onednn'" train --data "$T/e" --out "$T/e/r" --engine torch --precision bf16
+expect_error "not in {fp32,bf16,auto}" train --data "$T/e" --out "$T/e/r" --precision fp16
 echo '{"depth_m": 1e308}' > "$T/m4deep.json"
 expect_error "mapgen4: depth_m must be in (0, 1e4]" terrain mapgen4 --config "$T/m4deep.json" -o "$T/e/x"
 # A 30000² PNG (its header is enough) is refused before anything is decoded.
