@@ -61,15 +61,17 @@ bool on_onednn(const ConvOptions& o, const torch::Tensor& x, const torch::Tensor
   return o.engine == ConvEngine::OneDnn && x.scalar_type() == torch::kFloat32 && w.scalar_type() == torch::kFloat32;
 }
 
-// The module's own forward, or the same convolution on oneDNN.
-torch::Tensor run(nn::Conv2dImpl& c, const torch::Tensor& x, const ConvOptions& o) {
+// The module's own forward, or the same convolution on oneDNN (the networks'
+// convolutions are square, with explicit symmetric padding).
+template <class Conv>
+torch::Tensor run(Conv& c, const torch::Tensor& x, const ConvOptions& o, bool transposed) {
   if (!on_onednn(o, x, c.weight)) return c.forward(x);
-  const auto& pad = c10::get<torch::ExpandingArray<2>>(c.options.padding());
-  return dnnl_conv2d(x, c.weight, c.bias, {c.options.stride()->at(0), pad->at(0), false}, o.precision);
+  const int64_t pad = c10::get<torch::ExpandingArray<2>>(c.options.padding())->at(0);
+  return dnnl_conv2d(x, c.weight, c.bias, {c.options.stride()->at(0), pad, transposed}, o.precision);
 }
+torch::Tensor run(nn::Conv2dImpl& c, const torch::Tensor& x, const ConvOptions& o) { return run(c, x, o, false); }
 torch::Tensor run(nn::ConvTranspose2dImpl& c, const torch::Tensor& x, const ConvOptions& o) {
-  if (!on_onednn(o, x, c.weight)) return c.forward(x);
-  return dnnl_conv2d(x, c.weight, c.bias, {c.options.stride()->at(0), c10::get<torch::ExpandingArray<2>>(c.options.padding())->at(0), true}, o.precision);
+  return run(c, x, o, true);
 }
 
 nn::Conv2dOptions conv4(int in, int out, int stride, bool bias) {
