@@ -9,6 +9,8 @@
 #include <vector>
 #include <exception>
 
+#include <opencv2/core.hpp>
+
 #include "app.hpp"
 #include "reefgen/version.hpp"
 
@@ -48,6 +50,12 @@ int main(int argc, char** argv) {
   app.fallthrough();
   reefgen::GlobalOptions g;
   app.add_flag("-q,--quiet", g.quiet, "No progress or log lines on stderr (anywhere on the line)");
+  // Commands that compute in parallel have their own --threads (it reaches
+  // them from anywhere on the line, see below); the others accept it too, so
+  // one wrapper script can pass it to every command, and cap OpenCV's pool.
+  int threads = 0;
+  app.add_option("--threads", threads, "Worker threads (commands that compute in parallel; accepted by all)")
+      ->check(CLI::Range(1, 256));
   const std::vector<reefgen::Command> commands = {reefgen::add_generate_command(app, g),
                                                   reefgen::add_presets_command(app, g),
                                                   reefgen::add_dataset_command(app, g),
@@ -130,6 +138,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "reefgen: error: %s (see reefgen --help)\n", what.c_str());
     return e.get_exit_code();
   }
+  if (threads > 0) cv::setNumThreads(threads);
   // REEFGEN_PARSE_ONLY=1: check the command line and stop (tests/doc_commands.sh
   // parses every command the docs show).
   if (const char* p = std::getenv("REEFGEN_PARSE_ONLY"); p && std::string(p) == "1") return 0;

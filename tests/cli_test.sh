@@ -369,6 +369,9 @@ expect_error "30000×30000 pixels; sketches may be at most 8192" infer "$T/huge.
 # 6f. clig.dev conventions: global flags anywhere, option aliases.
 "$BIN" generate --preset atoll --size 32 -o "$T/g/qa" --preview -q 2>"$T/err" >/dev/null && [ ! -s "$T/err" ] && ok || bad "-q after the command: $(cat "$T/err")"
 "$BIN" --threads 1 generate --random 1 --levels 1 --size 32 --out "$T/g/thr" -q >/dev/null && ok || bad "--threads before the command"
+"$BIN" --threads 2 presets >/dev/null && ok || bad "--threads before a command without threads"
+"$BIN" presets --threads 2 >/dev/null && ok || bad "--threads after a command without threads"
+expect_error "not in range 1 to 256" presets --threads 0
 "$BIN" -q generate --config docs/examples/spec.json --size 32 --output "$T/g/alias" >/dev/null 2>&1 \
   || "$BIN" -q generate --config "$(dirname "$0")/../docs/examples/spec.json" --size 32 --output "$T/g/alias" >/dev/null
 [ -s "$T/g/alias.height.exr" ] && ok || bad "--config / --output aliases of generate"
