@@ -352,6 +352,11 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
     export_generator();
     return result;
   }
+  // Said once everything is checked: what runs the step.
+  if (run.on_log)
+    run.on_log("convolutions: " + params.engine + ", " + params.precision +
+               (requested.precision == "auto" ? " (auto on this CPU)" : "") + "; " +
+               std::to_string(torch::get_num_threads()) + " threads");
   Prefetcher loader(make_batch, step, end, params.loader_threads, params.prefetch);
   using clock = std::chrono::steady_clock;
   while (step < end) {
