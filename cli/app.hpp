@@ -44,6 +44,7 @@ Command add_eval_sketches_command(CLI::App& app, const GlobalOptions& g);
 Command add_model_command(CLI::App& app, const GlobalOptions& g);
 Command add_floating_command(CLI::App& app, const GlobalOptions& g);
 Command add_studio_command(CLI::App& app, const GlobalOptions& g);
+Command add_realism_command(CLI::App& app, const GlobalOptions& g);
 // `bench train` and `bench infer` under `bench`; returns their runner.
 std::function<int()> add_bench_model_commands(CLI::App* bench);
 

@@ -42,6 +42,7 @@ int main(int argc, char** argv) {
                "  reefgen infer sketch.png -m runs/paper/generator.pt -o out/island --preview --r16\n"
                "  reefgen eval -m runs/paper/generator.pt --data data/paper --split test\n"
                "  reefgen studio                      # paint in the browser, see it in 3D\n"
+               "  reefgen realism out/atoll.height.exr   # pits, terraces, valleys\n"
                "  reefgen bench generate\n"};
   app.set_version_flag("--version", std::string("reefgen ") + reefgen::kVersion);
   app.require_subcommand(1);
@@ -68,6 +69,7 @@ int main(int argc, char** argv) {
                                                   reefgen::add_eval_sketches_command(app, g),
                                                   reefgen::add_model_command(app, g),
                                                   reefgen::add_studio_command(app, g),
+                                                  reefgen::add_realism_command(app, g),
                                                   reefgen::add_bench_command(app, g)};
   // An unknown command word is named, with the nearest known one.
   for (int i = 1; i < argc; ++i) {

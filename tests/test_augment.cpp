@@ -244,5 +244,5 @@ TEST(Dataset, ConfigErrorsNameTheKey) {
   EXPECT_NE(err(R"({"border_px": 2.5})").find("border_px"), std::string::npos);
   EXPECT_NE(err(R"({"subsidence_min": 0.5, "subsidence_max": 0.2})").find("subsidence_max"), std::string::npos);
   EXPECT_NE(err(R"({"erosion": {"rain": 1}})").find("erosion.rain"), std::string::npos);
-  EXPECT_NE(err(R"({"erosion": {"thermal_iterations": 2.5}})").find("integer"), std::string::npos);
+  EXPECT_NE(err(R"({"erosion": {"steps": 2.5}})").find("integer"), std::string::npos);
 }

@@ -120,24 +120,17 @@ bool border_is_abyss(const cv::Mat1b& label, int border_px) {
 }
 
 namespace {
-// Erosion settings of a render: none, or the params with the seed and the
-// canvas scale (metres per pixel of the final W-pixel canvas).
+// Erosion of a render: the dataset's params (docs/EROSION.md) or none.
 struct ErosionJob {
   const procgen::ErosionParams* params = nullptr;
-  uint64_t seed = 0;
-  double metres_per_px = 0;
 };
 
-Pair render(const procgen::IslandSpec& spec, int W, const ErosionJob& e = {}) {
+Pair render(procgen::IslandSpec spec, int W, const ErosionJob& e = {}) {
   procgen::RenderOptions o;
   o.size_px = W;
+  spec.erosion = e.params ? *e.params : procgen::ErosionParams{};
+  spec.erosion.enabled = e.params != nullptr && e.params->enabled;
   auto f = procgen::generate(spec, o);
-  if (e.params) {
-    cv::Mat1f rho(W, W);
-    for (int y = 0; y < W; ++y)
-      for (int x = 0; x < W; ++x) rho(y, x) = static_cast<float>(procgen::sample_curve(spec.resistance, f.xt(y, x) / 5.0));
-    procgen::erode(f.height_m, rho, e.metres_per_px, e.seed, *e.params);
-  }
   return {f.height_m, f.label, cv::Mat1f(W, W, static_cast<float>(spec.subsidence))};
 }
 
@@ -179,7 +172,7 @@ Pair make_pair(uint64_t seed, int64_t index, const DatasetParams& p, PairInfo* o
   if (p.p_erosion > 0) {
     Rng er(seed, static_cast<uint64_t>(index), "erosion");
     if (er.uniform() < p.p_erosion) {
-      erosion = {&p.erosion, er.next_u64(), spec.world_size_m / p.size_px};
+      erosion = {&p.erosion};
       aug["erosion"] = true;
     }
   }

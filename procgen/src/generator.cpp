@@ -5,6 +5,7 @@
 
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
+#include "reefgen/procgen/erosion.hpp"
 #include "reefgen/procgen/noise.hpp"
 #include "reefgen/rng.hpp"
 
@@ -329,6 +330,15 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
   }
 
   IslandFields out{cv::Mat1f(W, W), cv::Mat1f(W, W), cv::Mat1b(W, W)};
+  // With erosion, the volcano (h_sub + detail noise) is eroded on its own and
+  // coral grows after it (docs/EROSION.md): the pixel loop keeps the volcano,
+  // the coral height and the resistance apart, merged once the land has moved.
+  const bool eroded = spec.erosion.enabled;
+  cv::Mat1f coral_m, rho_px;
+  if (eroded) {
+    coral_m.create(W, W);
+    rho_px.create(W, W);
+  }
   for (int y = 0; y < W; ++y) {
     const float py = 1.f - (2.f * y + 1.f) / W;
     float* hrow = out.height_m.ptr<float>(y);
@@ -352,7 +362,17 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
       const int j = std::min(static_cast<int>(g), kLut - 2);
       const float f = g - j;
       float h;
-      if (!noisy) {
+      if (eroded) {
+        float hs = hsub[j] + f * (hsub[j + 1] - hsub[j]);
+        if (noisy) {
+          const float qa = (orient & 1) ? sy : sx, qb = (orient & 1) ? sx : sy;
+          const float u = ((orient & 2) ? -qa : qa) * texels + u0, v = ((orient & 4) ? -qb : qb) * texels + v0;
+          hs *= 1.f + amp * tile->sample(u, v);
+        }
+        h = hs;
+        coral_m(y, x) = coral[j] + f * (coral[j + 1] - coral[j]);
+        rho_px(y, x) = rho[j] + f * (rho[j + 1] - rho[j]);
+      } else if (!noisy) {
         h = merged[j] + f * (merged[j + 1] - merged[j]);
       } else {
         float hs = hsub[j] + f * (hsub[j + 1] - hsub[j]);
@@ -369,6 +389,15 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
       xrow[x] = xt;
       lrow[x] = static_cast<uint8_t>(std::min(static_cast<int>(xt), 4));
     }
+  }
+  if (eroded) {
+    out.height_m = erode_island(out.height_m, rho_px, spec.world_size_m, spec.noise.seed, spec.erosion);
+    if (spec.coral.enabled)
+      for (int y = 0; y < W; ++y) {
+        float* h = out.height_m.ptr<float>(y);
+        const float* c = coral_m.ptr<float>(y);
+        for (int x = 0; x < W; ++x) h[x] = smax_table(h[x], c[x]);
+      }
   }
   return out;
 }

@@ -146,6 +146,7 @@ void to_json(json& j, const IslandSpec& s) {
            {"smax_k", s.smax_k},
            {"noise", {{"amplitude", s.noise.amplitude}, {"feature", s.noise.feature}, {"octaves", s.noise.octaves}, {"seed", s.noise.seed}}},
            {"world_size_m", s.world_size_m}};
+  to_json(j["erosion"], s.erosion);
 }
 
 void from_json(const json& j, IslandSpec& s) {
@@ -213,6 +214,7 @@ void from_json(const json& j, IslandSpec& s) {
     fn.get("seed", s.noise.seed);
     fn.finish();
   }
+  if (const json* e = f.find("erosion")) s.erosion = erosion_params_from_json(*e, "spec");
   f.get("world_size_m", s.world_size_m);
   f.finish();
 }

@@ -1,11 +1,25 @@
 #pragma once
-// Cheap erosion of a generated island (DESIGN §4: the authors' dataset code
-// erodes every height field — thermal, hydraulic, thermal — with the
-// resistance map modulating it). Ours is the same sequence, sized to a few
-// milliseconds at 256²: the point is that the heights a model learns from
-// carry gullies, talus and smoothed ridges instead of perfectly smooth
-// profile sweeps, not a geomorphology simulation. No LibTorch here.
+// Fluvial erosion that carves a drainage network (docs/EROSION.md):
+//   ∂h/∂t = −K(ρ) A^m S + D ∇²h   on land (h > 0), base level = sea level
+// the stream-power law solved implicitly along the drainage tree (Braun &
+// Willett 2013: O(n) per step, stable at any time step), water routed out of
+// closed depressions by Priority-Flood (Barnes et al. 2014), hillslope
+// diffusion as its exact Gaussian solution per step. Erodibility comes from
+// the paper's resistance map: hard volcanic core, soft beach and lagoon.
+//
+// Multi-scale: the drainage network is carved on a base grid (base_px cells
+// across the canvas, 256 = the training resolution), then each finer level
+// (×2 up to the output size) adds the detail the coarser level could not hold
+// and runs a few short steps that re-incise the channels at its own cell size.
+// So a 4097² island is the 256² island with finer valleys, not another island,
+// and the same refinement amplifies a 256² model answer (infer --size N).
+//
+// Only land moves: the sea, the lagoon and the reef keep their heights (coral
+// growth is applied after erosion). Deterministic and single-threaded.
 #include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
@@ -13,31 +27,61 @@
 namespace reefgen::procgen {
 
 struct ErosionParams {
-  int thermal_iterations = 20;     // first thermal pass, [0, 1000]
-  double talus_slope = 0.45;       // m/m: steeper slopes shed material (≈ 24°), (0, 10]
-  double thermal_rate = 0.25;      // share of the excess moved per iteration, [0, 0.5]
-  int hydraulic_iterations = 30;   // [0, 1000]
-  double rain_m = 0.6;             // water added per iteration on land (h > 0), [0, 100]
-  double capacity = 0.35;          // sediment carried per metre of water and unit slope, [0, 100]
-  double solubility = 0.3;         // share of the missing capacity eroded per iteration, [0, 1]
-  double deposition = 0.3;         // share of the excess sediment dropped per iteration, [0, 1]
-  double evaporation = 0.1;        // share of the water lost per iteration, [0, 1]
-  int final_thermal_iterations = 10;  // second, gentler thermal pass, [0, 1000]
-  double final_talus_slope = 0.6;     // m/m, (0, 10]
-  double final_thermal_rate = 0.15;   // [0, 0.5]
-  double noise_amplitude = 0.25;   // relative low-frequency modulation of the resistance, [0, 1]
+  bool enabled = true;                // false: the paper's uneroded island
+  double k_fluvial = 1e-6;            // stream-power erodibility K of soft rock (ρ = 0), m^(1−2m)/yr, [0, 1]
+  double m_area = 0.8;                // drainage-area exponent m (slope exponent n = 1), [0.1, 1]
+  double hard_erodibility = 0.15;     // K at ρ = 1 as a share of K at ρ = 0, [0, 1]
+  double diffusivity = 0.005;         // hillslope diffusion D, m²/yr, [0, 100]
+  double duration_yr = 1.5e5;         // time eroded on the base grid, yr, [0, 1e8]
+  int steps = 8;                      // implicit steps on the base grid, [0, 1000]
+  int base_px = 256;                  // cells across the canvas of the base grid, [16, 8192]
+  int refine_steps = 3;               // implicit steps at each finer level, [0, 100]
+  double refine_duration_yr = 1.5e4;  // time at the first finer level (halved at each next one), yr, [0, 1e8]
+  double noise_amplitude = 0.25;      // relative low-frequency modulation of the resistance, [0, 1]
+  double flow_exponent = 1.0;         // multiple-flow-direction share ∝ slope^p (Quinn et al.: 1; large = one direction), [0, 10]
 };
 
 void to_json(nlohmann::json& j, const ErosionParams& p);
 // Every key optional; unknown keys and out-of-range values throw reefgen::Error naming `origin`.
 ErosionParams erosion_params_from_json(const nlohmann::json& j, const std::string& origin);
 
-// Erodes height_m (metres, sea level 0) in place. resistance ∈ [0, 1] per
-// pixel (1 = hard rock, nothing moves); metres_per_px converts height steps to
-// slopes. Only land (h > 0) is rained on; water that reaches the sea drops its
-// load there, so eroded material builds the shore instead of vanishing.
-// Deterministic: one fixed sweep order, no threads, noise drawn from `seed`.
-void erode(cv::Mat1f& height_m, const cv::Mat1f& resistance, double metres_per_px, uint64_t seed,
-           const ErosionParams& p = {});
+// One level: `steps` implicit steps sharing `duration_yr` on the land
+// (h > 0, at entry) of height_m, in place. erodibility = K per cell
+// (m^(1−2m)/yr). Land cells on the canvas edge are outlets (held), like the sea.
+// Routing: kFlood = Priority-Flood (closed depressions routed to their spill
+// point) with multiple-flow-direction drainage area, the base level's;
+// kStack = steepest descent and Braun & Willett's O(n) donor stack, single
+// flow direction, for refinement levels whose surface is already drained.
+enum class Routing { kFlood, kStack };
+void erode_level(cv::Mat1f& height_m, const cv::Mat1f& erodibility, double metres_per_px, int steps,
+                 double duration_yr, const ErosionParams& p, Routing routing = Routing::kFlood);
+
+// K per cell from a resistance map ρ ∈ [0, 1] modulated by low-frequency
+// noise drawn from `seed` (about four features across the canvas, so hard
+// and soft bands are not perfect rings).
+cv::Mat1f erodibility_map(const cv::Mat1f& resistance, uint64_t seed, const ErosionParams& p);
+
+// Sizes of the refinement chain: from, 2·from, 4·from, … (each < to), to.
+std::vector<int> refinement_levels(int from, int to);
+
+// Upsamples `coarse_m` (already eroded at its size) level by level to
+// size×size, adding detail(L, upsampled) on land at each level L and eroding
+// there (refine_steps steps). resistance is at the final size (resampled to
+// each level). Cells that are not land in `land_m` (final size) keep land_m's
+// heights; land cells never go below sea level.
+cv::Mat1f refine_heights(const cv::Mat1f& coarse_m, const cv::Mat1f& land_m, const cv::Mat1f& resistance,
+                         double world_size_m, uint64_t seed, const ErosionParams& p,
+                         const std::function<cv::Mat1f(int, const cv::Mat1f&)>& detail);
+
+// The generator's erosion: the island rendered at its output size (heights
+// before coral, resistance ρ(x̃) per pixel), eroded on the base grid and
+// refined back to that size with the render's own finer detail.
+cv::Mat1f erode_island(const cv::Mat1f& height_m, const cv::Mat1f& resistance, double world_size_m, uint64_t seed,
+                       const ErosionParams& p);
+
+// Fills the closed depressions of the land that are deeper than `max_depth_m`
+// up to their spill level plus a tiny downstream gradient, so water drains
+// (the remaining pits of an eroded or predicted field). Returns cells changed.
+int64_t drain_pits(cv::Mat1f& height_m, float max_depth_m = 0.5f);
 
 }  // namespace reefgen::procgen

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "reefgen/procgen/curves.hpp"
+#include "reefgen/procgen/erosion.hpp"
 
 namespace reefgen::procgen {
 
@@ -69,6 +70,7 @@ struct IslandSpec {
   CoralParams coral;
   double smax_k = 0.5;                             // 1/m, smooth-max sharpness (overshoot ≤ 1/(2k) m), [0.01, 100]
   DetailNoise noise;
+  ErosionParams erosion;                           // fluvial erosion of the land before coral growth (docs/EROSION.md)
   double world_size_m = 6000;                      // m, width of the [-1,1] canvas, [10, 1e6]
 };
 

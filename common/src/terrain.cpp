@@ -1,0 +1,170 @@
+#include "reefgen/terrain.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <queue>
+
+#include <opencv2/imgproc.hpp>
+
+#include "reefgen/io.hpp"
+
+namespace reefgen {
+
+namespace {
+
+// Heap entry: lowest height first, then lowest flat index (a total order, so
+// the pop sequence never depends on the heap's internals).
+struct Node {
+  float h;
+  int i;
+  bool operator>(const Node& o) const { return h > o.h || (h == o.h && i > o.i); }
+};
+
+}  // namespace
+
+FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
+  CV_Assert(height.size() == role.size() && height.isContinuous() && role.isContinuous());
+  const int H = height.rows, W = height.cols, n = H * W;
+  FloodRoute out;
+  out.receiver.resize(n);
+  for (int i = 0; i < n; ++i) out.receiver[i] = i;
+  out.filled = height.clone();
+  const uint8_t* rl = role.ptr<uint8_t>();
+  float* f = out.filled.ptr<float>();
+  std::vector<uint8_t> seen(n, 0);
+  std::priority_queue<Node, std::vector<Node>, std::greater<Node>> heap;
+  std::deque<int> pit;  // depression cells: reached below the spill level, processed FIFO
+  static constexpr int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1}, kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
+  // Seeds: outlets next to an active cell (an outlet surrounded by outlets
+  // routes nothing), found from the active side: islands are a minority of
+  // the canvas. Pushed in flat-index order of the active cells.
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      if (rl[y * W + x] != kActive) continue;
+      for (int k = 0; k < 8; ++k) {
+        const int nx = x + kDx[k], ny = y + kDy[k];
+        if (nx < 0 || ny < 0 || nx >= W || ny >= H) continue;
+        const int j = ny * W + nx;
+        if (rl[j] != kOutlet || seen[j]) continue;
+        seen[j] = 1;
+        heap.push({f[j], j});
+      }
+    }
+  out.order.reserve(n);
+  while (!heap.empty() || !pit.empty()) {
+    int c;
+    if (!pit.empty()) {
+      c = pit.front();
+      pit.pop_front();
+    } else {
+      c = heap.top().i;
+      heap.pop();
+    }
+    if (rl[c] == kActive) out.order.push_back(c);  // popped: its receiver was popped before it
+    const int cx = c % W, cy = c / W;
+    const float level = f[c];
+    for (int k = 0; k < 8; ++k) {
+      const int nx = cx + kDx[k], ny = cy + kDy[k];
+      if (nx < 0 || ny < 0 || nx >= W || ny >= H) continue;
+      const int j = ny * W + nx;
+      if (seen[j] || rl[j] != kActive) continue;
+      seen[j] = 1;
+      out.receiver[j] = c;
+      if (f[j] <= level) {
+        f[j] = level;  // inside a depression: filled to the spill level
+        pit.push_back(j);
+      } else {
+        heap.push({f[j], j});
+      }
+    }
+  }
+  return out;
+}
+
+cv::Mat1b sea_and_edge_roles(const cv::Mat1f& height_m, float sea_m) {
+  const int H = height_m.rows, W = height_m.cols;
+  cv::Mat1b role(H, W);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const bool edge = x == 0 || y == 0 || x == W - 1 || y == H - 1;
+      role(y, x) = (edge || height_m(y, x) <= sea_m) ? kOutlet : kActive;
+    }
+  return role;
+}
+
+void plan_curvature(const cv::Mat1f& s, double metres_per_px, cv::Mat1f& curvature, cv::Mat1f& gradient) {
+  const int H = s.rows, W = s.cols;
+  curvature.create(H, W);
+  gradient.create(H, W);
+  const double d = metres_per_px;
+  for (int y = 0; y < H; ++y) {
+    const int ym = std::max(y - 1, 0), yp = std::min(y + 1, H - 1);
+    for (int x = 0; x < W; ++x) {
+      const int xm = std::max(x - 1, 0), xp = std::min(x + 1, W - 1);
+      // Image rows grow downwards; the curvature's sign does not depend on
+      // the y orientation (h_y appears squared or with h_xy, which flips too).
+      const double hx = (s(y, xp) - s(y, xm)) / ((xp - xm) * d);
+      const double hy = (s(yp, x) - s(ym, x)) / ((yp - ym) * d);
+      const double hxx = (s(y, xp) - 2.0 * s(y, x) + s(y, xm)) / (d * d);
+      const double hyy = (s(yp, x) - 2.0 * s(y, x) + s(ym, x)) / (d * d);
+      const double hxy = (s(yp, xp) - s(yp, xm) - s(ym, xp) + s(ym, xm)) / (4.0 * d * d);
+      const double g2 = hx * hx + hy * hy;
+      gradient(y, x) = static_cast<float>(std::sqrt(g2));
+      curvature(y, x) = g2 > 0 ? static_cast<float>(-(hxx * hy * hy - 2.0 * hxy * hx * hy + hyy * hx * hx) /
+                                                    std::pow(g2, 1.5))
+                               : 0.f;
+    }
+  }
+}
+
+RealismStats realism_stats(const cv::Mat1f& h, double metres_per_px) {
+  if (h.empty()) throw Error("realism: the height field is empty");
+  if (!(metres_per_px > 0) || !std::isfinite(metres_per_px))
+    throw Error("realism: metres per pixel must be a positive number");
+  if (!cv::checkRange(h)) throw Error("realism: the height field holds NaN or infinite values");
+  const cv::Mat1f hc = h.isContinuous() ? h : h.clone();
+  const int H = hc.rows, W = hc.cols;
+  RealismStats st;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      if (hc(y, x) > 0) {
+        ++st.land_cells;
+        st.max_height_m = std::max(st.max_height_m, double(hc(y, x)));
+      }
+  if (st.land_cells == 0) return st;
+
+  // Pits: filled from the sea and the canvas edge.
+  const FloodRoute fr = flood_route(hc, sea_and_edge_roles(hc));
+  int64_t pits = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      if (hc(y, x) > 0 && fr.filled(y, x) - hc(y, x) > 1.f) ++pits;
+  st.pits = double(pits) / double(st.land_cells);
+
+  // Flank, slope on the raw heights; curvature on the σ = 60 m smoothed heights.
+  const double lo = 0.1 * st.max_height_m, hi = 0.9 * st.max_height_m;
+  const double sigma_px = 60.0 / metres_per_px;
+  cv::Mat1f smooth;
+  cv::GaussianBlur(hc, smooth, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REPLICATE);
+  cv::Mat1f curv, grad_s, curv_raw, grad_raw;
+  plan_curvature(smooth, metres_per_px, curv, grad_s);
+  plan_curvature(hc, metres_per_px, curv_raw, grad_raw);
+  const double flat = std::tan(2.0 * M_PI / 180.0);
+  int64_t flats = 0, valleys = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const double v = hc(y, x);
+      if (!(v > 0 && v >= lo && v <= hi)) continue;
+      ++st.flank_cells;
+      if (grad_raw(y, x) < flat) ++flats;
+      if (grad_s(y, x) > 0.02 && curv(y, x) < -1e-3) ++valleys;
+    }
+  if (st.flank_cells > 0) {
+    st.terraces = double(flats) / double(st.flank_cells);
+    st.valleys = double(valleys) / double(st.flank_cells);
+  }
+  return st;
+}
+
+}  // namespace reefgen

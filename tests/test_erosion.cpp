@@ -1,0 +1,216 @@
+// Fluvial erosion (procgen/erosion.hpp), Priority-Flood routing and the
+// realism statistics (common terrain.hpp): docs/EROSION.md, docs/REALISM.md.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "reefgen/io.hpp"
+#include "reefgen/procgen/erosion.hpp"
+#include "reefgen/procgen/generator.hpp"
+#include "reefgen/procgen/random_spec.hpp"
+#include "reefgen/terrain.hpp"
+
+using namespace reefgen;
+using namespace reefgen::procgen;
+
+namespace {
+
+// A cone of `peak` metres reaching the sea at radius 0.6 of the half-canvas, sea floor −50 m.
+cv::Mat1f cone(int W, float peak, float noise = 0.f, uint64_t seed = 1) {
+  cv::Mat1f h(W, W);
+  cv::RNG rng(seed);
+  for (int y = 0; y < W; ++y)
+    for (int x = 0; x < W; ++x) {
+      const float u = (x + 0.5f) / W * 2 - 1, v = (y + 0.5f) / W * 2 - 1;
+      const float r = std::sqrt(u * u + v * v);
+      h(y, x) = r < 0.6f ? peak * (1 - r / 0.6f) + noise * float(rng.uniform(-1.0, 1.0)) * (1 - r / 0.6f) : -50.f;
+    }
+  return h;
+}
+
+}  // namespace
+
+TEST(Flood, FillsAClosedDepressionToItsSpillPoint) {
+  // A 5×5 bowl: rim 10 m with one notch at 4 m, floor 1 m, sea around it.
+  cv::Mat1f h(7, 7, -5.f);
+  for (int y = 1; y < 6; ++y)
+    for (int x = 1; x < 6; ++x) h(y, x) = 10.f;
+  for (int y = 2; y < 5; ++y)
+    for (int x = 2; x < 5; ++x) h(y, x) = 1.f;
+  h(1, 3) = 4.f;  // the notch
+  const FloodRoute r = flood_route(h, sea_and_edge_roles(h));
+  for (int y = 2; y < 5; ++y)
+    for (int x = 2; x < 5; ++x) EXPECT_FLOAT_EQ(r.filled(y, x), 4.f) << y << "," << x;
+  EXPECT_FLOAT_EQ(r.filled(1, 1), 10.f);
+  // Every active cell is taken after its receiver; receivers are neighbours.
+  std::vector<int> pos(49, -1);
+  for (size_t k = 0; k < r.order.size(); ++k) pos[r.order[k]] = int(k);
+  EXPECT_EQ(r.order.size(), 25u);
+  for (const int i : r.order) {
+    const int j = r.receiver[i];
+    EXPECT_LE(std::abs(i % 7 - j % 7), 1);
+    EXPECT_LE(std::abs(i / 7 - j / 7), 1);
+    if (pos[j] >= 0) EXPECT_LT(pos[j], pos[i]);
+  }
+  // The bowl drains through the notch.
+  int c = 3 * 7 + 3, hops = 0;
+  while (pos[c] >= 0 && hops < 10) c = r.receiver[c], ++hops;
+  EXPECT_EQ(c / 7, 0);  // a sea cell above the notch
+  EXPECT_LE(std::abs(c % 7 - 3), 1);
+}
+
+TEST(Erosion, ImplicitStepMatchesTheClosedForm) {
+  // One land cell between sea cells: A = dx², L = dx, receiver at sea level,
+  // so one implicit step is z/(1 + F), F = K dt A^m / L — at any dt.
+  cv::Mat1f h(5, 5, -10.f);
+  h(2, 2) = 100.f;
+  ErosionParams p;
+  p.diffusivity = 0;
+  p.m_area = 0.5;
+  const double dx = 20, K = 1e-4, dt = 5e4;
+  cv::Mat1f k(5, 5, float(K));
+  cv::Mat1f e = h.clone();
+  erode_level(e, k, dx, 1, dt, p);
+  const double F = K * dt * std::pow(dx * dx, 0.5) / dx;  // = 5
+  EXPECT_NEAR(e(2, 2), 100.0 / (1 + F), 1e-3);
+  EXPECT_FLOAT_EQ(e(0, 0), -10.f);  // the sea does not move
+  cv::Mat1f e2 = h.clone();
+  erode_level(e2, k, dx, 2, dt, p);  // two half steps: (1 + F/2)^-2
+  EXPECT_NEAR(e2(2, 2), 100.0 / ((1 + F / 2) * (1 + F / 2)), 1e-3);
+}
+
+TEST(Erosion, CarvesValleysKeepsTheSeaAndDrains) {
+  const cv::Mat1f h = cone(128, 400.f, 8.f);
+  const double mpp = 6000.0 / 128;
+  const RealismStats before = realism_stats(h, mpp);
+  ErosionParams p;
+  cv::Mat1f rho(128, 128, 0.3f);
+  const cv::Mat1f e = erode_island(h, rho, 6000.0, 7, p);
+  const RealismStats after = realism_stats(e, mpp);
+  EXPECT_LT(before.valleys, 0.1);     // a cone sheds water radially
+  EXPECT_GT(after.valleys, 0.2);      // a drainage network
+  EXPECT_GT(after.valleys, 3 * before.valleys);
+  EXPECT_LE(after.pits, 0.01);
+  EXPECT_GT(after.max_height_m, 0.8 * before.max_height_m);  // peaks stay
+  for (int y = 0; y < 128; ++y)
+    for (int x = 0; x < 128; ++x) {
+      if (h(y, x) <= 0) ASSERT_EQ(e(y, x), h(y, x));
+      else ASSERT_GT(e(y, x), 0.f);       // land stays land
+      ASSERT_LE(e(y, x), h(y, x) + 1.f);  // erosion removes; deposits only fill pits
+    }
+  // Hard rock erodes less.
+  const cv::Mat1f hard = erode_island(h, cv::Mat1f(128, 128, 1.f), 6000.0, 7, p);
+  EXPECT_GT(cv::sum(hard)[0], cv::sum(e)[0]);
+  p.enabled = false;
+  EXPECT_EQ(cv::norm(erode_island(h, rho, 6000.0, 7, p), h, cv::NORM_INF), 0.0);
+}
+
+TEST(Erosion, RefinementLevels) {
+  EXPECT_EQ(refinement_levels(256, 256), (std::vector<int>{256}));
+  EXPECT_EQ(refinement_levels(256, 1025), (std::vector<int>{256, 512, 1025}));
+  EXPECT_EQ(refinement_levels(256, 4097), (std::vector<int>{256, 512, 1024, 2048, 4097}));
+  EXPECT_EQ(refinement_levels(256, 1009), (std::vector<int>{256, 512, 1009}));
+  EXPECT_EQ(refinement_levels(256, 64), (std::vector<int>{64}));
+}
+
+TEST(Erosion, ParamsJsonRoundTripAndErrors) {
+  ErosionParams p;
+  p.enabled = false;
+  p.k_fluvial = 3e-6;
+  p.m_area = 0.55;
+  p.hard_erodibility = 0.3;
+  p.diffusivity = 0.07;
+  p.duration_yr = 1234;
+  p.steps = 5;
+  p.base_px = 128;
+  p.refine_steps = 4;
+  p.refine_duration_yr = 99;
+  p.noise_amplitude = 0.5;
+  p.flow_exponent = 2;
+  nlohmann::json j;
+  to_json(j, p);
+  nlohmann::json d;
+  to_json(d, ErosionParams{});
+  for (auto it = j.begin(); it != j.end(); ++it) EXPECT_NE(*it, d[it.key()]) << it.key() << " was left at its default";
+  nlohmann::json back;
+  to_json(back, erosion_params_from_json(j, "t.json"));
+  EXPECT_EQ(back, j);
+  auto err = [](const char* text) {
+    try {
+      erosion_params_from_json(nlohmann::json::parse(text), "t.json");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(err(R"({"steps": 2.5})").find("erosion.steps"), std::string::npos);
+  EXPECT_NE(err(R"({"k_fluvial": -1})").find("out of range"), std::string::npos);
+  EXPECT_NE(err(R"({"rain": 1})").find("erosion.rain"), std::string::npos);
+  EXPECT_NE(err(R"({"enabled": 1})").find("true or false"), std::string::npos);
+}
+
+TEST(Erosion, GoldenValues) {
+  // The eroded generator (the default) at 64²: these values were produced by
+  // this implementation; update them only on purpose (CONTRIBUTING.md).
+  auto s = random_spec(2026, 1);
+  RenderOptions o;
+  o.size_px = 64;
+  const auto f = generate(s, o);
+  if (std::getenv("REEFGEN_PRINT_GOLDEN"))
+    for (auto [y, x] : {std::pair{32, 32}, {20, 30}, {40, 40}, {36, 20}, {28, 44}, {5, 5}})
+      std::printf("{%d, %d, %.4ff}, ", y, x, f.height_m(y, x));
+  const struct { int y, x; float h; } golden[] = {
+      {32, 32, 237.0615f}, {20, 30, 4.4780f}, {40, 40, 243.8225f}, {36, 20, 24.2912f}, {28, 44, 13.6689f}, {5, 5, -99.1364f}};
+  for (const auto& g : golden) EXPECT_NEAR(f.height_m(g.y, g.x), g.h, 1e-3) << "pixel " << g.y << "," << g.x;
+}
+
+TEST(Erosion, SameBytesWhateverTheThreads) {
+  auto s = random_spec(77, 2);
+  RenderOptions o;
+  o.size_px = 300;  // base level 256, one refinement level
+  const int before = cv::getNumThreads();
+  cv::setNumThreads(1);
+  const auto a = generate(s, o);
+  cv::setNumThreads(4);
+  const auto b = generate(s, o);
+  cv::setNumThreads(before);
+  EXPECT_EQ(cv::norm(a.height_m, b.height_m, cv::NORM_INF), 0.0);
+}
+
+TEST(Realism, StatisticsOfKnownShapes) {
+  const double mpp = 20;
+  // A smooth cone: no pits, no flats, divergent everywhere.
+  const RealismStats c = realism_stats(cone(200, 500.f), mpp);
+  EXPECT_EQ(c.pits, 0.0);
+  EXPECT_LT(c.terraces, 0.01);
+  EXPECT_LT(c.valleys, 0.02);
+  // A staircase cone: flat treads.
+  cv::Mat1f stairs = cone(200, 500.f);
+  for (auto& v : stairs)
+    if (v > 0) v = 50.f * std::ceil(v / 50.f);
+  EXPECT_GT(realism_stats(stairs, mpp).terraces, 0.5);
+  // A crater at the top: a flat floor at 400 m inside a rim ~17 m higher.
+  cv::Mat1f crater = cone(200, 500.f);
+  for (int y = 0; y < 200; ++y)
+    for (int x = 0; x < 200; ++x)
+      if ((x - 99.5) * (x - 99.5) + (y - 99.5) * (y - 99.5) < 100) crater(y, x) = std::min(crater(y, x), 400.f);
+  EXPECT_GT(realism_stats(crater, mpp).pits, 0.003);
+  // Radial valleys: a cone with 12 grooves (cos 12θ) — convergent along the grooves.
+  cv::Mat1f grooved(200, 200);
+  for (int y = 0; y < 200; ++y)
+    for (int x = 0; x < 200; ++x) {
+      const float u = (x + 0.5f) / 100 - 1, v = (y + 0.5f) / 100 - 1, r = std::sqrt(u * u + v * v);
+      grooved(y, x) = r < 0.6f ? 500 * (1 - r / 0.6f) - 60 * r * (1 + std::cos(12 * std::atan2(v, u))) : -50.f;
+    }
+  EXPECT_GT(realism_stats(grooved, mpp).valleys, 0.25);
+  // Errors: NaN, bad cell size.
+  cv::Mat1f bad = cone(20, 10.f);
+  bad(3, 3) = NAN;
+  EXPECT_THROW(realism_stats(bad, mpp), Error);
+  EXPECT_THROW(realism_stats(cone(20, 10.f), 0), Error);
+}
