@@ -40,6 +40,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
     std::string engine = "auto";
     uint64_t seed = 0;
     double exaggeration = 1.0, world_size_m = 6000;
+    int size = 0;
     std::optional<int> threads;
   };
   auto a = std::make_shared<Args>();
@@ -53,6 +54,11 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--mesh", a->mesh, "Also a grid mesh: obj or glb (per sketch), or a path ending in .obj/.glb (one sketch)");
   sub->add_option("--exaggeration", a->exaggeration, "Vertical exaggeration of the mesh")->capture_default_str();
   sub->add_option("--world-size", a->world_size_m, "Canvas width in metres (mesh spacing, RAW import numbers)")->capture_default_str()->check(finite_in(1, 1e7));
+  sub->add_option("--size", a->size,
+                  "Output side in pixels, up to 8192 (default: the sketch's own). Above the model's 256: amplified "
+                  "(erosion carves valleys at each finer level, docs/EROSION.md), e.g. 1025/2049/4097 for Unity, "
+                  "1009/2017/4033 for Unreal")
+      ->check(CLI::Range(16, 8192));
   sub->add_flag("--preview", a->preview, "Also PREFIX.preview.png: coloured, hill-shaded");
   sub->add_flag("--stochastic", a->stochastic, "Dropout on (pix2pix's noise): a different island per --seed");
   sub->add_option("--seed", a->seed, "Dropout masks for --stochastic")->capture_default_str();
@@ -140,6 +146,8 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
               throw Error("--precision/--engine: " + std::string(e.what()));
             }
             io.seed = a->seed;
+            io.size_px = a->size;
+            io.world_size_m = a->world_size_m;
             // Chunks of 32 sketches: memory stays bounded for folders of any
             // size. Every output is staged and renamed into place at the end:
             // a failure anywhere (a bad sketch after the first chunk, a mesh

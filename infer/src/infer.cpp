@@ -1,4 +1,5 @@
 #include "reefgen/infer/infer.hpp"
+#include "reefgen/procgen/erosion.hpp"
 
 
 #include <stdexcept>
@@ -137,8 +138,15 @@ std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<
   std::vector<cv::Mat1f> heights;
   for (size_t i = 0; i < sketches.size(); ++i) {
     cv::Mat1f h = model::tensor_to_height(outs[i], g.range);
-    const cv::Size want = sketches[i].label.size();
-    if (h.size() != want) {
+    const cv::Size want = o.size_px > 0 ? cv::Size(o.size_px, o.size_px) : sketches[i].label.size();
+    if (want.width == want.height && want.width > h.cols && o.amplify && h.rows == h.cols) {
+      cv::Mat1b label;
+      cv::resize(sketches[i].label, label, want, 0, 0, cv::INTER_NEAREST);
+      h = procgen::amplify_heights(h, label, o.world_size_m, o.seed);
+      cv::min(cv::max(h, g.range.lo_m), g.range.hi_m, h);
+    } else if (want.width <= h.cols && want.height <= h.rows && h.size() != want) {
+      cv::resize(h, h, want, 0, 0, cv::INTER_AREA);
+    } else if (h.size() != want) {
       cv::resize(h, h, want, 0, 0, cv::INTER_LINEAR);
       cv::min(cv::max(h, g.range.lo_m), g.range.hi_m, h);  // interpolation stays in range; clamp anyway
     }

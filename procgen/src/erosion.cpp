@@ -9,6 +9,7 @@
 
 #include "reefgen/io.hpp"
 #include "reefgen/procgen/noise.hpp"
+#include "reefgen/rng.hpp"
 #include "reefgen/terrain.hpp"
 
 namespace reefgen::procgen {
@@ -359,6 +360,56 @@ int64_t drain_pits(cv::Mat1f& h, float max_depth_m) {
       }
     }
   return changed;
+}
+
+cv::Mat1f resistance_of_labels(const cv::Mat1b& label) {
+  // Means of the default ρ(x̃) over each region's x̃ range (docs/EROSION.md).
+  static constexpr float kRho[5] = {0.55f, 0.10f, 0.06f, 0.60f, 0.05f};
+  cv::Mat1f rho(label.size());
+  for (int y = 0; y < label.rows; ++y)
+    for (int x = 0; x < label.cols; ++x) rho(y, x) = kRho[std::min<int>(label(y, x), 4)];
+  // Regions blend over ~1 % of the canvas instead of switching at a pixel.
+  const double s = std::max(1.0, 0.01 * label.cols);
+  cv::GaussianBlur(rho, rho, cv::Size(0, 0), s, s, cv::BORDER_REPLICATE);
+  return rho;
+}
+
+cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, double world_size_m, uint64_t seed,
+                          const ErosionParams& p) {
+  if (coarse_m.empty() || coarse_m.rows != coarse_m.cols || label.rows != label.cols)
+    throw Error("amplify: the height field and the label map must be square");
+  const int S = coarse_m.cols, N = label.cols;
+  cv::Mat1f coarse = coarse_m.clone();
+  cv::Mat1b label_s;
+  cv::resize(label, label_s, cv::Size(S, S), 0, 0, cv::INTER_NEAREST);
+  if (p.enabled)
+    erode_level(coarse, erodibility_map(resistance_of_labels(label_s), seed, p), world_size_m / S, p.steps,
+                p.duration_yr, p);
+  cv::Mat1f land = resized(coarse, N, cv::INTER_CUBIC);
+  if (N <= S || !p.enabled) {
+    if (N < S) cv::resize(coarse, land, cv::Size(N, N), 0, 0, cv::INTER_AREA);
+    drain_pits(land);
+    return land;
+  }
+  // Fractal detail: an fBm tile at ~2 cells per feature, ± (cell size × 0.4)
+  // metres, faded in over the first metres above the sea so coasts stay put.
+  const NoiseTile& tile = NoiseTile::get(3);
+  Rng rng(seed, 0, "amplify-detail");
+  const float u0 = float(rng.uniform(0, NoiseTile::kSize)), v0 = float(rng.uniform(0, NoiseTile::kSize));
+  auto detail = [&](int L, const cv::Mat1f& up) {
+    cv::Mat1f d(L, L, 0.f);
+    const float amp = static_cast<float>(0.4 * world_size_m / L);
+    const float texels = float(NoiseTile::kBaseCell) / 2.f;  // a base feature every 2 cells
+    for (int y = 0; y < L; ++y)
+      for (int x = 0; x < L; ++x)
+        if (up(y, x) > 0)
+          d(y, x) = amp * std::min(1.f, up(y, x) / 5.f) * tile.sample(x / texels + u0, y / texels + v0);
+    return d;
+  };
+  cv::Mat1f out = refine_heights(coarse, land, resized(resistance_of_labels(label), N, cv::INTER_LINEAR),
+                                 world_size_m, seed, p, detail);
+  drain_pits(out);
+  return out;
 }
 
 }  // namespace reefgen::procgen

@@ -37,7 +37,10 @@ struct InferOptions {
   Engine engine = Engine::Auto;
   bool stochastic = false;     // dropout on (pix2pix's noise source): varied outputs per --seed
   bool running_stats = false;  // BatchNorm running statistics instead of pix2pix's test-time batch statistics
-  uint64_t seed = 0;           // dropout masks when stochastic
+  uint64_t seed = 0;           // dropout masks when stochastic; the amplification's detail noise
+  int size_px = 0;             // output side, [0, 8192]; 0 = the sketch's own size
+  double world_size_m = 6000;  // canvas width in metres (the amplification's erosion works in metres)
+  bool amplify = true;         // above the model's side: erosion + detail (procgen amplify_heights), not a stretch
 };
 
 // The engine and precision these options run with this generator on this
@@ -51,8 +54,10 @@ Precision resolve(const InferOptions& o, const model::GeneratorFile& g);
 // regions by nearest neighbour (never blended), subsidence bilinear.
 cv::Mat3b canonical_sketch(const DecodedSketch& sketch, int size_px);
 
-// Heights in metres at the sketch's own size (bilinear back from the model's
-// side when the sketch is another size), always inside the model's range.
+// Heights in metres at o.size_px (default: the sketch's own size). Above the
+// model's side, a square output is amplified (procgen::amplify_heights:
+// erosion that carves valleys at each finer level, never a bilinear stretch);
+// below it, area-averaged. Always inside the model's range.
 // Each output depends on its own sketch only: batch-statistics mode runs one
 // sketch per forward (a batch would share BatchNorm statistics), running
 // statistics mode batches 8 at a time.

@@ -85,3 +85,22 @@ cv::Mat1f erode_island(const cv::Mat1f& height_m, const cv::Mat1f& resistance, d
 int64_t drain_pits(cv::Mat1f& height_m, float max_depth_m = 0.5f);
 
 }  // namespace reefgen::procgen
+
+namespace reefgen::procgen {
+
+// Resistance ρ per region id (0 island … 4 abyss) where only a label map is
+// known (a painted sketch): hard volcanic core, soft beach and lagoon, like
+// the paper's default resistance curve averaged over each region.
+cv::Mat1f resistance_of_labels(const cv::Mat1b& label);
+
+// Amplification of a coarse height field (a 256² model answer) to size×size
+// (infer --size N): the coarse field is eroded once on its own grid (pits
+// filled by sediment, valleys the model smoothed re-carved), then refined
+// level by level as the generator refines its own islands, with fractal
+// detail noise (amplitude ∝ cell size) standing in for the render's finer
+// detail. Only land moves; the sea is the coarse answer, bicubic. label: the
+// sketch's regions at size×size.
+cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, double world_size_m, uint64_t seed,
+                          const ErosionParams& p = {});
+
+}  // namespace reefgen::procgen
