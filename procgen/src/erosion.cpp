@@ -294,6 +294,25 @@ cv::Mat1f resized(const cv::Mat1f& m, int size, int interpolation) {
   cv::resize(m, out, cv::Size(size, size), 0, 0, interpolation);
   return out;
 }
+
+// Detail a refinement level adds on land: an fBm tile at 4 cells per
+// feature (3 octaves), ± 0.4 cell sizes in metres (relief that grows with the scale, as
+// in fractal terrain), faded in over the first 5 m above the sea so that
+// coastlines stay where they were. The erosion that follows turns it into
+// the heads of small valleys instead of leaving it as noise.
+cv::Mat1f fractal_detail(int L, const cv::Mat1f& up, double world_size_m, uint64_t seed) {
+  const NoiseTile& tile = NoiseTile::get(3);
+  Rng rng(seed, static_cast<uint64_t>(L), "refine-detail");
+  const float u0 = float(rng.uniform(0, NoiseTile::kSize)), v0 = float(rng.uniform(0, NoiseTile::kSize));
+  cv::Mat1f d(L, L, 0.f);
+  const float amp = static_cast<float>(0.4 * world_size_m / L);
+  const float texels_per_cell = float(NoiseTile::kBaseCell) / 4.f;  // a base feature every 4 cells
+  for (int y = 0; y < L; ++y)
+    for (int x = 0; x < L; ++x)
+      if (up(y, x) > 0)
+        d(y, x) = amp * std::min(1.f, up(y, x) / 5.f) * tile.sample(x * texels_per_cell + u0, y * texels_per_cell + v0);
+  return d;
+}
 }  // namespace
 
 cv::Mat1f refine_heights(const cv::Mat1f& coarse_m, const cv::Mat1f& land_m, const cv::Mat1f& resistance,
@@ -336,11 +355,11 @@ cv::Mat1f erode_island(const cv::Mat1f& h_N, const cv::Mat1f& rho_N, double worl
               p.duration_yr, p);
   // Detail of level L = what the render holds at L beyond the level before it.
   cv::Mat1f prev_down = resized(h_N, B, cv::INTER_AREA);
-  auto detail = [&](int L, const cv::Mat1f&) {
+  auto detail = [&](int L, const cv::Mat1f& up) {
     cv::Mat1f down = resized(h_N, L, cv::INTER_AREA);
     cv::Mat1f d = down - resized(prev_down, L, cv::INTER_CUBIC);
     prev_down = std::move(down);
-    return d;
+    return cv::Mat1f(d + fractal_detail(L, up, world_size_m, seed));
   };
   cv::Mat1f out = refine_heights(base, h_N, rho_N, world_size_m, seed, p, detail);
   drain_pits(out);
@@ -391,21 +410,7 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
     drain_pits(land);
     return land;
   }
-  // Fractal detail: an fBm tile at ~2 cells per feature, ± (cell size × 0.4)
-  // metres, faded in over the first metres above the sea so coasts stay put.
-  const NoiseTile& tile = NoiseTile::get(3);
-  Rng rng(seed, 0, "amplify-detail");
-  const float u0 = float(rng.uniform(0, NoiseTile::kSize)), v0 = float(rng.uniform(0, NoiseTile::kSize));
-  auto detail = [&](int L, const cv::Mat1f& up) {
-    cv::Mat1f d(L, L, 0.f);
-    const float amp = static_cast<float>(0.4 * world_size_m / L);
-    const float texels = float(NoiseTile::kBaseCell) / 2.f;  // a base feature every 2 cells
-    for (int y = 0; y < L; ++y)
-      for (int x = 0; x < L; ++x)
-        if (up(y, x) > 0)
-          d(y, x) = amp * std::min(1.f, up(y, x) / 5.f) * tile.sample(x / texels + u0, y / texels + v0);
-    return d;
-  };
+  auto detail = [&](int L, const cv::Mat1f& up) { return fractal_detail(L, up, world_size_m, seed); };
   cv::Mat1f out = refine_heights(coarse, land, resized(resistance_of_labels(label), N, cv::INTER_LINEAR),
                                  world_size_m, seed, p, detail);
   drain_pits(out);
