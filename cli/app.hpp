@@ -168,6 +168,20 @@ inline CLI::Validator finite_in(double lo, double hi) {
       "FLOAT in [" + CLI::detail::to_string(lo) + ", " + CLI::detail::to_string(hi) + "]");
 }
 
+// CLI11 validator for seeds: a whole number in [0, 2^64 - 1]. CLI11 reads an
+// unsigned option with strtoull, which turns "-1" into 2^64 - 1 and saturates
+// anything larger, so two different seeds silently became the same one.
+inline CLI::Validator seed_value() {
+  return CLI::Validator(
+      [](std::string& s) -> std::string {
+        const bool digits = !s.empty() && s.size() <= 20 && s.find_first_not_of("0123456789") == std::string::npos;
+        if (!digits || (s.size() == 20 && s > "18446744073709551615"))
+          return "seed '" + s + "' must be a whole number in [0, 18446744073709551615]";
+        return {};
+      },
+      "UINT64");
+}
+
 // An image file a sketch can be read from, by extension (case-insensitive).
 inline bool is_image(const std::filesystem::path& p) {
   std::string e = p.extension().string();

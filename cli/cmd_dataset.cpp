@@ -36,6 +36,7 @@ constexpr double kNormFloorM = -100, kNormPeakM = 560;
 struct BuildArgs {
   std::string config, out;
   int64_t count = -1;
+  bool count_given = false;
   uint64_t seed = 0;
   int threads = default_threads();
   std::string shard = "0/1";
@@ -43,8 +44,8 @@ struct BuildArgs {
 
 std::pair<int, int> parse_shard(const std::string& s) {
   std::smatch m;
-  static const std::regex re(R"((\d+)/(\d+))");
-  if (!std::regex_match(s, m, re)) throw Error("--shard must be I/N, e.g. 0/4");
+  static const std::regex re(R"((\d{1,6})/(\d{1,6}))");
+  if (!std::regex_match(s, m, re)) throw Error("--shard " + s + ": must be I/N with 0 ≤ I < N ≤ 999999, e.g. 0/4");
   const int i = std::stoi(m[1]), n = std::stoi(m[2]);
   if (n < 1 || i >= n) throw Error("--shard " + s + ": need 0 ≤ I < N");
   return {i, n};
@@ -89,9 +90,32 @@ int run_build(const BuildArgs& a, const GlobalOptions& g) {
     config = read_json(a.config);
     p = dataset_params_from_json(config, a.config);
   }
-  if (a.count > 0) p.count = a.count;
+  if (a.count_given) {
+    if (a.count < 1 || a.count > 100'000'000)
+      throw Error("--count " + std::to_string(a.count) + ": the number of pairs must be in 1..100000000");
+    p.count = a.count;
+  }
   const auto [shard_i, shard_n] = parse_shard(a.shard);
   const fs::path dir = a.out;
+  // A folder that is not a dataset is refused unless empty: the build writes
+  // dataset.json, manifest.jsonl and split folders and would replace a user's
+  // file of the same name. Its own files (locks, splits) are fine: shards of
+  // one folder start side by side.
+  {
+    std::error_code ec;
+    if (fs::exists(dir, ec) && !fs::is_directory(dir, ec))
+      throw Error(dir.string() + ": exists and is not a folder; choose another --out");
+    if (fs::is_directory(dir, ec) && !fs::exists(dir / "dataset.json", ec)) {
+      for (const auto& e : fs::directory_iterator(dir, ec)) {
+        const std::string name = e.path().filename().string();
+        const bool own = name.rfind(".reefgen.shard-", 0) == 0 ||
+                         ((name == "train" || name == "val" || name == "test") && e.is_directory(ec));
+        if (!own)
+          throw Error(dir.string() + ": not a reefgen dataset and not empty (holds " + name +
+                      "); build into an empty or new folder");
+      }
+    }
+  }
   ensure_writable_dir(dir);
   for (auto s : {Split::kTrain, Split::kVal, Split::kTest}) ensure_writable_dir(dir / split_name(s));
   // One builder per shard of a folder (shards of one folder may run side by
@@ -180,12 +204,13 @@ int run_merge(const std::string& out, const GlobalOptions& g) {
   const int64_t count = meta.at("params").at("count").get<int64_t>();
   std::vector<fs::path> shards;
   int n = 0;
-  static const std::regex re(R"(manifest\.shard-(\d+)-of-(\d+)\.jsonl)");
+  static const std::regex re(R"(manifest\.shard-(\d{1,6})-of-(\d{1,6})\.jsonl)");
   for (const auto& e : fs::directory_iterator(dir)) {
     std::smatch m;
     const std::string name = e.path().filename().string();
     if (!std::regex_match(name, m, re)) continue;
     const int sn = std::stoi(m[2]);
+    if (sn < 1) throw Error(e.path().string() + ": a shard of 0 shards; delete this file");
     if (n && sn != n) throw Error(dir.string() + ": shard manifests of different N (" + std::to_string(n) + ", " + std::to_string(sn) + ")");
     n = sn;
     shards.push_back(e.path());
@@ -200,7 +225,9 @@ int run_merge(const std::string& out, const GlobalOptions& g) {
     std::smatch m;
     const std::string name = sp.filename().string();
     std::regex_match(name, m, re);
-    in[static_cast<size_t>(std::stoi(m[1]))].open(sp);
+    const int i = std::stoi(m[1]);
+    if (i >= n) throw Error(sp.string() + ": shard " + std::to_string(i) + " of " + std::to_string(n) + " does not exist; delete this file");
+    in[static_cast<size_t>(i)].open(sp);
   }
   AtomicTextWriter merged(dir / "manifest.jsonl");
   std::set<std::string> listed;  // file names, to find foreign files afterwards
@@ -321,8 +348,9 @@ Command add_dataset_command(CLI::App& app, const GlobalOptions& g) {
   auto* build = sub->add_subcommand("build", "Build (or resume) a dataset into --out");
   build->add_option("--config", a->config, "Dataset config JSON (configs/dataset/*.json)");
   build->add_option("-o,--out,--output", a->out, "Dataset folder")->required();
-  build->add_option("--count", a->count, "Override the number of pairs");
-  build->add_option("--seed", a->seed, "Global seed")->capture_default_str();
+  build->add_option("--count", a->count, "Override the number of pairs (1..100000000)")
+      ->each([a](const std::string&) { a->count_given = true; });
+  build->add_option("--seed", a->seed, "Global seed")->capture_default_str()->check(seed_value());
   build->add_option("--threads", a->threads, "Worker threads (default: all cores)");
   build->add_option("--shard", a->shard, "Build only slice I of N (pairs with index % N == I)")->capture_default_str();
   auto merge_dir = std::make_shared<std::string>();

@@ -59,7 +59,11 @@ Command add_eval_sketches_command(CLI::App& app, const GlobalOptions& g) {
             if (files.empty()) throw Error(a->dir + ": no sketch images (.png, .jpg, ...) in it");
             const fs::path model_path = model::resolve_model_path(a->model);
             model::GeneratorFile gen = model::load_generator(model_path);
-            if (!a->out.empty()) ensure_writable_dir(a->out);
+            const fs::path json_out = fs::path(a->out) / "sketches.json", grid_out = fs::path(a->out) / "grid.png";
+            if (!a->out.empty()) {
+              ensure_writable_dir(a->out);
+              refuse_output_over_input(files, {json_out, grid_out});
+            }
             infer::SketchChecks total;
             std::vector<double> crests, boards;
             json per = json::array();
@@ -115,7 +119,8 @@ Command add_eval_sketches_command(CLI::App& app, const GlobalOptions& g) {
                   {"checkerboard_m_max", num(*std::max_element(boards.begin(), boards.end()))}}},
                 {"per_sketch", per}};
             if (!a->out.empty()) {
-              write_json_atomic(fs::path(a->out) / "sketches.json", report);
+              StagedOutputs outputs;
+              outputs.write(json_out, [&](const fs::path& t) { write_json_atomic(t, report); });
               // Two sketch|result tiles per row.
               std::vector<cv::Mat> rows;
               for (size_t i = 0; i < tiles.size(); i += 2) {
@@ -126,7 +131,8 @@ Command add_eval_sketches_command(CLI::App& app, const GlobalOptions& g) {
               }
               cv::Mat grid;
               cv::vconcat(rows, grid);
-              write_png(fs::path(a->out) / "grid.png", grid);
+              outputs.write(grid_out, [&](const fs::path& t) { write_png(t, grid); });
+              outputs.commit();
             }
             std::printf("%s\n", report.dump(1).c_str());
             return 0;

@@ -58,7 +58,7 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("-o,--output,--out", a->out, "Mesh file(s): .glb or .obj (repeat for both); a .json sidecar is written beside the first");
   sub->add_option("--preset", a->preset, "Built-in params (configs/floating/): default, spire, mesa, terrain-top");
   sub->add_option("--config", a->config, "Params JSON (configs/floating/*.json are examples)");
-  sub->add_option("--seed", a->seed, "Seed of the noise features")->capture_default_str();
+  sub->add_option("--seed", a->seed, "Seed of the noise features")->capture_default_str()->check(seed_value());
   sub->add_option("--metres-per-px", a->metres_per_px, "Ground size of a pixel (overrides the params / the EXR's own)");
   sub->add_option("--depth-stretch", a->depth_stretch, "Multiplies the bottom (overrides the params)");
   sub->add_option("--simplify", a->simplify_px, "Silhouette polygon tolerance, px (overrides the params)");

@@ -145,6 +145,7 @@ Command add_generate_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--subsidence", a->subsidence, "Override the subsidence λ in [0, 1]")->check(finite_in(0, 1));
   sub->add_option("--size", a->size, "Width W of the W×W output in pixels")->capture_default_str();
   sub->add_option("--seed", a->seed, "Random seed (random mode) or detail-noise seed (preset/spec)")
+      ->check(seed_value())
       ->each([a](const std::string&) { a->seed_given = true; });
   sub->add_flag("--preview", a->preview, "Also write PREFIX.preview.png (hill-shaded colours)");
   sub->add_option("--threads", a->threads, "Worker threads for --random (default: all cores)")->check(CLI::Range(1, 256));

@@ -61,7 +61,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
       ->check(CLI::Range(16, 8192));
   sub->add_flag("--preview", a->preview, "Also PREFIX.preview.png: coloured, hill-shaded");
   sub->add_flag("--stochastic", a->stochastic, "Dropout on (pix2pix's noise): a different island per --seed");
-  sub->add_option("--seed", a->seed, "Dropout masks for --stochastic")->capture_default_str();
+  sub->add_option("--seed", a->seed, "Dropout masks for --stochastic")->capture_default_str()->check(seed_value());
   sub->add_option("--precision", a->precision,
                   "fp32, bf16 (heights within ~1 m of fp32, ~1.6x faster), or auto (bf16 where the CPU has "
                   "avx512_bf16 or AMX-bf16, else fp32)")

@@ -44,7 +44,7 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
   sub->add_option("--from", f->from, "mapgen4, wilbur, noise, or a height EXR (metres): its land/water and depth/elevation bands become the five regions");
   sub->add_option("-o,--output,--out", f->out, "PNG file (with --from)");
   sub->add_option("--config", f->config, "Terrain params JSON for --from mapgen4|wilbur (configs/terrains/KIND*.json)");
-  sub->add_option("--seed", f->seed, "Seed (wilbur, noise)")->capture_default_str();
+  sub->add_option("--seed", f->seed, "Seed (wilbur, noise)")->capture_default_str()->check(seed_value());
   sub->add_option("--size", f->size, "W (wilbur, noise)")->capture_default_str();
   sub->add_option("--subsidence", f->subsidence, "λ in [0, 1] written in the value channel")->capture_default_str()->check(finite_in(0, 1));
   sub->add_option("--beach-top", f->bands.beach_top_m, "Land below this (m) is beach")->capture_default_str();
@@ -65,7 +65,7 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
     std::string out;
   };
   auto a = std::make_shared<Args>();
-  rnd->add_option("--seed", a->seed, "Seed")->capture_default_str();
+  rnd->add_option("--seed", a->seed, "Seed")->capture_default_str()->check(seed_value());
   rnd->add_option("-o,--output,--out", a->out, "PNG file, or a folder with --count > 1")->required();
   rnd->add_option("--count", a->count, "Number of sketches (seeds seed, seed+1, ...)")->capture_default_str();
   rnd->add_option("--size", a->p.size_px, "W")->capture_default_str();
@@ -158,7 +158,7 @@ Command add_terrain_command(CLI::App& app, const GlobalOptions&) {
       ->check(CLI::IsMember({"glb", "obj"}));
   sub->add_option("--config", a->config, "Params JSON (configs/terrains/KIND.json is the defaults serialised)");
   sub->add_option("-o,--output,--out", a->out, "Output prefix: PREFIX.height.exr (+ PREFIX.preview.png)")->required();
-  sub->add_option("--seed", a->seed, "Seed")->capture_default_str();
+  sub->add_option("--seed", a->seed, "Seed")->capture_default_str()->check(seed_value());
   sub->add_option("--size", a->size, "W")->capture_default_str();
   sub->add_flag("--preview", a->preview, "Also the coloured, hill-shaded preview");
   return {sub, [a, sub]() -> int {

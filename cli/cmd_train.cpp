@@ -1,6 +1,7 @@
 // reefgen train: pix2pix on a dataset folder (paper §6, docs/TRAINING.md).
 // Thin: flags -> TrainParams, signals -> a stop flag, progress -> stderr.
 #include <cstdio>
+#include <limits>
 #include <optional>
 
 #include "app.hpp"
@@ -32,14 +33,15 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--data", a->data, "Dataset folder made by `reefgen dataset build`")->required();
   sub->add_option("-o,--out,--output", a->out, "Run folder (created)")->required();
   sub->add_flag("--resume", a->resume, "Continue the run in --out from its checkpoint (its run.json config unless --config)");
-  sub->add_option("--max-steps", a->max_steps, "Stop after this many steps in all (checkpoint written); the lr schedule still spans the whole run");
-  sub->add_option("--seed", a->seed, "Overrides the config's seed");
+  sub->add_option("--max-steps", a->max_steps, "Stop after this many steps in all (checkpoint written); the lr schedule still spans the whole run")
+      ->check(CLI::Range(int64_t(1), std::numeric_limits<int64_t>::max()));
+  sub->add_option("--seed", a->seed, "Overrides the config's seed")->check(seed_value());
   sub->add_option("--threads", a->threads, "LibTorch threads (default: all cores)")->check(CLI::Range(1, 256));
   sub->add_option("--ngf", a->ngf, "Overrides G's filters");
   sub->add_option("--ndf", a->ndf, "Overrides D's filters");
   sub->add_option("--depth", a->depth, "Overrides G's down-samplings (side must be a multiple of 2^depth)");
-  sub->add_option("--epochs", a->epochs, "Overrides epochs at constant lr");
-  sub->add_option("--epochs-decay", a->epochs_decay, "Overrides epochs of linear lr decay");
+  sub->add_option("--epochs", a->epochs, "Overrides epochs at constant lr")->check(finite_in(0, 1e6));
+  sub->add_option("--epochs-decay", a->epochs_decay, "Overrides epochs of linear lr decay")->check(finite_in(0, 1e6));
   sub->add_option("--engine", a->engine, "Convolutions: onednn (default, faster) or torch (LibTorch's own)")
       ->check(CLI::IsMember({"onednn", "torch"}));
   sub->add_option("--precision", a->precision,
@@ -65,6 +67,9 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
             if (a->epochs_decay) j["epochs_decay"] = *a->epochs_decay;
             if (a->engine) j["engine"] = *a->engine;
             if (a->precision) j["precision"] = *a->precision;
+            if (a->seed || a->threads || a->ngf || a->ndf || a->depth || a->epochs || a->epochs_decay || a->engine ||
+                a->precision)
+              origin += " with the command-line flags";
             const train::TrainParams params = train::train_params_from_json(j, origin);
 
             install_stop_handlers();

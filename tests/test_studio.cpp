@@ -1,7 +1,11 @@
 // reefgen studio's HTTP API (issue 14): a real server on a free loopback port,
 // a real client. The answers equal the CLI's code paths; bad requests get a
 // 4xx with one line; nothing is written outside the output folder.
+#include <arpa/inet.h>
 #include <httplib.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <thread>
 
@@ -192,4 +196,178 @@ TEST_F(Studio, BadAndOversizeRequestsAreRefused) {
   expect_error(client->Post("/api/generate", "{\"outlines\": [", "application/json"), 400, "not valid JSON");
   expect_error(client->Post("/api/generate", R"({"subsidence": 7})", "application/json"), 400, "subsidence = 7");
   expect_error(client->Post("/api/generate?size=5000", "{}", "application/json"), 400, "size must be in");
+}
+
+namespace {
+
+// One raw HTTP exchange on loopback: what a hostile client (or a browser on
+// another site) sends, byte for byte. Returns the status code and the body.
+std::pair<int, std::string> raw_request(int port, const std::string& request) {
+  httplib::Client c("127.0.0.1", port);  // only to know the server is up
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(uint16_t(port));
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+    ::close(fd);
+    return {-1, "connect failed"};
+  }
+  timeval tv{10, 0};
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  for (size_t sent = 0; sent < request.size();) {
+    const ssize_t n = ::send(fd, request.data() + sent, request.size() - sent, MSG_NOSIGNAL);
+    if (n <= 0) break;  // the server may answer and close before reading it all
+    sent += size_t(n);
+  }
+  std::string resp;
+  char buf[4096];
+  for (ssize_t n; (n = ::recv(fd, buf, sizeof buf, 0)) > 0;) {
+    resp.append(buf, size_t(n));
+    const size_t head_end = resp.find("\r\n\r\n");
+    if (head_end == std::string::npos) continue;
+    const size_t cl = resp.find("Content-Length: ");
+    if (cl != std::string::npos && cl < head_end &&
+        resp.size() >= head_end + 4 + std::stoul(resp.substr(cl + 16)))
+      break;
+  }
+  ::close(fd);
+  if (resp.rfind("HTTP/1.1 ", 0) != 0) return {-1, resp};
+  const size_t head_end = resp.find("\r\n\r\n");
+  return {std::stoi(resp.substr(9, 3)), head_end == std::string::npos ? "" : resp.substr(head_end + 4)};
+}
+
+std::string post(int port, const std::string& path, const std::string& headers, const std::string& body) {
+  return "POST " + path + " HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) + "\r\n" + headers +
+         "Content-Length: " + std::to_string(body.size()) + "\r\nConnection: close\r\n\r\n" + body;
+}
+
+}  // namespace
+
+// Issue 24: a web page the user visits must not drive the studio (CSRF, DNS
+// rebinding), and no body gets past the limit however it is sent.
+TEST_F(Studio, CrossOriginAndRebindingRequestsAreRefused) {
+  const std::string spec = R"({"spec": {}, "size": 64})";
+  const std::string path = "/api/export?format=spec&name=csrf";
+  // A "simple" cross-origin POST (text/plain: no CORS preflight) from another site.
+  auto [st, body] = raw_request(port, post(port, path, "Origin: http://evil.example\r\nContent-Type: text/plain\r\n", spec));
+  EXPECT_EQ(st, 403) << body;
+  EXPECT_NE(body.find("cross-origin"), std::string::npos) << body;
+  // Sec-Fetch-Site without Origin (some browsers on some requests).
+  std::tie(st, body) = raw_request(port, post(port, path, "Sec-Fetch-Site: cross-site\r\n", spec));
+  EXPECT_EQ(st, 403) << body;
+  // DNS rebinding: the attacker's name resolves to 127.0.0.1; Host is its name.
+  const std::string rebound = "GET /api/info HTTP/1.1\r\nHost: evil.example:" + std::to_string(port) +
+                              "\r\nConnection: close\r\n\r\n";
+  std::tie(st, body) = raw_request(port, rebound);
+  EXPECT_EQ(st, 403) << body;
+  std::tie(st, body) = raw_request(port, "GET /api/info HTTP/1.1\r\nHost: 127.0.0.1:1\r\nConnection: close\r\n\r\n");
+  EXPECT_EQ(st, 403) << "another port is another origin: " << body;
+  EXPECT_FALSE(fs::exists(out / "exports" / "csrf.spec.json"));
+  // The page's own origin (and localhost) still works.
+  std::tie(st, body) = raw_request(
+      port, post(port, path, "Origin: http://127.0.0.1:" + std::to_string(port) + "\r\nContent-Type: application/json\r\n", spec));
+  EXPECT_EQ(st, 200) << body;
+  EXPECT_TRUE(fs::exists(out / "exports" / "csrf.spec.json"));
+  std::tie(st, body) = raw_request(port, "GET /api/info HTTP/1.1\r\nHost: localhost:" + std::to_string(port) +
+                                             "\r\nConnection: close\r\n\r\n");
+  EXPECT_EQ(st, 200) << body;
+}
+
+TEST_F(Studio, BodiesOverTheLimitAreRefusedHoweverSent) {
+  // Chunked: the HTTP library would read it without bound.
+  std::string chunked = "POST /api/infer HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) +
+                        "\r\nTransfer-Encoding: chunked\r\nContent-Type: image/png\r\nConnection: close\r\n\r\n";
+  for (int i = 0; i < 8; ++i) chunked += "40000\r\n" + std::string(0x40000, 'x') + "\r\n";  // 2 MiB > 1 MiB
+  chunked += "0\r\n\r\n";
+  auto [st, body] = raw_request(port, chunked);
+  EXPECT_EQ(st, 411) << body;
+  EXPECT_NE(body.find("Content-Length"), std::string::npos) << body;
+  // Content-Length over the limit: 413 with a one-line JSON body (was empty).
+  expect_error(client->Post("/api/infer", std::string(2 << 20, 'x'), "application/octet-stream"), 413, "too large");
+  // Form encodings: refused by type, whatever the size (was 413 above 8 KiB).
+  expect_error(client->Post("/api/infer", std::string(9000, 'a'), "application/x-www-form-urlencoded"), 415,
+               "application/json");
+}
+
+TEST_F(Studio, MalformedFieldsAre400WithOneReadableLine) {
+  expect_error(client->Post("/api/export?format=exr&name=a", R"({"sketch_png": 42})", "application/json"), 400,
+               "sketch_png must be a string");
+  expect_error(client->Post("/api/export?format=exr&name=a", R"({"sketch_png": "@@@"})", "application/json"), 400,
+               "base64");
+  expect_error(client->Post("/api/export?format=spec&name=a", R"({"spec": {}, "size": "big"})", "application/json"), 400,
+               "size must be");
+  // A NUL in the name is shown, not allowed to cut the message.
+  expect_error(client->Post("/api/export?format=spec&name=a%00b", R"({"spec": {}})", "application/json"), 400,
+               "a\\x00b");
+  EXPECT_TRUE(!fs::exists(out / "exports") || fs::is_empty(out / "exports"));
+}
+
+TEST_F(Studio, OnlyThePagesOwnFilesAreServed) {
+  auto r = client->Get("/");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  EXPECT_NE(r->get_header_value("Content-Type").find("text/html"), std::string::npos);
+  // A link inside the page's folder is not followed, even when made after start.
+  const fs::path link = fs::path(REEFGEN_STUDIO_ASSETS) / "probe-link.txt";
+  std::error_code ec;
+  fs::remove(link, ec);
+  fs::create_symlink("/etc/hostname", link);
+  r = client->Get("/probe-link.txt");
+  fs::remove(link, ec);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 404);
+  // A NUL in the path does not pick a content type from what follows it.
+  r = client->Get("/index.html%00.png");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 404);
+  EXPECT_EQ(r->get_header_value("Content-Type").find("image/png"), std::string::npos);
+  r = client->Get("/../../etc/passwd");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 404);
+}
+
+TEST_F(Studio, StalledClientsDoNotBlockThePage) {
+  std::vector<int> stalled;
+  for (int i = 0; i < 16; ++i) {  // more than the HTTP library's default 8 workers
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(uint16_t(port));
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ASSERT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+    const std::string half = "GET /api/info HTTP/1.1\r\nHost: 127.0.0.1\r\n";  // never finished
+    ASSERT_GT(::send(fd, half.data(), half.size(), MSG_NOSIGNAL), 0);
+    stalled.push_back(fd);
+  }
+  httplib::Client c("127.0.0.1", port);
+  c.set_read_timeout(5, 0);
+  c.set_connection_timeout(5, 0);
+  auto r = c.Get("/api/info");
+  for (int fd : stalled) ::close(fd);
+  ASSERT_TRUE(r) << "the server did not answer within 5 s with 16 stalled connections";
+  EXPECT_EQ(r->status, 200);
+}
+
+TEST_F(Studio, ASecondServerCannotTakeTheSamePort) {
+  studio::StudioOptions o;
+  o.port = port;
+  o.model = kRoot / "models" / "reef-256.pt";
+  o.out_dir = out / "exports2";
+  o.assets_dir = REEFGEN_STUDIO_ASSETS;
+  o.precision = "fp32";
+  studio::StudioServer second(o);
+  test::expect_error_naming([&] { second.bind(); }, "cannot listen on 127.0.0.1:" + std::to_string(port));
+}
+
+TEST(StudioOptions, AnOutputFolderThatIsAFileIsRefusedAtStart) {
+  const fs::path dir = test::temp_dir("studio-out");
+  write_text_atomic(dir / "file", "x");
+  studio::StudioOptions o;
+  o.port = 0;
+  o.model = kRoot / "models" / "reef-256.pt";
+  o.out_dir = dir / "file";
+  o.assets_dir = REEFGEN_STUDIO_ASSETS;
+  test::expect_error_naming([&] { studio::StudioServer s(o); }, "is a file, not a folder");
+  fs::remove_all(dir);
 }

@@ -7,6 +7,7 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cstdio>
@@ -79,6 +80,11 @@ void StagedOutputs::write(const fs::path& final_path, const std::function<void(c
   for (const auto& f : finals_)
     if (f == final_path || fs::weakly_canonical(f, ec) == fs::weakly_canonical(final_path, ec))
       throw Error("two outputs of this run are named " + final_path.string() + " (give each its own name)");
+  const fs::path dir = final_path.parent_path().empty() ? fs::path(".") : final_path.parent_path();
+  if (std::find(swept_dirs_.begin(), swept_dirs_.end(), dir) == swept_dirs_.end()) {
+    remove_stale_temps(dir);
+    swept_dirs_.push_back(dir);
+  }
   const fs::path tmp = temp_path_for(final_path);
   temps_.push_back(tmp);
   finals_.push_back(final_path);

@@ -3,6 +3,7 @@
 #include <unistd.h>
 #include <zlib.h>
 
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <vector>
@@ -110,15 +111,39 @@ std::string check_zip_integrity(const std::filesystem::path& path) {
 
 std::string first_line(const std::string& s) { return s.substr(0, s.find('\n')); }
 
+// LibTorch's file writer throws from its destructor when a write fails (a
+// full disk): that is std::terminate. So the archive goes through a writer
+// function of ours that never reports a short write to LibTorch (it would
+// throw "unexpected pos" on the next record, again inside the destructor);
+// it remembers the first error, stops writing, and the error is raised here,
+// after LibTorch is done, with the temporary file removed.
 void save_archive_atomic(torch::serialize::OutputArchive& a, const std::filesystem::path& path) {
   const std::filesystem::path tmp = path.string() + ".tmp-" + std::to_string(::getpid());
-  try {
-    a.save_to(tmp.string());
-    std::filesystem::rename(tmp, path);
-  } catch (const std::exception& e) {
-    std::error_code ec;
+  std::string failure;
+  FILE* f = std::fopen(tmp.c_str(), "wb");
+  if (!f) failure = std::strerror(errno);
+  if (f) {
+    try {
+      a.save_to([&](const void* data, size_t n) -> size_t {
+        if (failure.empty() && n && std::fwrite(data, 1, n, f) != n)
+          failure = std::strerror(errno ? errno : EIO);
+        return n;
+      });
+    } catch (const std::exception& e) {
+      if (failure.empty()) failure = first_line(e.what());
+    }
+    if (std::fflush(f) != 0 && failure.empty()) failure = std::strerror(errno);
+    if (::fsync(::fileno(f)) != 0 && failure.empty()) failure = std::strerror(errno);
+    if (std::fclose(f) != 0 && failure.empty()) failure = std::strerror(errno);
+  }
+  std::error_code ec;
+  if (failure.empty()) {
+    std::filesystem::rename(tmp, path, ec);
+    if (ec) failure = ec.message();
+  }
+  if (!failure.empty()) {
     std::filesystem::remove(tmp, ec);
-    throw std::runtime_error(path.string() + ": cannot write (" + first_line(e.what()) +
+    throw std::runtime_error(path.string() + ": cannot write (" + failure +
                              "); check free space and permissions");
   }
 }

@@ -1,6 +1,8 @@
 #include "reefgen/studio/server.hpp"
 
+#include <arpa/inet.h>
 #include <httplib.h>
+#include <sys/socket.h>
 
 #include <chrono>
 #include <cstring>
@@ -81,10 +83,69 @@ struct BadRequest : Error {
 
 // Export names: a plain file name inside the output folder, nothing else
 // (no '/', no '..', no hidden files).
+// Text from a request, fit for a one-line message: control bytes (a NUL
+// would cut the message short) and non-ASCII shown as \xNN, at most 80 bytes.
+std::string printable(const std::string& s) {
+  std::string out;
+  for (size_t i = 0; i < s.size() && i < 80; ++i) {
+    const unsigned char c = static_cast<unsigned char>(s[i]);
+    if (c >= 0x20 && c < 0x7f) {
+      out += char(c);
+    } else {
+      char b[8];
+      std::snprintf(b, sizeof b, "\\x%02x", c);
+      out += b;
+    }
+  }
+  return s.size() > 80 ? out + "..." : out;
+}
+
 void check_name(const std::string& name) {
   static const std::regex ok("[A-Za-z0-9][A-Za-z0-9_-]{0,63}");
   if (!std::regex_match(name, ok))
-    throw BadRequest("name '" + name + "': use 1–64 letters, digits, '-' and '_' (a file name in the output folder)");
+    throw BadRequest("name '" + printable(name) + "': use 1–64 letters, digits, '-' and '_' (a file name in the output folder)");
+}
+
+// The host part of a Host header ("127.0.0.1:8080", "[::1]:8080",
+// "localhost") and its port (-1 when absent).
+std::pair<std::string, int> split_host(const std::string& h) {
+  std::string name = h, port;
+  if (!h.empty() && h[0] == '[') {
+    const size_t close = h.find(']');
+    if (close == std::string::npos) return {"", -1};
+    name = h.substr(1, close - 1);
+    if (close + 1 < h.size()) {
+      if (h[close + 1] != ':') return {"", -1};
+      port = h.substr(close + 2);
+    }
+  } else if (const size_t colon = h.rfind(':'); colon != std::string::npos) {
+    name = h.substr(0, colon);
+    port = h.substr(colon + 1);
+  }
+  if (port.empty()) return {name, -1};
+  if (port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos) return {"", -1};
+  return {name, std::stoi(port)};
+}
+
+bool is_ip_literal(const std::string& name) {
+  unsigned char buf[16];
+  return ::inet_pton(AF_INET, name.c_str(), buf) == 1 || ::inet_pton(AF_INET6, name.c_str(), buf) == 1;
+}
+
+std::string lower(std::string s) {
+  for (auto& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+// Content types of the page's files, by extension.
+std::string content_type_of(const fs::path& p) {
+  static const std::map<std::string, std::string> types = {
+      {".html", "text/html; charset=utf-8"}, {".js", "text/javascript; charset=utf-8"},
+      {".mjs", "text/javascript; charset=utf-8"}, {".css", "text/css; charset=utf-8"},
+      {".json", "application/json"}, {".png", "image/png"}, {".svg", "image/svg+xml"},
+      {".ico", "image/x-icon"}, {".txt", "text/plain; charset=utf-8"}};
+  const auto it = types.find(lower(p.extension().string()));
+  return it == types.end() ? "application/octet-stream" : it->second;
 }
 
 }  // namespace
@@ -96,6 +157,66 @@ struct StudioServer::Impl {
   httplib::Server svr;
   std::mutex compute;          // one inference / generation at a time
   std::atomic<uint64_t> latest{0};
+  int port = -1;               // the bound port (Host checks)
+  // The page: URL path -> file, listed once at start. Regular files only:
+  // symbolic links in the folder are never followed, and nothing outside
+  // this list is ever served.
+  std::map<std::string, fs::path> assets;
+
+  void list_assets() {
+    if (o.assets_dir.empty()) return;
+    std::error_code ec;
+    if (!fs::is_directory(o.assets_dir, ec))
+      throw Error("studio: the page's folder " + o.assets_dir.string() + " is missing (rebuild: bash scripts/build.sh)");
+    for (auto it = fs::recursive_directory_iterator(o.assets_dir, fs::directory_options::none, ec);
+         it != fs::recursive_directory_iterator(); it.increment(ec)) {
+      if (ec) break;
+      const fs::file_status st = it->symlink_status(ec);
+      if (!fs::is_regular_file(st)) continue;  // links, folders (not descended into when links), devices
+      const std::string rel = fs::relative(it->path(), o.assets_dir, ec).generic_string();
+      if (!ec && !rel.empty()) assets["/" + rel] = it->path();
+    }
+  }
+
+  // Requests from the page itself, and nothing else, may reach the API:
+  //  - Host must name this server (an IP literal, localhost or --host, with
+  //    the bound port): a DNS-rebinding page's Host is its own domain name.
+  //  - State-changing methods must not come from another origin (CSRF): a
+  //    browser sends Origin with every cross-origin POST, even text/plain
+  //    "simple" ones, and Sec-Fetch-Site where it knows it.
+  //  - Bodies have a Content-Length within the limit: chunked bodies would be
+  //    read without bound by the HTTP library, so they are refused up front.
+  //  - Form encodings are refused (the API takes JSON or an image); the HTTP
+  //    library would parse them into parameters under its own 8 KiB limit.
+  // Returns the status and message of a refusal, or status 0.
+  std::pair<int, std::string> refusal(const httplib::Request& req) const {
+    if (!req.has_header("Host")) return {400, "no Host header"};
+    const std::string host = req.get_header_value("Host");
+    const auto [name, p] = split_host(host);
+    const std::string lname = lower(name);
+    const bool name_ok = !lname.empty() && (lname == lower(o.host) || lname == "localhost" || is_ip_literal(lname));
+    if (!name_ok || p != port)
+      return {403, "Host '" + printable(host) + "' is not this studio (" + o.host + ":" + std::to_string(port) +
+                       "); open the page at http://127.0.0.1:" + std::to_string(port) + "/"};
+    const bool safe = req.method == "GET" || req.method == "HEAD" || req.method == "OPTIONS";
+    if (safe) return {0, ""};
+    if (req.has_header("Origin") && req.get_header_value("Origin") != "http://" + host)
+      return {403, "cross-origin request from '" + printable(req.get_header_value("Origin")) +
+                       "' refused: only the studio's own page may change files"};
+    if (req.has_header("Sec-Fetch-Site")) {
+      const std::string site = req.get_header_value("Sec-Fetch-Site");
+      if (site != "same-origin" && site != "none")
+        return {403, "cross-site request (Sec-Fetch-Site: " + printable(site) + ") refused"};
+    }
+    const std::string te = lower(req.get_header_value("Transfer-Encoding"));
+    if (!te.empty() && te != "identity")
+      return {411, "Transfer-Encoding '" + printable(te) + "' refused: send the body with a Content-Length (at most " +
+                       std::to_string(o.max_body_bytes) + " bytes)"};
+    const std::string ct = lower(req.get_header_value("Content-Type"));
+    if (ct.rfind("application/x-www-form-urlencoded", 0) == 0 || ct.rfind("multipart/form-data", 0) == 0)
+      return {415, "Content-Type '" + printable(ct) + "' refused: send JSON (application/json) or an image"};
+    return {0, ""};
+  }
 
   // Decodes a sketch image from request bytes, bounded in size.
   DecodedSketch sketch_of(const std::string& bytes) {
@@ -190,10 +311,37 @@ struct StudioServer::Impl {
 
   void routes() {
     svr.set_payload_max_length(o.max_body_bytes);
-    // The page's files may be cached: three.js is 1.2 MB and the HTTP library
-    // compresses text on every request.
-    if (!o.assets_dir.empty() && !svr.set_mount_point("/", o.assets_dir.string(), {{"Cache-Control", "max-age=600"}}))
-      throw Error("studio: the page's folder " + o.assets_dir.string() + " is missing (rebuild: bash scripts/build.sh)");
+    // One listener per port: the library's default SO_REUSEPORT let a second
+    // studio bind the same port and the kernel shared the requests.
+    svr.set_socket_options([](int sock) {
+      int yes = 1;
+      ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+    });
+    // Slow or stalled clients each hold a worker until their read times out:
+    // enough workers that a few of them never starve the page.
+    svr.new_task_queue = [] { return new httplib::ThreadPool(64); };
+    svr.set_read_timeout(10, 0);
+    svr.set_keep_alive_timeout(5);
+    svr.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+      const auto [status, msg] = refusal(req);
+      if (status == 0) return httplib::Server::HandlerResponse::Unhandled;
+      fail(res, status, msg);
+      res.set_header("Connection", "close");
+      return httplib::Server::HandlerResponse::Handled;
+    });
+    // Errors raised inside the HTTP library (413 for a long body, 400 for a
+    // malformed request) get the same one-line JSON as the API's own.
+    svr.set_error_handler(httplib::Server::HandlerWithResponse(
+        [max_body = o.max_body_bytes](const httplib::Request&, httplib::Response& res) {
+      if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
+      const std::string why = res.status == 413   ? "request body too large (at most " + std::to_string(max_body) + " bytes)"
+                              : res.status == 404 ? "not found"
+                              : res.status == 414 ? "request URI too long"
+                                                  : "bad request (HTTP " + std::to_string(res.status) + ")";
+      fail(res, res.status, why);
+      return httplib::Server::HandlerResponse::Handled;
+    }));
+    list_assets();
     svr.Get("/api/info", guarded([this](const httplib::Request&, httplib::Response& res) {
       const auto& u = gen.g->options();
       res.set_content(json{{"version", kVersion},
@@ -267,13 +415,23 @@ struct StudioServer::Impl {
         std::lock_guard<std::mutex> lock(compute);
         if (from_spec) {
           procgen::IslandSpec sp;
+          if (body.contains("size") && !body["size"].is_number_integer())
+            throw BadRequest("size must be a whole number of pixels in 32.." + std::to_string(o.max_side));
           const procgen::IslandFields f = island_of(body["spec"], body.value("size", 256), &sp);
           h = f.height_m;
           label = encode_labels(f.label, sp.subsidence);
           procgen::to_json(spec_json, sp);
           mpp = sp.world_size_m / h.cols;
         } else {
-          const DecodedSketch s = sketch_of(base64_decode(body["sketch_png"].get<std::string>()));
+          if (!body["sketch_png"].is_string())
+            throw BadRequest("sketch_png must be a string: the sketch PNG in base64");
+          std::string png;
+          try {
+            png = base64_decode(body["sketch_png"].get<std::string>());
+          } catch (const Error& e) {
+            throw BadRequest(std::string("sketch_png: ") + e.what());
+          }
+          const DecodedSketch s = sketch_of(png);
           h = infer::infer_heights(gen, {s}, io)[0];
           label = encode_labels(s.label, s.subsidence);
           mpp = 6000.0 / h.cols;
@@ -304,6 +462,28 @@ struct StudioServer::Impl {
       res.set_header("X-Reefgen-Path", fs::absolute(path).string());
       res.set_content(bytes, format == "spec" ? "application/json" : "application/octet-stream");
     }));
+    // The page's files (the API's routes above take precedence). The page may
+    // be cached: three.js is 1.2 MB and the HTTP library compresses text on
+    // every request.
+    svr.Get(R"(/.*)", [this](const httplib::Request& req, httplib::Response& res) {
+      const std::string path = req.path == "/" ? "/index.html" : req.path;
+      const auto it = assets.find(path);
+      std::error_code ec;
+      if (it == assets.end() || !fs::is_regular_file(fs::symlink_status(it->second, ec))) {
+        fail(res, 404, "not found: " + printable(req.path));
+        return;
+      }
+      std::string bytes;
+      try {
+        bytes = read_text(it->second);
+      } catch (const std::exception&) {
+        fail(res, 404, "not found: " + printable(req.path));
+        return;
+      }
+      res.set_header("Cache-Control", "max-age=600");
+      res.set_header("X-Content-Type-Options", "nosniff");
+      res.set_content(bytes, content_type_of(it->second).c_str());
+    });
     svr.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr) {
       fail(res, 500, "internal error");
     });
@@ -321,6 +501,12 @@ StudioServer::StudioServer(StudioOptions options) : impl_(std::make_unique<Impl>
     throw Error(std::string("--precision: ") + e.what());
   }
   if (m.o.max_side < 64 || m.o.max_side > 4096) throw Error("studio: max_side must be in 64..4096");
+  // Checked now, not at the first export: an --out that is a file or
+  // read-only would otherwise fail every export with an error.
+  std::error_code ec;
+  if (fs::exists(m.o.out_dir, ec) && !fs::is_directory(m.o.out_dir, ec))
+    throw Error("studio: --out " + m.o.out_dir.string() + " is a file, not a folder; choose a folder for the exports");
+  ensure_writable_dir(m.o.out_dir);
   m.routes();
 }
 
@@ -332,6 +518,7 @@ int StudioServer::bind() {
   if (port < 0)
     throw Error("studio: cannot listen on " + m.o.host + ":" + std::to_string(m.o.port) +
                 " (in use? choose another with --port)");
+  m.port = port;
   return port;
 }
 

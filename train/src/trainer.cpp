@@ -67,7 +67,9 @@ void truncate_log(const fs::path& path, int64_t step) {
   std::string line, out;
   bool header = true;
   while (std::getline(in, line)) {
-    if (header || (!line.empty() && std::stoll(line.substr(0, line.find(','))) <= step)) out += line + "\n";
+    const std::string first = line.substr(0, line.find(','));
+    const bool is_step = !first.empty() && first.size() < 19 && first.find_first_not_of("0123456789") == std::string::npos;
+    if (header || (is_step && std::stoll(first) <= step)) out += line + "\n";  // a torn last row is dropped
     header = false;
   }
   write_text_atomic(path, out);
@@ -237,7 +239,27 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
   const int64_t steps_constant = std::llround(params.epochs * steps_per_epoch);
   const int64_t steps_decay = std::llround(params.epochs_decay * steps_per_epoch);
   const int64_t total = steps_constant + steps_decay;
+  if (total < 1)
+    throw Error("training config: epochs " + std::to_string(params.epochs) + " + epochs_decay " +
+                std::to_string(params.epochs_decay) + " give 0 steps over " + std::to_string(n) +
+                " training pairs; raise epochs (e.g. --epochs 1)");
   const int64_t end = run.max_steps >= 0 ? std::min(total, run.max_steps) : total;
+
+  // The run folder must not be the dataset or inside it (validation pictures
+  // and checkpoints would land among the pairs), nor hold the dataset.
+  {
+    std::error_code ec;
+    const fs::path d = fs::weakly_canonical(fs::absolute(run.data), ec), o = fs::weakly_canonical(fs::absolute(run.out), ec);
+    auto under = [](const fs::path& child, const fs::path& parent) {
+      auto c = child.begin();
+      for (auto q = parent.begin(); q != parent.end(); ++q, ++c)
+        if (c == child.end() || *c != *q) return false;
+      return true;
+    };
+    if (under(o, d) || under(d, o))
+      throw Error(run.out.string() + ": the run folder is the dataset " + run.data.string() +
+                  " or overlaps it; choose an --out outside the dataset");
+  }
 
   const fs::path ckpt = run.out / "checkpoint.pt";
   if (run.resume && !fs::exists(ckpt))  // checked before anything is created
@@ -252,8 +274,35 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
     if (fs::is_directory(run.out / "val")) remove_stale_temps(run.out / "val");
   }
   const fs::path log_csv = run.out / "log.csv", val_csv = run.out / "val.csv";
-  if (!run.resume && (fs::exists(ckpt) || fs::exists(run.out / "run.json")))
+  // A resumed run reads the same data as before: another size, height range
+  // or number of pairs would change the sample order and what the model means.
+  if (run.resume && fs::exists(run.out / "run.json")) {
+    const json before = read_json(run.out / "run.json");
+    auto differs = [&](const char* key, const json& now) {
+      if (before.contains(key) && before.at(key) != now)
+        throw Error(run.data.string() + ": not the dataset this run was started with (" + key + " " +
+                    before.at(key).dump() + " then, " + now.dump() + " now; " +
+                    before.value("data", std::string("?")) + "); resume with --data " +
+                    before.value("data", std::string("?")) + " or start a new run");
+    };
+    differs("size_px", data.size_px);
+    differs("height_range_m", json::array({data.range.lo_m, data.range.hi_m}));
+    if (before.contains("pairs")) {
+      const json& pb = before.at("pairs");
+      if (pb.value("train", int64_t(-1)) != n)
+        throw Error(run.data.string() + ": not the dataset this run was started with (" +
+                    std::to_string(pb.value("train", int64_t(-1))) + " training pairs then, " + std::to_string(n) +
+                    " now); resume with --data " + before.value("data", std::string("?")) + " or start a new run");
+    }
+  }
+  if (!run.resume && fs::exists(ckpt))
     throw Error(run.out.string() + ": already holds a run; pass --resume to continue it or choose another --out");
+  // A run that failed before its first checkpoint (full disk, bad data) left
+  // run.json and maybe log rows but nothing to resume: a new run starts over.
+  if (!run.resume) {
+    truncate_log(log_csv, 0);
+    truncate_log(val_csv, 0);
+  }
 
   torch::manual_seed(params.seed);  // weight initialisation
   Pix2Pix p(pix2pix_options(params));

@@ -53,7 +53,9 @@ class AtomicTextWriter {
 // once everything has been written. A run that fails before commit() — bad
 // input, full disk, an output path that is a folder — leaves every file that
 // existed before it exactly as it was, and nothing new: the destructor removes
-// what was staged.
+// what was staged. The first write into a folder also removes the temporaries
+// that killed runs left there (remove_stale_temps), so a kill -9 leaves
+// nothing behind once the command is run again.
 class StagedOutputs {
  public:
   StagedOutputs() = default;
@@ -70,6 +72,7 @@ class StagedOutputs {
 
  private:
   std::vector<fs::path> temps_, finals_;
+  std::vector<fs::path> swept_dirs_;  // folders already cleared of stale temporaries
   bool committed_ = false;
 };
 
