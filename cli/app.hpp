@@ -17,6 +17,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "reefgen/io.hpp"
+
 namespace reefgen {
 
 const std::map<std::string, std::string>& builtin_presets();           // configs/presets/*.json
@@ -61,6 +63,10 @@ struct OutputNames {
 };
 inline OutputNames output_names(const std::string& o) {
   std::filesystem::path p(o);
+  // "-o out/" would write hidden files out/.height.exr, out/.json, ...
+  if (p.filename().empty() || p.filename() == "." || p.filename() == "..")
+    throw Error("-o " + o + ": a folder, not a file prefix; give a name in it, e.g. -o " +
+                (p.filename().empty() ? o : o + "/") + "island");
   if (p.extension() == ".exr") {
     std::filesystem::path stem = p;
     stem.replace_extension();

@@ -50,7 +50,7 @@ std::function<int()> add_bench_model_commands(CLI::App* bench) {
   }
   return [a, tr, in]() -> int {
     if (a->reps < 1 || a->threads < 1 || a->batch < 1) throw Error("--reps, --threads and --batch must be ≥ 1");
-    if (a->size < 32 || (a->size & (a->size - 1))) throw Error("--size must be a power of two ≥ 32");
+    if (a->size < 32 || a->size > 4096 || (a->size & (a->size - 1))) throw Error("--size " + std::to_string(a->size) + ": must be a power of two in 32..4096");
     torch::set_num_threads(a->threads);
     train::keep_freed_memory();
     torch::manual_seed(1);

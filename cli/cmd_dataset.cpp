@@ -68,7 +68,11 @@ bool existing_matches(const fs::path& label_path, const fs::path& height_path, c
   const bool hl = fs::exists(label_path), hh = fs::exists(height_path);
   if (!hl && !hh) return false;
   if (hl != hh) return false;  // interrupted between the two writes: rewrite both
-  const cv::Mat l = cv::imread(label_path.string(), cv::IMREAD_UNCHANGED);
+  cv::Mat l;
+  try {
+    l = read_image(label_path, cv::IMREAD_UNCHANGED);
+  } catch (const Error&) {
+  }
   if (l.empty() || l.type() != CV_8UC3 || cv::norm(l, label_bgr, cv::NORM_INF) != 0)
     throw Error(label_path.string() + " is corrupt or from another dataset; delete it or build into an empty folder");
   cv::Mat1f h;
@@ -290,12 +294,28 @@ int run_stats(const std::string& out, int sheet_pairs, const GlobalOptions& g) {
   const int tile = 128;
   std::string line;
   std::vector<json> records;
-  while (std::getline(in, line)) records.push_back(json::parse(line));
+  for (size_t no = 1; std::getline(in, line); ++no) {
+    json r = json::parse(line, nullptr, false);
+    if (r.is_discarded() || !r.is_object() || !r.contains("split") || !r["split"].is_string() ||
+        !r.contains("label") || !r["label"].is_string() || !r.contains("height") || !r["height"].is_string() ||
+        !r.contains("subsidence") || !r["subsidence"].is_number())
+      throw Error(manifest.string() + ":" + std::to_string(no) +
+                  ": not a pair record (truncated or edited manifest); rebuild the dataset (it resumes)");
+    records.push_back(std::move(r));
+  }
+  const int size_px = meta.contains("params") ? meta["params"].value("size_px", 0) : 0;
   Progress progress("stats", records.size(), g.quiet);
   for (const auto& r : records) {
     ++per_split[r.at("split").get<std::string>()];
-    const auto d = read_sketch(dir / r.at("label").get<std::string>());
-    const cv::Mat1f h = read_exr_height(dir / r.at("height").get<std::string>());
+    const fs::path lp = dir / r.at("label").get<std::string>(), hp = dir / r.at("height").get<std::string>();
+    const auto d = read_sketch(lp);
+    const cv::Mat1f h = read_exr_height(hp);
+    for (const auto& [m, path] : {std::pair<cv::Size, fs::path>{d.label.size(), lp}, {h.size(), hp}})
+      if (size_px > 0 && (m.width != size_px || m.height != size_px))
+        throw Error(path.string() + ": " + std::to_string(m.width) + "x" + std::to_string(m.height) + ", not " +
+                    std::to_string(size_px) + "x" + std::to_string(size_px) + " as dataset.json says; rebuild this pair");
+    if (!cv::checkRange(h, true))
+      throw Error(hp.string() + ": holds NaN or infinite heights; rebuild this pair (delete it and run dataset build again)");
     for (int y = 0; y < d.label.rows; ++y)
       for (int x = 0; x < d.label.cols; ++x) region_px[d.label(y, x)] += 1;
     total_px += static_cast<double>(d.label.total());
@@ -306,7 +326,7 @@ int run_stats(const std::string& out, int sheet_pairs, const GlobalOptions& g) {
     hmin = std::min(hmin, lo);
     hmax = std::max(hmax, hi);
     if (static_cast<int>(tiles.size()) < sheet_pairs) {
-      cv::Mat lab = cv::imread((dir / r.at("label").get<std::string>()).string(), cv::IMREAD_COLOR), prev, a, b;
+      cv::Mat lab = read_image(lp, cv::IMREAD_COLOR), prev, a, b;
       cv::resize(lab, a, {tile, tile}, 0, 0, cv::INTER_NEAREST);
       cv::resize(render_preview(h), b, {tile, tile}, 0, 0, cv::INTER_AREA);
       cv::hconcat(a, b, prev);
@@ -329,7 +349,7 @@ int run_stats(const std::string& out, int sheet_pairs, const GlobalOptions& g) {
     out_j["contact_sheet"] = "contact_sheet.png";
   }
   write_json_atomic(dir / "stats.json", out_j);
-  std::printf("%s\n", out_j.dump(2).c_str());
+  std::printf("%s\n", out_j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
   return 0;
 }
 

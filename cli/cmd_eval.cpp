@@ -64,9 +64,14 @@ Command add_eval_command(CLI::App& app, const GlobalOptions& g) {
             std::vector<DecodedSketch> clean;
             for (size_t i = 0; i < n; ++i) {
               const fs::path lp = data.dir / pairs[i].label;
-              labels.push_back(cv::imread(lp.string(), cv::IMREAD_COLOR));
-              if (labels.back().empty()) throw Error(lp.string() + ": unreadable label image");
+              labels.push_back(read_image(lp, cv::IMREAD_COLOR));
               truths.push_back(read_exr_height(data.dir / pairs[i].height));
+              for (const auto& [m, path] : {std::pair<cv::Size, fs::path>{labels.back().size(), lp},
+                                             {truths.back().size(), data.dir / pairs[i].height}})
+                if (m.width != data.size_px || m.height != data.size_px)
+                  throw Error(path.string() + ": " + std::to_string(m.width) + "x" + std::to_string(m.height) +
+                              ", not " + std::to_string(data.size_px) + "x" + std::to_string(data.size_px) +
+                              " as dataset.json says; rebuild the dataset");
               if (!cv::checkRange(truths.back(), true))
                 throw Error((data.dir / pairs[i].height).string() +
                             ": the true heights hold NaN or infinite values; rebuild the dataset (reefgen dataset build)");
@@ -149,7 +154,7 @@ Command add_eval_command(CLI::App& app, const GlobalOptions& g) {
               cv::vconcat(rows, grid);
               write_png(fs::path(a->out) / "worst.png", grid);
             }
-            std::printf("%s\n", report.dump(1).c_str());
+            std::printf("%s\n", report.dump(1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
             return 0;
           }};
 }

@@ -134,7 +134,7 @@ Command add_eval_sketches_command(CLI::App& app, const GlobalOptions& g) {
               outputs.write(grid_out, [&](const fs::path& t) { write_png(t, grid); });
               outputs.commit();
             }
-            std::printf("%s\n", report.dump(1).c_str());
+            std::printf("%s\n", report.dump(1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
             return 0;
           }};
 }

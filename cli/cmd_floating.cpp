@@ -129,15 +129,18 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
                 const double mpp = exr_metres_per_px(attrs);
                 p.metres_per_px = mpp > 0 ? mpp : 6000.0 / terrain.cols;
               }
-              for (const float v : terrain)
+              for (const float v : terrain) {
                 if (!std::isfinite(v)) throw Error(a->height + ": height field holds NaN or infinity; regenerate it");
+                // Beyond ±100 km a float32 mesh loses its sub-metre steps and is no longer closed.
+                if (std::abs(v) > 1e5f)
+                  throw Error(a->height + ": height " + std::to_string(v) + " m is beyond ±100 km; is it in metres?");
+              }
             }
             if (sub->count("--metres-per-px")) p.metres_per_px = a->metres_per_px;
             procgen::validate(p);
             if (!a->painting.empty()) {
               if (!fs::is_regular_file(a->painting)) throw Error(a->painting + ": no such file (check the path)");
-              cv::Mat img = cv::imread(a->painting, cv::IMREAD_UNCHANGED);
-              if (img.empty()) throw Error(a->painting + ": cannot read the image (missing, or not PNG/JPEG/TIFF/BMP/WebP)");
+              cv::Mat img = read_image(a->painting, cv::IMREAD_UNCHANGED);
               if (a->max_size < 0) throw Error("--max-size must be ≥ 0");
               const int long_side = std::max(img.cols, img.rows);
               if (a->max_size > 0 && long_side > a->max_size) {
@@ -213,7 +216,7 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
             const fs::path js = fs::path(a->out.front()).replace_extension(".json");
             staged.write(js, [&](const fs::path& t) { write_json_atomic(t, side); });  // last
             staged.commit();
-            std::printf("%s\n", side.dump().c_str());
+            std::printf("%s\n", side.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
             if (!g.quiet)
               std::fprintf(stderr, "floating: %d shell(s), %zu triangles, top %.1f m, depth %.1f m, silhouette IoU %.3f\n",
                            isl.islands, isl.mesh.triangles.size(), isl.top_max_m, isl.depth_m, iou);

@@ -17,6 +17,7 @@ namespace {
 struct GenerateArgs {
   std::string preset, spec_file, prefix, out_dir;
   int random = 0;
+  bool random_given = false;
   double subsidence = NAN;  // NAN: keep the preset's / spec's value
   int size = 256;
   uint64_t seed = 0;
@@ -138,7 +139,8 @@ Command add_generate_command(CLI::App& app, const GlobalOptions& g) {
   auto* src = sub->add_option_group("source", "What to generate");
   src->add_option("--preset", a->preset, "Built-in preset (see `reefgen presets`)");
   src->add_option("--spec,--config", a->spec_file, "Island spec JSON (docs/SPEC.md); --config is the same");
-  src->add_option("--random", a->random, "N random configurations (paper's data generation), each at --levels subsidence levels");
+  src->add_option("--random", a->random, "N random configurations (paper's data generation), each at --levels subsidence levels")
+      ->each([a](const std::string&) { a->random_given = true; });
   src->require_option(1);
   sub->add_option("-o,--output", a->prefix, "Output prefix: PREFIX.height.exr, .label.png, .json (and .preview.png); or NAME.exr: that file, siblings NAME.*");
   sub->add_option("--out", a->out_dir, "Output folder for --random");
@@ -153,7 +155,7 @@ Command add_generate_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--warp-grid", a->warp_grid, "Cells of the wind displacement grid across the canvas")->capture_default_str();
   return {sub, [a, &g]() -> int {
             check_common(*a);
-            if (a->random > 0) {
+            if (a->random_given) {
               if (a->out_dir.empty()) throw Error("--random needs --out DIR");
               return run_random(*a, g);
             }

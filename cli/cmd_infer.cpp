@@ -78,9 +78,11 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
             train::keep_freed_memory();
             // Inputs: files and the images inside folders, in name order.
             std::vector<fs::path> inputs;
+            bool from_folder = false;  // a folder of sketches: -o is a folder even for one sketch (docs/INFERENCE.md)
             for (const auto& s : a->inputs) {
               const fs::path p(s);
               if (fs::is_directory(p)) {
+                from_folder = true;
                 std::vector<fs::path> in_dir;
                 for (const auto& e : fs::directory_iterator(p))
                   if (e.is_regular_file() && is_image(e.path())) in_dir.push_back(e.path());
@@ -93,7 +95,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                 throw Error(p.string() + ": no such sketch file or folder");
               }
             }
-            const bool many = inputs.size() > 1 || fs::is_directory(a->out);
+            const bool many = inputs.size() > 1 || from_folder || fs::is_directory(a->out);
             std::string mesh_format = a->mesh;
             fs::path mesh_path;
             if (!a->mesh.empty() && a->mesh != "obj" && a->mesh != "glb") {
@@ -111,7 +113,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
               throw Error("--stochastic: " + a->model + " has no dropout layers (depth " +
                           std::to_string(gen.g->options().depth) + ", dropout " + std::to_string(gen.g->options().dropout) +
                           "), so outputs cannot vary; drop --stochastic");
-            const OutputNames single = output_names(a->out);  // -o PREFIX or -o NAME.exr (one sketch)
+            const OutputNames single = many ? OutputNames{} : output_names(a->out);  // -o PREFIX or -o NAME.exr (one sketch)
             const fs::path out_dir = many ? fs::path(a->out) : single.prefix.parent_path();
             {
               // Every file this run may write, checked before any is written:
@@ -134,6 +136,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
               refuse_output_over_input(inputs, outs);
             }
             ensure_writable_dir(out_dir.empty() ? fs::path(".") : out_dir);
+            std::vector<std::string> r16_notes;
             Progress progress("infer", inputs.size(), g.quiet);
             infer::InferOptions io;
             io.stochastic = a->stochastic;
@@ -202,7 +205,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                   const std::string note = infer::r16_import_note(h.cols, h.rows, lo, hi, mpp);
                   side["r16"] = {{"width", h.cols}, {"height", h.rows}, {"byte_order", "little-endian"},
                                  {"lo_m", lo}, {"hi_m", hi}, {"import", note}};
-                  if (!g.quiet) std::fprintf(stderr, "%s: %s", p.c_str(), note.c_str());
+                  r16_notes.push_back(p.string() + ": " + note);  // printed once the files are in place
                 }
                 if (!mesh_format.empty()) {
                   const fs::path p = mesh_path.empty() ? fs::path(prefix.string() + "." + mesh_format) : mesh_path;
@@ -228,6 +231,8 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
               }
             }
             staged.commit();
+            if (!g.quiet)
+              for (const auto& n : r16_notes) std::fprintf(stderr, "%s", n.c_str());
             for (const auto& r : results) std::printf("%s\n", r.c_str());
             return 0;
           }};

@@ -50,7 +50,7 @@ Command add_model_command(CLI::App& app, const GlobalOptions&) {
                               {"height_range_m", {f.range.lo_m, f.range.hi_m}},
                               {"train_step", f.train_step},
                               {"reefgen_version", f.reefgen_version}};
-              std::printf("%s\n", j.dump(1).c_str());
+              std::printf("%s\n", j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
               return 0;
             }
             if (a->storage != "float16" && a->storage != "float32")

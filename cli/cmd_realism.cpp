@@ -72,7 +72,7 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                                     {"max_height_m", st.max_height_m}, {"flank_cells", st.flank_cells},
                                     {"pits", st.pits},    {"terraces", st.terraces},
                                     {"valleys", st.valleys}};
-                std::printf("%s\n", j.dump().c_str());
+                std::printf("%s\n", j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
               } else {
                 std::printf("%-40s %4dx%-4d %8.1f%% %9.1f %8.2f%% %8.2f%% %8.3f\n", f.c_str(), h.cols, h.rows,
                             100 * land, st.max_height_m, 100 * st.pits, 100 * st.terraces, st.valleys);

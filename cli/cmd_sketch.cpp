@@ -172,7 +172,7 @@ Command add_terrain_command(CLI::App& app, const GlobalOptions&) {
             } catch (const std::invalid_argument& e) {
               throw Error(std::string(e.what()));
             }
-            const fs::path prefix(a->out);
+            const fs::path prefix = output_names(a->out).prefix;  // refuses "-o dir/" (hidden .height.exr)
             if (prefix.has_parent_path()) ensure_writable_dir(prefix.parent_path());
             StagedOutputs staged;  // all or nothing: a failure keeps an earlier result as it was
             staged.write(prefix.string() + ".height.exr", [&](const fs::path& t) {

@@ -10,6 +10,7 @@
 #include <exception>
 
 #include <opencv2/core.hpp>
+#include <opencv2/core/utils/logger.hpp>
 
 #include "app.hpp"
 #include "reefgen/version.hpp"
@@ -27,6 +28,9 @@ void install_stop_handlers() {
 }  // namespace reefgen
 
 int main(int argc, char** argv) {
+  // OpenCV's [WARN] lines are not for users: every problem reaches them as
+  // one line from reefgen, naming the file (read_image and friends).
+  cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
   CLI::App app{"reefgen " + std::string(reefgen::kVersion) +
                " - procedural and learning-based coral reef island terrains\n\n"
                "Examples:\n"

@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "reefgen/io.hpp"
+#include "reefgen/json_read.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/preview.hpp"
 #include "reefgen/rng.hpp"
@@ -267,4 +268,56 @@ TEST(Io, OwnPngEncoderRoundTripsThroughOpenCV) {
   write_png(d / "labels.png", flat, 1);
   EXPECT_LT(fs::file_size(d / "labels.png"), 8000u);
   fs::remove_all(d);
+}
+
+// Issue 24: a cut download or a damaged chunk is an error naming the file,
+// decided before OpenCV sees it (libpng would print to stderr and OpenCV
+// return a half-grey image for a truncated JPEG).
+TEST(Io, TruncatedAndDamagedImagesAreRefused) {
+  const fs::path dir = test::temp_dir("images");
+  cv::Mat3b img(64, 64, cv::Vec3b(40, 200, 90));
+  cv::circle(img, {32, 32}, 20, cv::Scalar(0, 0, 255), -1);
+  std::vector<uchar> png, jpg;
+  cv::imencode(".png", img, png);
+  cv::imencode(".jpg", img, jpg);
+  const std::string p(png.begin(), png.end()), j(jpg.begin(), jpg.end());
+  EXPECT_EQ(image_damage(p), "");
+  EXPECT_EQ(image_damage(j), "");
+  EXPECT_EQ(image_damage(j + std::string(3, '\0')), "") << "zero padding after the end marker is fine";
+  EXPECT_NE(image_damage(p.substr(0, p.size() - 12)).find("no IEND"), std::string::npos);
+  EXPECT_NE(image_damage(p.substr(0, 60)).find("truncated PNG"), std::string::npos);
+  std::string flipped = p;
+  flipped[40] = char(flipped[40] ^ 0x10);  // inside IHDR or IDAT: its CRC no longer matches
+  EXPECT_NE(image_damage(flipped).find("CRC"), std::string::npos);
+  EXPECT_NE(image_damage(j.substr(0, j.size() / 2)).find("truncated JPEG"), std::string::npos);
+  // Through the file reader: the error names the file; a whole file decodes.
+  write_file_atomic(dir / "cut.jpg", j.data(), j.size() / 2);
+  test::expect_error_naming([&] { read_image(dir / "cut.jpg", cv::IMREAD_COLOR); }, (dir / "cut.jpg").string());
+  test::expect_error_naming([&] { read_sketch(dir / "cut.jpg"); }, "truncated JPEG");
+  test::expect_error_naming([&] { read_image(dir / "missing.png", cv::IMREAD_COLOR); }, "no such file");
+  test::expect_error_naming([&] { read_image(dir, cv::IMREAD_COLOR); }, "folder");
+  write_file_atomic(dir / "ok.png", p.data(), p.size());
+  const cv::Mat back = read_image(dir / "ok.png", cv::IMREAD_COLOR);
+  EXPECT_EQ(cv::norm(back, img, cv::NORM_INF), 0);
+  fs::remove_all(dir);
+}
+
+// Config reads are bounded and name what is wrong (issue 24 point 15).
+TEST(Io, JsonReadsAreBoundedAndRefuseFolders) {
+  const fs::path dir = test::temp_dir("json");
+  test::expect_error_naming([&] { read_json(dir); }, "is a folder");
+  test::expect_error_naming([&] { read_json("/dev/zero"); }, "larger than 16 MiB");
+  test::expect_error_naming([&] { read_json(dir / "none.json"); }, "no such file");
+  fs::remove_all(dir);
+}
+
+// Library type errors name the field and the value (was "type_error.302").
+TEST(Io, JsonTypeErrorsNameTheField) {
+  double d = 0;
+  bool b = false;
+  std::string s;
+  test::expect_error_naming([&] { read_json_value(nlohmann::json("fast"), d, "train.json: lr"); },
+                            "train.json: lr = \"fast\" must be a number");
+  test::expect_error_naming([&] { read_json_value(nlohmann::json(1), b, "x: flip"); }, "x: flip = 1 must be true or false");
+  test::expect_error_naming([&] { read_json_value(nlohmann::json(2.5), s, "x: norm"); }, "x: norm = 2.5 must be a string");
 }

@@ -148,16 +148,28 @@ void write_text_atomic(const fs::path& path, const std::string& text) {
   write_file_atomic(path, text.data(), text.size());
 }
 
-std::string read_text(const fs::path& path) {
+std::string read_text(const fs::path& path, size_t max_bytes) {
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) throw Error("cannot read " + path.string() + ": it is a folder, not a file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error("cannot read " + path.string() + ": " + std::strerror(errno));
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+  // Read in blocks up to the bound: /dev/zero or a FIFO has no size to check first.
+  std::string out;
+  char buf[1 << 16];
+  while (in.read(buf, sizeof buf) || in.gcount() > 0) {
+    out.append(buf, size_t(in.gcount()));
+    if (out.size() > max_bytes)
+      throw Error("cannot read " + path.string() + ": larger than " + std::to_string(max_bytes >> 20) +
+                  " MiB, not a file reefgen reads (check the path)");
+  }
+  if (in.bad()) throw Error("cannot read " + path.string() + ": read error");
+  return out;
 }
 
 nlohmann::json read_json(const fs::path& path) {
-  const std::string text = read_text(path);
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw Error("cannot read " + path.string() + ": no such file");
+  const std::string text = read_text(path, kMaxJsonBytes);
   try {
     return nlohmann::json::parse(text);
   } catch (const nlohmann::json::parse_error& e) {
@@ -167,7 +179,53 @@ nlohmann::json read_json(const fs::path& path) {
 }
 
 void write_json_atomic(const fs::path& path, const nlohmann::json& j) {
-  write_text_atomic(path, j.dump(2) + "\n");
+  // Invalid UTF-8 (a file name in a sidecar) is replaced, not an exception.
+  write_text_atomic(path, j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+}
+
+std::string image_damage(const std::string& b) {
+  const auto* u = reinterpret_cast<const unsigned char*>(b.data());
+  static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (b.size() >= 8 && std::memcmp(u, kPng, 8) == 0) {
+    // Walk the chunks: each within the file and with its CRC, ending in IEND.
+    size_t p = 8;
+    while (p + 12 <= b.size()) {
+      const uint32_t len = uint32_t(u[p]) << 24 | uint32_t(u[p + 1]) << 16 | uint32_t(u[p + 2]) << 8 | u[p + 3];
+      if (len > b.size() - p - 12) return "truncated PNG (a chunk runs past the end of the file)";
+      const uint32_t crc = uint32_t(crc32(0L, u + p + 4, uInt(len + 4)));
+      const unsigned char* c = u + p + 8 + len;
+      if (crc != (uint32_t(c[0]) << 24 | uint32_t(c[1]) << 16 | uint32_t(c[2]) << 8 | c[3]))
+        return "damaged PNG (chunk " + b.substr(p + 4, 4) + " fails its CRC)";
+      if (b.compare(p + 4, 4, "IEND") == 0) return "";
+      p += 12 + len;
+    }
+    return "truncated PNG (no IEND chunk)";
+  }
+  if (b.size() >= 2 && u[0] == 0xff && u[1] == 0xd8) {
+    size_t end = b.size();
+    while (end > 2 && (u[end - 1] == 0 || u[end - 1] == '\n' || u[end - 1] == '\r' || u[end - 1] == ' ')) --end;
+    if (end < 4 || u[end - 2] != 0xff || u[end - 1] != 0xd9) return "truncated JPEG (no end-of-image marker)";
+  }
+  return "";
+}
+
+cv::Mat decode_image(const std::string& bytes, const std::string& name, int flags) {
+  if (bytes.empty()) throw Error(name + ": empty file, not an image");
+  if (const std::string bad = image_damage(bytes); !bad.empty())
+    throw Error(name + ": " + bad + "; save or download the image again");
+  cv::Mat img;
+  try {
+    img = cv::imdecode(cv::Mat(1, int(bytes.size()), CV_8U, const_cast<char*>(bytes.data())), flags);
+  } catch (const cv::Exception&) {
+  }
+  if (img.empty()) throw Error(name + ": not an image reefgen can decode (use PNG or JPEG)");
+  return img;
+}
+
+cv::Mat read_image(const fs::path& path, int flags) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw Error("cannot read " + path.string() + ": no such file");
+  return decode_image(read_text(path, size_t(256) << 20), path.string(), flags);
 }
 
 void ensure_writable_dir(const fs::path& dir) {

@@ -168,10 +168,8 @@ DecodedSketch read_sketch(const std::filesystem::path& path) {
   };
   const auto [pw, ph] = png_size(path);
   if (pw > uint32_t(kMaxSketchSide) || ph > uint32_t(kMaxSketchSide)) throw too_big(pw, ph);
-  cv::Mat img = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+  const cv::Mat img = read_image(path, cv::IMREAD_UNCHANGED);
   if (img.cols > kMaxSketchSide || img.rows > kMaxSketchSide) throw too_big(uint64_t(img.cols), uint64_t(img.rows));
-  if (img.empty())
-    throw Error("cannot read " + path.string() + ": not an image OpenCV can decode (use PNG or JPEG)");
   return decode_sketch(img, path.string());
 }
 

@@ -1,5 +1,7 @@
 #include "reefgen/procgen/floating.hpp"
 
+#include <cstdio>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -28,9 +30,11 @@ static void fields(FloatingParams& p, F&& f) {
 namespace {
 
 void check_range(const char* name, double v, double lo, double hi, bool open_lo = false) {
-  if (!(open_lo ? v > lo : v >= lo) || !(v <= hi))
-    throw Error(std::string("floating: ") + name + " = " + std::to_string(v) + " is outside " + (open_lo ? "(" : "[") +
-                std::to_string(lo) + ", " + std::to_string(hi) + "]");
+  if (!(open_lo ? v > lo : v >= lo) || !(v <= hi)) {
+    char b[160];
+    std::snprintf(b, sizeof b, "floating: %s = %.6g is outside %s%g, %g]", name, v, open_lo ? "(" : "[", lo, hi);
+    throw Error(b);
+  }
 }
 
 cv::Vec3i parse_colour(const std::string& s) {  // "#rrggbb" → (r, g, b)
@@ -62,14 +66,14 @@ void validate(const FloatingParams& p) {
   check_range("beta_top", p.beta_top, -10, 10);
   check_range("alpha_bottom", p.alpha_bottom, 0, 100);
   check_range("beta_bottom", p.beta_bottom, -10, 10);
-  check_range("depth_stretch", p.depth_stretch, 0, 100, true);
-  check_range("metres_per_px", p.metres_per_px, 0, 1e4, true);
+  check_range("depth_stretch", p.depth_stretch, 1e-3, 100);  // below, vertices merge in float32
+  check_range("metres_per_px", p.metres_per_px, 1e-3, 1e4);
   check_range("feature_m", p.feature_m, 0, 1e4);
   check_range("feature_px", p.feature_px, 1, 1e4);
   check_range("octaves", p.octaves, 1, 10);
   check_range("simplify_px", p.simplify_px, 0, 16);
   check_range("smooth_px", p.smooth_px, 0, 64);
-  check_range("rim_m", p.rim_m, 0, 1e4, true);
+  check_range("rim_m", p.rim_m, 1e-3, 1e4);
   check_range("min_area_px", p.min_area_px, 1, 1e8);
   if (p.top_colours.empty()) throw Error("floating: top_colours is empty (give at least one #rrggbb)");
   for (const auto* list : {&p.top_colours, &p.bottom_colours, &p.background_colours})

@@ -185,7 +185,14 @@ void from_json(const json& j, IslandSpec& s) {
       s.wind.push_back(std::move(st));
     }
   }
-  f.get("wind_substeps", s.wind_substeps);
+  // Read as a number first: 1e30 is refused against [1, 100], not int's range.
+  if (const json* w = f.find("wind_substeps")) {
+    double d = 0;
+    read_json_value(*w, d, "spec.wind_substeps");
+    check_range("spec.wind_substeps", d, 1, 100);
+    if (d != std::floor(d)) throw Error("spec.wind_substeps = " + fmt(d) + " must be a whole number in [1, 100]");
+    s.wind_substeps = int(d);
+  }
   f.get("subsidence", s.subsidence);
   if (const json* h = f.find("heights")) {
     Fields fh(*h, "spec.heights");

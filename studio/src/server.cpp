@@ -223,10 +223,10 @@ struct StudioServer::Impl {
     if (bytes.empty()) throw BadRequest("empty body: send the sketch as a PNG or JPEG image");
     cv::Mat img;
     try {
-      img = cv::imdecode(std::vector<uchar>(bytes.begin(), bytes.end()), cv::IMREAD_UNCHANGED);
-    } catch (const cv::Exception&) {
+      img = decode_image(bytes, "the sketch", cv::IMREAD_UNCHANGED);
+    } catch (const Error& e) {
+      throw BadRequest(e.what());
     }
-    if (img.empty()) throw BadRequest("the body is not an image OpenCV can decode: send a PNG or JPEG");
     if (img.cols > o.max_side || img.rows > o.max_side)
       throw BadRequest("sketch is " + std::to_string(img.cols) + "×" + std::to_string(img.rows) + "; at most " +
                        std::to_string(o.max_side) + " pixels a side");

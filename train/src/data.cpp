@@ -42,17 +42,21 @@ DatasetInfo open_dataset(const fs::path& dir) {
   while (std::getline(in, line)) {
     ++n;
     if (line.empty()) continue;
-    try {
-      const json r = json::parse(line);
-      PairRef p{r.at("index"), r.at("label"), r.at("height")};
-      const std::string split = r.at("split");
-      if (split == "train") d.train.push_back(std::move(p));
-      else if (split == "val") d.val.push_back(std::move(p));
-      else if (split == "test") d.test.push_back(std::move(p));
-      else throw Error("unknown split '" + split + "'");
-    } catch (const std::exception& e) {
-      throw Error(manifest.string() + ":" + std::to_string(n) + ": bad line (" + e.what() + "); rebuild the manifest");
-    }
+    // nlohmann's parse and type errors would put "[json.exception...]" in
+    // front of the user: each field is checked here instead.
+    const json r = json::parse(line, nullptr, false);
+    const bool ok = !r.is_discarded() && r.is_object() && r.contains("index") && r["index"].is_number_integer() &&
+                    r.contains("label") && r["label"].is_string() && r.contains("height") && r["height"].is_string() &&
+                    r.contains("split") && r["split"].is_string();
+    if (!ok)
+      throw Error(manifest.string() + ":" + std::to_string(n) +
+                  ": not a pair record (truncated or edited manifest); rebuild the dataset (it resumes)");
+    PairRef p{r["index"].get<int64_t>(), r["label"].get<std::string>(), r["height"].get<std::string>()};
+    const std::string split = r["split"];
+    if (split == "train") d.train.push_back(std::move(p));
+    else if (split == "val") d.val.push_back(std::move(p));
+    else if (split == "test") d.test.push_back(std::move(p));
+    else throw Error(manifest.string() + ":" + std::to_string(n) + ": unknown split '" + split + "'; rebuild the dataset");
   }
   if (d.train.empty()) throw Error(manifest.string() + ": no training pairs");
   return d;
@@ -60,13 +64,18 @@ DatasetInfo open_dataset(const fs::path& dir) {
 
 Sample load_sample(const DatasetInfo& d, const PairRef& p, const JitterOptions& jit, uint64_t seed) {
   const fs::path lp = d.dir / p.label, hp = d.dir / p.height;
-  cv::Mat3b label = cv::imread(lp.string(), cv::IMREAD_COLOR);
-  if (label.empty()) throw Error(lp.string() + ": unreadable or missing label image; rebuild the dataset (it resumes)");
+  cv::Mat3b label;
+  try {
+    label = read_image(lp, cv::IMREAD_COLOR);
+  } catch (const Error& e) {
+    throw Error(std::string(e.what()) + " (rebuild the dataset: it resumes)");
+  }
   cv::Mat1f height = read_exr_height(hp);
   const int S = d.size_px;
-  if (label.rows != S || label.cols != S || height.rows != S || height.cols != S)
-    throw Error(lp.string() + ": pair is not " + std::to_string(S) + "x" + std::to_string(S) +
-                " as dataset.json says; rebuild the dataset");
+  for (const auto& [m, path] : {std::pair<cv::Size, fs::path>{label.size(), lp}, {height.size(), hp}})
+    if (m.width != S || m.height != S)
+      throw Error(path.string() + ": " + std::to_string(m.width) + "x" + std::to_string(m.height) + ", not " +
+                  std::to_string(S) + "x" + std::to_string(S) + " as dataset.json says; rebuild the dataset");
   if (!cv::checkRange(height)) throw Error(hp.string() + ": contains NaN or infinite heights; rebuild this pair");
   if (jit.on) {
     Rng rng(seed);

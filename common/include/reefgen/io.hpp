@@ -26,7 +26,12 @@ struct Error : std::runtime_error {
 // the path on failure and removes the temporary file.
 void write_file_atomic(const fs::path& path, const void* data, size_t size);
 void write_text_atomic(const fs::path& path, const std::string& text);
-std::string read_text(const fs::path& path);
+// Reads a whole file, at most max_bytes (a device such as /dev/zero or a huge
+// file by mistake gets an error, not all the memory); folders are refused.
+std::string read_text(const fs::path& path, size_t max_bytes = size_t(1) << 30);
+// Configs, specs and sidecars: at most kMaxJsonBytes; errors name the file
+// (missing, a folder, too large, the byte of a syntax error).
+constexpr size_t kMaxJsonBytes = size_t(16) << 20;
 nlohmann::json read_json(const fs::path& path);
 void write_json_atomic(const fs::path& path, const nlohmann::json& j);
 
@@ -78,6 +83,17 @@ class StagedOutputs {
 
 // Throws Error unless `dir` exists (or can be created) and is writable.
 void ensure_writable_dir(const fs::path& dir);
+
+// Reads an image a user gave (sketch, painting, label): refuses a missing
+// file, a folder, more than 256 MiB, and PNG/JPEG files that are truncated or
+// damaged (chunk CRCs, end markers) before OpenCV decodes them, so a cut
+// download is an error naming the file, not a half-grey sketch and libpng's
+// chatter on stderr. `flags` as cv::imread. Throws Error naming the file.
+cv::Mat read_image(const fs::path& path, int flags);
+// The same for bytes already in memory (`name` for messages).
+cv::Mat decode_image(const std::string& bytes, const std::string& name, int flags);
+// "" when bytes look like a complete PNG/JPEG (or another format), else what is wrong.
+std::string image_damage(const std::string& bytes);
 
 // 8-bit (CV_8UC3 BGR or CV_8UC1) or 16-bit PNG, lossless, written atomically.
 // `level` is zlib's 0..9: 1 is several times faster and ~10 % larger (datasets).

@@ -44,7 +44,24 @@ void read_json_value(const nlohmann::json& v, T& out, const std::string& where) 
       out = T(i);
     }
   } else {
-    v.get_to(out);
+    // nlohmann's own message ("type_error.302: type must be number, but is
+    // string") names neither the field nor the value.
+    const char* want = std::is_same_v<T, bool>                                    ? "must be true or false"
+                       : std::is_floating_point_v<T>                              ? "must be a number"
+                       : std::is_same_v<T, std::string>                           ? "must be a string"
+                                                                                  : "has the wrong type";
+    if constexpr (std::is_floating_point_v<T>) {
+      if (!v.is_number()) throw Error(where + " = " + v.dump() + " " + want);
+    } else if constexpr (std::is_same_v<T, bool>) {
+      if (!v.is_boolean()) throw Error(where + " = " + v.dump() + " " + want);
+    } else if constexpr (std::is_same_v<T, std::string>) {
+      if (!v.is_string()) throw Error(where + " = " + v.dump() + " " + want);
+    }
+    try {
+      v.get_to(out);
+    } catch (const nlohmann::json::exception&) {
+      throw Error(where + " = " + v.dump().substr(0, 80) + " " + want);
+    }
   }
 }
 
