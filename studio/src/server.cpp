@@ -301,6 +301,9 @@ struct StudioServer::Impl {
         h(req, res);
       } catch (const BadRequest& e) {
         fail(res, 400, e.what());
+      } catch (const Error& e) {  // reefgen's errors are the user's to fix by definition (bad spec, bad image)
+        std::string m = e.what();
+        fail(res, 400, m.substr(0, m.find('\n')));
       } catch (const std::exception& e) {
         std::string m = e.what();
         m = m.substr(0, m.find('\n'));
