@@ -169,7 +169,12 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                 }
                 const fs::path prefix = many ? out_dir / inputs[i].stem() : single.prefix;
                 const cv::Mat1f& h = heights[i % kChunk];
-                const double mpp = a->world_size_m / h.cols, lo = gen.range.lo_m, hi = gen.range.hi_m;
+                const double mpp = a->world_size_m / h.cols;
+                // 16-bit files span this field's own heights (amplified fields may
+                // leave the model's range): never clipped. The model's range is kept
+                // in the sidecar for reference.
+                const infer::HeightRange er = infer::export_range(h);
+                const double lo = er.lo_m, hi = er.hi_m;
                 double hmin, hmax;
                 cv::minMaxLoc(h, &hmin, &hmax);
                 nlohmann::json side = {
@@ -184,7 +189,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                     {"size_px", {h.cols, h.rows}},
                     {"metres_per_px", mpp},
                     {"height_range_m", {hmin, hmax}},
-                    {"model_range_m", {lo, hi}},
+                    {"model_range_m", {gen.range.lo_m, gen.range.hi_m}},
                     {"files", nlohmann::json::object()}};
                 auto add = [&](const std::string& kind, const fs::path& p) { side["files"][kind] = p.filename().string(); };
                 const fs::path exr = many ? fs::path(prefix.string() + ".height.exr") : single.height;
@@ -196,7 +201,8 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                   const fs::path p = prefix.string() + ".height.png";
                   staged.write(p, [&](const fs::path& t) { infer::write_png16(t, h, lo, hi); });
                   add("height_png16", p);
-                  side["png16"] = {{"encoding", "linear: metres = lo + v/65535·(hi − lo)"}, {"lo_m", lo}, {"hi_m", hi}};
+                  side["png16"] = {{"encoding", "linear: metres = lo + v/65535·(hi − lo)"}, {"lo_m", lo}, {"hi_m", hi},
+                                   {"import", nlohmann::json::parse(infer::engine_import_json(h.cols, h.rows, er, mpp))}};
                 }
                 if (a->r16) {
                   const fs::path p = prefix.string() + ".r16";
@@ -204,7 +210,8 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                   add("height_r16", p);
                   const std::string note = infer::r16_import_note(h.cols, h.rows, lo, hi, mpp);
                   side["r16"] = {{"width", h.cols}, {"height", h.rows}, {"byte_order", "little-endian"},
-                                 {"lo_m", lo}, {"hi_m", hi}, {"import", note}};
+                                 {"lo_m", lo}, {"hi_m", hi}, {"import_note", note},
+                                 {"import", nlohmann::json::parse(infer::engine_import_json(h.cols, h.rows, er, mpp))}};
                   r16_notes.push_back(p.string() + ": " + note);  // printed once the files are in place
                 }
                 if (!mesh_format.empty()) {

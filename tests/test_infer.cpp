@@ -92,6 +92,38 @@ TEST(Export, Png16AndR16RoundTrip) {
   fs::remove_all(d);
 }
 
+// Issue 20 item 6: a field beyond the model's nominal range (a 608 m peak,
+// a −130 m trench) is exported without clipping, and the sidecar's engine
+// numbers follow from the range.
+TEST(Export, SixteenBitFilesSpanTheFieldsOwnRange) {
+  const fs::path d = temp_dir("range");
+  cv::Mat1f h = bumpy(64);
+  h(10, 10) = 608.4f;
+  h(50, 50) = -130.2f;
+  const HeightRange r = export_range(h);
+  EXPECT_EQ(r.lo_m, -131.0);
+  EXPECT_EQ(r.hi_m, 609.0);
+  write_png16(d / "h.png", h, r.lo_m, r.hi_m);
+  const cv::Mat1f back = read_png16(d / "h.png", r.lo_m, r.hi_m);
+  const double step = (r.hi_m - r.lo_m) / 65535;
+  EXPECT_LE(cv::norm(back, h, cv::NORM_INF), step / 2 + 1e-3) << "the peak and the trench survive";
+  EXPECT_NEAR(back(10, 10), 608.4, step);
+  const nlohmann::json j = nlohmann::json::parse(engine_import_json(64, 64, r, 10.0));
+  EXPECT_NEAR(j["unreal"]["scale_z_percent"].get<double>(), 740.0 * 100 / 512, 1e-9);
+  EXPECT_NEAR(j["unreal"]["location_z_cm"].get<double>(), (609.0 - 131.0) / 2 * 100, 1e-9);
+  EXPECT_NEAR(j["unreal"]["scale_xy_cm"].get<double>(), 1000.0, 1e-9);
+  EXPECT_NEAR(j["unity"]["terrain_height_m"].get<double>(), 740.0, 1e-9);
+  EXPECT_NEAR(j["unity"]["position_y_m"].get<double>(), -131.0, 1e-9);
+  EXPECT_NEAR(j["blender"]["displace_midlevel"].get<double>(), 131.0 / 740.0, 1e-12);
+  // A flat field still gets a 1 m span (no division by zero in the encoders).
+  const HeightRange flat = export_range(cv::Mat1f(8, 8, 3.5f));
+  EXPECT_EQ(flat.hi_m - flat.lo_m, 1.0);
+  cv::Mat1f nan = h.clone();
+  nan(3, 3) = NAN;
+  expect_error_naming([&] { export_range(nan); }, "NaN");
+  fs::remove_all(d);
+}
+
 TEST(Export, ObjReadsBack) {
   const fs::path d = temp_dir("obj");
   const cv::Mat1f h = bumpy(16);

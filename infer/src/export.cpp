@@ -1,5 +1,7 @@
 #include "reefgen/infer/export.hpp"
 
+#include <nlohmann/json.hpp>
+
 #include <cmath>
 #include <cstring>
 #include <sstream>
@@ -76,6 +78,31 @@ std::string r16_import_note(int w, int h, double lo, double hi, double mpp) {
     << (hi - lo) * 100.0 / 512.0 << " (% of 512 m), X = Y = " << mpp * 100.0
     << " (cm per vertex), Location Z = " << (lo + hi) / 2 * 100.0 << " cm.\n";
   return s.str();
+}
+
+HeightRange export_range(const cv::Mat1f& h) {
+  if (!cv::checkRange(h, true)) throw Error("export: the height field holds NaN or infinity");  // minMaxLoc skips NaN
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(h, &lo, &hi);
+  HeightRange r{std::floor(lo), std::ceil(hi)};
+  if (r.hi_m - r.lo_m < 1) r.hi_m = r.lo_m + 1;
+  return r;
+}
+
+std::string engine_import_json(int w, int h, const HeightRange& r, double mpp) {
+  const double span = r.hi_m - r.lo_m;
+  const nlohmann::json j = {
+      {"range_m", {r.lo_m, r.hi_m}},
+      {"encoding", "linear: metres = lo + v/65535 * (hi - lo)"},
+      {"unreal",
+       {{"scale_z_percent", span * 100.0 / 512.0},  // Unreal maps 16 bits to 512 m at Z scale 100
+        {"scale_xy_cm", mpp * 100.0},
+        {"location_z_cm", (r.lo_m + r.hi_m) / 2 * 100.0},  // puts sea level (0 m) at world Z = 0
+        {"resolution", {w, h}}}},
+      {"unity", {{"terrain_height_m", span}, {"terrain_width_m", mpp * w}, {"position_y_m", r.lo_m},
+                 {"byte_order", "Windows (little-endian)"}, {"resolution", {w, h}}}},
+      {"blender", {{"displace_strength_m", span}, {"displace_midlevel", -r.lo_m / span}}}};
+  return j.dump();
 }
 
 Mesh grid_mesh(const cv::Mat1f& h, const MeshOptions& o) {

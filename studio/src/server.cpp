@@ -444,21 +444,33 @@ struct StudioServer::Impl {
       fs::create_directories(o.out_dir, ec);
       ensure_writable_dir(o.out_dir);
       const fs::path path = o.out_dir / (name + ext.at(format));
-      const double lo = gen.range.lo_m, hi = gen.range.hi_m;
+      // 16-bit files span the field's own range (a 608 m preset peak was
+      // clipped at the model's 560 m); the range and each engine's import
+      // numbers go to NAME.import.json beside the file.
+      cv::Mat1f exported = h;
+      if (format == "r16") {
+        // Unity's terrains are 2^n + 1 samples a side: resample to that.
+        cv::resize(h, exported, {h.cols + 1, h.rows + 1}, 0, 0, cv::INTER_LINEAR);
+      }
+      const infer::HeightRange er = infer::export_range(exported);
+      const double lo = er.lo_m, hi = er.hi_m;
       StagedOutputs staged;
       staged.write(path, [&](const fs::path& t) {
         if (format == "exr") write_exr_height(t, h, {{"reefgen:version", kVersion}, {"reefgen:metres_per_pixel", std::to_string(mpp)}});
         else if (format == "png16") infer::write_png16(t, h, lo, hi);
-        else if (format == "r16") {
-          // Unity's terrains are 2^n + 1 samples a side: resample to that.
-          cv::Mat1f r;
-          cv::resize(h, r, {h.cols + 1, h.rows + 1}, 0, 0, cv::INTER_LINEAR);
-          infer::write_r16(t, r, lo, hi);
-        } else if (format == "glb") infer::write_glb(t, h, infer::MeshOptions{mpp, 1.0});
+        else if (format == "r16") infer::write_r16(t, exported, lo, hi);
+        else if (format == "glb") infer::write_glb(t, h, infer::MeshOptions{mpp, 1.0});
         else if (format == "obj") infer::write_obj(t, h, infer::MeshOptions{mpp, 1.0});
         else if (format == "sketch") write_png(t, label);
         else write_json_atomic(t, spec_json);
       });
+      if (format == "png16" || format == "r16") {
+        const std::string import =
+            infer::engine_import_json(exported.cols, exported.rows, er, mpp * h.cols / exported.cols);
+        staged.write(o.out_dir / (name + ".import.json"),
+                     [&](const fs::path& t) { write_json_atomic(t, json::parse(import)); });
+        res.set_header("X-Reefgen-Range-M", std::to_string(lo) + " " + std::to_string(hi));
+      }
       staged.commit();
       const std::string bytes = read_text(path);
       res.set_header("Content-Disposition", "attachment; filename=\"" + path.filename().string() + "\"");

@@ -20,6 +20,20 @@ void write_r16(const std::filesystem::path& path, const cv::Mat1f& height_m, dou
 // What to type in Unity's and Unreal's import dialogs for such a file.
 std::string r16_import_note(int width, int height, double lo_m, double hi_m, double metres_per_px);
 
+// The range a 16-bit export maps to 0..65535: the field's own, widened to
+// whole metres (and to 1 m at least), so nothing is ever clipped — a model's
+// or a preset's nominal range would clip a 608 m peak at 560 m.
+struct HeightRange {
+  double lo_m = 0, hi_m = 1;
+};
+HeightRange export_range(const cv::Mat1f& height_m);
+
+// The numbers each engine's import needs for a 16-bit file of that range
+// (sidecar "import" object; docs/INFERENCE.md explains them): Unreal's Z scale
+// (% of 512 m) and location, Unity's terrain height and position, Blender's
+// displacement strength and midlevel. JSON text, one object.
+std::string engine_import_json(int width, int height, const HeightRange& r, double metres_per_px);
+
 struct MeshOptions {
   double metres_per_px = 6000.0 / 256;  // horizontal spacing of grid vertices
   double exaggeration = 1.0;            // vertical scale factor, (0, 100]
