@@ -28,6 +28,7 @@ double time_ms(F&& f) {
 Command add_bench_command(CLI::App& app, const GlobalOptions& g) {
   auto* sub = app.add_subcommand("bench", "Benchmarks (print figures; not tests)\n\nExamples:\n  reefgen bench generate --reps 50\n"
                                         "  reefgen bench train --ngf 64 --reps 5\n  reefgen bench infer --reps 20\n"
+                                        "  reefgen bench realism          # issue 20's realism bars at 1025²\n"
                                         "  bash scripts/bench-model.sh    # against the Python reference, as ratios\n");
   auto* gen = sub->add_subcommand("generate", "ms per island on one thread, islands/s on all cores");
   sub->require_subcommand(1);
@@ -41,7 +42,10 @@ Command add_bench_command(CLI::App& app, const GlobalOptions& g) {
   gen->add_option("--threads", a->threads, "Threads for the throughput figure (default: all cores)");
   gen->add_option("--islands", a->islands, "Islands for the throughput figure")->capture_default_str();
   auto model_bench = add_bench_model_commands(sub);
-  return {sub, [a, &g, gen, model_bench]() -> int {
+  CLI::App* realism = nullptr;
+  auto realism_bench = add_bench_realism_command(sub, g, &realism);
+  return {sub, [a, &g, gen, model_bench, realism, realism_bench]() -> int {
+            if (realism->parsed()) return realism_bench();
             if (!gen->parsed()) return model_bench();
             if (a->reps < 1 || a->islands < 1 || a->threads < 1) throw Error("--reps, --islands and --threads must be ≥ 1");
             RandomSpecParams rp;
