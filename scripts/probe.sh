@@ -145,6 +145,11 @@ cp -r d20 dsize && lab=$(ls dsize/train/*.label.png | head -1) && \
   "$PY" -c "import cv2; cv2.imwrite('$lab', cv2.resize(cv2.imread('$lab'), (48, 48)))"
 refuses "$(basename "$lab")" eval -m "$ROOT/models/reef-256.pt" --data dsize --split train
 
+# An invalid UTF-8 file name: its sidecar is still written (the name's bad
+# bytes replaced), not "invalid UTF-8 byte" from the JSON library.
+cp "$ROOT/tests/data/painted/01-young-volcano.png" "$T/bad"$'\xff'".png"
+"$R" -q infer "$T/bad"$'\xff'".png" -o utf >/dev/null 2>"$T/err" && [ -s utf.json ] && ok || bad "17: invalid UTF-8 name: $(cat "$T/err")"
+
 # 18. No hidden files from "-o dir/"; a folder of one sketch gives a folder.
 mkdir -p gen
 refuses "not a file prefix" generate --preset atoll -o gen/
