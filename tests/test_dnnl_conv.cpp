@@ -67,7 +67,9 @@ TEST(DnnlConv, MatchesLibTorchForwardAndGradientsWithin1e4) {
     EXPECT_LT(rel_err(b.y, a.y), 1e-4) << what << ": forward";
     EXPECT_LT(rel_err(b.dx, a.dx), 1e-4) << what << ": input gradient";
     EXPECT_LT(rel_err(b.dw, a.dw), 1e-4) << what << ": weight gradient";
-    if (c.bias) EXPECT_LT(rel_err(b.db, a.db), 1e-4) << what << ": bias gradient";
+    if (c.bias) {
+      EXPECT_LT(rel_err(b.db, a.db), 1e-4) << what << ": bias gradient";
+    }
     // Not a vacuous comparison: the outputs are far from zero.
     EXPECT_GT(a.y.abs().max().item<double>(), 0.1) << what;
   }

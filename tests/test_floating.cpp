@@ -177,7 +177,9 @@ TEST(Floating, PaintingGivesAClosedShellWithThePaintedSilhouette) {
   // The bottom is never closer than the rim thickness to the top.
   for (int r = 0; r < lab.rows; ++r)
     for (int c = 0; c < lab.cols; ++c)
-      if (!std::isnan(isl.top_m(r, c))) ASSERT_GE(isl.top_m(r, c) - isl.bottom_m(r, c), p.rim_m - 1e-4);
+      if (!std::isnan(isl.top_m(r, c))) {
+        ASSERT_GE(isl.top_m(r, c) - isl.bottom_m(r, c), p.rim_m - 1e-4);
+      }
 }
 
 TEST(Floating, ClosedForHardShapes) {
@@ -263,8 +265,12 @@ TEST(Floating, ObjAndGlbReadBackClosed) {
   // Top faces are grass, bottom faces rock.
   for (const auto& t : isl.mesh.triangles) {
     const cv::Vec3f a = isl.mesh.positions[t[0]], n = (isl.mesh.positions[t[1]] - a).cross(isl.mesh.positions[t[2]] - a);
-    if (n[1] > 0.9f * cv::norm(n)) EXPECT_GT(isl.mesh.colors[t[0]][1], 0.3f);   // green
-    if (n[1] < -0.9f * cv::norm(n)) EXPECT_LT(isl.mesh.colors[t[0]][1], 0.2f);  // brown
+    if (n[1] > 0.9f * cv::norm(n)) {
+      EXPECT_GT(isl.mesh.colors[t[0]][1], 0.3f);  // green
+    }
+    if (n[1] < -0.9f * cv::norm(n)) {
+      EXPECT_LT(isl.mesh.colors[t[0]][1], 0.2f);  // brown
+    }
   }
   for (const auto& n : glb.normals) EXPECT_NEAR(cv::norm(n), 1.0, 1e-4);
   // Corrupt files: one error naming the file.

@@ -368,7 +368,15 @@ TEST(Data, SampleOrderIsAPermutationPerEpoch) {
   std::vector<int> seen(10, 0);
   for (int q = 10; q < 20; ++q) ++seen[sample_at(4, q, 10)];
   for (int c : seen) EXPECT_EQ(c, 1);
-  EXPECT_EQ(sample_at(4, 13, 10), sample_at(4, 13, 10));
+  // Shuffled anew each epoch and per seed (not one fixed order).
+  std::vector<size_t> e1, e2, other_seed;
+  for (int q = 0; q < 10; ++q) {
+    e1.push_back(sample_at(4, q, 10));
+    e2.push_back(sample_at(4, q + 10, 10));
+    other_seed.push_back(sample_at(5, q, 10));
+  }
+  EXPECT_NE(e1, e2);
+  EXPECT_NE(e1, other_seed);
 }
 
 TEST(Data, PrefetcherKeepsOrderAndRethrows) {
