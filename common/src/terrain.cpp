@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <deque>
 #include <queue>
 
@@ -14,12 +16,19 @@ namespace reefgen {
 namespace {
 
 // Heap entry: lowest height first, then lowest flat index (a total order, so
-// the pop sequence never depends on the heap's internals).
-struct Node {
-  float h;
-  int i;
-  bool operator>(const Node& o) const { return h > o.h || (h == o.h && i > o.i); }
-};
+// the pop sequence never depends on the heap's internals), packed into one
+// 64-bit key — the float's bits made order-preserving as unsigned, the index
+// below — so each heap comparison is one integer compare (the heap is ~45 %
+// of a dataset pair's time). −0 is folded onto +0: the two compare equal as
+// floats, and the index must decide between them as before.
+inline uint64_t node_key(float h, int i) {
+  if (h == 0.0f) h = 0.0f;
+  uint32_t u;
+  std::memcpy(&u, &h, 4);
+  u = (u & 0x80000000u) ? ~u : (u | 0x80000000u);
+  return uint64_t(u) << 32 | uint32_t(i);
+}
+inline int node_index(uint64_t key) { return int(uint32_t(key)); }
 
 }  // namespace
 
@@ -33,7 +42,7 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
   const uint8_t* rl = role.ptr<uint8_t>();
   float* f = out.filled.ptr<float>();
   std::vector<uint8_t> seen(n, 0);
-  std::priority_queue<Node, std::vector<Node>, std::greater<Node>> heap;
+  std::priority_queue<uint64_t, std::vector<uint64_t>, std::greater<uint64_t>> heap;
   std::deque<int> pit;  // depression cells: reached below the spill level, processed FIFO
   static constexpr int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1}, kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
   // Seeds: outlets next to an active cell (an outlet surrounded by outlets
@@ -48,7 +57,7 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
         const int j = ny * W + nx;
         if (rl[j] != kOutlet || seen[j]) continue;
         seen[j] = 1;
-        heap.push({f[j], j});
+        heap.push(node_key(f[j], j));
       }
     }
   out.order.reserve(n);
@@ -58,7 +67,7 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
       c = pit.front();
       pit.pop_front();
     } else {
-      c = heap.top().i;
+      c = node_index(heap.top());
       heap.pop();
     }
     if (rl[c] == kActive) out.order.push_back(c);  // popped: its receiver was popped before it
@@ -75,7 +84,7 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
         f[j] = level;  // inside a depression: filled to the spill level
         pit.push_back(j);
       } else {
-        heap.push({f[j], j});
+        heap.push(node_key(f[j], j));
       }
     }
   }
