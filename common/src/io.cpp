@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <atomic>
 #include <cerrno>
 #include <cstdio>
@@ -194,8 +195,11 @@ std::string image_damage(const std::string& b) {
       if (len > b.size() - p - 12) return "truncated PNG (a chunk runs past the end of the file)";
       const uint32_t crc = uint32_t(crc32(0L, u + p + 4, uInt(len + 4)));
       const unsigned char* c = u + p + 8 + len;
-      if (crc != (uint32_t(c[0]) << 24 | uint32_t(c[1]) << 16 | uint32_t(c[2]) << 8 | c[3]))
-        return "damaged PNG (chunk " + b.substr(p + 4, 4) + " fails its CRC)";
+      if (crc != (uint32_t(c[0]) << 24 | uint32_t(c[1]) << 16 | uint32_t(c[2]) << 8 | c[3])) {
+        std::string type;  // printable: a damaged type may hold any byte
+        for (int k = 4; k < 8; ++k) type += std::isalpha(u[p + k]) ? char(u[p + k]) : '?';
+        return "damaged PNG (chunk " + type + " fails its CRC)";
+      }
       if (b.compare(p + 4, 4, "IEND") == 0) return "";
       p += 12 + len;
     }

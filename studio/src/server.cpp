@@ -265,7 +265,7 @@ struct StudioServer::Impl {
   // JSON answer cost ~1 s per stroke).
   static void send_heights(httplib::Response& res, const cv::Mat1f& h, json meta) {
     CV_Assert(h.isContinuous());
-    std::string head = meta.dump();
+    std::string head = meta.dump(-1, ' ', false, json::error_handler_t::replace);
     while ((4 + head.size()) % 4) head += ' ';
     std::string body(4 + head.size() + h.total() * sizeof(float), '\0');
     const uint32_t n = uint32_t(head.size());
@@ -290,7 +290,10 @@ struct StudioServer::Impl {
 
   static void fail(httplib::Response& res, int status, const std::string& msg) {
     res.status = status;
-    res.set_content(json{{"error", msg}}.dump(), "application/json");
+    // Messages may quote request bytes (names, image chunks): invalid UTF-8
+    // is replaced, never an exception from inside an error path (that was a
+    // 500, found by fuzz_studio).
+    res.set_content(json{{"error", msg}}.dump(-1, ' ', false, json::error_handler_t::replace), "application/json");
   }
 
   // Wraps a handler: BadRequest -> 400, any other exception -> 500; one line each.
@@ -356,7 +359,7 @@ struct StudioServer::Impl {
                            {"max_side", o.max_side},
                            {"max_body_bytes", o.max_body_bytes},
                            {"out_dir", fs::absolute(o.out_dir).string()}}
-                          .dump(),
+                          .dump(-1, ' ', false, json::error_handler_t::replace),
                       "application/json");
     }));
     svr.Get("/api/presets", guarded([this](const httplib::Request&, httplib::Response& res) {
