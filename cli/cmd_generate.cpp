@@ -156,6 +156,8 @@ Command add_generate_command(CLI::App& app, const GlobalOptions& g) {
   return {sub, [a, &g]() -> int {
             check_common(*a);
             if (a->random_given) {
+              if (a->random < 1 || a->random > 10'000'000)
+                throw Error("--random " + std::to_string(a->random) + ": the number of islands must be in 1..10000000");
               if (a->out_dir.empty()) throw Error("--random needs --out DIR");
               return run_random(*a, g);
             }

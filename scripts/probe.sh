@@ -135,7 +135,7 @@ echo '{"lr": "fast"}' > lr.json
 refuses "lr" train --config lr.json --data d20 --out r5
 refuses "shard" dataset build --count 4 --out sh --shard 0/999999999999
 refuses "bench infer\|--size" bench infer --size 1048576
-refuses "out" generate --random 0
+refuses "number of islands must be in 1..10000000" generate --random 0
 echo '{"wind_substeps": 1e30}' > ws.json
 refuses "\[1, 100\]" generate --spec ws.json -o w
 cp -r d20 dtrunc && head -c 100 d20/manifest.jsonl > dtrunc/manifest.jsonl
