@@ -197,4 +197,14 @@ inline bool is_image(const std::filesystem::path& p) {
   return e == ".png" || e == ".jpg" || e == ".jpeg" || e == ".tif" || e == ".tiff" || e == ".bmp" || e == ".webp";
 }
 
+// The sketch images directly inside a folder, in name order (the order of
+// results and reports).
+inline std::vector<std::filesystem::path> images_in(const std::filesystem::path& dir) {
+  std::vector<std::filesystem::path> files;
+  for (const auto& e : std::filesystem::directory_iterator(dir))
+    if (e.is_regular_file() && is_image(e.path())) files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
 }  // namespace reefgen

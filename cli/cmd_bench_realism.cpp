@@ -97,10 +97,7 @@ std::function<int()> add_bench_realism_command(CLI::App* bench, const GlobalOpti
     }
     if (!a->painted.empty()) {
       if (!fs::is_directory(a->painted)) throw Error(a->painted + ": no such folder of painted sketches (or --painted '')");
-      std::vector<fs::path> files;
-      for (const auto& e : fs::directory_iterator(a->painted))
-        if (e.is_regular_file() && is_image(e.path())) files.push_back(e.path());
-      std::sort(files.begin(), files.end());
+      const std::vector<fs::path> files = images_in(a->painted);
       if (files.empty()) throw Error(a->painted + ": no sketch images in it");
       const fs::path model_path = model::resolve_model_path(a->model);
       model::GeneratorFile gen = model::load_generator(model_path);

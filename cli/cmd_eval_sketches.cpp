@@ -52,10 +52,7 @@ Command add_eval_sketches_command(CLI::App& app, const GlobalOptions& g) {
             train::keep_freed_memory();
             if (!(a->young_max >= 0 && a->young_max <= 1)) throw Error("--young-max must be in [0, 1]");
             if (!fs::is_directory(a->dir)) throw Error(a->dir + ": not a folder of sketches");
-            std::vector<fs::path> files;
-            for (const auto& e : fs::directory_iterator(a->dir))
-              if (e.is_regular_file() && is_image(e.path())) files.push_back(e.path());
-            std::sort(files.begin(), files.end());
+            const std::vector<fs::path> files = images_in(a->dir);
             if (files.empty()) throw Error(a->dir + ": no sketch images (.png, .jpg, ...) in it");
             const fs::path model_path = model::resolve_model_path(a->model);
             model::GeneratorFile gen = model::load_generator(model_path);

@@ -83,10 +83,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
               const fs::path p(s);
               if (fs::is_directory(p)) {
                 from_folder = true;
-                std::vector<fs::path> in_dir;
-                for (const auto& e : fs::directory_iterator(p))
-                  if (e.is_regular_file() && is_image(e.path())) in_dir.push_back(e.path());
-                std::sort(in_dir.begin(), in_dir.end());
+                const std::vector<fs::path> in_dir = images_in(p);
                 if (in_dir.empty()) throw Error(p.string() + ": no images (.png, .jpg, ...) in this folder");
                 inputs.insert(inputs.end(), in_dir.begin(), in_dir.end());
               } else if (fs::exists(p)) {
