@@ -99,6 +99,12 @@ refuses "overlaps it" train --data d20 --out d20/run --max-steps 1 --ngf 8 --ndf
 cp run/run.json run.json.orig
 refuses "not the dataset this run was started with" train --data d128 --out run --resume
 cmp -s run/run.json run.json.orig && ok || bad "7: run.json rewritten by a refused resume"
+# Same size and count but other pairs (another seed): the manifest differs.
+"$R" -q dataset build --count 20 --seed 4 --out d20b >/dev/null || bad "dataset d20b"
+refuses "manifest_fnv64" train --data d20b --out run --resume
+# The same dataset moved elsewhere resumes.
+mv d20 d20moved && "$R" -q train --data d20moved --out run --resume --max-steps 2 >/dev/null 2>&1 && ok || bad "7: a moved dataset did not resume"
+mv d20moved d20
 
 # 13. Values out of range are refused, never replaced by a default.
 refuses "count" dataset build --count 0 --out c0

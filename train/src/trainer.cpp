@@ -286,6 +286,9 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
                     before.value("data", std::string("?")) + " or start a new run");
     };
     differs("size_px", data.size_px);
+    // The manifest lists every pair with its files' checksums: the same
+    // manifest is the same data, wherever the folder was moved.
+    differs("manifest_fnv64", file_checksum(run.data / "manifest.jsonl"));
     differs("height_range_m", json::array({data.range.lo_m, data.range.hi_m}));
     if (before.contains("pairs")) {
       const json& pb = before.at("pairs");
@@ -323,6 +326,7 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
                          {"seed", params.seed},
                          {"data", fs::absolute(run.data).string()},
                          {"size_px", data.size_px},
+                         {"manifest_fnv64", file_checksum(run.data / "manifest.jsonl")},
                          {"height_range_m", {data.range.lo_m, data.range.hi_m}},
                          {"pairs", {{"train", n}, {"val", data.val.size()}}},
                          {"steps", {{"per_epoch", steps_per_epoch}, {"constant", steps_constant},
