@@ -18,10 +18,12 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
       "  reefgen train --config configs/train/paper.json --data data/paper --out runs/paper\n"
       "  reefgen train --data data/small --out runs/try --max-steps 200 --ngf 32\n"
       "  reefgen train --data data/paper --out runs/paper --resume     # after Ctrl-C or a crash\n"
+      "  reefgen train --config tuned.json --data data/paper --out runs/tuned --init runs/paper/checkpoint.pt\n"
       "Ctrl-C (SIGINT) or SIGTERM writes a checkpoint and RUN/generator.pt, then exits with 130.\n");
   struct Args {
     std::string config, data, out;
     bool resume = false;
+    std::string init;
     int64_t max_steps = -1;
     std::optional<uint64_t> seed;
     std::optional<int> threads, ngf, ndf, depth;
@@ -33,6 +35,10 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--data", a->data, "Dataset folder made by `reefgen dataset build`")->required();
   sub->add_option("-o,--out,--output", a->out, "Run folder (created)")->required();
   sub->add_flag("--resume", a->resume, "Continue the run in --out from its checkpoint (its run.json config unless --config)");
+  sub->add_option("--init", a->init,
+                  "Start G and D from another run's checkpoint.pt (same networks; fresh optimizers at step 0), "
+                  "e.g. to fine-tune with another lambda_l1 or schedule")
+      ->excludes("--resume");
   sub->add_option("--max-steps", a->max_steps, "Stop after this many steps in all (checkpoint written); the lr schedule still spans the whole run")
       ->check(CLI::Range(int64_t(1), std::numeric_limits<int64_t>::max()));
   sub->add_option("--seed", a->seed, "Overrides the config's seed")->check(seed_value());
@@ -77,6 +83,7 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
             run.data = a->data;
             run.out = a->out;
             run.resume = a->resume;
+            run.init_from = a->init;
             run.max_steps = a->max_steps;
             run.stop = &stop_requested();
             std::unique_ptr<Progress> progress;

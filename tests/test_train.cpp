@@ -302,6 +302,63 @@ TEST(Train, CheckpointRoundTripAndBadFiles) {
   fs::remove_all(d);
 }
 
+// --init: a new run starts from another run's G and D (fine-tuning with
+// another loss weight), with fresh optimizers at step 0; another
+// architecture, a missing or a foreign file is refused before anything is written.
+TEST(Train, InitStartsFromAnotherRunsWeights) {
+  const fs::path data = make_dataset("init_data", 5, 1);
+  TrainParams params = tiny_params();  // 4 train pairs: 8 steps
+  const fs::path base = temp_dir("init_runs");
+  ASSERT_EQ(run_training(params, run_in(data, base / "src")).step, 8);
+  Loaded src = load_run(base / "src", params);
+
+  // Right after loading, the weights are the source's, whatever the seed.
+  TrainParams tuned = params;
+  tuned.seed = 5;
+  tuned.lambda_l1 = 250;
+  torch::manual_seed(tuned.seed);
+  Pix2Pix q(pix2pix_options(tuned));
+  load_checkpoint_weights(base / "src" / "checkpoint.pt", q, tuned);
+  expect_same_weights(*src.p.G(), *q.G());
+  expect_same_weights(*src.p.D(), *q.D());
+
+  // A run with --init: starts at step 0, records where it came from, and its
+  // first step moves from the source's weights (one step from them differs
+  // from one step from a fresh initialisation).
+  RunOptions ft = run_in(data, base / "tuned");
+  ft.init_from = base / "src" / "checkpoint.pt";
+  ft.max_steps = 1;
+  ASSERT_EQ(run_training(tuned, ft).step, 1);
+  const json rj = read_json(base / "tuned" / "run.json");
+  ASSERT_TRUE(rj.contains("init_from"));
+  EXPECT_NE(rj["init_from"]["path"].get<std::string>().find("src"), std::string::npos);
+  RunOptions fresh = run_in(data, base / "fresh");
+  fresh.max_steps = 1;
+  ASSERT_EQ(run_training(tuned, fresh).step, 1);
+  Loaded a = load_run(base / "tuned", tuned), b = load_run(base / "fresh", tuned);
+  EXPECT_EQ(a.step, 1);
+  const auto wa = a.p.G()->parameters()[0], wb = b.p.G()->parameters()[0], ws = src.p.G()->parameters()[0];
+  EXPECT_FALSE(torch::equal(wa, wb));
+  EXPECT_LT((wa - ws).abs().max().item<float>(), (wb - ws).abs().max().item<float>());
+  // Resuming it keeps the record.
+  ft.max_steps = 2;
+  ft.resume = true;
+  ASSERT_EQ(run_training(tuned, ft).step, 2);
+  EXPECT_EQ(read_json(base / "tuned" / "run.json")["init_from"], rj["init_from"]);
+
+  TrainParams wider = params;
+  wider.ngf = 8;
+  RunOptions bad = run_in(data, base / "bad");
+  bad.init_from = base / "src" / "checkpoint.pt";
+  expect_error_naming([&] { run_training(wider, bad); }, "ngf = 4 there, 8 here");
+  bad.init_from = base / "nowhere.pt";
+  expect_error_naming([&] { run_training(params, bad); }, "nowhere.pt");
+  bad.init_from = base / "src" / "generator.pt";
+  expect_error_naming([&] { run_training(params, bad); }, "expected a checkpoint");
+  EXPECT_FALSE(fs::exists(base / "bad" / "checkpoint.pt"));
+  fs::remove_all(base);
+}
+
 TEST(Train, ExportedGeneratorReproducesG) {
   const fs::path d = temp_dir("gen");
   torch::manual_seed(3);

@@ -220,6 +220,44 @@ int64_t load_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& par
   }
 }
 
+bool same_architecture(const TrainParams& a, const TrainParams& b, std::string* differing) {
+  const json ja = a, jb = b;
+  for (const char* k : {"ngf", "ndf", "depth", "d_layers", "norm", "upsample"})
+    if (ja.at(k) != jb.at(k)) {
+      if (differing) *differing = std::string(k) + " = " + ja.at(k).dump() + " there, " + jb.at(k).dump() + " here";
+      return false;
+    }
+  return true;
+}
+
+void load_checkpoint_weights(const fs::path& path, Pix2Pix& p, const TrainParams& params) {
+  if (!fs::is_regular_file(path))
+    throw Error(path.string() + ": no such checkpoint to start from (--init takes another run's RUN/checkpoint.pt)");
+  torch::serialize::InputArchive a;
+  const std::string fix = "pass --init another run's RUN/checkpoint.pt";
+  try {
+    model::load_archive(a, path, "checkpoint", fix);
+    model::expect_format(a, path, kCheckpointFormat, kCheckpointVersion, "a checkpoint written by `reefgen train`");
+  } catch (const std::runtime_error& e) {
+    throw Error(e.what());
+  }
+  const json stored = json::parse(model::read_string(a, "config"), nullptr, false);
+  if (stored.is_discarded()) throw Error(path.string() + ": unreadable config; " + fix);
+  std::string differing;
+  if (!same_architecture(train_params_from_json(stored, path.string()), params, &differing))
+    throw Error(path.string() + ": another architecture (" + differing +
+                "); start from a checkpoint of the same networks or change the config to match");
+  try {
+    torch::serialize::InputArchive g, d;
+    a.read("G", g);
+    a.read("D", d);
+    p.G()->load(g);
+    p.D()->load(d);
+  } catch (const c10::Error& e) {
+    throw Error(path.string() + ": damaged checkpoint (" + model::first_line(e.what_without_backtrace()) + "); " + fix);
+  }
+}
+
 RunResult run_training(const TrainParams& requested, const RunOptions& run) {
   validate(requested, "training config");
   // precision "auto" decided once, here: run.json and the checkpoints record
@@ -265,6 +303,9 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
   if (run.resume && !fs::exists(ckpt))  // checked before anything is created
     throw Error(run.out.string() + ": no checkpoint.pt to resume from; start a new run without --resume " +
                 "(in an empty or new --out folder)");
+  if (!run.resume && !run.init_from.empty() && !fs::is_regular_file(run.init_from))
+    throw Error(run.init_from.string() +
+                ": no such checkpoint to start from (--init takes another run's RUN/checkpoint.pt)");
   ensure_writable_dir(run.out);
   // One process per run folder: two would interleave log.csv and overwrite
   // each other's checkpoints.
@@ -320,6 +361,9 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
     truncate_log(log_csv, step);
     truncate_log(val_csv, step);
     if (run.on_log) run.on_log("resumed " + ckpt.string() + " at step " + std::to_string(step));
+  } else if (!run.init_from.empty()) {
+    load_checkpoint_weights(run.init_from, p, params);
+    if (run.on_log) run.on_log("G and D start from " + run.init_from.string());
   }
   const json run_json = {{"reefgen_version", kVersion},
                          {"config", params},
@@ -333,7 +377,16 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
                                     {"decay", steps_decay}, {"total", total}}},
                          {"parameters", {{"G", model::count_parameters(*p.G())}, {"D", model::count_parameters(*p.D())}}},
                          {"torch_threads", torch::get_num_threads()}};
-  write_json_atomic(run.out / "run.json", run_json);
+  json run_record = run_json;
+  // A fine-tuned run records where its weights came from (a resume keeps the record).
+  if (!run.resume && !run.init_from.empty())
+    run_record["init_from"] = {{"path", fs::absolute(run.init_from).string()},
+                               {"fnv64", file_checksum(run.init_from)}};
+  else if (run.resume && fs::exists(run.out / "run.json")) {
+    const json before = read_json(run.out / "run.json");
+    if (before.contains("init_from")) run_record["init_from"] = before.at("init_from");
+  }
+  write_json_atomic(run.out / "run.json", run_record);
 
   const JitterOptions jitter{params.jitter, params.jitter_scale, params.flip};
   auto make_batch = [&](int64_t s) -> Prefetcher::Batch {

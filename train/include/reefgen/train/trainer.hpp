@@ -27,6 +27,10 @@ struct StepReport {
 struct RunOptions {
   std::filesystem::path data, out;
   bool resume = false;
+  // A new run whose G and D start from another run's checkpoint.pt (same
+  // architecture) with fresh optimizers at step 0: fine-tuning with another
+  // loss weight or schedule. Ignored by a resume (its checkpoint has weights).
+  std::filesystem::path init_from;
   int64_t max_steps = -1;                  // stop (with a checkpoint) after this many steps in all; -1 = the whole run
   const std::atomic<bool>* stop = nullptr; // set by SIGINT/SIGTERM: checkpoint and return
   std::function<void(const StepReport&)> on_step;  // progress display
@@ -39,6 +43,13 @@ struct RunResult {
 };
 
 RunResult run_training(const TrainParams& params, const RunOptions& run);
+
+// The architecture keys of TrainParams (what must match for weights to load).
+bool same_architecture(const TrainParams& a, const TrainParams& b, std::string* differing = nullptr);
+// Loads G's and D's weights (not optimizers, step or RNG) from a checkpoint
+// of a run with the same architecture; throws reefgen::Error naming the file
+// and the differing key otherwise.
+void load_checkpoint_weights(const std::filesystem::path& path, Pix2Pix& p, const TrainParams& params);
 
 // Checkpoint file (LibTorch archive, written atomically).
 struct LogWindow {
