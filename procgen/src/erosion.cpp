@@ -19,7 +19,8 @@ using nlohmann::json;
 #define REEFGEN_EROSION_FIELDS(X)                                                                            \
   X(k_fluvial, 0, 1) X(m_area, 0.1, 1) X(hard_erodibility, 0, 1) X(diffusivity, 0, 100)                     \
   X(duration_yr, 0, 1e8) X(steps, 0, 1000) X(base_px, 16, 8192) X(refine_steps, 0, 100)                    \
-  X(refine_duration_yr, 0, 1e8) X(noise_amplitude, 0, 1) X(flow_exponent, 0, 10)
+  X(refine_duration_yr, 0, 1e8) X(noise_amplitude, 0, 1) X(flow_exponent, 0, 10)                                        \
+  X(amplify_roughness, 0, 1) X(amplify_feature_m, 1, 1e5) X(amplify_duration_scale, 0, 100)
 
 void to_json(json& j, const ErosionParams& p) {
   j = json::object();
@@ -393,6 +394,28 @@ cv::Mat1f resistance_of_labels(const cv::Mat1b& label) {
   return rho;
 }
 
+namespace {
+// A model answer is smoother than a rendered island (an L1-trained network
+// predicts the mean of the valleys it cannot place), so a cone would shed
+// water radially and erosion on it carves few valleys. Relief proportional
+// to height (fBm, one feature per amplify_feature_m) gives the drainage
+// somewhere to start, as the render's noise does for the generator; the
+// coast (h → 0) does not move.
+void roughen_land(cv::Mat1f& h, double world_size_m, uint64_t seed, const ErosionParams& p) {
+  if (p.amplify_roughness <= 0) return;
+  const int S = h.cols;
+  const NoiseTile& tile = NoiseTile::get(3);
+  Rng rng(seed, 0, "amplify-rough");
+  const float u0 = float(rng.uniform(0, NoiseTile::kSize)), v0 = float(rng.uniform(0, NoiseTile::kSize));
+  const float texels_per_cell = float(NoiseTile::kBaseCell * world_size_m / (S * p.amplify_feature_m));
+  const float a = float(p.amplify_roughness);
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x)
+      if (h(y, x) > 0)
+        h(y, x) = std::max(0.1f, h(y, x) * (1.f + a * tile.sample(x * texels_per_cell + u0, y * texels_per_cell + v0)));
+}
+}  // namespace
+
 cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, double world_size_m, uint64_t seed,
                           const ErosionParams& p) {
   if (coarse_m.empty() || coarse_m.rows != coarse_m.cols || label.rows != label.cols)
@@ -401,9 +424,11 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
   cv::Mat1f coarse = coarse_m.clone();
   cv::Mat1b label_s;
   cv::resize(label, label_s, cv::Size(S, S), 0, 0, cv::INTER_NEAREST);
-  if (p.enabled)
+  if (p.enabled) {
+    roughen_land(coarse, world_size_m, seed, p);
     erode_level(coarse, erodibility_map(resistance_of_labels(label_s), seed, p), world_size_m / S, p.steps,
-                p.duration_yr, p);
+                p.duration_yr * p.amplify_duration_scale, p);
+  }
   cv::Mat1f land = resized(coarse, N, cv::INTER_CUBIC);
   if (N <= S || !p.enabled) {
     if (N < S) cv::resize(coarse, land, cv::Size(N, N), 0, 0, cv::INTER_AREA);

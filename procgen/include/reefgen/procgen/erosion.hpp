@@ -39,6 +39,10 @@ struct ErosionParams {
   double refine_duration_yr = 1.5e4;  // time at the first finer level (halved at each next one), yr, [0, 1e8]
   double noise_amplitude = 0.25;      // relative low-frequency modulation of the resistance, [0, 1]
   double flow_exponent = 1.0;         // multiple-flow-direction share ∝ slope^p (Quinn et al.: 1; large = one direction), [0, 10]
+  // Amplification of a model answer only (amplify_heights; the generator ignores them):
+  double amplify_roughness = 0.35;    // relief added to the land before eroding, share of the height, [0, 1]
+  double amplify_feature_m = 140;     // spacing of that relief's features, m, [1, 1e5]
+  double amplify_duration_scale = 1;  // base-grid erosion time as a multiple of duration_yr, [0, 100]
 };
 
 void to_json(nlohmann::json& j, const ErosionParams& p);
@@ -94,7 +98,8 @@ namespace reefgen::procgen {
 cv::Mat1f resistance_of_labels(const cv::Mat1b& label);
 
 // Amplification of a coarse height field (a 256² model answer) to size×size
-// (infer --size N): the coarse field is eroded once on its own grid (pits
+// (infer --size N): the coarse field's land is roughened (amplify_roughness)
+// and eroded once on its own grid (pits
 // filled by sediment, valleys the model smoothed re-carved), then refined
 // level by level as the generator refines its own islands, with fractal
 // detail noise (amplitude ∝ cell size) standing in for the render's finer
