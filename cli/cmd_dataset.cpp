@@ -27,7 +27,7 @@ using nlohmann::json;
 
 namespace {
 
-// Heights are normalised for training by this fixed range (DESIGN §5: "a fixed
+// Heights are normalised for training by this fixed range (docs/DESIGN.md §5: "a fixed
 // range stored with the model"). It bounds every generated height: M(0) =
 // -100 m (coral keeps the floor there) up to M(1) = 500 m × (1 + detail noise
 // 0.1) + smooth-max overshoot ≤ 1 m.

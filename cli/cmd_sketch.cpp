@@ -178,7 +178,7 @@ Command add_terrain_command(CLI::App& app, const GlobalOptions&) {
             staged.write(prefix.string() + ".height.exr", [&](const fs::path& t) {
               write_exr_height(t, h,
                                {{"reefgen:generator", a->kind}, {"reefgen:seed", std::to_string(a->seed)},
-                                // reefgen's canvas convention (DESIGN: 6 km across), so that
+                                // reefgen's canvas convention (docs/DESIGN.md §2: 6 km across), so that
                                 // `reefgen floating --height` and previews know the scale.
                                 {"reefgen:metres_per_pixel", std::to_string(6000.0 / h.cols)}});
             });

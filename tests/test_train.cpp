@@ -477,7 +477,7 @@ TEST(Data, BadDatasetsNameTheFile) {
 }
 
 TEST(TrainParams, PaperConfigIsTheDefaults) {
-  // configs/train/paper.json is just the serialised defaults (DESIGN §5).
+  // configs/train/paper.json is just the serialised defaults (docs/DESIGN.md §5).
   const TrainParams p = train_params_from_json(read_json(REEFGEN_SOURCE_DIR "/configs/train/paper.json"), "paper.json");
   EXPECT_EQ(json(p), json(TrainParams{}));
 }

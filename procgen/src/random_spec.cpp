@@ -19,7 +19,7 @@ IslandSpec random_spec(uint64_t seed, uint64_t index, const RandomSpecParams& p)
   Rng rng(seed, index, "island-config");
   IslandSpec s;
   const int K = p.control_radii;
-  // Base radii of DESIGN §4 (island, beach, lagoon, reef); the abyss outline
+  // Base radii of docs/DESIGN.md §4 (island, beach, lagoon, reef); the abyss outline
   // sits near the canvas edge.
   const double base[4] = {0.4, 0.4, 0.7, 0.8};
   // Island and beach share one centre shift so the beach surrounds the island.

@@ -8,7 +8,7 @@ const status = (text) => { $('status').textContent = text; };
 const probe = { updates: 0, timings: [], lastSum: 0, errors: [] };
 window.__reefgen = probe;
 
-// ---------- the label palette (DESIGN: hue per region, value = 1 − 0.75·subsidence)
+// ---------- the label palette (docs/DESIGN.md §2: hue per region, value = 1 − 0.75·subsidence)
 const REGIONS = [
   { id: 0, name: 'island', rgb: [1, 1, 0] },
   { id: 1, name: 'beach', rgb: [0, 1, 0] },

@@ -1,5 +1,5 @@
 #pragma once
-// The HSV label encoding of the paper (DESIGN §2):
+// The HSV label encoding of the paper (docs/DESIGN.md §2):
 //   hue = region: island 60° (yellow), beach 120° (green), lagoon 180° (cyan),
 //         reef 240° (blue), abyss 0° (red);
 //   value = 1 − 0.75·λ, λ the subsidence in [0,1] (V ≥ 0.25 keeps the hue);

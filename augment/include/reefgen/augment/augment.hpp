@@ -1,5 +1,5 @@
 #pragma once
-// Augmentation of generated pairs (paper §5, DESIGN §4). Every transform is a
+// Augmentation of generated pairs (paper §5, docs/DESIGN.md §4). Every transform is a
 // pure function applied identically to the label map, the per-pixel
 // subsidence and the heights: labels are never blended (nearest neighbour),
 // heights are interpolated (bilinear). No LibTorch here.

@@ -1,5 +1,5 @@
 #pragma once
-// The training-set recipe (paper §5, DESIGN §4): which pair index is which
+// The training-set recipe (paper §5, docs/DESIGN.md §4): which pair index is which
 // configuration, subsidence level, split and augmentation. Pure and
 // deterministic in (seed, index): a pair can be rebuilt anywhere, which is what
 // makes resuming, sharding and verification simple.

@@ -1,7 +1,7 @@
 #pragma once
 // Images <-> network tensors. Labels: 8-bit RGB (not BGR) scaled to [-1, 1],
 // as pix2pix feeds its A images. Heights: metres mapped linearly from the
-// model's fixed range [lo, hi] onto [-1, 1] (DESIGN §5), and back.
+// model's fixed range [lo, hi] onto [-1, 1] (docs/DESIGN.md §5), and back.
 #include <opencv2/core.hpp>
 #include <torch/torch.h>
 

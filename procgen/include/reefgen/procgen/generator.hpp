@@ -1,5 +1,5 @@
 #pragma once
-// The curve-based generator (paper §4, DESIGN §3): outlines → parametric
+// The curve-based generator (paper §4, docs/DESIGN.md §3): outlines → parametric
 // distance x̃ → profile heights, wind warp, subsidence, coral, smooth max.
 #include <array>
 #include <vector>
@@ -98,7 +98,7 @@ cv::Mat2f wind_field(const std::vector<WindStroke>& strokes, int n);
 // instead of an atan2 and an outline search per node and step.
 cv::Mat1f resistance_field(const OutlineTable& outlines, const std::vector<float>& rho_of_xt, int m);
 
-// Backward map after the sub-stepped semi-Lagrangian warp (DESIGN §3): for
+// Backward map after the sub-stepped semi-Lagrangian warp (docs/DESIGN.md §3): for
 // each node p of `phi`'s grid, the displacement D such that the material now
 // at p came from p + D. Each step moves material by (1 − ρ)Φ/substeps, ρ read
 // where that material started (it is advected with the heights and x̃).

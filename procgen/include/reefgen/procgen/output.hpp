@@ -1,5 +1,5 @@
 #pragma once
-// Writing a generated island with the file conventions of DESIGN §2:
+// Writing a generated island with the file conventions of docs/DESIGN.md §2:
 //   PREFIX.height.exr  float32, channel Y, metres, sea level 0, metadata attributes
 //   PREFIX.label.png   8-bit RGB HSV labels
 //   PREFIX.preview.png hypsometric, hill-shaded preview (optional)

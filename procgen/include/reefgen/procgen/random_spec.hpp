@@ -1,6 +1,6 @@
 #pragma once
 // Random island configurations following the paper's data generation (§5,
-// DESIGN §4). Deterministic in (seed, index).
+// docs/DESIGN.md §4). Deterministic in (seed, index).
 #include <cstdint>
 #include <vector>
 

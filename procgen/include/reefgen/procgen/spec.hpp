@@ -1,6 +1,6 @@
 #pragma once
 // Everything that defines one island (the paper's Figure 3 inputs), with the
-// defaults of DESIGN §3. configs/presets/*.json are serialised IslandSpecs;
+// defaults of docs/DESIGN.md §3. configs/presets/*.json are serialised IslandSpecs;
 // docs/SPEC.md documents the JSON schema.
 #include <array>
 #include <cstdint>

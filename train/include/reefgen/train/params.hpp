@@ -1,5 +1,5 @@
 #pragma once
-// Training configuration (paper §6, DESIGN §5). configs/train/*.json are this
+// Training configuration (paper §6, docs/DESIGN.md §5). configs/train/*.json are this
 // struct serialised; command-line flags override them.
 #include <cstdint>
 #include <string>
