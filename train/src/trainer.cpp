@@ -165,10 +165,9 @@ void save_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& params
   }
 }
 
-int64_t load_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& params, LogWindow* window,
-                        int64_t* torch_threads) {
-  torch::serialize::InputArchive a;
-  const std::string fix = "start a new run (another --out) or restore the file";
+// Opens a checkpoint archive and returns the config it was written with;
+// `fix` ends every error message.
+static TrainParams open_checkpoint(torch::serialize::InputArchive& a, const fs::path& path, const std::string& fix) {
   try {
     model::load_archive(a, path, "checkpoint", fix);
     model::expect_format(a, path, kCheckpointFormat, kCheckpointVersion, "a checkpoint written by `reefgen train`");
@@ -176,10 +175,16 @@ int64_t load_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& par
     throw Error(e.what());
   }
   const json stored = json::parse(model::read_string(a, "config"), nullptr, false);
-  const json want = comparable(params);
   if (stored.is_discarded()) throw Error(path.string() + ": unreadable config; " + fix);
-  TrainParams stored_p = train_params_from_json(stored, path.string());
-  const json have = comparable(stored_p);
+  return train_params_from_json(stored, path.string());
+}
+
+int64_t load_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& params, LogWindow* window,
+                        int64_t* torch_threads) {
+  torch::serialize::InputArchive a;
+  const std::string fix = "start a new run (another --out) or restore the file";
+  const json want = comparable(params);
+  const json have = comparable(open_checkpoint(a, path, fix));
   for (const auto& [k, v] : want.items())
     if (have.at(k) != v)
       throw Error(path.string() + ": the run was started with " + k + " = " + have.at(k).dump() + ", now " +
@@ -235,16 +240,8 @@ void load_checkpoint_weights(const fs::path& path, Pix2Pix& p, const TrainParams
     throw Error(path.string() + ": no such checkpoint to start from (--init takes another run's RUN/checkpoint.pt)");
   torch::serialize::InputArchive a;
   const std::string fix = "pass --init another run's RUN/checkpoint.pt";
-  try {
-    model::load_archive(a, path, "checkpoint", fix);
-    model::expect_format(a, path, kCheckpointFormat, kCheckpointVersion, "a checkpoint written by `reefgen train`");
-  } catch (const std::runtime_error& e) {
-    throw Error(e.what());
-  }
-  const json stored = json::parse(model::read_string(a, "config"), nullptr, false);
-  if (stored.is_discarded()) throw Error(path.string() + ": unreadable config; " + fix);
   std::string differing;
-  if (!same_architecture(train_params_from_json(stored, path.string()), params, &differing))
+  if (!same_architecture(open_checkpoint(a, path, fix), params, &differing))
     throw Error(path.string() + ": another architecture (" + differing +
                 "); start from a checkpoint of the same networks or change the config to match");
   try {
