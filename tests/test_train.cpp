@@ -482,6 +482,21 @@ TEST(TrainParams, PaperConfigIsTheDefaults) {
   EXPECT_EQ(json(p), json(TrainParams{}));
 }
 
+TEST(TrainParams, EveryConfigInTheRepositoryIsSerialisedParams) {
+  // configs/train/*.json are read by scripts/train-shipped.sh: each must load
+  // and hold every field (a file missing one would silently take the default).
+  int n = 0;
+  for (const auto& e : fs::directory_iterator(REEFGEN_SOURCE_DIR "/configs/train")) {
+    if (e.path().extension() != ".json") continue;
+    SCOPED_TRACE(e.path().string());
+    const json stored = read_json(e.path().string());
+    const TrainParams p = train_params_from_json(stored, e.path().string());
+    EXPECT_EQ(json(p), stored);
+    ++n;
+  }
+  EXPECT_GE(n, 4);  // paper, shipped, shipped-tune, shipped-tune2
+}
+
 TEST(FusedAdam, MatchesLibTorchAdamAndIgnoresThreadCount) {
   auto run = [](bool fused, int threads) {
     torch::set_num_threads(threads);
