@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/io.hpp"
@@ -115,6 +116,29 @@ TEST_F(Studio, InferAnswersWhatTheCliComputes) {
   cv::minMaxLoc(want, &lo, &hi);
   EXPECT_DOUBLE_EQ(got.meta["max_m"].get<double>(), hi);
   EXPECT_GT(got.meta["max_m"].get<double>(), 50.0) << "the painted island has land";
+}
+
+TEST_F(Studio, RawCanvasPixelsGiveThePngsHeights) {
+  // The page sends its canvas as raw RGBA (no PNG encoding on its main
+  // thread): the same pixels must give the same heights as the PNG.
+  const fs::path sketch = kRoot / "docs" / "examples" / "painted-sketch.png";
+  const cv::Mat bgr = cv::imread(sketch.string(), cv::IMREAD_COLOR);
+  cv::Mat rgba;
+  cv::cvtColor(bgr, rgba, cv::COLOR_BGR2RGBA);
+  const std::string raw(reinterpret_cast<const char*>(rgba.data), rgba.total() * 4);
+  const std::string q = "/api/infer?w=" + std::to_string(bgr.cols) + "&h=" + std::to_string(bgr.rows);
+  auto r = client->Post(q, raw, "application/x-reefgen-rgba");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  auto p = client->Post("/api/infer", file_bytes(sketch), "image/png");
+  ASSERT_TRUE(p);
+  ASSERT_EQ(p->status, 200) << p->body;
+  EXPECT_EQ(cv::norm(parse_heights(r->body).h, parse_heights(p->body).h, cv::NORM_INF), 0.0);
+  // Wrong byte count, missing or out-of-range sides: 400 naming the fix.
+  expect_error(client->Post(q, raw.substr(1), "application/x-reefgen-rgba"), 400, "send w·h·4 bytes");
+  expect_error(client->Post("/api/infer?w=256", raw, "application/x-reefgen-rgba"), 400, "?h=");
+  expect_error(client->Post("/api/infer?w=99999&h=1", raw, "application/x-reefgen-rgba"), 400, "w = 99999");
+  expect_error(client->Post("/api/infer?w=-5&h=256", raw, "application/x-reefgen-rgba"), 400, "?w=");
 }
 
 TEST_F(Studio, GenerateAnswersWhatTheGeneratorComputes) {

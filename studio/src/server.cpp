@@ -237,6 +237,34 @@ struct StudioServer::Impl {
     }
   }
 
+  // A sketch sent as the canvas's raw pixels (RGBA, row 0 on top, w·h·4
+  // bytes): the page skips PNG encoding, which cost it up to a second per
+  // stroke on the main thread (docs/STUDIO.md).
+  DecodedSketch sketch_of_rgba(const httplib::Request& req) {
+    auto dim = [&](const char* k) {
+      const std::string v = req.get_param_value(k);
+      if (v.empty() || v.size() > 5 || v.find_first_not_of("0123456789") != std::string::npos)
+        throw BadRequest(std::string("raw RGBA sketch: ?") + k + "= must be a whole number of pixels in 16.." +
+                         std::to_string(o.max_side));
+      const int n = std::stoi(v);
+      if (n < 16 || n > o.max_side)
+        throw BadRequest(std::string("raw RGBA sketch: ") + k + " = " + v + "; use 16.." + std::to_string(o.max_side));
+      return n;
+    };
+    const int w = dim("w"), h = dim("h");
+    if (req.body.size() != size_t(w) * size_t(h) * 4)
+      throw BadRequest("raw RGBA sketch: " + std::to_string(req.body.size()) + " bytes for " + std::to_string(w) + "×" +
+                       std::to_string(h) + " pixels; send w·h·4 bytes");
+    const cv::Mat rgba(h, w, CV_8UC4, const_cast<char*>(req.body.data()));
+    cv::Mat bgr;
+    cv::cvtColor(rgba, bgr, cv::COLOR_RGBA2BGR);  // the page's canvas is opaque
+    try {
+      return decode_sketch(bgr, "sketch");
+    } catch (const Error& e) {
+      throw BadRequest(e.what());
+    }
+  }
+
   procgen::IslandFields island_of(const json& spec_json, int size, procgen::IslandSpec* spec_out) {
     if (size < 32 || size > o.max_side) throw BadRequest("size must be in 32.." + std::to_string(o.max_side));
     procgen::IslandSpec spec;
@@ -373,7 +401,8 @@ struct StudioServer::Impl {
       res.set_content(j.dump(), "application/json");
     }));
     svr.Post("/api/infer", guarded([this](const httplib::Request& req, httplib::Response& res) {
-      const DecodedSketch s = sketch_of(req.body);
+      const bool raw = lower(req.get_header_value("Content-Type")).rfind("application/x-reefgen-rgba", 0) == 0;
+      const DecodedSketch s = raw ? sketch_of_rgba(req) : sketch_of(req.body);
       latest_wins(res, [&] {
         const auto t0 = std::chrono::steady_clock::now();
         const cv::Mat1f h = infer::infer_heights(gen, {s}, io)[0];
