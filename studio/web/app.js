@@ -17,13 +17,51 @@ const REGIONS = [
   { id: 4, name: 'abyss', rgb: [1, 0, 0] },
 ];
 const ABYSS = 4;
+const LABELS = ['Island', 'Beach', 'Lagoon', 'Reef', 'Abyss'];
 function regionColour(id, subsidence) {
   const v = Math.round(255 * (1 - 0.75 * subsidence));
   return REGIONS[id].rgb.map((c) => c * v);
 }
+// What each colour becomes at each Age: the shipped model's training data,
+// median height (m) and share above the sea per subsidence band, measured in
+// docs/INFERENCE.md ("What each colour means, at each brightness"). Bands:
+// λ < 0.1, < 0.3, < 0.5, < 0.7, < 0.9, ≤ 1.
+const AGE_BANDS = [0.1, 0.3, 0.5, 0.7, 0.9, 1.01];
+const AGE_TABLE = [
+  [[203, 1], [124, 1], [8, 0.57], [-20, 0.03], [-20, 0], [-20, 0]],  // island
+  [[91, 1], [24, 0.81], [-20, 0.04], [-20, 0], [-20, 0], [-20, 0]],  // beach
+  [[41, 0.99], [-6, 0.26], [-20, 0], [-20, 0], [-20, 0], [-20, 0]],  // lagoon
+  [[-4, 0.31], [-14, 0], [-20, 0], [-20, 0], [-20, 0], [-20, 0]],    // reef
+  [[-99, 0], [-99, 0], [-99, 0], [-99, 0], [-99, 0], [-99, 0]],      // abyss
+];
+function becomes(id, subsidence) {
+  const [m, dry] = AGE_TABLE[id][AGE_BANDS.findIndex((b) => subsidence < b)];
+  const what = dry >= 0.9 ? 'land' : dry >= 0.1 ? `${Math.round(100 * dry)} % land` : 'water';
+  return { m, dry, text: `${what}, ${m > 0 ? '+' : ''}${m} m` };
+}
 
 // ---------- talking to the server
 let latestRequest = 0;
+// At most one update in flight; while it runs, only the newest change waits
+// (its request is built when it leaves the queue, from the canvas as it is
+// then). So the view is never more than one inference behind the brush, and
+// no stale request keeps the server busy.
+let inFlight = false, queued = null;
+function submit(makeRequest) {
+  queued = { makeRequest, t0: performance.now() };
+  probe.lastQueuedAt = queued.t0;
+  if (inFlight) return;
+  inFlight = true;
+  (async () => {
+    while (queued) {
+      const q = queued;
+      queued = null;
+      probe.requests = (probe.requests || 0) + 1;
+      await runUpdate(q.makeRequest, q.t0);
+    }
+    inFlight = false;
+  })();
+}
 async function api(path, body, contentType) {
   const res = await fetch(path, { method: body === undefined ? 'GET' : 'POST', body,
     headers: contentType ? { 'Content-Type': contentType } : {} });
@@ -58,6 +96,8 @@ async function runUpdate(makeRequest, t0) {
     probe.updates += 1;
     probe.timings.push({ total_ms: ms, server_ms: j.ms, encode_ms: probe.encode_ms || 0, response_ms: t1 - t0, update_ms: t2 - t1, draw_ms: performance.now() - t2 });
     probe.lastSum = h.reduce((a, b) => a + b, 0);
+    probe.lastMeta = j;
+    probe.lastRequestedAt = t0;
     $('view3d').dataset.updates = String(probe.updates);
     status(`${j.size}² · ${j.min_m.toFixed(0)}…${j.max_m.toFixed(0)} m · updated in ${ms.toFixed(0)} ms (server ${j.ms.toFixed(0)} ms)`);
   } catch (e) {
@@ -70,6 +110,8 @@ async function runUpdate(makeRequest, t0) {
 const paint = $('paint');
 const pctx = paint.getContext('2d', { willReadFrequently: true });
 let region = 0, tool = 'brush';
+let ageBase = null;  // the painting as it was when the Age slider was grabbed
+let paintAge = '0';  // the Age slider's value the painting's pixels have
 const undoStack = [], redoStack = [];
 function age() { return Number($('age').value) / 100; }
 function clearCanvas() {
@@ -77,16 +119,26 @@ function clearCanvas() {
   pctx.fillStyle = `rgb(${r},${g},${b})`;
   pctx.fillRect(0, 0, paint.width, paint.height);
 }
+// Undo steps remember the Age slider with the pixels (a re-age is a step).
+function grab() {
+  const img = pctx.getImageData(0, 0, paint.width, paint.height);
+  img.ageValue = paintAge;
+  return img;
+}
 function snapshot() {
-  undoStack.push(pctx.getImageData(0, 0, paint.width, paint.height));
+  undoStack.push(grab());
   if (undoStack.length > 40) undoStack.shift();
   redoStack.length = 0;
 }
 function restore(from, to) {
   if (!from.length) return;
-  to.push(pctx.getImageData(0, 0, paint.width, paint.height));
+  to.push(grab());
   const img = from.pop();
+  $('age').value = paintAge = img.ageValue;
+  $('age').dispatchEvent(new Event('sync'));
+  ageBase = null;
   if (img.width !== paint.width) { paint.width = paint.height = img.width; }
+  $('canvas-size').value = String(img.width);  // the menu shows the canvas it restored
   pctx.putImageData(img, 0, 0);
   requestInfer();
 }
@@ -107,26 +159,75 @@ function canvasPoint(ev, canvas) {
   const rect = canvas.getBoundingClientRect();
   return [(ev.clientX - rect.left) * canvas.width / rect.width, (ev.clientY - rect.top) * canvas.height / rect.height];
 }
+// Fill replaces a region including its soft edge: the connected pixels of the
+// clicked colour T, then the blended pixels around them (up to the widest
+// soft edge a brush draws), each keeping its share a of T (p = a·T +
+// (1−a)·N) with T swapped for the new colour C. The old fill left 1–2 px
+// seams of T there, which the model read as a thin ring of that region.
 function floodFill(x0, y0) {
-  const W = paint.width, H = paint.height;
+  const W = paint.width, H = paint.height, N = W * H;
   const img = pctx.getImageData(0, 0, W, H), d = img.data;
-  const at = (x, y) => 4 * (y * W + x);
-  const start = at(Math.floor(x0), Math.floor(y0));
-  const target = [d[start], d[start + 1], d[start + 2]];
-  const [r, g, b] = brushColour();
-  if (target[0] === r && target[1] === g && target[2] === b) return;
-  const close = (i) => Math.abs(d[i] - target[0]) + Math.abs(d[i + 1] - target[1]) + Math.abs(d[i + 2] - target[2]) < 48;
-  const stack = [[Math.floor(x0), Math.floor(y0)]];
-  const seen = new Uint8Array(W * H);
+  const sx = Math.floor(x0), sy = Math.floor(y0), s0 = 4 * (sy * W + sx);
+  const T = [d[s0], d[s0 + 1], d[s0 + 2]];
+  const C = brushColour();
+  if (T[0] === C[0] && T[1] === C[1] && T[2] === C[2]) return;
+  const close = (i) => Math.abs(d[i] - T[0]) + Math.abs(d[i + 1] - T[1]) + Math.abs(d[i + 2] - T[2]) < 48;
+  const state = new Uint8Array(N);  // 1 core, 2 edge
+  const stack = [sy * W + sx];
+  state[sy * W + sx] = 1;
+  const core = [];
   while (stack.length) {
-    const [x, y] = stack.pop();
-    if (x < 0 || y < 0 || x >= W || y >= H || seen[y * W + x]) continue;
-    seen[y * W + x] = 1;
-    const i = at(x, y);
-    if (!close(i)) continue;
-    d[i] = r; d[i + 1] = g; d[i + 2] = b; d[i + 3] = 255;
-    stack.push([x + 1, y], [x - 1, y], [x, y + 1], [x, y - 1]);
+    const q = stack.pop();
+    core.push(q);
+    const x = q % W, y = (q - x) / W;
+    for (const n of [x > 0 ? q - 1 : -1, x < W - 1 ? q + 1 : -1, y > 0 ? q - W : -1, y < H - 1 ? q + W : -1]) {
+      if (n >= 0 && !state[n] && close(4 * n)) { state[n] = 1; stack.push(n); }
+    }
   }
+  // Each pixel around the region is read as a blend a·T + (1−a)·N of the
+  // old colour and the pure colour N (a region's hue at T's or the brush's
+  // brightness) that explains it best.
+  const vT = Math.max(...T), vC = Math.max(...C);
+  const pures = [];
+  for (const r of REGIONS) for (const v of [vT, vC]) pures.push(r.rgb.map((c) => c * v));
+  const share = (i) => {
+    let bestA = 0, bestErr = Infinity;
+    for (const Nc of pures) {
+      let num = 0, den = 0;
+      for (let c = 0; c < 3; ++c) { const tn = T[c] - Nc[c]; num += (d[i + c] - Nc[c]) * tn; den += tn * tn; }
+      if (den === 0) continue;
+      const a = Math.max(0, Math.min(1, num / den));
+      let err = 0;
+      for (let c = 0; c < 3; ++c) { const e = d[i + c] - (a * T[c] + (1 - a) * Nc[c]); err += e * e; }
+      if (err < bestErr) { bestErr = err; bestA = a; }
+    }
+    return bestA;
+  };
+  // The soft edge: outwards from the region, ring by ring, while T's share
+  // keeps falling (a soft edge fades out; a flat area of another colour that
+  // happens to look like a blend — a darker island — does not, and stays).
+  const shareOf = new Float32Array(N).fill(1);
+  const band = Math.ceil(80 * W / 256) + 2;
+  let ring = core;
+  const edge = [];
+  for (let r = 0; r < band && ring.length; ++r) {
+    const next = [];
+    for (const q of ring) {
+      const x = q % W, y = (q - x) / W;
+      for (const n of [x > 0 ? q - 1 : -1, x < W - 1 ? q + 1 : -1, y > 0 ? q - W : -1, y < H - 1 ? q + W : -1]) {
+        if (n < 0 || state[n]) continue;
+        const a = share(4 * n);
+        if (a > 0.02 && a < shareOf[q] - 1e-3) { state[n] = 2; shareOf[n] = a; next.push(n); edge.push(n); }
+      }
+    }
+    ring = next;
+  }
+  for (const q of edge) {
+    const i = 4 * q, a = shareOf[q];
+    for (let c = 0; c < 3; ++c) d[i + c] = Math.max(0, Math.min(255, Math.round(d[i + c] + a * (C[c] - T[c]))));
+    d[i + 3] = 255;
+  }
+  for (const q of core) { const i = 4 * q; d[i] = C[0]; d[i + 1] = C[1]; d[i + 2] = C[2]; d[i + 3] = 255; }
   pctx.putImageData(img, 0, 0);
 }
 let painting = false, last = null;
@@ -150,13 +251,15 @@ paint.addEventListener('pointerup', endStroke);
 paint.addEventListener('pointercancel', endStroke);
 
 function sketchBlob() { return new Promise((r) => paint.toBlob(r, 'image/png')); }
+// The canvas goes to the server as raw RGBA: getImageData takes ~1 ms where
+// PNG encoding (toBlob) took up to a second of the main thread per stroke.
 function requestInfer() {
-  const t0 = performance.now();
-  runUpdate(async () => {
-    const blob = await sketchBlob();
-    probe.encode_ms = performance.now() - t0;
-    return api('/api/infer', blob, 'image/png');
-  }, t0);
+  submit(async () => {
+    const t = performance.now();
+    const px = pctx.getImageData(0, 0, paint.width, paint.height).data;
+    probe.encode_ms = performance.now() - t;
+    return api(`/api/infer?w=${paint.width}&h=${paint.height}`, px, 'application/x-reefgen-rgba');
+  });
 }
 
 // ---------- curves mode: the Figure-3 inputs, dragged directly
@@ -189,8 +292,47 @@ function loadSpec(s) {
 }
 const toCanvas = ([x, y]) => [(x + 1) / 2 * curves.width, (1 - y) / 2 * curves.height];  // +y up
 const fromCanvas = ([px, py]) => [px / curves.width * 2 - 1, 1 - py / curves.height * 2];
+// Wind strokes warp the regions after the outlines are drawn (docs/SPEC.md),
+// so a handle at its spec radius would float off the region it moves. Each
+// handle is drawn where the ray at its angle crosses its region's edge in the
+// generated label map, the crossing nearest to its spec radius; the abyss
+// ring (no edge in the map) and rays that cross nothing keep the spec radius.
+let labelRegions = null;  // {n, r: Uint8Array n² region ids} of the last label map
+function regionsOf(img) {
+  const n = img.width, c = document.createElement('canvas');
+  c.width = c.height = n;
+  const x = c.getContext('2d', { willReadFrequently: true });
+  x.drawImage(img, 0, 0);
+  const d = x.getImageData(0, 0, n, n).data, r = new Uint8Array(n * n);
+  for (let i = 0; i < n * n; ++i) {
+    const R = d[4 * i], G = d[4 * i + 1], B = d[4 * i + 2], m = Math.max(R, G, B) / 2;
+    const code = (R > m ? 4 : 0) | (G > m ? 2 : 0) | (B > m ? 1 : 0);
+    r[i] = { 6: 0, 2: 1, 3: 2, 1: 3, 4: 4 }[code] ?? 4;
+  }
+  return { n, r };
+}
+function regionAt(x, y) {  // canvas units → region id of the label map
+  const n = labelRegions.n;
+  const px = Math.floor((x + 1) / 2 * n), py = Math.floor((1 - y) / 2 * n);
+  if (px < 0 || py < 0 || px >= n || py >= n) return 4;
+  return labelRegions.r[py * n + px];
+}
+function deformedRadius(ring, th, r0) {
+  if (!labelRegions || ring > 3) return r0;
+  const step = 1 / labelRegions.n, c = Math.cos(th), sn = Math.sin(th);
+  let best = null, inside = regionAt(0, 0) <= ring;
+  for (let r = step; r < 1.5; r += step) {
+    const now = regionAt(r * c, r * sn) <= ring;
+    if (now !== inside && (best === null || Math.abs(r - r0) < Math.abs(best - r0))) best = r;
+    inside = now;
+  }
+  return best === null ? r0 : best;
+}
+// Tests: the label map shown and the handles' canvas positions.
+probe.labelImage = () => labelImage;
+probe.handles = () => spec.outlines.map((_, ring) => Array.from({ length: K }, (_, k) => handlePoint(ring, k)));
 function handlePoint(ring, k) {
-  const th = 2 * Math.PI * k / K, r = spec.outlines[ring][k];
+  const th = 2 * Math.PI * k / K, r = deformedRadius(ring, th, spec.outlines[ring][k]);
   return toCanvas([r * Math.cos(th), r * Math.sin(th)]);
 }
 function catmull(p0, p1, p2, p3, t) {
@@ -207,8 +349,8 @@ function drawCurves() {
     cctx.beginPath();
     for (let s = 0; s <= K * 8; ++s) {
       const k = Math.floor(s / 8) % K, t = (s % 8) / 8;
-      const r = catmull(radii[(k + K - 1) % K], radii[k], radii[(k + 1) % K], radii[(k + 2) % K], t);
       const th = 2 * Math.PI * (k + t) / K;
+      const r = deformedRadius(ring, th, catmull(radii[(k + K - 1) % K], radii[k], radii[(k + 1) % K], radii[(k + 2) % K], t));
       const [x, y] = toCanvas([r * Math.cos(th), r * Math.sin(th)]);
       s ? cctx.lineTo(x, y) : cctx.moveTo(x, y);
     }
@@ -247,6 +389,11 @@ curves.addEventListener('pointerdown', (ev) => {
       if (d < 10 && (!best || d < best.d)) best = { ring, k, d };
     }
   });
+  if (best) {  // drags move the spec radius by the pointer's radial motion
+    const [x, y] = fromCanvas(pt);
+    best.r0 = spec.outlines[best.ring][best.k];
+    best.p0 = Math.hypot(x, y);
+  }
   drag = best;
 });
 curves.addEventListener('pointermove', (ev) => {
@@ -259,7 +406,7 @@ curves.addEventListener('pointermove', (ev) => {
   }
   if (!drag) return;
   const [x, y] = fromCanvas(pt);
-  spec.outlines[drag.ring][drag.k] = Math.min(3, Math.max(0.01, Math.hypot(x, y)));
+  spec.outlines[drag.ring][drag.k] = Math.min(3, Math.max(0.01, drag.r0 + Math.hypot(x, y) - drag.p0));
   drawCurves();
   requestGenerate();
 });
@@ -328,13 +475,17 @@ function requestGenerate() {
   requestAnimationFrame(() => {
     generatePending = false;
     if (mode !== 'curves') return;
-    const t0 = performance.now();
-    runUpdate(() => api('/api/generate?size=256', JSON.stringify(specForServer()), 'application/json'), t0);
+    submit(() => api('/api/generate?size=256', JSON.stringify(specForServer()), 'application/json'));
   });
 }
 function showLabel(b64) {
   const img = new Image();
-  img.onload = () => { labelImage = img; if (mode === 'curves') drawCurves(); };
+  img.onload = () => {
+    labelImage = img;
+    labelRegions = regionsOf(img);
+    if (mode === 'curves') drawCurves();
+    probe.labelsShown = (probe.labelsShown || 0) + 1;
+  };
   img.src = 'data:image/png;base64,' + b64;
 }
 $('subsidence').addEventListener('input', requestGenerate);
@@ -393,36 +544,59 @@ try {
   // Render on demand (a change of view or of terrain), never in a loop: the
   // CPU stays free for inference between strokes.
   controls.addEventListener('change', requestRender);
+  // The layout sizes the view from the window (two columns from 1024 px up):
+  // follow it.
+  new ResizeObserver(() => {
+    if (!el.clientWidth || !el.clientHeight) return;
+    renderer.setSize(el.clientWidth, el.clientHeight);
+    camera.aspect = el.clientWidth / el.clientHeight;
+    camera.updateProjectionMatrix();
+    requestRender();
+  }).observe(el);
 } catch (e) {
   THREE = null;
   $('no3d').hidden = false;
   console.warn('no 3D view:', e);
 }
+// Level of detail: the mesh carries at most 512² vertices (the silhouette),
+// its surface the answer's full resolution — the hill-shaded colour image of
+// the 2D view (n², lit from the heights at every pixel) is its texture. So a
+// 1024² answer shows all its gullies without a million-vertex mesh to
+// rebuild per stroke.
+const MESH_MAX = 512;
+let surface = null;
 function show3d(h, n) {
   if (!THREE) return;
-  const m = Math.min(n, 256), step = n / m;  // at most 256² vertices: smooth enough, fast to update
+  const m = Math.min(n, MESH_MAX), step = (n - 1) / (m - 1);
   const exag = Number($('exaggeration').value);
   // One grid, updated in place: no allocation per stroke.
   if (!terrain || terrain.userData.m !== m) {
     if (terrain) { scene.remove(terrain); terrain.geometry.dispose(); }
     const geo = new THREE.PlaneGeometry(6, 6, m - 1, m - 1);
     geo.rotateX(-Math.PI / 2);
-    geo.setAttribute('color', new THREE.BufferAttribute(new Float32Array(geo.attributes.position.count * 3), 3));
-    terrain = new THREE.Mesh(geo, new THREE.MeshLambertMaterial({ vertexColors: true }));
+    terrain = new THREE.Mesh(geo, new THREE.MeshBasicMaterial());
     terrain.userData.m = m;
     scene.add(terrain);
   }
-  const geo = terrain.geometry, pos = geo.attributes.position.array, col = geo.attributes.color.array;
+  const shade = $('shade');
+  if (!surface || surface.image !== shade || surface.userData.n !== n) {
+    if (surface) surface.dispose();
+    surface = new THREE.CanvasTexture(shade);
+    surface.userData.n = n;
+    surface.colorSpace = THREE.SRGBColorSpace;
+    surface.anisotropy = 4;
+    terrain.material.map = surface;
+    terrain.material.needsUpdate = true;
+  }
+  surface.needsUpdate = true;
+  const geo = terrain.geometry, pos = geo.attributes.position.array;
   for (let j = 0; j < m; ++j) for (let i = 0; i < m; ++i) {
-    const v = j * m + i, hv = h[Math.floor(j * step) * n + Math.floor(i * step)];
-    pos[3 * v + 1] = hv / 1000 * exag;  // 6 scene units = 6 km
-    const [r, g, b] = hypsometric(hv);
-    col[3 * v] = r / 255; col[3 * v + 1] = g / 255; col[3 * v + 2] = b / 255;
+    const hv = h[Math.round(j * step) * n + Math.round(i * step)];
+    pos[3 * (j * m + i) + 1] = hv / 1000 * exag;  // 6 scene units = 6 km
   }
   geo.attributes.position.needsUpdate = true;
-  geo.attributes.color.needsUpdate = true;
-  geo.computeVertexNormals();
   geo.computeBoundingSphere();
+  probe.view3d = { mesh_px: m, texture_px: shade.width };
   requestRender();
 }
 function showHeights(h, n, j) {
@@ -453,7 +627,10 @@ for (const b of document.querySelectorAll('#exports button')) {
       a.href = URL.createObjectURL(blob);
       a.download = (res.headers.get('Content-Disposition') || '').match(/filename="([^"]+)"/)?.[1] || name;
       a.click();
-      status(`exported ${a.download} (also in ${res.headers.get('X-Reefgen-Path')})`);
+      // 16-bit files span the field's own range (nothing clipped): say which.
+      const range = (res.headers.get('X-Reefgen-Range-M') || '').split(' ').map(Number);
+      const span = range.length === 2 ? ` — ${range[0].toFixed(1)}…${range[1].toFixed(1)} m → 0…65535, scale in ${name}.import.json` : '';
+      status(`exported ${a.download}${span} (also in ${res.headers.get('X-Reefgen-Path')})`);
     } catch (e) { status('export failed: ' + e.message); probe.errors.push(e.message); }
   });
 }
@@ -466,6 +643,8 @@ function setMode(m) {
   $('curves-panel').hidden = m !== 'curves';
   $('mode-paint').classList.toggle('active', m === 'paint');
   $('mode-curves').classList.toggle('active', m === 'curves');
+  // Only the exports that work in this mode (Spec JSON needs the curves).
+  for (const b of document.querySelectorAll('#exports button[data-modes]')) b.hidden = !b.dataset.modes.split(' ').includes(m);
   if (m === 'paint') requestInfer(); else requestGenerate();
 }
 $('mode-paint').onclick = () => setMode('paint');
@@ -473,16 +652,64 @@ $('mode-curves').onclick = () => setMode('curves');
 for (const r of REGIONS) {
   const b = document.createElement('button');
   b.className = 'region' + (r.id === region ? ' active' : '');
-  b.title = r.name;
   b.dataset.region = String(r.id);
-  b.style.background = `rgb(${regionColour(r.id, 0).join(',')})`;
+  b.setAttribute('role', 'radio');
+  b.setAttribute('aria-checked', String(r.id === region));
+  b.setAttribute('aria-label', `${LABELS[r.id]} brush`);
+  const chip = document.createElement('span');
+  chip.className = 'chip';
+  const name = document.createElement('span');
+  name.textContent = LABELS[r.id];
+  b.append(chip, name);
   b.onclick = () => {
     region = r.id;
-    document.querySelectorAll('.region').forEach((x) => x.classList.toggle('active', x === b));
+    document.querySelectorAll('.region').forEach((x) => {
+      x.classList.toggle('active', x === b);
+      x.setAttribute('aria-checked', String(x === b));
+    });
     if (tool === 'eraser') setTool('brush');
   };
   $('regions').appendChild(b);
 }
+// Swatches in the current Age's colours, and what each becomes at that Age.
+function showAge() {
+  const a = age();
+  for (const b of document.querySelectorAll('.region')) {
+    b.querySelector('.chip').style.background = `rgb(${regionColour(Number(b.dataset.region), a).join(',')})`;
+  }
+  const rows = REGIONS.map((r) => `<div data-region="${r.id}"><b>${LABELS[r.id]}</b> → ${becomes(r.id, a).text}</div>`);
+  $('age-legend').innerHTML = `<div>At Age ${Math.round(100 * a)} (median of the training data):</div>` + rows.join('');
+}
+// Slider values beside the sliders.
+for (const out of document.querySelectorAll('output[for]')) {
+  const input = $(out.htmlFor.value), unit = { brush: ' px', softness: ' %', exaggeration: '×' }[input.id] || '';
+  const show = () => { out.textContent = input.value + unit; };
+  input.addEventListener('input', show);
+  input.addEventListener('sync', show);
+  show();
+}
+// Age re-ages the whole painting: every pixel keeps its hue and blend and
+// takes the new brightness (V = 1 − 0.75·Age), rescaled from the painting as
+// it was when the slider was grabbed (no rounding drift while dragging); one
+// undo step per drag, one request per change (coalesced while dragging).
+function reage() {
+  if (!ageBase) { snapshot(); ageBase = pctx.getImageData(0, 0, paint.width, paint.height); }
+  paintAge = $('age').value;
+  const src = ageBase.data, img = pctx.createImageData(ageBase.width, ageBase.height), d = img.data;
+  const v = 255 * (1 - 0.75 * age());
+  for (let i = 0; i < src.length; i += 4) {
+    const m = Math.max(src[i], src[i + 1], src[i + 2]);
+    const k = m > 0 ? v / m : 0;
+    d[i] = Math.round(src[i] * k); d[i + 1] = Math.round(src[i + 1] * k); d[i + 2] = Math.round(src[i + 2] * k); d[i + 3] = 255;
+  }
+  pctx.putImageData(img, 0, 0);
+  showAge();
+  requestInfer();
+}
+$('age').addEventListener('input', reage);
+$('age').addEventListener('change', () => { ageBase = null; });
+$('age').addEventListener('sync', showAge);
+showAge();
 function setTool(t) {
   tool = t;
   for (const n of ['brush', 'fill', 'eraser']) $('tool-' + n).classList.toggle('active', n === t);
@@ -492,11 +719,18 @@ $('tool-fill').onclick = () => setTool('fill');
 $('tool-eraser').onclick = () => setTool('eraser');
 $('undo').onclick = () => restore(undoStack, redoStack);
 $('redo').onclick = () => restore(redoStack, undoStack);
+// Ctrl-Z / Ctrl-Y (Ctrl-Shift-Z) act on the painting only when the focus is
+// on the canvas or on no control: typing in the export name (or a menu) keeps
+// the browser's own undo there.
 document.addEventListener('keydown', (ev) => {
-  if (!(ev.ctrlKey || ev.metaKey)) return;
-  if (ev.key === 'z') { ev.preventDefault(); restore(undoStack, redoStack); }
-  if (ev.key === 'y') { ev.preventDefault(); restore(redoStack, undoStack); }
+  if (!(ev.ctrlKey || ev.metaKey) || mode !== 'paint') return;
+  const f = document.activeElement;
+  if (f && f !== paint && f !== document.body && !(f.tagName === 'BUTTON')) return;
+  const k = ev.key.toLowerCase();
+  if (k === 'z' && !ev.shiftKey) { ev.preventDefault(); restore(undoStack, redoStack); }
+  if (k === 'y' || (k === 'z' && ev.shiftKey)) { ev.preventDefault(); restore(redoStack, undoStack); }
 });
+paint.addEventListener('pointerdown', () => paint.focus());
 $('clear').onclick = () => { snapshot(); clearCanvas(); requestInfer(); };
 $('canvas-size').onchange = () => {
   snapshot();
@@ -537,4 +771,4 @@ try {
   $('preset').onchange = () => { loadSpec(presets[$('preset').value]); requestGenerate(); };
   if (presets['young-volcano']) { $('preset').value = 'young-volcano'; loadSpec(presets['young-volcano']); }
 } catch (e) { status('presets: ' + e.message); }
-requestInfer();
+setMode('paint');

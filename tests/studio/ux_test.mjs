@@ -1,0 +1,311 @@
+// Browser test of the studio's controls (issue 22): one check per point a new
+// user tripped over — each one failed on the page before the fix. Debian's
+// chromium driven by playwright-core, as browser_test.mjs.
+//   node ux_test.mjs URL [--only NAME] [--screenshots DIR]
+// Prints one line per check and a JSON summary (with the stroke-to-update
+// lags it saw) on stdout; exit 1 if any check fails.
+import { createRequire } from 'node:module';
+const require = createRequire((process.env.REEFGEN_NODE_MODULES || '.') + '/');
+const { chromium } = require('playwright-core');
+
+const url = process.argv[2];
+const arg = (name, dflt) => { const i = process.argv.indexOf(name); return i > 0 ? process.argv[i + 1] : dflt; };
+const only = arg('--only', '');
+const shots = arg('--screenshots', '');
+const failures = [];
+const summary = {};
+
+const browser = await chromium.launch({
+  executablePath: process.env.CHROMIUM || '/usr/bin/chromium',
+  args: ['--no-sandbox', '--use-gl=angle', '--use-angle=swiftshader', '--enable-unsafe-swiftshader'],
+});
+
+// A fresh page at the given viewport, loaded and showing its first island.
+async function open(width = 1400, height = 900) {
+  const page = await browser.newPage({ viewport: { width, height }, acceptDownloads: true });
+  page.errors = [];
+  page.notFound = [];
+  page.on('pageerror', (e) => page.errors.push(String(e)));
+  page.on('response', (r) => { if (r.status() === 404) page.notFound.push(r.url()); });
+  await page.goto(url);
+  await page.waitForFunction(() => window.__reefgen && window.__reefgen.updates >= 1, null, { timeout: 30000 });
+  return page;
+}
+const updates = (page) => page.evaluate(() => window.__reefgen.updates);
+async function nextUpdate(page, n, timeout = 20000) {
+  await page.waitForFunction((k) => window.__reefgen.updates > k, n, { timeout });
+}
+// The painting's pixels, summed per channel (cheap fingerprint) and at a point.
+const canvasSums = (page) => page.evaluate(() => {
+  const c = document.getElementById('paint'), d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+  const s = [0, 0, 0];
+  for (let i = 0; i < d.length; i += 4) { s[0] += d[i]; s[1] += d[i + 1]; s[2] += d[i + 2]; }
+  return s.join(',');
+});
+const pixelAt = (page, fx, fy) => page.evaluate(([x, y]) => {
+  const c = document.getElementById('paint');
+  return Array.from(c.getContext('2d').getImageData(Math.floor(x * c.width), Math.floor(y * c.height), 1, 1).data.slice(0, 3));
+}, [fx, fy]);
+async function stroke(page, fx, fy, { dx = 40, dy = 25, steps = 6 } = {}) {
+  const b = await page.locator('#paint').boundingBox();
+  const x = b.x + fx * b.width, y = b.y + fy * b.height;
+  await page.mouse.move(x, y);
+  await page.mouse.down();
+  for (let k = 1; k <= steps; ++k) await page.mouse.move(x + dx * k / steps, y + dy * k / steps);
+  await page.mouse.up();
+}
+
+async function check(name, body) {
+  if (only && only !== name) return;
+  let page;
+  try {
+    page = await body();
+    if (page && page.errors.length) throw new Error('page errors: ' + page.errors.join(' | '));
+    console.log(`ok   ${name}`);
+  } catch (e) {
+    failures.push(name);
+    console.log(`FAIL ${name}: ${e.message.split('\n')[0]}`);
+  } finally {
+    if (page) await page.close();
+  }
+}
+const expect = (cond, msg) => { if (!cond) throw new Error(msg); };
+
+// 1. Age re-ages the whole painting, live, in one request per change.
+await check('age-reages-the-painting', async () => {
+  const page = await open();
+  const before = await pixelAt(page, 0.5, 0.5), sum0 = await page.evaluate(() => window.__reefgen.lastSum);
+  const n = await updates(page);
+  let infers = 0;
+  page.on('request', (r) => { if (r.url().includes('/api/infer')) infers += 1; });
+  await page.locator('#age').fill('80');
+  await nextUpdate(page, n);
+  await page.waitForTimeout(300);
+  const after = await pixelAt(page, 0.5, 0.5);
+  expect(Math.max(...before) > 240, `the default painting is not bright at Age 0 (${before})`);
+  expect(Math.abs(Math.max(...after) - 255 * (1 - 0.75 * 0.8)) <= 3, `centre pixel ${after} is not at Age 80's brightness`);
+  expect(after[2] === 0 && after[0] > 0 && after[1] > 0, `centre pixel ${after} lost its hue (island = yellow)`);
+  const sum1 = await page.evaluate(() => window.__reefgen.lastSum);
+  expect(sum1 < sum0, 'the heights did not sink with the Age');
+  expect(infers === 1, `${infers} inference requests for one Age change`);
+  // One undo step restores the painting and the slider.
+  await page.click('#undo');
+  await page.waitForTimeout(200);
+  expect(await page.inputValue('#age') === '0', 'undo did not restore the Age slider');
+  expect(Math.max(...await pixelAt(page, 0.5, 0.5)) > 240, 'undo did not restore the bright painting');
+  return page;
+});
+
+// 2. A legend says what each colour becomes at the current Age, before painting.
+await check('legend-says-what-each-colour-becomes', async () => {
+  const page = await open();
+  const legend = page.locator('#age-legend');
+  expect(await legend.isVisible(), 'no legend beside the brushes');
+  const row = (r) => page.locator(`#age-legend [data-region="${r}"]`).innerText();
+  expect(/land/.test(await row(1)) && /land/.test(await row(2)), `at Age 0 beach/lagoon should say land: ${await row(1)} / ${await row(2)}`);
+  await page.locator('#age').fill('60');
+  expect(/water/.test(await row(1)) && /water/.test(await row(2)), `at Age 60 beach/lagoon should say water: ${await row(1)} / ${await row(2)}`);
+  expect(/water/.test(await row(4)), 'abyss should say water');
+  return page;
+});
+
+// 3. Swatches with visible names and aria-labels; every slider shows its value.
+await check('swatches-named-sliders-show-values', async () => {
+  const page = await open();
+  const names = await page.$$eval('.region', (bs) => bs.map((b) => [b.innerText.trim(), b.getAttribute('aria-label')]));
+  expect(names.length === 5, `${names.length} swatches`);
+  for (const [text, aria] of names) expect(text.length > 2 && aria && aria.includes(text), `swatch "${text}" / aria "${aria}"`);
+  for (const id of ['brush', 'softness', 'age', 'exaggeration']) {
+    const out = () => page.$eval(`output[for="${id}"]`, (o) => o.textContent).catch(() => '');
+    const v = await page.inputValue(`#${id}`);
+    expect((await out()).startsWith(v), `#${id} shows "${await out()}", value ${v}`);
+  }
+  await page.locator('#brush').fill('40');
+  expect((await page.$eval('output[for="brush"]', (o) => o.textContent)).startsWith('40'), 'brush value not updated');
+  return page;
+});
+
+// 4. Ctrl-Z while typing in the export name does not undo the painting.
+await check('ctrl-z-in-a-text-field-keeps-the-painting', async () => {
+  const page = await open();
+  const n = await updates(page);
+  await stroke(page, 0.2, 0.2);
+  await nextUpdate(page, n);
+  const painted = await canvasSums(page);
+  await page.click('#name');
+  await page.keyboard.type('x');
+  await page.keyboard.press('Control+z');
+  await page.waitForTimeout(300);
+  expect(await canvasSums(page) === painted, 'Ctrl-Z in the name field undid the painting');
+  // On the canvas it still undoes.
+  await page.focus('#paint');
+  await page.keyboard.press('Control+z');
+  await page.waitForTimeout(300);
+  expect(await canvasSums(page) !== painted, 'Ctrl-Z on the canvas did not undo');
+  return page;
+});
+
+// 5. Undo after a canvas-size change puts the size menu back.
+await check('undo-restores-the-size-menu', async () => {
+  const page = await open();
+  await page.selectOption('#canvas-size', '512');
+  expect(await page.$eval('#paint', (c) => c.width) === 512, 'canvas not 512');
+  await page.click('#undo');
+  await page.waitForTimeout(200);
+  const w = await page.$eval('#paint', (c) => c.width), menu = await page.inputValue('#canvas-size');
+  expect(w === 256 && menu === '256', `after undo: canvas ${w}, menu ${menu}`);
+  await page.click('#redo');
+  await page.waitForTimeout(200);
+  expect(await page.inputValue('#canvas-size') === '512', 'redo did not restore the menu');
+  return page;
+});
+
+// 6. Fill replaces a region with its soft edge: no seams of the old colour.
+await check('fill-leaves-no-seams', async () => {
+  const page = await open();
+  await page.click('#clear');
+  await page.click('.region[data-region="1"]');  // beach, default softness
+  for (const [x, y] of [[0.3, 0.3], [0.5, 0.6], [0.6, 0.35]]) await stroke(page, x, y, { dx: 120, dy: 60, steps: 12 });
+  await page.click('#tool-fill');
+  await page.click('.region[data-region="2"]');  // lagoon replaces the abyss
+  const b = await page.locator('#paint').boundingBox();
+  await page.mouse.click(b.x + 3, b.y + 3);
+  const seams = await page.evaluate(() => {
+    const c = document.getElementById('paint'), d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+    let n = 0;  // red survives only in the old abyss colour and its blends
+    const where = [];
+    for (let i = 0; i < d.length; i += 4) if (d[i] > 24) { n += 1; if (where.length < 8) where.push([(i / 4) % c.width, Math.floor(i / 4 / c.width), d[i], d[i + 1], d[i + 2]]); }
+    return n ? `${n} ${JSON.stringify(where)}` : 0;
+  });
+  summary.fill_seam_pixels = seams;
+  expect(seams < 100, `${seams} pixels keep the old abyss colour after the fill`);
+  return page;
+});
+
+// 7. Exports are offered only where they work: no Spec JSON in paint mode.
+await check('exports-offered-where-they-work', async () => {
+  const page = await open();
+  const spec = page.locator('#exports button[data-format="spec"]');
+  expect(!(await spec.isVisible()), 'Spec JSON is offered in paint mode');
+  await page.click('#mode-curves');
+  expect(await spec.isVisible(), 'Spec JSON is not offered in curves mode');
+  return page;
+});
+
+// 8. 16-bit exports keep the whole range and say so.
+await check('png16-export-states-its-unclipped-range', async () => {
+  const page = await open();
+  await page.click('#mode-curves');
+  await page.selectOption('#preset', 'young-volcano');
+  await page.waitForFunction(() => window.__reefgen.lastMeta && window.__reefgen.lastMeta.label_png, null, { timeout: 20000 });
+  await page.waitForTimeout(300);
+  const maxM = await page.evaluate(() => window.__reefgen.lastMeta.max_m);
+  await Promise.all([page.waitForEvent('download', { timeout: 20000 }), page.click('#exports button[data-format="png16"]')]);
+  const text = await page.locator('#status').innerText();
+  const m = text.match(/(-?[\d.]+)…(-?[\d.]+) m → 0…65535/);
+  expect(m, `the status does not state the PNG16 range: "${text}"`);
+  expect(Number(m[2]) >= maxM - 0.05, `range top ${m[2]} m below the island's ${maxM} m: clipped`);
+  summary.png16_range_m = [Number(m[1]), Number(m[2])];
+  return page;
+});
+
+// 9. At 1024×700 canvas and 3D view sit side by side, both on screen.
+await check('side-by-side-at-1024x700', async () => {
+  const page = await open(1024, 700);
+  const p = await page.locator('#paint').boundingBox(), v = await page.locator('#view3d').boundingBox();
+  expect(v.x >= p.x + p.width - 1, `3D view (x ${v.x}) not beside the canvas (right edge ${p.x + p.width})`);
+  expect(p.y + p.height <= 700 && v.y + v.height <= 700, `below the fold: canvas bottom ${p.y + p.height}, view bottom ${v.y + v.height}`);
+  expect(p.width >= 300 && v.width >= 300, `too small: canvas ${p.width}, view ${v.width}`);
+  if (shots) await page.screenshot({ path: `${shots}/studio-1024x700.png` });
+  return page;
+});
+
+// 10. Ten quick strokes: never more than one inference in flight, and the
+// last view answers the last stroke. The lag is printed (the bar lives in
+// scripts/bench-studio.sh, not in a test).
+await check('quick-strokes-one-inference-behind', async () => {
+  const page = await open();
+  await page.selectOption('#canvas-size', '1024');
+  await nextUpdate(page, await updates(page), 30000);
+  let open_ = 0, maxOpen = 0;
+  page.on('request', (r) => { if (r.url().includes('/api/infer')) maxOpen = Math.max(maxOpen, ++open_); });
+  const done = (r) => { if (r.url().includes('/api/infer')) open_ -= 1; };
+  page.on('requestfinished', done);
+  page.on('requestfailed', done);
+  await page.click('.region[data-region="0"]');
+  for (let s = 0; s < 10; ++s) {
+    await stroke(page, 0.2 + 0.05 * s, 0.25 + 0.04 * s, { dx: 20, dy: 10, steps: 3 });
+    await page.waitForTimeout(120);
+  }
+  // The view that is finally drawn answers the last change queued.
+  const last = await page.evaluate(() => window.__reefgen.lastQueuedAt);
+  await page.waitForFunction((t) => window.__reefgen.lastRequestedAt === t, last, { timeout: 60000 });
+  const lag = await page.evaluate(() => window.__reefgen.timings[window.__reefgen.timings.length - 1].total_ms);
+  summary.quick_strokes_1024 = { max_requests_in_flight: maxOpen, last_stroke_to_view_ms: Math.round(lag) };
+  expect(maxOpen <= 1, `${maxOpen} inference requests in flight at once`);
+  return page;
+});
+
+// 11. A 1024² canvas shows its full resolution in 3D.
+await check('3d-view-at-full-resolution', async () => {
+  const page = await open();
+  const n = await updates(page);
+  await page.selectOption('#canvas-size', '1024');
+  await nextUpdate(page, n, 30000);
+  const v = await page.evaluate(() => ({ size: window.__reefgen.lastMeta.size, view: window.__reefgen.view3d }));
+  expect(v.size === 1024, `the answer is ${v.size}²`);
+  expect(v.view && v.view.texture_px === 1024, `the 3D surface is ${v.view && v.view.texture_px}², not the answer's 1024²`);
+  expect(v.view.mesh_px >= 256, `mesh ${v.view.mesh_px}²`);
+  return page;
+});
+
+// 12. Curves: after a wind stroke the handles sit on the deformed region
+// edges; and no request 404s (favicon).
+await check('handles-follow-the-wind-and-no-404', async () => {
+  const page = await open();
+  await page.click('#mode-curves');
+  await page.selectOption('#preset', 'young-volcano');
+  await page.waitForTimeout(500);
+  const n = await page.evaluate(() => window.__reefgen.labelsShown || 0);
+  const b = await page.locator('#curves').boundingBox();
+  await page.keyboard.down('Shift');
+  await page.mouse.move(b.x + 0.25 * b.width, b.y + 0.5 * b.height);
+  await page.mouse.down();
+  for (let k = 1; k <= 10; ++k) await page.mouse.move(b.x + (0.25 + 0.05 * k) * b.width, b.y + 0.5 * b.height);
+  await page.mouse.up();
+  await page.keyboard.up('Shift');
+  await page.waitForFunction((k) => (window.__reefgen.labelsShown || 0) > k, n, { timeout: 20000 });
+  await page.waitForTimeout(300);
+  const worst = await page.evaluate(() => {
+    const img = window.__reefgen.labelImage(), n = img.width, c = document.createElement('canvas');
+    c.width = c.height = n;
+    const x = c.getContext('2d'); x.drawImage(img, 0, 0);
+    const d = x.getImageData(0, 0, n, n).data;
+    const region = (px, py) => {  // the test's own reading of the label colours
+      px = Math.max(0, Math.min(n - 1, px)); py = Math.max(0, Math.min(n - 1, py));
+      const i = 4 * (py * n + px), [R, G, B] = [d[i], d[i + 1], d[i + 2]], m = Math.max(R, G, B) / 2;
+      if (R > m && G > m) return 0; if (G > m && B > m) return 2; if (G > m) return 1; if (B > m) return 3; return 4;
+    };
+    const cv = document.getElementById('curves'), handles = window.__reefgen.handles();
+    let worst = 0;
+    for (let ring = 0; ring < 4; ++ring) for (const [hx, hy] of handles[ring]) {
+      const px = Math.floor(hx / cv.width * n), py = Math.floor(hy / cv.height * n);
+      let best = 99;  // distance (label px) to an edge between ≤ ring and > ring
+      for (let dy = -6; dy <= 6; ++dy) for (let dx = -6; dx <= 6; ++dx) {
+        const a = region(px + dx, py + dy) <= ring, e = region(px + dx + 1, py + dy) <= ring, s = region(px + dx, py + dy + 1) <= ring;
+        if (a !== e || a !== s) best = Math.min(best, Math.hypot(dx, dy));
+      }
+      worst = Math.max(worst, best);
+    }
+    return worst;
+  });
+  summary.handle_to_edge_px_max = worst;
+  expect(worst <= 2, `a handle sits ${worst} label px off its region's edge`);
+  expect(page.notFound.length === 0, `404: ${page.notFound.join(', ')}`);
+  return page;
+});
+
+await browser.close();
+summary.failed = failures;
+console.log(JSON.stringify(summary));
+process.exitCode = failures.length ? 1 : 0;
