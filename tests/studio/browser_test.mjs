@@ -2,7 +2,9 @@
 // playwright-core (no browser download). Paints strokes, checks that the 3D
 // and 2D views update, drags a curve handle, exports a GLB, and prints the
 // stroke-to-update timings (request -> heights -> drawn) as JSON on stdout.
-//   node browser_test.mjs URL [--strokes N] [--screenshot FILE]
+//   node browser_test.mjs URL [--strokes N] [--size 256|512|1024] [--burst] [--screenshot FILE]
+// --size paints on that canvas; --burst then adds 10 strokes in 2 s and
+// reports the time from the last one to its view (issue 22's bar).
 import { createRequire } from 'node:module';
 // playwright-core lives in the build's npm folder (studio/package-lock.json).
 const require = createRequire((process.env.REEFGEN_NODE_MODULES || '.') + '/');
@@ -12,6 +14,8 @@ const url = process.argv[2];
 const arg = (name, dflt) => { const i = process.argv.indexOf(name); return i > 0 ? process.argv[i + 1] : dflt; };
 const strokes = Number(arg('--strokes', 12));
 const shot = arg('--screenshot', '');
+const size = arg('--size', '256');
+const burst = process.argv.includes('--burst');
 const fail = (msg) => { console.error('FAIL: ' + msg); process.exitCode = 1; };
 
 const browser = await chromium.launch({
@@ -27,10 +31,16 @@ try {
   const has3d = await page.evaluate(() => !!document.querySelector('#view3d canvas'));
   if (!has3d) fail('no 3D canvas (three.js missing from the build?)');
 
+  if (size !== '256') {
+    const n = await page.evaluate(() => window.__reefgen.updates);
+    await page.selectOption('#canvas-size', size);
+    await page.waitForFunction((k) => window.__reefgen.updates > k, n, { timeout: 30000 });
+  }
   // Paint: pick the island brush and draw strokes; each must update the views.
   const box = await page.locator('#paint').boundingBox();
   await page.click('.region[data-region="0"]');
   let before = await page.evaluate(() => window.__reefgen.updates);
+  const first = await page.evaluate(() => window.__reefgen.timings.length);  // the strokes' timings start here
   for (let s = 0; s < strokes; ++s) {
     const cx = box.x + box.width * (0.25 + 0.5 * ((s * 37) % 10) / 10), cy = box.y + box.height * (0.3 + 0.4 * ((s * 53) % 10) / 10);
     await page.mouse.move(cx, cy);
@@ -41,6 +51,19 @@ try {
     before = await page.evaluate(() => window.__reefgen.updates);
   }
   const sums = await page.evaluate(() => window.__reefgen.lastSum);
+  let burstMs = null;
+  if (burst) {  // 10 strokes in 2 s: the last stroke's view, timed from its end
+    for (let s = 0; s < 10; ++s) {
+      const cx = box.x + box.width * (0.3 + 0.04 * s), cy = box.y + box.height * 0.6;
+      await page.mouse.move(cx, cy); await page.mouse.down();
+      for (let k = 1; k <= 3; ++k) await page.mouse.move(cx + k * 6, cy + k * 4);
+      await page.mouse.up();
+      await page.waitForTimeout(150);
+    }
+    const last = await page.evaluate(() => window.__reefgen.lastQueuedAt);
+    await page.waitForFunction((t) => window.__reefgen.lastRequestedAt === t, last, { timeout: 30000 });
+    burstMs = await page.evaluate(() => window.__reefgen.timings[window.__reefgen.timings.length - 1].total_ms);
+  }
   // Undo every stroke: the heights must change back.
   for (let s = 0; s < strokes; ++s) await page.click('#undo');
   await page.waitForFunction((v) => Math.abs(window.__reefgen.lastSum - v) > 1, sums, { timeout: 15000 });
@@ -104,13 +127,13 @@ try {
   }
   if (consoleErrors.length) fail('page errors: ' + consoleErrors.join(' | '));
   const t = await page.evaluate(() => window.__reefgen.timings);
-  const paintT = t.slice(1, 1 + strokes).map((x) => x.total_ms).sort((a, b) => a - b);
+  const paintT = t.slice(first, first + strokes).map((x) => x.total_ms).sort((a, b) => a - b);
   const p95 = paintT[Math.min(paintT.length - 1, Math.ceil(0.95 * paintT.length) - 1)];
   const median = paintT[Math.floor(paintT.length / 2)];
-  console.log(JSON.stringify({ strokes: paintT.length, stroke_to_update_ms_median: median, stroke_to_update_ms_p95: p95,
-    server_ms_median: t.slice(1, 1 + strokes).map((x) => x.server_ms).sort((a, b) => a - b)[Math.floor(paintT.length / 2)],
+  console.log(JSON.stringify({ size: Number(size), burst_last_stroke_to_view_ms: burstMs, strokes: paintT.length, stroke_to_update_ms_median: median, stroke_to_update_ms_p95: p95,
+    server_ms_median: t.slice(first, first + strokes).map((x) => x.server_ms).sort((a, b) => a - b)[Math.floor(paintT.length / 2)],
     phases_ms_median: Object.fromEntries(['encode_ms', 'response_ms', 'update_ms', 'draw_ms'].map((k) => [k,
-      t.slice(1, 1 + strokes).map((x) => x[k]).sort((a, b) => a - b)[Math.floor(paintT.length / 2)]])),
+      t.slice(first, first + strokes).map((x) => x[k]).sort((a, b) => a - b)[Math.floor(paintT.length / 2)]])),
     errors: await page.evaluate(() => window.__reefgen.errors) }));
 } finally {
   await browser.close();

@@ -256,6 +256,13 @@ await check('3d-view-at-full-resolution', async () => {
   expect(v.size === 1024, `the answer is ${v.size}²`);
   expect(v.view && v.view.texture_px === 1024, `the 3D surface is ${v.view && v.view.texture_px}², not the answer's 1024²`);
   expect(v.view.mesh_px >= 256, `mesh ${v.view.mesh_px}²`);
+  if (shots) {  // docs/studio-1024.png: the example painting on the 1024² canvas
+    const k = await updates(page);
+    await page.setInputFiles('#load', process.env.REEFGEN_SHOT_SKETCH || 'docs/examples/painted-sketch.png');
+    await nextUpdate(page, k, 30000);
+    await page.waitForTimeout(500);
+    await page.screenshot({ path: `${shots}/studio-1024.png` });
+  }
   return page;
 });
 
