@@ -1,13 +1,21 @@
 // reefgen: coral-reef island terrains from curves or painted sketches.
 // Thin main: parse, dispatch, turn every exception into one line + exit 1.
+// Built twice (docs/DESIGN.md §7): `reefgen` without LibTorch
+// (REEFGEN_TORCH_COMMANDS=0), which hands the network commands to
+// `reefgen-torch` (=1, every command) by execv.
+#include <unistd.h>
+
 #include <algorithm>
 #include <atomic>
 #include <csignal>
+#include <cerrno>
 #include <cstdlib>
 #include <cstdio>
+#include <cstring>
 #include <string>
 #include <vector>
 #include <exception>
+#include <filesystem>
 
 #include <opencv2/core.hpp>
 #include <opencv2/core/utils/logger.hpp>
@@ -26,6 +34,25 @@ void install_stop_handlers() {
   std::signal(SIGTERM, on_stop_signal);
 }
 }  // namespace reefgen
+
+namespace {
+// The commands that run a network, handled by reefgen-torch.
+const std::vector<std::string> kTorchCommands = {"train", "infer", "eval", "eval-sketches", "model", "studio", "bench"};
+
+#if !REEFGEN_TORCH_COMMANDS
+// Replaces this process with reefgen-torch from the same folder, same
+// arguments; returns only on failure.
+int exec_torch_binary(char** argv) {
+  std::error_code ec;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  const std::filesystem::path torch = (ec ? std::filesystem::path(argv[0]) : self).parent_path() / "reefgen-torch";
+  ::execv(torch.c_str(), argv);
+  std::fprintf(stderr, "reefgen: error: cannot run %s (%s); build it with `cmake --build build` (scripts/build.sh)\n",
+               torch.c_str(), std::strerror(errno));
+  return 1;
+}
+#endif
+}  // namespace
 
 int main(int argc, char** argv) {
   // OpenCV's [WARN] lines are not for users: every problem reaches them as
@@ -61,6 +88,7 @@ int main(int argc, char** argv) {
   int threads = 0;
   app.add_option("--threads", threads, "Worker threads (commands that compute in parallel; accepted by all)")
       ->check(CLI::Range(1, 256));
+#if REEFGEN_TORCH_COMMANDS
   const std::vector<reefgen::Command> commands = {reefgen::add_generate_command(app, g),
                                                   reefgen::add_presets_command(app, g),
                                                   reefgen::add_dataset_command(app, g),
@@ -75,6 +103,15 @@ int main(int argc, char** argv) {
                                                   reefgen::add_studio_command(app, g),
                                                   reefgen::add_realism_command(app, g),
                                                   reefgen::add_bench_command(app, g)};
+#else
+  const std::vector<reefgen::Command> commands = {reefgen::add_generate_command(app, g),
+                                                  reefgen::add_presets_command(app, g),
+                                                  reefgen::add_dataset_command(app, g),
+                                                  reefgen::add_sketch_command(app, g),
+                                                  reefgen::add_terrain_command(app, g),
+                                                  reefgen::add_floating_command(app, g),
+                                                  reefgen::add_realism_command(app, g)};
+#endif
   // An unknown command word is named, with the nearest known one.
   for (int i = 1; i < argc; ++i) {
     const std::string w = argv[i];
@@ -84,11 +121,15 @@ int main(int argc, char** argv) {
       continue;
     }
     if (w.empty() || w[0] == '-') break;  // other options: CLI11 reports what is wrong
+#if !REEFGEN_TORCH_COMMANDS
+    if (std::find(kTorchCommands.begin(), kTorchCommands.end(), w) != kTorchCommands.end()) return exec_torch_binary(argv);
+#endif
     std::string best;
     size_t best_d = 99;
     bool known = false;
-    for (const auto& c : commands) {
-      const std::string n = c.sub->get_name();
+    std::vector<std::string> names = kTorchCommands;
+    for (const auto& c : commands) names.push_back(c.sub->get_name());
+    for (const std::string& n : names) {
       if (n == w) known = true;
       // Levenshtein distance, small words only.
       std::vector<size_t> prev(n.size() + 1), cur(n.size() + 1);
@@ -108,6 +149,19 @@ int main(int argc, char** argv) {
     }
     break;  // the first word is the command; later words belong to it
   }
+#if !REEFGEN_TORCH_COMMANDS
+  // No command word (--help, --version, nothing): the full list of commands
+  // lives in reefgen-torch.
+  {
+    bool has_command = false;
+    for (int i = 1; i < argc; ++i) {
+      const std::string w = argv[i];
+      if (w == "--threads") ++i;
+      else if (!w.empty() && w[0] != '-') has_command = true;
+    }
+    if (!has_command) return exec_torch_binary(argv);
+  }
+#endif
   // `reefgen --threads N CMD ...` = `reefgen CMD ... --threads N`: --threads
   // belongs to the commands that compute, and may come before them.
   std::vector<std::string> args(argv + 1, argv + argc);

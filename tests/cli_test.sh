@@ -18,6 +18,18 @@ for p in $("$BIN" presets | awk '{print $1}'); do
   else bad "preset $p failed: $(cat "$T/err")"; fi
 done
 
+# 1b. The generator's commands never load LibTorch (docs/DESIGN.md §7): the
+# dynamic loader's own list of what it initialised; the network commands do
+# (through reefgen-torch, same process).
+for cmd in "presets" "generate --preset atoll --size 48 -o $T/nt/atoll" "sketch random --seed 1 --size 64 -o $T/nt/s.png" \
+           "realism $T/p/atoll.height.exr"; do
+  n=$(LD_DEBUG=libs "$BIN" -q $cmd 2>&1 >/dev/null | grep "calling init" | grep -c torch)
+  [ "$n" = 0 ] && ok || bad "'$cmd' loaded $n LibTorch libraries"
+done
+n=$(LD_DEBUG=libs "$BIN" -q model info 2>&1 >/dev/null | grep "calling init" | grep -c torch)
+[ "$n" -gt 0 ] && ok || bad "'model info' did not reach reefgen-torch"
+"$BIN" --help 2>&1 | grep -q "infer" && "$BIN" --help 2>&1 | grep -q "generate" && ok || bad "--help does not list every command"
+
 # 2. Same seed, same bytes, whatever the thread count; a rerun resumes (skips).
 "$BIN" -q generate --random 3 --levels 2 --seed 11 --size 48 --out "$T/r1" --threads 1 >/dev/null || bad "random t1"
 "$BIN" -q generate --random 3 --levels 2 --seed 11 --size 48 --out "$T/r2" --threads 2 >/dev/null || bad "random t2"
