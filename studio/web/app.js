@@ -496,17 +496,28 @@ function hypsometric(h) {
   const t = Math.min(1, h / 500);
   return t < 0.02 ? [230, 215, 160] : [60 + 120 * t, 140 - 40 * t + 40 * t * t, 60 + 100 * t];
 }
+// Colours per 0.5 m from −128 m to 1024 m, looked up per pixel: a 1024²
+// answer is a million pixels, and a colour array per pixel cost ~50 ms.
+const HYPSO_LO = -128, HYPSO_STEP = 0.5, HYPSO = (() => {
+  const n = Math.round((1024 - HYPSO_LO) / HYPSO_STEP) + 1, t = new Float32Array(3 * n);
+  for (let k = 0; k < n; ++k) t.set(hypsometric(HYPSO_LO + k * HYPSO_STEP), 3 * k);
+  return t;
+})();
 function showShade(h, n, mpp) {
   const c = $('shade');
-  c.width = c.height = n;
-  const ctx = c.getContext('2d'), img = ctx.createImageData(n, n);
-  for (let y = 0; y < n; ++y) for (let x = 0; x < n; ++x) {
-    const i = y * n + x;
-    const dx = (h[y * n + Math.min(n - 1, x + 1)] - h[y * n + Math.max(0, x - 1)]) / (2 * mpp);
-    const dy = (h[Math.min(n - 1, y + 1) * n + x] - h[Math.max(0, y - 1) * n + x]) / (2 * mpp);
-    const shade = Math.max(0.25, Math.min(1.2, (1 + (-dx - dy) * 2) / Math.sqrt(1 + dx * dx + dy * dy)));
-    const [r, g, b] = hypsometric(h[i]);
-    img.data.set([r * shade, g * shade, b * shade, 255], 4 * i);
+  if (c.width !== n) c.width = c.height = n;
+  const ctx = c.getContext('2d'), img = ctx.createImageData(n, n), d = img.data;
+  const last = HYPSO.length / 3 - 1, inv = 1 / (2 * mpp);
+  for (let y = 0; y < n; ++y) {
+    const row = y * n, up = Math.max(0, y - 1) * n, down = Math.min(n - 1, y + 1) * n;
+    for (let x = 0; x < n; ++x) {
+      const i = row + x;
+      const dx = (h[row + Math.min(n - 1, x + 1)] - h[row + Math.max(0, x - 1)]) * inv;
+      const dy = (h[down + x] - h[up + x]) * inv;
+      const shade = Math.max(0.25, Math.min(1.2, (1 + (-dx - dy) * 2) / Math.sqrt(1 + dx * dx + dy * dy)));
+      const k = 3 * Math.max(0, Math.min(last, Math.round((h[i] - HYPSO_LO) / HYPSO_STEP)));
+      d[4 * i] = HYPSO[k] * shade; d[4 * i + 1] = HYPSO[k + 1] * shade; d[4 * i + 2] = HYPSO[k + 2] * shade; d[4 * i + 3] = 255;
+    }
   }
   ctx.putImageData(img, 0, 0);
 }
