@@ -14,6 +14,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "app.hpp"
+#include "reefgen/constants.hpp"
 #include "reefgen/augment/dataset.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
@@ -31,7 +32,7 @@ namespace {
 // range stored with the model"). It bounds every generated height: M(0) =
 // -100 m (coral keeps the floor there) up to M(1) = 500 m × (1 + detail noise
 // 0.1) + smooth-max overshoot ≤ 1 m.
-constexpr double kNormFloorM = -100, kNormPeakM = 560;
+constexpr double kNormFloorM = kAbyssFloorM, kNormPeakM = kHeightCeilingM;
 
 struct BuildArgs {
   std::string config, out;

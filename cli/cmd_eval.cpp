@@ -8,6 +8,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "app.hpp"
+#include "reefgen/constants.hpp"
 #include "reefgen/infer/eval.hpp"
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/io.hpp"
@@ -34,7 +35,7 @@ Command add_eval_command(CLI::App& app, const GlobalOptions& g) {
     std::string model, data, split = "test", out;
     int64_t max_pairs = 1000;
     bool no_perturb = false, running_stats = false;
-    double world_size_m = 6000;
+    double world_size_m = kCanvasWorldSizeM;
     std::optional<int> threads;
   };
   auto a = std::make_shared<Args>();

@@ -5,6 +5,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "app.hpp"
+#include "reefgen/constants.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/mesh.hpp"
 #include "reefgen/procgen/floating.hpp"
@@ -127,7 +128,7 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
               terrain = read_exr_height(a->height, &attrs);
               if (a->painting.empty()) {  // the terrain is the canvas: its pixel size, or reefgen's 6 km across
                 const double mpp = exr_metres_per_px(attrs);
-                p.metres_per_px = mpp > 0 ? mpp : 6000.0 / terrain.cols;
+                p.metres_per_px = mpp > 0 ? mpp : kCanvasWorldSizeM / terrain.cols;
               }
               for (const float v : terrain) {
                 if (!std::isfinite(v)) throw Error(a->height + ": height field holds NaN or infinity; regenerate it");

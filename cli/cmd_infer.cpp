@@ -5,6 +5,7 @@
 #include <optional>
 
 #include "app.hpp"
+#include "reefgen/constants.hpp"
 #include "reefgen/infer/export.hpp"
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/io.hpp"
@@ -39,7 +40,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
     std::string precision = "fp32";  // the same heights on every CPU; bf16/auto are faster (docs/BENCHMARKS.md)
     std::string engine = "auto";
     uint64_t seed = 0;
-    double exaggeration = 1.0, world_size_m = 6000;
+    double exaggeration = 1.0, world_size_m = kCanvasWorldSizeM;
     int size = 0;
     std::optional<int> threads;
   };

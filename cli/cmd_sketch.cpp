@@ -2,6 +2,7 @@
 #include <cstdio>
 
 #include "app.hpp"
+#include "reefgen/constants.hpp"
 #include "reefgen/infer/export.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
@@ -180,12 +181,12 @@ Command add_terrain_command(CLI::App& app, const GlobalOptions&) {
                                {{"reefgen:generator", a->kind}, {"reefgen:seed", std::to_string(a->seed)},
                                 // reefgen's canvas convention (docs/DESIGN.md §2: 6 km across), so that
                                 // `reefgen floating --height` and previews know the scale.
-                                {"reefgen:metres_per_pixel", std::to_string(6000.0 / h.cols)}});
+                                {"reefgen:metres_per_pixel", std::to_string(kCanvasWorldSizeM / h.cols)}});
             });
             if (a->preview)
               staged.write(prefix.string() + ".preview.png", [&](const fs::path& t) { write_png(t, render_preview(h)); });
             if (!a->mesh.empty()) {
-              const infer::MeshOptions mo{6000.0 / h.cols, 1.0};
+              const infer::MeshOptions mo{kCanvasWorldSizeM / h.cols, 1.0};
               staged.write(prefix.string() + "." + a->mesh, [&](const fs::path& t) {
                 if (a->mesh == "glb") infer::write_glb(t, h, mo);
                 else infer::write_obj(t, h, mo);

@@ -15,6 +15,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "reefgen/constants.hpp"
 #include "reefgen/infer/export.hpp"
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/io.hpp"
@@ -283,7 +284,7 @@ struct StudioServer::Impl {
     double lo, hi;
     cv::minMaxLoc(h, &lo, &hi);
     return {{"size", h.cols},  {"min_m", lo},         {"max_m", hi}, {"lo_m", gen.range.lo_m},
-            {"hi_m", gen.range.hi_m}, {"metres_per_px", 6000.0 / h.cols}, {"ms", ms}};
+            {"hi_m", gen.range.hi_m}, {"metres_per_px", kCanvasWorldSizeM / h.cols}, {"ms", ms}};
   }
 
   // The heights answer: [uint32 LE n][n bytes of JSON, space-padded so the
@@ -469,7 +470,7 @@ struct StudioServer::Impl {
           const DecodedSketch s = sketch_of(png);
           h = infer::infer_heights(gen, {s}, io)[0];
           label = encode_labels(s.label, s.subsidence);
-          mpp = 6000.0 / h.cols;
+          mpp = kCanvasWorldSizeM / h.cols;
         }
       }
       std::error_code ec;

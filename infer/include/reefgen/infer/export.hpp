@@ -6,6 +6,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "reefgen/constants.hpp"
 #include "reefgen/mesh.hpp"
 
 namespace reefgen::infer {
@@ -35,7 +36,7 @@ HeightRange export_range(const cv::Mat1f& height_m);
 std::string engine_import_json(int width, int height, const HeightRange& r, double metres_per_px);
 
 struct MeshOptions {
-  double metres_per_px = 6000.0 / 256;  // horizontal spacing of grid vertices
+  double metres_per_px = kCanvasWorldSizeM / 256;  // horizontal spacing of grid vertices
   double exaggeration = 1.0;            // vertical scale factor, (0, 100]
 };
 // Grid mesh, one vertex per pixel, two triangles per cell, +Y up (glTF and

@@ -6,6 +6,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "reefgen/constants.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/model/dnnl_conv.hpp"
 #include "reefgen/model/generator_file.hpp"
@@ -39,7 +40,7 @@ struct InferOptions {
   bool running_stats = false;  // BatchNorm running statistics instead of pix2pix's test-time batch statistics
   uint64_t seed = 0;           // dropout masks when stochastic; the amplification's detail noise
   int size_px = 0;             // output side, [0, 8192]; 0 = the sketch's own size
-  double world_size_m = 6000;  // canvas width in metres (the amplification's erosion works in metres)
+  double world_size_m = kCanvasWorldSizeM;  // canvas width in metres (the amplification's erosion works in metres)
   bool amplify = true;         // above the model's side: erosion + detail (procgen amplify_heights), not a stretch
 };
 

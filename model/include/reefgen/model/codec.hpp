@@ -5,11 +5,13 @@
 #include <opencv2/core.hpp>
 #include <torch/torch.h>
 
+#include "reefgen/constants.hpp"
+
 namespace reefgen::model {
 
 struct HeightRange {
-  double lo_m = -100;  // maps to -1; the dataset's floor
-  double hi_m = 560;   // maps to +1; bounds every generated height
+  double lo_m = kAbyssFloorM;      // maps to -1; the dataset's floor
+  double hi_m = kHeightCeilingM;  // maps to +1; bounds every generated height
 };
 
 torch::Tensor label_to_tensor(const cv::Mat3b& label_bgr);                     // {3,H,W} RGB in [-1,1]

@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "reefgen/constants.hpp"
 #include "reefgen/procgen/curves.hpp"
 #include "reefgen/procgen/erosion.hpp"
 
@@ -71,7 +72,7 @@ struct IslandSpec {
   double smax_k = 0.5;                             // 1/m, smooth-max sharpness (overshoot ≤ 1/(2k) m), [0.01, 100]
   DetailNoise noise;
   ErosionParams erosion;                           // fluvial erosion of the land before coral growth (docs/EROSION.md)
-  double world_size_m = 6000;                      // m, width of the [-1,1] canvas, [10, 1e6]
+  double world_size_m = kCanvasWorldSizeM;        // m, width of the [-1,1] canvas, [10, 1e6]
 };
 
 // Throws reefgen::Error naming the first invalid field and its valid range.
