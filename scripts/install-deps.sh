@@ -14,6 +14,7 @@ PKGS=(
   libgtest-dev           # unit tests (ctest)
   libbenchmark-dev       # optional micro-benchmarks
   libtorch-dev           # LibTorch 1.13 CPU (model/train/infer)
+  libgloo-dev            # Gloo headers for LibTorch's c10d (data-parallel training); same version as the libgloo0 LibTorch links
   # Without it LibTorch falls back to the netlib reference BLAS and a pix2pix
   # training step is ~7x slower (7.0 s vs 1.0 s measured, docs/BENCHMARKS.md).
   # The OpenMP build shares libgomp's threads with LibTorch (no oversubscription).
