@@ -88,29 +88,16 @@ int main(int argc, char** argv) {
   int threads = 0;
   app.add_option("--threads", threads, "Worker threads (commands that compute in parallel; accepted by all)")
       ->check(CLI::Range(1, 256));
+  std::vector<reefgen::Command> commands;
+  for (auto add : {reefgen::add_generate_command, reefgen::add_presets_command, reefgen::add_dataset_command,
+                   reefgen::add_sketch_command, reefgen::add_terrain_command, reefgen::add_floating_command,
+                   reefgen::add_realism_command})
+    commands.push_back(add(app, g));
 #if REEFGEN_TORCH_COMMANDS
-  const std::vector<reefgen::Command> commands = {reefgen::add_generate_command(app, g),
-                                                  reefgen::add_presets_command(app, g),
-                                                  reefgen::add_dataset_command(app, g),
-                                                  reefgen::add_train_command(app, g),
-                                                  reefgen::add_infer_command(app, g),
-                                                  reefgen::add_sketch_command(app, g),
-                                                  reefgen::add_terrain_command(app, g),
-                                                  reefgen::add_floating_command(app, g),
-                                                  reefgen::add_eval_command(app, g),
-                                                  reefgen::add_eval_sketches_command(app, g),
-                                                  reefgen::add_model_command(app, g),
-                                                  reefgen::add_studio_command(app, g),
-                                                  reefgen::add_realism_command(app, g),
-                                                  reefgen::add_bench_command(app, g)};
-#else
-  const std::vector<reefgen::Command> commands = {reefgen::add_generate_command(app, g),
-                                                  reefgen::add_presets_command(app, g),
-                                                  reefgen::add_dataset_command(app, g),
-                                                  reefgen::add_sketch_command(app, g),
-                                                  reefgen::add_terrain_command(app, g),
-                                                  reefgen::add_floating_command(app, g),
-                                                  reefgen::add_realism_command(app, g)};
+  for (auto add : {reefgen::add_train_command, reefgen::add_infer_command, reefgen::add_eval_command,
+                   reefgen::add_eval_sketches_command, reefgen::add_model_command, reefgen::add_studio_command,
+                   reefgen::add_bench_command})
+    commands.push_back(add(app, g));
 #endif
   // An unknown command word is named, with the nearest known one.
   for (int i = 1; i < argc; ++i) {
