@@ -1,14 +1,52 @@
 // reefgen train: pix2pix on a dataset folder (paper §6, docs/TRAINING.md).
 // Thin: flags -> TrainParams, signals -> a stop flag, progress -> stderr.
 #include <cstdio>
+#include <cstdlib>
+#include <fstream>
 #include <limits>
 #include <optional>
+
+#include <unistd.h>
 
 #include "app.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/train/trainer.hpp"
 
 namespace reefgen {
+
+namespace {
+
+// `train --nproc N`: this command line again, without --nproc, as N ranks.
+int launch_ranks(int nproc, const GlobalOptions& g) {
+  std::ifstream f("/proc/self/cmdline", std::ios::binary);
+  std::vector<std::string> argv;
+  for (std::string arg; std::getline(f, arg, '\0');) argv.push_back(arg);
+  std::vector<std::string> args;
+  for (size_t i = 1; i < argv.size(); ++i) {
+    if (argv[i] == "--nproc") {
+      ++i;
+      continue;
+    }
+    if (argv[i].rfind("--nproc=", 0) == 0) continue;
+    args.push_back(argv[i]);
+  }
+  char exe[4096];
+  const ssize_t n = ::readlink("/proc/self/exe", exe, sizeof exe - 1);
+  if (n <= 0) throw Error("/proc/self/exe: cannot find this program to start the ranks");
+  exe[n] = '\0';
+  install_stop_handlers();
+  train::LocalLaunch l;
+  l.exe = exe;
+  l.args = args;
+  l.nproc = nproc;
+  l.stop = &stop_requested();
+  l.on_log = [&](const std::string& s) {
+    if (!g.quiet) std::fprintf(stderr, "train: %s\n", s.c_str());
+  };
+  return train::launch_local_ranks(l);
+}
+
+}  // namespace
 
 Command add_train_command(CLI::App& app, const GlobalOptions& g) {
   auto* sub = app.add_subcommand(
@@ -19,7 +57,12 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
       "  reefgen train --data data/small --out runs/try --max-steps 200 --ngf 32\n"
       "  reefgen train --data data/paper --out runs/paper --resume     # after Ctrl-C or a crash\n"
       "  reefgen train --config tuned.json --data data/paper --out runs/tuned --init runs/paper/checkpoint.pt\n"
-      "Ctrl-C (SIGINT) or SIGTERM writes a checkpoint and RUN/generator.pt, then exits with 130.\n");
+      "  reefgen train --data data/paper --out runs/dp --nproc 2 --threads 1   # 2 data-parallel ranks here\n"
+      "  torchrun --no-python --nnodes 4 --nproc-per-node 1 ... reefgen train --data ... --out ...\n"
+      "Ctrl-C (SIGINT) or SIGTERM writes a checkpoint and RUN/generator.pt, then exits with 130.\n"
+      "Under torchrun (RANK, WORLD_SIZE, MASTER_ADDR, MASTER_PORT) or srun (SLURM_PROCID, SLURM_NTASKS,\n"
+      "SLURM_JOB_NODELIST) each process is one rank of a data-parallel job; --batch-size is per rank\n"
+      "(docs/TRAINING.md).\n");
   struct Args {
     std::string config, data, out;
     bool resume = false;
@@ -29,6 +72,9 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
     std::optional<int> threads, ngf, ndf, depth;
     std::optional<double> epochs, epochs_decay;
     std::optional<std::string> engine, precision;
+    std::optional<int> batch_size, log_every;
+    int nproc = 1;
+    train::DistFlags dist;
   };
   auto a = std::make_shared<Args>();
   sub->add_option("--config", a->config, "Training config JSON (configs/train/*.json); default: built-in paper settings");
@@ -48,12 +94,35 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--depth", a->depth, "Overrides G's down-samplings (side must be a multiple of 2^depth)");
   sub->add_option("--epochs", a->epochs, "Overrides epochs at constant lr")->check(finite_in(0, 1e6));
   sub->add_option("--epochs-decay", a->epochs_decay, "Overrides epochs of linear lr decay")->check(finite_in(0, 1e6));
+  sub->add_option("--batch-size", a->batch_size, "Overrides the batch size (per rank in a data-parallel job)")
+      ->check(CLI::Range(1, 64));
+  sub->add_option("--log-every", a->log_every, "Overrides the steps per log.csv row")->check(CLI::Range(1, 1000000000));
+  sub->add_option("--nproc", a->nproc, "Start this many data-parallel ranks on this machine (loopback)")
+      ->check(CLI::Range(1, 256));
+  sub->add_option("--rank", a->dist.rank, "This process's rank (overrides RANK / SLURM_PROCID)")->check(CLI::Range(0, 4095));
+  sub->add_option("--world-size", a->dist.world_size, "Ranks in the job (overrides WORLD_SIZE / SLURM_NTASKS)")
+      ->check(CLI::Range(1, 4096));
+  sub->add_option("--master-addr", a->dist.master_addr, "Host of rank 0's rendezvous store (overrides MASTER_ADDR)");
+  sub->add_option("--master-port", a->dist.master_port, "Its TCP port (overrides MASTER_PORT; default 29500)")
+      ->check(CLI::Range(1, 65535));
+  sub->add_option("--dist-timeout", a->dist.timeout_s,
+                  "Seconds before a silent rank fails the job (default 300; also the wait for all ranks to join)")
+      ->check(finite_in(0.1, 86400));
   sub->add_option("--engine", a->engine, "Convolutions: onednn (default, faster) or torch (LibTorch's own)")
       ->check(CLI::IsMember({"onednn", "torch"}));
   sub->add_option("--precision", a->precision,
                   "Convolutions: fp32 (default), bf16 (fp32 master weights; fast with avx512_bf16/AMX) or auto")
       ->check(CLI::IsMember({"fp32", "bf16", "auto"}));
   return {sub, [a, &g]() -> int {
+            // Which rank of which job (torchrun, SLURM or flags); checked
+            // before anything else so a bad environment writes nothing.
+            const train::DistConfig dist = train::dist_config_from([](const char* k) { return std::getenv(k); }, a->dist);
+            if (a->nproc > 1) {
+              if (dist.world_size > 1)
+                throw Error("--nproc starts its own ranks; drop it under torchrun/srun (" + dist.source + " says " +
+                            std::to_string(dist.world_size) + " ranks)");
+              return launch_ranks(a->nproc, g);
+            }
             nlohmann::json j = nlohmann::json::object();
             std::string origin = "built-in training defaults";
             const fs::path run_json = fs::path(a->out) / "run.json";
@@ -73,8 +142,10 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
             if (a->epochs_decay) j["epochs_decay"] = *a->epochs_decay;
             if (a->engine) j["engine"] = *a->engine;
             if (a->precision) j["precision"] = *a->precision;
+            if (a->batch_size) j["batch_size"] = *a->batch_size;
+            if (a->log_every) j["log_every"] = *a->log_every;
             if (a->seed || a->threads || a->ngf || a->ndf || a->depth || a->epochs || a->epochs_decay || a->engine ||
-                a->precision)
+                a->precision || a->batch_size || a->log_every)
               origin += " with the command-line flags";
             const train::TrainParams params = train::train_params_from_json(j, origin);
 
@@ -86,8 +157,9 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
             run.init_from = a->init;
             run.max_steps = a->max_steps;
             run.stop = &stop_requested();
-            std::unique_ptr<Progress> progress;
-            const bool tty = !g.quiet && ::isatty(2);
+            run.dist = dist;
+            const bool lead = dist.rank == 0;  // the other ranks say nothing but errors
+            const bool tty = !g.quiet && lead && ::isatty(2);
             run.on_step = [&](const train::StepReport& r) {
               if (!tty) return;
               const double eta_min = r.seconds_per_step * double(r.total - r.step) / 60.0;
@@ -97,10 +169,11 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
               std::fflush(stderr);
             };
             run.on_log = [&](const std::string& s) {
-              if (!g.quiet) std::fprintf(stderr, "%strain: %s\n", tty ? "\n" : "", s.c_str());
+              if (!g.quiet && lead) std::fprintf(stderr, "%strain: %s\n", tty ? "\n" : "", s.c_str());
             };
             const train::RunResult r = train::run_training(params, run);
             if (tty) std::fprintf(stderr, "\n");
+            if (!lead) return r.interrupted ? 130 : 0;
             if (r.interrupted) {
               std::fprintf(stderr, "train: interrupted at step %lld of %lld; continue with --resume\n",
                            static_cast<long long>(r.step), static_cast<long long>(r.total));

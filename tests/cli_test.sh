@@ -119,7 +119,7 @@ JSON
 [ "$(cat "$T/out")" = "$T/t1/generator.pt" ] && ok || bad "train stdout: $(cat "$T/out")"
 for f in run.json log.csv val.csv checkpoint.pt generator.pt; do [ -s "$T/t1/$f" ] || bad "train: no $f"; done
 grep -q '"G": [0-9]' "$T/t1/run.json" && ok || bad "run.json has no parameter counts"
-[ "$(head -1 "$T/t1/log.csv")" = "step,epoch,lr,G_GAN,G_L1,D_real,D_fake,s_per_iter" ] && ok || bad "log.csv header"
+[ "$(head -1 "$T/t1/log.csv")" = "step,epoch,lr,G_GAN,G_L1,D_real,D_fake,s_per_iter,allreduce_s" ] && ok || bad "log.csv header"
 ls "$T/t1/val/"step-*.png >/dev/null 2>&1 && ok || bad "no validation grid"
 "$BIN" -q train --config "$T/tr.json" $TR --out "$T/t2" > /dev/null 2>&1 &
 pid=$!

@@ -1,16 +1,32 @@
-// LibTorch's c10d on Debian: a TCPStore and a Gloo process group per rank on
-// loopback, all-reducing tensors. The data-parallel trainer (issue 21) builds
-// on exactly this; the test pins down that Debian's libtorch and libgloo-dev
-// (USE_C10D_GLOO) link and talk to each other.
+// Data-parallel training on loopback (docs/TRAINING.md):
+// - LibTorch's c10d on Debian: a TCPStore and a Gloo process group per rank,
+//   all-reducing tensors (Debian's libtorch and libgloo-dev talk to each other);
+// - where a rank learns who it is (torchrun, SLURM, flags) and the errors;
+// - whole ranks (reefgen-torch train): 2 ranks x batch b against 1 rank x 2b,
+//   resume across world sizes, a killed rank, a bad environment.
 #include <chrono>
+#include <cmath>
+#include <fstream>
 #include <future>
+#include <map>
 #include <thread>
 #include <vector>
+
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <spawn.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 #include <torch/csrc/distributed/c10d/ProcessGroupGloo.hpp>
 #include <torch/csrc/distributed/c10d/TCPStore.hpp>
 #include <torch/torch.h>
+
+#include "reefgen/train/distributed.hpp"
+#include "reefgen/train/trainer.hpp"
+#include "train_fixture.hpp"
 
 namespace {
 
@@ -60,4 +76,402 @@ TEST(C10dGloo, TwoRanksOnLoopbackAllReduceAndBroadcast) {
   EXPECT_TRUE(torch::equal(g1, want));
   EXPECT_TRUE(torch::equal(w1, torch::full({7, 5}, 3.5f)));
   EXPECT_TRUE(torch::equal(w0, w1));
+}
+
+// ---------------------------------------------------------------------------
+// Who am I: torchrun, SLURM, flags.
+
+namespace {
+
+using namespace reefgen;
+using namespace reefgen::train;
+using Env = std::map<std::string, std::string>;
+
+DistConfig from(const Env& env, const DistFlags& flags = {}) {
+  return dist_config_from(
+      [&](const char* k) -> const char* {
+        auto it = env.find(k);
+        return it == env.end() ? nullptr : it->second.c_str();
+      },
+      flags);
+}
+
+void expect_error(const Env& env, const std::string& needle, const DistFlags& flags = {}) {
+  try {
+    from(env, flags);
+    ADD_FAILURE() << "no error; expected one naming " << needle;
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find(needle), std::string::npos) << m;
+    EXPECT_EQ(m.find('\n'), std::string::npos) << "not one line: " << m;
+  }
+}
+
+}  // namespace
+
+TEST(DistConfig, TorchrunSlurmAndFlags) {
+  const DistConfig single = from({});
+  EXPECT_EQ(single.world_size, 1);
+  EXPECT_EQ(single.rank, 0);
+
+  const DistConfig t = from({{"RANK", "3"}, {"WORLD_SIZE", "8"}, {"LOCAL_RANK", "1"}, {"LOCAL_WORLD_SIZE", "2"},
+                             {"MASTER_ADDR", "node7"}, {"MASTER_PORT", "29511"},
+                             {"TORCHELASTIC_USE_AGENT_STORE", "True"}, {"TORCHELASTIC_RESTART_COUNT", "2"}});
+  EXPECT_EQ(t.rank, 3);
+  EXPECT_EQ(t.world_size, 8);
+  EXPECT_EQ(t.local_rank, 1);
+  EXPECT_EQ(t.local_world_size, 2);
+  EXPECT_EQ(t.master_addr, "node7");
+  EXPECT_EQ(t.master_port, 29511);
+  EXPECT_TRUE(t.agent_store);
+  EXPECT_EQ(t.restart_count, 2);
+  EXPECT_FALSE(from({{"RANK", "0"}, {"WORLD_SIZE", "2"}, {"TORCHELASTIC_USE_AGENT_STORE", "False"}}).agent_store);
+
+  const DistConfig s = from({{"SLURM_PROCID", "5"}, {"SLURM_NTASKS", "6"}, {"SLURM_LOCALID", "1"},
+                             {"SLURM_NTASKS_PER_NODE", "2(x3)"}, {"SLURM_JOB_NODELIST", "reef[07-09],gpu1"}});
+  EXPECT_EQ(s.rank, 5);
+  EXPECT_EQ(s.world_size, 6);
+  EXPECT_EQ(s.local_rank, 1);
+  EXPECT_EQ(s.local_world_size, 2);
+  EXPECT_EQ(s.master_addr, "reef07");
+  EXPECT_EQ(s.master_port, 29500);
+  // torchrun's variables win over SLURM's (torchrun inside an allocation).
+  EXPECT_EQ(from({{"RANK", "1"}, {"WORLD_SIZE", "2"}, {"SLURM_PROCID", "0"}, {"SLURM_NTASKS", "1"}}).world_size, 2);
+
+  DistFlags f;
+  f.rank = 1;
+  f.world_size = 4;
+  f.master_addr = "10.0.0.1";
+  f.master_port = 4000;
+  f.timeout_s = 12;
+  const DistConfig fl = from({{"RANK", "0"}, {"WORLD_SIZE", "2"}}, f);
+  EXPECT_EQ(fl.rank, 1);
+  EXPECT_EQ(fl.world_size, 4);
+  EXPECT_EQ(fl.master_addr, "10.0.0.1");
+  EXPECT_EQ(fl.master_port, 4000);
+  EXPECT_EQ(fl.timeout_s, 12);
+}
+
+TEST(DistConfig, FirstSlurmHost) {
+  EXPECT_EQ(first_slurm_host("node1"), "node1");
+  EXPECT_EQ(first_slurm_host("node1,node2"), "node1");
+  EXPECT_EQ(first_slurm_host("node[03-05,09],gpu1"), "node03");
+  EXPECT_EQ(first_slurm_host("c[12,40-41]"), "c12");
+  EXPECT_EQ(first_slurm_host("rack1-n[2-3]"), "rack1-n2");
+}
+
+TEST(DistConfig, BadEnvironmentIsOneLineNamingTheVariable) {
+  expect_error({{"RANK", "0"}, {"WORLD_SIZE", "0"}}, "WORLD_SIZE=0");
+  expect_error({{"RANK", "2"}, {"WORLD_SIZE", "2"}}, "RANK=2");
+  expect_error({{"RANK", "x"}, {"WORLD_SIZE", "2"}}, "RANK=x");
+  expect_error({{"RANK", "0"}}, "WORLD_SIZE");
+  expect_error({{"RANK", "0"}, {"WORLD_SIZE", "2"}, {"MASTER_PORT", "70000"}}, "MASTER_PORT=70000");
+  expect_error({{"SLURM_PROCID", "4"}, {"SLURM_NTASKS", "4"}, {"SLURM_JOB_NODELIST", "n1"}}, "SLURM_PROCID=4");
+  expect_error({{"SLURM_PROCID", "0"}, {"SLURM_NTASKS", "2"}}, "SLURM_JOB_NODELIST");
+  DistFlags f;
+  f.rank = 3;
+  expect_error({{"RANK", "0"}, {"WORLD_SIZE", "2"}}, "--rank=3", f);
+}
+
+// ---------------------------------------------------------------------------
+// Whole ranks: reefgen-torch train as a subprocess.
+
+namespace {
+
+using test::make_dataset;
+using test::temp_dir;
+using test::tiny_params;
+
+struct Proc {
+  pid_t pid = -1;
+  fs::path err;  // its stderr
+};
+
+// Starts `reefgen-torch args…` with `env` added to this environment and
+// stderr to a file.
+Proc spawn(const std::vector<std::string>& args, const Env& env, const fs::path& err) {
+  std::vector<std::string> envs;
+  for (char** e = ::environ; *e; ++e) {
+    const std::string kv = *e;
+    const std::string key = kv.substr(0, kv.find('='));
+    if (!env.count(key) && key != "RANK" && key != "WORLD_SIZE" && key.rfind("SLURM_", 0) != 0) envs.push_back(kv);
+  }
+  for (const auto& [k, v] : env) envs.push_back(k + "=" + v);
+  std::vector<std::string> argv_s = {REEFGEN_TORCH_BIN};
+  argv_s.insert(argv_s.end(), args.begin(), args.end());
+  std::vector<char*> argv, envp;
+  for (auto& a : argv_s) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  for (auto& e : envs) envp.push_back(e.data());
+  envp.push_back(nullptr);
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_addopen(&fa, 1, "/dev/null", O_WRONLY, 0);
+  Proc p;
+  p.err = err;
+  EXPECT_EQ(posix_spawn(&p.pid, argv[0], &fa, nullptr, argv.data(), envp.data()), 0);
+  posix_spawn_file_actions_destroy(&fa);
+  return p;
+}
+
+// Exit code (128 + signal when killed), or -1 after `timeout_s`.
+int wait_for(const Proc& p, double timeout_s) {
+  const auto t0 = std::chrono::steady_clock::now();
+  for (;;) {
+    int status = 0;
+    if (::waitpid(p.pid, &status, WNOHANG) == p.pid)
+      return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > timeout_s) {
+      ::kill(p.pid, SIGKILL);
+      ::waitpid(p.pid, &status, 0);
+      return -1;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+}
+
+int run_cli(const std::vector<std::string>& args, const Env& env, const fs::path& err, double timeout_s = 120) {
+  return wait_for(spawn(args, env, err), timeout_s);
+}
+
+fs::path write_config(const fs::path& dir, const TrainParams& p) {
+  const fs::path f = dir / "config.json";
+  write_json_atomic(f, nlohmann::json(p));
+  return f;
+}
+
+// Loss columns (G_GAN, G_L1, D_real, D_fake) of every log.csv row.
+std::vector<std::vector<double>> losses(const fs::path& log) {
+  std::ifstream in(log);
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::vector<double>> rows;
+  while (std::getline(in, line)) {
+    std::vector<double> v;
+    std::stringstream ss(line);
+    std::string cell;
+    for (int c = 0; std::getline(ss, cell, ','); ++c)
+      if (c >= 3 && c <= 6) v.push_back(std::stod(cell));
+    rows.push_back(v);
+  }
+  return rows;
+}
+
+// Largest |a - b| / max(1, |a|) over the parameters and buffers of G and D.
+double weight_gap(const fs::path& a, const fs::path& b, const TrainParams& pa, const TrainParams& pb) {
+  Pix2Pix x(pix2pix_options(pa)), y(pix2pix_options(pb));
+  load_checkpoint(a, x, pa, nullptr, nullptr, 1);
+  load_checkpoint(b, y, pb, nullptr, nullptr, 1);
+  double gap = 0;
+  for (auto [m, n] : {std::pair<torch::nn::Module*, torch::nn::Module*>{x.G().get(), y.G().get()},
+                      {x.D().get(), y.D().get()}}) {
+    auto check = [&](const torch::OrderedDict<std::string, torch::Tensor>& ta,
+                     const torch::OrderedDict<std::string, torch::Tensor>& tb) {
+      for (const auto& kv : ta) {
+        const torch::Tensor u = kv.value().to(torch::kFloat64), v = tb[kv.key()].to(torch::kFloat64);
+        gap = std::max(gap, ((u - v).abs() / u.abs().clamp_min(1.0)).max().item<double>());
+      }
+    };
+    check(m->named_parameters(), n->named_parameters());
+    check(m->named_buffers(), n->named_buffers());
+  }
+  return gap;
+}
+
+double loss_gap(const fs::path& a, const fs::path& b) {
+  const auto la = losses(a), lb = losses(b);
+  EXPECT_EQ(la.size(), lb.size());
+  double gap = 0;
+  for (size_t i = 0; i < std::min(la.size(), lb.size()); ++i)
+    for (size_t k = 0; k < 4; ++k) gap = std::max(gap, std::abs(la[i][k] - lb[i][k]) / std::max(1.0, std::abs(la[i][k])));
+  return gap;
+}
+
+TrainParams dp_params() {
+  TrainParams p = tiny_params();  // BatchNorm and dropout on, as pix2pix
+  p.log_every = 1;
+  p.checkpoint_every = 100;
+  p.val_every = 100;
+  return p;
+}
+
+}  // namespace
+
+// The bar of docs/TRAINING.md: 2 ranks x batch 1 train as 1 rank x batch 2
+// (synchronised BatchNorm, averaged gradients, per-sample dropout, the same
+// sample order), losses and weights within 1e-4 after every step of a run.
+TEST(DataParallel, TwoRanksEqualOneRankWithTheGlobalBatch) {
+  const fs::path data = make_dataset("dp_equal_data", 10, 2);  // 8 train pairs: 4 steps per epoch at 2
+  const fs::path base = temp_dir("dp_equal");
+  TrainParams one = dp_params();
+  one.batch_size = 2;
+  one.threads = 2;
+  RunOptions r;
+  r.data = data;
+  r.out = base / "one";
+  EXPECT_EQ(run_training(one, r).step, 8);
+
+  TrainParams two = dp_params();
+  two.batch_size = 1;
+  two.threads = 1;
+  const fs::path cfg = write_config(base, two);
+  ASSERT_EQ(run_cli({"train", "--config", cfg.string(), "--data", data.string(), "--out", (base / "two").string(),
+                     "--nproc", "2", "--dist-timeout", "60"},
+                    {}, base / "two.err"),
+            0)
+      << read_text(base / "two.err");
+  EXPECT_EQ(losses(base / "two" / "log.csv").size(), 8u);
+  const double lg = loss_gap(base / "one" / "log.csv", base / "two" / "log.csv");
+  const double wg = weight_gap(base / "one" / "checkpoint.pt", base / "two" / "checkpoint.pt", one, one);
+  std::printf("2 ranks x 1 vs 1 rank x 2, 8 steps: losses within %.2g, weights within %.2g\n", lg, wg);
+  EXPECT_LT(lg, 1e-4);
+  EXPECT_LT(wg, 1e-4);
+  // Only rank 0 wrote: one run folder, its files once.
+  EXPECT_TRUE(fs::exists(base / "two" / "generator.pt"));
+  const nlohmann::json run = read_json(base / "two" / "run.json");
+  EXPECT_EQ(run.at("world_size"), 2);
+  EXPECT_EQ(run.at("global_batch"), 2);
+
+  // Without synchronised BatchNorm the ranks would not be one run: the
+  // check above can fail. One rank x batch 1 on the same first samples
+  // differs by far more than the tolerance.
+  TrainParams solo = dp_params();
+  solo.batch_size = 1;
+  RunOptions rs;
+  rs.data = data;
+  rs.out = base / "solo";
+  rs.max_steps = 8;
+  run_training(solo, rs);
+  EXPECT_GT(loss_gap(base / "one" / "log.csv", base / "solo" / "log.csv"), 1e-3);
+  fs::remove_all(base);
+  fs::remove_all(data);
+}
+
+TEST(DataParallel, ResumeAcrossWorldSizes) {
+  const fs::path data = make_dataset("dp_resume_data", 10, 2);
+  const fs::path base = temp_dir("dp_resume");
+  TrainParams one = dp_params();
+  one.batch_size = 2;
+  RunOptions full;
+  full.data = data;
+  full.out = base / "full";
+  run_training(one, full);
+
+  // 2 ranks stop at step 3 (--max-steps), then 1 rank x 2 finishes the run.
+  TrainParams two = dp_params();
+  two.batch_size = 1;
+  two.threads = 1;
+  const fs::path cfg = write_config(base, two);
+  ASSERT_EQ(run_cli({"train", "--config", cfg.string(), "--data", data.string(), "--out", (base / "part").string(),
+                     "--nproc", "2", "--max-steps", "3"},
+                    {}, base / "part.err"),
+            0)
+      << read_text(base / "part.err");
+  // Another global batch is refused, naming the fix.
+  RunOptions part;
+  part.data = data;
+  part.out = base / "part";
+  part.resume = true;
+  try {
+    run_training(two, part);
+    ADD_FAILURE() << "a resume with another global batch was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("global batch of 2"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(run_training(one, part).step, 8);
+  EXPECT_LT(loss_gap(base / "full" / "log.csv", base / "part" / "log.csv"), 1e-4);
+  EXPECT_LT(weight_gap(base / "full" / "checkpoint.pt", base / "part" / "checkpoint.pt", one, one), 1e-4);
+
+  // And the other way: 1 rank x 2 to step 3, 2 ranks x 1 to the end.
+  RunOptions back;
+  back.data = data;
+  back.out = base / "back";
+  back.max_steps = 3;
+  run_training(one, back);
+  ASSERT_EQ(run_cli({"train", "--config", cfg.string(), "--data", data.string(), "--out", (base / "back").string(),
+                     "--nproc", "2", "--resume"},
+                    {}, base / "back.err"),
+            0)
+      << read_text(base / "back.err");
+  EXPECT_LT(loss_gap(base / "full" / "log.csv", base / "back" / "log.csv"), 1e-4);
+  EXPECT_LT(weight_gap(base / "full" / "checkpoint.pt", base / "back" / "checkpoint.pt", one, one), 1e-4);
+  fs::remove_all(base);
+  fs::remove_all(data);
+}
+
+// kill -9 of one rank mid-run: the job ends within the timeout, non-zero,
+// with the launcher and the surviving rank both naming the dead one.
+TEST(DataParallel, KilledRankFailsTheJobNamingIt) {
+  const fs::path data = make_dataset("dp_kill_data", 10, 2);
+  const fs::path base = temp_dir("dp_kill");
+  TrainParams p = dp_params();
+  p.batch_size = 1;
+  p.threads = 1;
+  p.epochs = 1000;  // far longer than the test
+  p.checkpoint_every = 1;
+  const fs::path cfg = write_config(base, p);
+  const Proc job = spawn({"train", "--config", cfg.string(), "--data", data.string(), "--out", (base / "run").string(),
+                          "--nproc", "2", "--dist-timeout", "20"},
+                         {}, base / "job.err");
+  // The launcher names each rank's pid; wait for training to be under way.
+  pid_t rank1 = -1;
+  for (int i = 0; i < 600 && (rank1 < 0 || !fs::exists(base / "run" / "checkpoint.pt")); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    const std::string err = read_text(base / "job.err");
+    const size_t at = err.find("rank 1: pid ");
+    if (at != std::string::npos) rank1 = pid_t(std::stol(err.substr(at + 12)));
+  }
+  ASSERT_GT(rank1, 0) << read_text(base / "job.err");
+  ASSERT_TRUE(fs::exists(base / "run" / "checkpoint.pt")) << read_text(base / "job.err");
+  const auto t0 = std::chrono::steady_clock::now();
+  ::kill(rank1, SIGKILL);
+  const int code = wait_for(job, 60);
+  const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const std::string err = read_text(base / "job.err");
+  EXPECT_NE(code, 0) << err;
+  EXPECT_NE(code, -1) << "the job hung after a rank was killed: " << err;
+  EXPECT_LT(took, 30) << err;
+  EXPECT_NE(err.find("rank 1 was killed by signal 9"), std::string::npos) << err;
+  EXPECT_NE(err.find("rank 0: rank 1 stopped answering"), std::string::npos) << err;
+  // The last checkpoint is whole: the run can be resumed.
+  Pix2Pix q(pix2pix_options(p));
+  EXPECT_GE(load_checkpoint(base / "run" / "checkpoint.pt", q, p, nullptr, nullptr, 2), 1);
+  fs::remove_all(base);
+  fs::remove_all(data);
+}
+
+// A bad environment: one line naming the variable, non-zero, nothing written.
+TEST(DataParallel, BadEnvironmentWritesNothing) {
+  const fs::path data = make_dataset("dp_env_data", 4, 1);
+  const fs::path base = temp_dir("dp_env");
+  // A port nobody listens on: bind one, read it, close it.
+  int s = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t len = sizeof a;
+  ASSERT_EQ(::bind(s, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  ::getsockname(s, reinterpret_cast<sockaddr*>(&a), &len);
+  const std::string closed_port = std::to_string(ntohs(a.sin_port));
+  ::close(s);
+  const std::vector<std::pair<Env, std::string>> cases = {
+      {{{"RANK", "0"}, {"WORLD_SIZE", "0"}}, "WORLD_SIZE=0"},
+      {{{"RANK", "2"}, {"WORLD_SIZE", "2"}}, "RANK=2"},
+      {{{"RANK", "1"}, {"WORLD_SIZE", "2"}, {"MASTER_ADDR", "127.0.0.1"}, {"MASTER_PORT", closed_port}},
+       "cannot reach the rendezvous store at 127.0.0.1:" + closed_port},
+  };
+  int i = 0;
+  for (const auto& [env, needle] : cases) {
+    const fs::path out = base / ("run" + std::to_string(i++));
+    const int code = run_cli({"train", "--data", data.string(), "--out", out.string(), "--dist-timeout", "2"}, env,
+                             base / "err.txt", 60);
+    const std::string err = read_text(base / "err.txt");
+    EXPECT_NE(code, 0) << needle;
+    EXPECT_NE(err.find(needle), std::string::npos) << err;
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << "not one line: " << err;
+    EXPECT_FALSE(fs::exists(out)) << needle << ": the run folder was created";
+  }
+  fs::remove_all(base);
+  fs::remove_all(data);
 }

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include <ATen/CPUGeneratorImpl.h>
+
 namespace reefgen::model {
 namespace nn = torch::nn;
 
@@ -40,6 +42,33 @@ std::string to_string(Upsample u) {
 
 namespace {
 
+// BatchNorm in training mode over the global batch of all replicas: the
+// same maths as BatchNorm2d (biased variance to normalise, unbiased in the
+// running estimate), written with differentiable ops around `sum` so that
+// autograd all-reduces the gradient terms too. Two passes (mean, then the
+// centred squares) rather than E[x²]−E[x]², which cancels in float32.
+torch::Tensor sync_batch_norm(const torch::Tensor& x, nn::BatchNorm2dImpl& bn, const ReplicaSum& sum) {
+  const int64_t C = x.size(1);  // x {N,C,H,W}
+  const double local_n = double(x.numel() / C);
+  // The element count travels with the sums: one all-reduce for both.
+  const torch::Tensor stats = sum(torch::cat({x.sum({0, 2, 3}), torch::full({1}, local_n, x.options())}));  // {C+1}
+  const double n = stats[C].item<double>();
+  const torch::Tensor mean = stats.narrow(0, 0, C) / n;           // {C}
+  const torch::Tensor xc = x - mean.view({1, C, 1, 1});           // {N,C,H,W}
+  const torch::Tensor var = sum(xc.square().sum({0, 2, 3})) / n;  // {C}, biased
+  const double eps = bn.options.eps();
+  torch::Tensor y = xc * torch::rsqrt(var + eps).view({1, C, 1, 1});
+  if (bn.options.affine()) y = y * bn.weight.view({1, C, 1, 1}) + bn.bias.view({1, C, 1, 1});
+  if (bn.options.track_running_stats()) {
+    torch::NoGradGuard no_grad;
+    const double m = bn.options.momentum().value();
+    bn.running_mean.mul_(1 - m).add_(mean.detach(), m);
+    bn.running_var.mul_(1 - m).add_(var.detach() * (n / std::max(1.0, n - 1)), m);
+    bn.num_batches_tracked.add_(1);
+  }
+  return y;
+}
+
 // A normalisation layer chosen at run time; empty for Norm::None.
 // pix2pix: BatchNorm2d(affine), InstanceNorm2d(affine=False, no running stats).
 struct NormLayerImpl : nn::Module {
@@ -48,14 +77,40 @@ struct NormLayerImpl : nn::Module {
     if (n == Norm::Instance) in = register_module("inorm", nn::InstanceNorm2d(channels));  // not "in": a Python keyword breaks archive loading
   }
   torch::Tensor forward(const torch::Tensor& x) {
+    if (bn && replica_sum && bn->is_training()) return sync_batch_norm(x, *bn, replica_sum);
     if (bn) return bn->forward(x);
     if (in) return in->forward(x);
     return x;
   }
   nn::BatchNorm2d bn{nullptr};
   nn::InstanceNorm2d in{nullptr};
+  ReplicaSum replica_sum;  // set: BatchNorm over every replica's batch
 };
 TORCH_MODULE(NormLayer);
+
+void set_replica_sum_on(nn::Module& net, const ReplicaSum& sum) {
+  for (auto& m : net.modules(/*include_self=*/false))
+    if (auto* n = m->as<NormLayerImpl>()) n->replica_sum = sum;
+}
+
+// Dropout whose mask for sample i is drawn from its own generator seeded
+// with seeds[i] and the layer: the same sample is dropped the same way in
+// any batch. Same distribution and scaling as torch::dropout.
+torch::Tensor per_sample_dropout(const torch::Tensor& u, double p, const std::vector<uint64_t>& seeds, int layer) {
+  if (int64_t(seeds.size()) != u.size(0))
+    throw std::invalid_argument("UNetGenerator: " + std::to_string(seeds.size()) + " dropout seeds for a batch of " +
+                                std::to_string(u.size(0)));
+  torch::Tensor mask = torch::empty_like(u);  // {N,C,h,w}
+  for (int64_t i = 0; i < u.size(0); ++i) {
+    // splitmix-style mixing of the layer into the seed: layers draw independent masks
+    uint64_t z = seeds[size_t(i)] + 0x9E3779B97F4A7C15ull * uint64_t(layer + 1);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    at::Generator gen = at::make_generator<at::CPUGeneratorImpl>(z ^ (z >> 31));
+    mask[i].bernoulli_(1.0 - p, gen);
+  }
+  return u * mask.div_(1.0 - p);
+}
 
 bool on_onednn(const ConvOptions& o, const torch::Tensor& x, const torch::Tensor& w) {
   return o.engine == ConvEngine::OneDnn && x.scalar_type() == torch::kFloat32 && w.scalar_type() == torch::kFloat32;
@@ -169,11 +224,17 @@ torch::Tensor UNetGeneratorImpl::forward(torch::Tensor x) {
   for (int k = depth - 1; k >= 1; --k) {
     auto L = level(k);
     u = L->up_norm->forward(L->up(torch::relu_(u), conv_));  // u is a fresh cat/conv output
-    if (L->dropout > 0) u = torch::dropout(u, L->dropout, is_training() && dropout_enabled_);
+    if (L->dropout > 0 && is_training() && dropout_enabled_ && !dropout_seeds_.empty())
+      u = per_sample_dropout(u, L->dropout, dropout_seeds_, k);
+    else if (L->dropout > 0)
+      u = torch::dropout(u, L->dropout, is_training() && dropout_enabled_);
     u = torch::cat({skips[k - 1], u}, 1);  // skip first, as in torch.cat([x, model(x)], 1)
   }
   return torch::tanh(level(0)->up(torch::relu_(u), conv_));  // {N,out,S,S}
 }
+
+void UNetGeneratorImpl::set_replica_sum(const ReplicaSum& sum) { set_replica_sum_on(*this, sum); }
+void PatchDiscriminatorImpl::set_replica_sum(const ReplicaSum& sum) { set_replica_sum_on(*this, sum); }
 
 PatchDiscriminatorImpl::PatchDiscriminatorImpl(const PatchOptions& o) : options_(o) {
   if (o.in_channels < 1 || o.in_channels > 64) throw std::invalid_argument("PatchOptions: in_channels must be in [1, 64]");

@@ -1,5 +1,7 @@
 #include "reefgen/train/pix2pix.hpp"
 
+#include "reefgen/train/distributed.hpp"
+
 namespace reefgen::train {
 
 namespace F = torch::nn::functional;
@@ -37,6 +39,23 @@ void Pix2Pix::set_lr(double lr) {
 Losses Pix2Pix::step(const torch::Tensor& label, const torch::Tensor& height) {
   g_->train();
   d_->train();
+  // Synchronised BatchNorm for the step only: validation passes on rank 0
+  // alone must not wait for the other ranks.
+  struct SyncScope {
+    Pix2Pix& p;
+    explicit SyncScope(Pix2Pix& q) : p(q) {
+      if (!p.comm_) return;
+      Comm* c = p.comm_;
+      const model::ReplicaSum sum = [c](const torch::Tensor& x) { return c->replica_sum(x); };
+      p.g_->set_replica_sum(sum);
+      p.d_->set_replica_sum(sum);
+    }
+    ~SyncScope() {
+      if (!p.comm_) return;
+      p.g_->set_replica_sum(nullptr);
+      p.d_->set_replica_sum(nullptr);
+    }
+  } sync(*this);
   const torch::Tensor fake = g_->forward(label);  // {N,1,S,S}
 
   // D step: fake pairs detached so G gets no gradient from it.
@@ -48,6 +67,7 @@ Losses Pix2Pix::step(const torch::Tensor& label, const torch::Tensor& height) {
   const torch::Tensor d_real = F::binary_cross_entropy_with_logits(pred_real, torch::ones_like(pred_real));
   // Halved so D learns more slowly than G (pix2pix).
   ((d_fake + d_real) * 0.5).backward();
+  if (comm_) comm_->average_gradients(d_->parameters(), "the all-reduce of D's gradients");
   opt_d_->step();
 
   // G step against a frozen D: no gradients accumulate in D's parameters.
@@ -57,6 +77,7 @@ Losses Pix2Pix::step(const torch::Tensor& label, const torch::Tensor& height) {
   const torch::Tensor g_gan = F::binary_cross_entropy_with_logits(pred, torch::ones_like(pred));
   const torch::Tensor g_l1 = F::l1_loss(fake, height) * options_.lambda_l1;
   (g_gan + g_l1).backward();
+  if (comm_) comm_->average_gradients(g_->parameters(), "the all-reduce of G's gradients");
   opt_g_->step();
   set_requires_grad(*d_, true);
 

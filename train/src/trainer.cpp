@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -28,10 +29,12 @@ constexpr const char* kCheckpointFormat = "reefgen-checkpoint";
 constexpr int64_t kCheckpointVersion = 1;
 
 // Settings that may change between an interrupted run and its resumption
-// without changing the result.
-json comparable(const TrainParams& p) {
+// without changing the result. The batch may be split over another number
+// of ranks: what matters is the global batch.
+json comparable(const TrainParams& p, int64_t world_size) {
   json j = p;
-  for (const char* k : {"threads", "loader_threads", "prefetch"}) j.erase(k);
+  for (const char* k : {"threads", "loader_threads", "prefetch", "batch_size"}) j.erase(k);
+  j["global_batch"] = int64_t(p.batch_size) * world_size;
   return j;
 }
 
@@ -134,7 +137,7 @@ std::string checkpoint_sha256(Pix2Pix& p, int64_t step, const torch::Tensor& win
 }  // namespace
 
 void save_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& params, int64_t step,
-                     const LogWindow& window) {
+                     const LogWindow& window, int world_size) {
   torch::serialize::OutputArchive a;
   a.write("format", c10::IValue(std::string(kCheckpointFormat)));
   a.write("format_version", c10::IValue(kCheckpointVersion));
@@ -149,6 +152,7 @@ void save_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& params
   a.write("sha256", c10::IValue(checkpoint_sha256(p, step, log_window, rng)));
   // Results depend on the thread count (reductions split differently).
   a.write("torch_threads", c10::IValue(int64_t(torch::get_num_threads())));
+  a.write("world_size", c10::IValue(int64_t(world_size)));  // config's batch_size is per rank
   torch::serialize::OutputArchive g, d, og, od;
   p.G()->save(g);
   p.D()->save(d);
@@ -180,15 +184,25 @@ static TrainParams open_checkpoint(torch::serialize::InputArchive& a, const fs::
 }
 
 int64_t load_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& params, LogWindow* window,
-                        int64_t* torch_threads) {
+                        int64_t* torch_threads, int world_size, int64_t* world_size_then) {
   torch::serialize::InputArchive a;
   const std::string fix = "start a new run (another --out) or restore the file";
-  const json want = comparable(params);
-  const json have = comparable(open_checkpoint(a, path, fix));
+  const TrainParams stored = open_checkpoint(a, path, fix);
+  c10::IValue ws;
+  const int64_t world_then = a.try_read("world_size", ws) ? ws.toInt() : 1;  // older checkpoints: one process
+  if (world_size_then) *world_size_then = world_then;
+  const json want = comparable(params, world_size);
+  const json have = comparable(stored, world_then);
   for (const auto& [k, v] : want.items())
-    if (have.at(k) != v)
+    if (have.at(k) != v) {
+      if (k == "global_batch")
+        throw Error(path.string() + ": the run was started with a global batch of " + have.at(k).dump() + " (" +
+                    std::to_string(stored.batch_size) + " per rank x " + std::to_string(world_then) + " ranks), now " +
+                    v.dump() + " (" + std::to_string(params.batch_size) + " x " + std::to_string(world_size) +
+                    "); pass --batch-size so that batch size x ranks = " + have.at(k).dump());
       throw Error(path.string() + ": the run was started with " + k + " = " + have.at(k).dump() + ", now " +
                   v.dump() + "; resume with the run's config (RUN/run.json) or start a new run");
+    }
   try {
     c10::IValue v;
     a.read("step", v);
@@ -255,22 +269,81 @@ void load_checkpoint_weights(const fs::path& path, Pix2Pix& p, const TrainParams
   }
 }
 
+namespace {
+
+// Rank 0's step, weights and optimizer states, everywhere: a fresh run's
+// initialisation, an --init's weights or a resumed checkpoint. From here on
+// the ranks stay equal: same averaged gradients, same Adam updates.
+void sync_from_rank0(Comm& comm, Pix2Pix& p, int64_t& step) {
+  torch::NoGradGuard no_grad;
+  torch::Tensor st = torch::tensor({step}, torch::kInt64);
+  comm.broadcast({st}, "the broadcast of the starting step");
+  step = st.item<int64_t>();
+  std::vector<torch::Tensor> weights;
+  for (torch::nn::Module* m : {static_cast<torch::nn::Module*>(p.G().get()), static_cast<torch::nn::Module*>(p.D().get())}) {
+    for (auto& t : m->parameters()) weights.push_back(t);
+    for (auto& b : m->buffers()) weights.push_back(b);
+  }
+  comm.broadcast(weights, "the broadcast of G's and D's weights");
+  for (torch::optim::Adam* opt : {&p.opt_G(), &p.opt_D()}) {
+    const bool has = !opt->state().empty();
+    torch::Tensor flag = torch::tensor({int64_t(has)}, torch::kInt64);
+    comm.broadcast({flag}, "the broadcast of the optimizer states");
+    if (!flag.item<int64_t>()) continue;
+    std::vector<torch::Tensor> moments;
+    std::vector<torch::optim::AdamParamState*> states;
+    for (auto& group : opt->param_groups())
+      for (auto& param : group.params()) {
+        auto& slot = opt->state()[c10::guts::to_string(param.unsafeGetTensorImpl())];
+        if (!slot) {  // a rank without the checkpoint: zero state, overwritten below
+          auto fresh = std::make_unique<torch::optim::AdamParamState>();
+          fresh->step(0);
+          fresh->exp_avg(torch::zeros_like(param, at::MemoryFormat::Preserve));
+          fresh->exp_avg_sq(torch::zeros_like(param, at::MemoryFormat::Preserve));
+          slot = std::move(fresh);
+        }
+        auto& a = static_cast<torch::optim::AdamParamState&>(*slot);
+        states.push_back(&a);
+        moments.push_back(a.exp_avg());
+        moments.push_back(a.exp_avg_sq());
+      }
+    torch::Tensor steps = torch::empty({int64_t(states.size())}, torch::kInt64);
+    for (size_t i = 0; i < states.size(); ++i) steps[int64_t(i)] = states[i]->step();
+    moments.push_back(steps);
+    comm.broadcast(moments, "the broadcast of the optimizer states");
+    for (size_t i = 0; i < states.size(); ++i) states[i]->step(steps[int64_t(i)].item<int64_t>());
+  }
+}
+
+}  // namespace
+
 RunResult run_training(const TrainParams& requested, const RunOptions& run) {
   validate(requested, "training config");
   // precision "auto" decided once, here: run.json and the checkpoints record
   // what ran, so a resume on a CPU that would decide otherwise is refused.
   TrainParams params = requested;
   params.precision = resolved_precision(requested);
+  // Data-parallel: join the job first, so a bad environment or an
+  // unreachable master fails before anything is read or written.
+  std::unique_ptr<Comm> comm;
+  if (run.dist.world_size > 1) comm = Comm::connect(run.dist);
+  const int rank = run.dist.rank, world = run.dist.world_size;
+  const bool lead = rank == 0;  // the only rank that touches the run folder
   const DatasetInfo data = open_dataset(run.data);
   if (data.size_px % (1 << params.depth))
     throw Error(run.data.string() + ": pairs are " + std::to_string(data.size_px) + " px, not a multiple of 2^depth = " +
                 std::to_string(1 << params.depth) + "; lower depth or build the dataset at another size");
-  torch::set_num_threads(params.threads > 0 ? params.threads : int(std::max(1u, std::thread::hardware_concurrency())));
+  // All cores by default, shared between the ranks of this machine.
+  torch::set_num_threads(params.threads > 0 ? params.threads
+                                            : std::max(1, int(std::thread::hardware_concurrency()) /
+                                                              std::max(1, run.dist.local_world_size)));
   at::globalContext().setDeterministicAlgorithms(params.deterministic, /*warn_only=*/true);
   keep_freed_memory();
 
-  const int64_t n = int64_t(data.train.size()), B = params.batch_size;
-  const int64_t steps_per_epoch = (n + B - 1) / B;
+  // B samples per rank, Bg per step in all: step s reads samples
+  // s·Bg .. s·Bg+Bg-1 of the stream, rank r the r-th slice of B of them.
+  const int64_t n = int64_t(data.train.size()), B = params.batch_size, Bg = B * world;
+  const int64_t steps_per_epoch = (n + Bg - 1) / Bg;
   const int64_t steps_constant = std::llround(params.epochs * steps_per_epoch);
   const int64_t steps_decay = std::llround(params.epochs_decay * steps_per_epoch);
   const int64_t total = steps_constant + steps_decay;
@@ -297,6 +370,9 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
   }
 
   const fs::path ckpt = run.out / "checkpoint.pt";
+  std::optional<DirLock> lock;
+  const fs::path log_csv = run.out / "log.csv", val_csv = run.out / "val.csv";
+  if (lead) {
   if (run.resume && !fs::exists(ckpt))  // checked before anything is created
     throw Error(run.out.string() + ": no checkpoint.pt to resume from; start a new run without --resume " +
                 "(in an empty or new --out folder)");
@@ -306,12 +382,11 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
   ensure_writable_dir(run.out);
   // One process per run folder: two would interleave log.csv and overwrite
   // each other's checkpoints.
-  const DirLock lock(run.out, "run folder");
+  lock.emplace(run.out, "run folder");
   if (run.resume) {  // temp files of a killed run (kill -9 mid-write) are never completed: drop them
     remove_stale_temps(run.out);
     if (fs::is_directory(run.out / "val")) remove_stale_temps(run.out / "val");
   }
-  const fs::path log_csv = run.out / "log.csv", val_csv = run.out / "val.csv";
   // A resumed run reads the same data as before: another size, height range
   // or number of pairs would change the sample order and what the model means.
   if (run.resume && fs::exists(run.out / "run.json")) {
@@ -344,21 +419,26 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
     truncate_log(log_csv, 0);
     truncate_log(val_csv, 0);
   }
+  }  // lead
 
   torch::manual_seed(params.seed);  // weight initialisation
   Pix2Pix p(pix2pix_options(params));
   LogWindow window;
   int64_t step = 0;
-  if (run.resume && fs::exists(ckpt)) {
-    int64_t threads_then = 0;
-    step = load_checkpoint(ckpt, p, params, &window, &threads_then);
+  if (lead && run.resume && fs::exists(ckpt)) {
+    int64_t threads_then = 0, world_then = 1;
+    step = load_checkpoint(ckpt, p, params, &window, &threads_then, world, &world_then);
     if (threads_then != torch::get_num_threads() && run.on_log)
       run.on_log("warning: the checkpoint was written with " + std::to_string(threads_then) + " LibTorch threads, now " +
                  std::to_string(torch::get_num_threads()) + ": the result will differ slightly from an uninterrupted run");
+    if (world_then != world && run.on_log)
+      run.on_log("the checkpoint was written by " + std::to_string(world_then) + " rank(s), now " +
+                 std::to_string(world) + " with the same global batch of " + std::to_string(Bg) +
+                 ": the same run up to rounding (docs/TRAINING.md)");
     truncate_log(log_csv, step);
     truncate_log(val_csv, step);
     if (run.on_log) run.on_log("resumed " + ckpt.string() + " at step " + std::to_string(step));
-  } else if (!run.init_from.empty()) {
+  } else if (lead && !run.init_from.empty()) {
     load_checkpoint_weights(run.init_from, p, params);
     if (run.on_log) run.on_log("G and D start from " + run.init_from.string());
   }
@@ -373,7 +453,9 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
                          {"steps", {{"per_epoch", steps_per_epoch}, {"constant", steps_constant},
                                     {"decay", steps_decay}, {"total", total}}},
                          {"parameters", {{"G", model::count_parameters(*p.G())}, {"D", model::count_parameters(*p.D())}}},
-                         {"torch_threads", torch::get_num_threads()}};
+                         {"torch_threads", torch::get_num_threads()},
+                         {"world_size", world},
+                         {"global_batch", Bg}};
   json run_record = run_json;
   // A fine-tuned run records where its weights came from (a resume keeps the record).
   if (!run.resume && !run.init_from.empty())
@@ -383,13 +465,27 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
     const json before = read_json(run.out / "run.json");
     if (before.contains("init_from")) run_record["init_from"] = before.at("init_from");
   }
-  write_json_atomic(run.out / "run.json", run_record);
+  if (lead) write_json_atomic(run.out / "run.json", run_record);
+  if (comm) {
+    // Every rank must run the same job on the same data: compare with rank 0.
+    const json mine = {{"config", comparable(params, world)},
+                       {"manifest_fnv64", run_json.at("manifest_fnv64")},
+                       {"pairs", run_json.at("pairs")}};
+    const json lead_job = json::parse(comm->broadcast_string(mine.dump(), "the start of the job"));
+    for (const auto& [k, v] : lead_job.items())
+      if (mine.at(k) != v)
+        throw Error("rank " + std::to_string(rank) + ": " +
+                    (k == "config" ? "its training config differs from rank 0's"
+                                   : "its dataset " + run.data.string() + " differs from rank 0's (" + k + ")") +
+                    "; give every rank the same --config, flags and dataset");
+    sync_from_rank0(*comm, p, step);
+  }
 
   const JitterOptions jitter{params.jitter, params.jitter_scale, params.flip};
   auto make_batch = [&](int64_t s) -> Prefetcher::Batch {
     std::vector<torch::Tensor> labels, heights;
     for (int64_t b = 0; b < B; ++b) {
-      const int64_t q = s * B + b;
+      const int64_t q = s * Bg + rank * B + b;
       const PairRef& ref = data.train[sample_at(params.seed, q, size_t(n))];
       Sample smp = load_sample(data, ref, jitter, derive_seed(params.seed, uint64_t(q), "jitter"));
       labels.push_back(smp.label);
@@ -452,14 +548,18 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
     }
   };
   if (step >= end) {  // nothing left to train: the generator still matches the checkpoint
-    export_generator();
+    if (lead) export_generator();
     return result;
   }
   // Said once everything is checked: what runs the step.
-  if (run.on_log)
+  if (run.on_log && lead)
     run.on_log("convolutions: " + params.engine + ", " + params.precision +
                (requested.precision == "auto" ? " (auto on this CPU)" : "") + "; " +
-               std::to_string(torch::get_num_threads()) + " threads");
+               std::to_string(torch::get_num_threads()) + " threads" +
+               (comm ? " per rank; " + std::to_string(world) + " ranks (" + run.dist.source + "), global batch " +
+                           std::to_string(Bg)
+                     : std::string()));
+  p.set_comm(comm.get());
   Prefetcher loader(make_batch, step, end, params.loader_threads, params.prefetch);
   using clock = std::chrono::steady_clock;
   while (step < end) {
@@ -470,7 +570,24 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
     // Dropout draws from torch's generator, reseeded per step: a resumed run
     // draws exactly what the uninterrupted one would have.
     torch::manual_seed(derive_seed(params.seed, uint64_t(step), "dropout"));
-    const Losses l = p.step(label, height);
+    // Each sample's dropout masks come from its position in the stream, so
+    // they do not depend on the batch or the rank it lands in.
+    std::vector<uint64_t> dropout_seeds;
+    for (int64_t b = 0; b < B; ++b) dropout_seeds.push_back(derive_seed(params.seed, uint64_t(step * Bg + rank * B + b), "dropout"));
+    p.G()->set_dropout_seeds(std::move(dropout_seeds));
+    Losses l = p.step(label, height);
+    bool stopping = run.stop && run.stop->load();
+    double allreduce_s = 0;
+    if (comm) {
+      // Losses averaged over the ranks (what a one-process run would log),
+      // and one rank's Ctrl-C stops all of them after the same step.
+      torch::Tensor t = torch::tensor({l.g_gan, l.g_l1, l.d_real, l.d_fake, stopping ? 1.0 : 0.0}, torch::kFloat64);
+      comm->allreduce_sum({t}, "the all-reduce of step " + std::to_string(step + 1) + "'s losses");
+      auto v = t.accessor<double, 1>();
+      l = {v[0] / world, v[1] / world, v[2] / world, v[3] / world};
+      stopping = v[4] > 0;
+      allreduce_s = comm->take_collective_seconds();
+    }
     if (!std::isfinite(l.g_gan + l.g_l1 + l.d_real + l.d_fake))
       throw Error("training diverged at step " + std::to_string(step + 1) + " (a loss is NaN or infinite); "
                   "lower lr or resume from the last checkpoint in " + ckpt.string());
@@ -481,25 +598,26 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
     window.steps += 1;
     window.seconds += dt;
     window.timed_steps += 1;
+    window.allreduce_seconds += allreduce_s;
     const double epoch = double(step) / double(steps_per_epoch);
     if (step % params.log_every == 0 || step == total) {
       std::string row = std::to_string(step) + "," + fmt(epoch) + "," + fmt(lr);
       for (double s : window.sums) row += "," + fmt(s / double(window.steps));
-      row += "," + fmt(window.seconds / double(std::max<int64_t>(1, window.timed_steps)));
-      append_line(log_csv, "step,epoch,lr,G_GAN,G_L1,D_real,D_fake,s_per_iter", row);
+      const double timed_steps = double(std::max<int64_t>(1, window.timed_steps));
+      row += "," + fmt(window.seconds / timed_steps) + "," + fmt(window.allreduce_seconds / timed_steps);
+      if (lead) append_line(log_csv, "step,epoch,lr,G_GAN,G_L1,D_real,D_fake,s_per_iter,allreduce_s", row);
       window = {};
     }
-    if (step % params.val_every == 0 || step == total || step == end) write_val_grid(step);  // end: --max-steps too
-    if (step % steps_per_epoch == 0 || step == total) {
+    if (lead && (step % params.val_every == 0 || step == total || step == end)) write_val_grid(step);  // end: --max-steps too
+    if (lead && (step % steps_per_epoch == 0 || step == total)) {
       append_line(val_csv, "step,epoch,mae_m_batchstats,mae_m_running",
                   std::to_string(step) + "," + fmt(epoch) + "," + fmt(val_mae(true)) + "," + fmt(val_mae(false)));
     }
-    const bool stopping = run.stop && run.stop->load();
-    if (step % params.checkpoint_every == 0 || step == end || stopping) {
-      save_checkpoint(ckpt, p, params, step, window);
+    if (lead && (step % params.checkpoint_every == 0 || step == end || stopping)) {
+      save_checkpoint(ckpt, p, params, step, window, world);
       if (run.on_log) run.on_log("checkpoint at step " + std::to_string(step) + ": " + ckpt.string());
     }
-    if (run.on_step) run.on_step({step, total, lr, dt, l});
+    if (run.on_step) run.on_step({step, total, lr, dt, allreduce_s, l});
     if (stopping && step < end) {
       result.interrupted = true;
       break;
@@ -508,7 +626,7 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
   result.step = step;
   // The loop ends at the end of the run, at --max-steps or on a signal: every
   // case leaves a usable generator next to the checkpoint.
-  export_generator();
+  if (lead) export_generator();
   return result;
 }
 

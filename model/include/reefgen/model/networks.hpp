@@ -3,7 +3,10 @@
 // a U-Net generator and a PatchGAN discriminator, in LibTorch module style.
 // Layer for layer the same as the original pytorch-CycleGAN-and-pix2pix code
 // (proven by tests/test_model.cpp against scripts/reference/pix2pix_ref.py).
+#include <cstdint>
+#include <functional>
 #include <string>
+#include <vector>
 
 #include <torch/torch.h>
 
@@ -50,6 +53,14 @@ struct ConvOptions {
   ConvPrecision precision = ConvPrecision::Fp32;  // Bf16: oneDNN engine only
 };
 
+// Data-parallel training (docs/TRAINING.md): the sum of a small tensor over
+// every replica of the network, differentiable (an all-reduce whose backward
+// all-reduces the gradient). Given one, BatchNorm layers in training mode
+// normalise with the statistics of the global batch (synchronised
+// BatchNorm), so N ranks of batch b compute what one process of batch N·b
+// does. Empty: each process's own batch (the default, and LibTorch's kernel).
+using ReplicaSum = std::function<torch::Tensor(const torch::Tensor&)>;
+
 // The U-Net, flattened: level k (0 = outermost) has a down convolution
 // c_{k-1} -> c_k and an up transposed convolution back, c_k = ngf*min(2^k, 8).
 class UNetGeneratorImpl : public torch::nn::Module {
@@ -64,10 +75,17 @@ class UNetGeneratorImpl : public torch::nn::Module {
   bool dropout_enabled() const { return dropout_enabled_; }
   void set_conv(const ConvOptions& c) { conv_ = c; }
   const ConvOptions& conv() const { return conv_; }
+  // One seed per sample of the next batches: sample i's dropout masks come
+  // from its own generator, so a sample is dropped the same way whichever
+  // batch or rank it is in (data-parallel runs equal one-process runs).
+  // Empty (the default): masks drawn from torch's global generator.
+  void set_dropout_seeds(std::vector<uint64_t> seeds) { dropout_seeds_ = std::move(seeds); }
+  void set_replica_sum(const ReplicaSum& sum);
 
  private:
   UNetOptions options_;
   bool dropout_enabled_ = true;
+  std::vector<uint64_t> dropout_seeds_;
   ConvOptions conv_;
   torch::nn::ModuleList levels_{nullptr};
 };
@@ -80,6 +98,7 @@ class PatchDiscriminatorImpl : public torch::nn::Module {
   const PatchOptions& options() const { return options_; }
   void set_conv(const ConvOptions& c) { conv_ = c; }
   const ConvOptions& conv() const { return conv_; }
+  void set_replica_sum(const ReplicaSum& sum);  // see ReplicaSum
 
  private:
   PatchOptions options_;

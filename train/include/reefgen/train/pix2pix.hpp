@@ -9,6 +9,8 @@
 
 namespace reefgen::train {
 
+class Comm;
+
 struct Pix2PixOptions {
   model::UNetOptions g;       // generator: 3 -> 1 channels
   model::PatchOptions d;      // discriminator: 4 input channels (label ⊕ height)
@@ -29,6 +31,10 @@ class Pix2Pix {
   // label {N,3,S,S} and height {N,1,S,S}, both in [-1, 1].
   Losses step(const torch::Tensor& label, const torch::Tensor& height);
   void set_lr(double lr);
+  // Data-parallel (distributed.hpp): BatchNorm over the global batch and
+  // gradients averaged over the ranks before each Adam step. nullptr (the
+  // default): this process alone. The Comm must outlive the steps.
+  void set_comm(Comm* comm) { comm_ = comm; }
   double lr() const { return lr_; }
 
   const Pix2PixOptions& options() const { return options_; }
@@ -43,6 +49,7 @@ class Pix2Pix {
   model::PatchDiscriminator d_;
   std::unique_ptr<FusedAdam> opt_g_, opt_d_;
   double lr_;
+  Comm* comm_ = nullptr;
 };
 
 }  // namespace reefgen::train

@@ -2,8 +2,12 @@
 // The training run: one flat loop over steps, with everything a person needs
 // to follow it in the run folder and everything needed to resume it exactly.
 //
+// Data-parallel (RunOptions::dist with world_size > 1): every rank runs this
+// loop on its slice of each global batch; only rank 0 reads or writes the
+// run folder (the other ranks need the dataset only).
+//
 // RUN/run.json        resolved config, seed, version, parameter counts, dataset
-// RUN/log.csv         step,epoch,lr,G_GAN,G_L1,D_real,D_fake,s_per_iter (window means)
+// RUN/log.csv         step,epoch,lr,G_GAN,G_L1,D_real,D_fake,s_per_iter,allreduce_s (window means)
 // RUN/val.csv         step,epoch,mae_m_batchstats,mae_m_running (per epoch, val split)
 // RUN/val/step-N.png  fixed validation samples: label | truth | prediction
 // RUN/checkpoint.pt   G, D, both Adam states, step, log window, RNG state
@@ -13,6 +17,7 @@
 #include <filesystem>
 #include <functional>
 
+#include "reefgen/train/distributed.hpp"
 #include "reefgen/train/params.hpp"
 #include "reefgen/train/pix2pix.hpp"
 
@@ -21,6 +26,7 @@ namespace reefgen::train {
 struct StepReport {
   int64_t step = 0, total = 0;  // steps done, steps of the whole run
   double lr = 0, seconds_per_step = 0;
+  double allreduce_seconds = 0;  // of the last step, in collectives (0 with one rank)
   Losses losses;                // of the last step
 };
 
@@ -34,7 +40,11 @@ struct RunOptions {
   int64_t max_steps = -1;                  // stop (with a checkpoint) after this many steps in all; -1 = the whole run
   const std::atomic<bool>* stop = nullptr; // set by SIGINT/SIGTERM: checkpoint and return
   std::function<void(const StepReport&)> on_step;  // progress display
-  std::function<void(const std::string&)> on_log;  // one-line events (checkpoint written, ...)
+  std::function<void(const std::string&)> on_log;  // one-line events (checkpoint written, ...); rank 0 only
+  // Which rank of how many (default: one process). batch_size is per rank:
+  // the global batch is batch_size × world_size, sample for sample the batch
+  // of a one-process run with that batch size.
+  DistConfig dist;
 };
 
 struct RunResult {
@@ -59,14 +69,17 @@ struct LogWindow {
   // checkpoints are byte-identical between interrupted and uninterrupted runs.
   double seconds = 0;
   int64_t timed_steps = 0;
+  double allreduce_seconds = 0;  // in collectives over the timed steps
 };
 void save_checkpoint(const std::filesystem::path& path, Pix2Pix& p, const TrainParams& params, int64_t step,
-                     const LogWindow& window);
+                     const LogWindow& window, int world_size = 1);
 // Restores weights, optimizers and RNG; returns the step. `torch_threads`, when
 // given, receives the LibTorch thread count the checkpoint was written with. Throws reefgen::Error
 // for a missing, truncated or foreign file and for a config that differs from
-// `params` in anything but the thread and loader settings.
+// `params` in anything but the thread and loader settings; the batch may be
+// split over another number of ranks (`world_size` now, `world_size_then`
+// receives the checkpoint's) as long as the global batch is the same.
 int64_t load_checkpoint(const std::filesystem::path& path, Pix2Pix& p, const TrainParams& params, LogWindow* window,
-                        int64_t* torch_threads = nullptr);
+                        int64_t* torch_threads = nullptr, int world_size = 1, int64_t* world_size_then = nullptr);
 
 }  // namespace reefgen::train

@@ -1,0 +1,474 @@
+#include "reefgen/train/distributed.hpp"
+
+#include <algorithm>
+#include <cstdlib>
+#include <csignal>
+#include <cstring>
+#include <thread>
+
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <glog/logging.h>
+#include <torch/csrc/distributed/c10d/PrefixStore.hpp>
+#include <torch/csrc/distributed/c10d/ProcessGroupGloo.hpp>
+#include <torch/csrc/distributed/c10d/TCPStore.hpp>
+
+#include "reefgen/io.hpp"
+
+namespace reefgen::train {
+
+namespace {
+
+std::string first_line_of(const std::string& s) {
+  const std::string l = s.substr(0, s.find('\n'));
+  return l.size() > 300 ? l.substr(0, 300) + "..." : l;
+}
+
+// Strict integer parse: the whole string, within [lo, hi].
+int parse_int(const std::string& name, const std::string& v, long lo, long hi, const std::string& fix) {
+  char* end = nullptr;
+  errno = 0;
+  const long x = std::strtol(v.c_str(), &end, 10);
+  if (v.empty() || *end != '\0' || errno || x < lo || x > hi)
+    throw Error(name + "=" + v + ": not an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]; " + fix);
+  return int(x);
+}
+
+// c10d and Gloo report through glog (socket time-outs, retries) on stderr;
+// every such failure reaches the user as one line from us instead.
+void quiet_c10d_logging() { FLAGS_minloglevel = google::GLOG_FATAL; }
+
+std::string ranks_list(const std::vector<int>& r) {
+  std::string s;
+  for (size_t i = 0; i < r.size(); ++i) s += (i ? ", " : "") + std::to_string(r[i]);
+  return s;
+}
+
+}  // namespace
+
+std::string first_slurm_host(const std::string& nodelist) {
+  // The first entry: up to a comma outside brackets.
+  size_t depth = 0, end = nodelist.size();
+  for (size_t i = 0; i < nodelist.size(); ++i) {
+    if (nodelist[i] == '[') ++depth;
+    if (nodelist[i] == ']' && depth) --depth;
+    if (nodelist[i] == ',' && depth == 0) {
+      end = i;
+      break;
+    }
+  }
+  const std::string first = nodelist.substr(0, end);
+  const size_t open = first.find('[');
+  if (open == std::string::npos) return first;
+  const size_t close = first.find(']', open);
+  if (close == std::string::npos) throw Error("SLURM_JOB_NODELIST=" + nodelist + ": unbalanced brackets; set MASTER_ADDR");
+  // "03-05,09" -> "03" (zero padding kept: it is part of the host name)
+  const std::string range = first.substr(open + 1, close - open - 1);
+  const std::string lo = range.substr(0, range.find_first_of("-,"));
+  return first.substr(0, open) + lo + first.substr(close + 1);
+}
+
+DistConfig dist_config_from(const std::function<const char*(const char*)>& getenv, const DistFlags& flags) {
+  auto get = [&](const char* k) -> std::string {
+    const char* v = getenv(k);
+    return v ? std::string(v) : std::string();
+  };
+  DistConfig c;
+  std::string rank_name = "RANK", world_name = "WORLD_SIZE", addr_name = "MASTER_ADDR", port_name = "MASTER_PORT";
+  const std::string fix_env = "fix the launcher's environment or pass --rank/--world-size";
+  if (!get("RANK").empty() || !get("WORLD_SIZE").empty()) {
+    if (get("RANK").empty() || get("WORLD_SIZE").empty())
+      throw Error(std::string(get("RANK").empty() ? "WORLD_SIZE" : "RANK") + " is set but " +
+                  (get("RANK").empty() ? "RANK" : "WORLD_SIZE") + " is not; set both (torchrun does) or neither");
+    c.source = "torchrun's environment";
+    c.world_size = parse_int("WORLD_SIZE", get("WORLD_SIZE"), 0, 4096, fix_env);
+    c.rank = parse_int("RANK", get("RANK"), 0, 4095, fix_env);
+    c.local_rank = get("LOCAL_RANK").empty() ? c.rank : parse_int("LOCAL_RANK", get("LOCAL_RANK"), 0, 4095, fix_env);
+    c.local_world_size =
+        get("LOCAL_WORLD_SIZE").empty() ? 1 : parse_int("LOCAL_WORLD_SIZE", get("LOCAL_WORLD_SIZE"), 1, 4096, fix_env);
+    c.agent_store = get("TORCHELASTIC_USE_AGENT_STORE") == "True";
+    if (!get("TORCHELASTIC_RESTART_COUNT").empty())
+      c.restart_count = parse_int("TORCHELASTIC_RESTART_COUNT", get("TORCHELASTIC_RESTART_COUNT"), 0, 1 << 30, fix_env);
+  } else if (!get("SLURM_PROCID").empty() && !get("SLURM_NTASKS").empty()) {
+    c.source = "SLURM's environment";
+    rank_name = "SLURM_PROCID";
+    world_name = "SLURM_NTASKS";
+    c.world_size = parse_int("SLURM_NTASKS", get("SLURM_NTASKS"), 0, 4096, "run under srun or pass --world-size");
+    c.rank = parse_int("SLURM_PROCID", get("SLURM_PROCID"), 0, 4095, "run under srun or pass --rank");
+    if (!get("SLURM_LOCALID").empty()) c.local_rank = parse_int("SLURM_LOCALID", get("SLURM_LOCALID"), 0, 4095, fix_env);
+    // "2(x3),1" -> 2 tasks on the first node; ours may be another, but jobs are usually uniform.
+    const std::string per = !get("SLURM_NTASKS_PER_NODE").empty() ? get("SLURM_NTASKS_PER_NODE") : get("SLURM_TASKS_PER_NODE");
+    if (!per.empty()) c.local_world_size = std::max(1, std::atoi(per.c_str()));
+    const std::string nodes = !get("SLURM_JOB_NODELIST").empty() ? get("SLURM_JOB_NODELIST") : get("SLURM_NODELIST");
+    if (get("MASTER_ADDR").empty()) {
+      if (nodes.empty()) throw Error("SLURM_JOB_NODELIST is not set; set MASTER_ADDR to the first node's host name");
+      c.master_addr = first_slurm_host(nodes);
+      addr_name = "the first host of SLURM_JOB_NODELIST";
+    }
+  }
+  if (!get("MASTER_ADDR").empty()) c.master_addr = get("MASTER_ADDR");
+  if (!get("MASTER_PORT").empty())
+    c.master_port = parse_int("MASTER_PORT", get("MASTER_PORT"), 1, 65535, "choose a free TCP port");
+  if (flags.rank >= 0) c.rank = flags.rank, rank_name = "--rank";
+  if (flags.world_size >= 0) c.world_size = flags.world_size, world_name = "--world-size";
+  if (!flags.master_addr.empty()) c.master_addr = flags.master_addr, addr_name = "--master-addr";
+  if (flags.master_port >= 0) c.master_port = flags.master_port, port_name = "--master-port";
+  if (flags.timeout_s >= 0) c.timeout_s = flags.timeout_s;
+  if (flags.rank >= 0 || flags.world_size >= 0) c.source = "the flags";
+  if (c.world_size < 1)
+    throw Error(world_name + "=" + std::to_string(c.world_size) + ": a job has at least one rank; " + fix_env);
+  if (c.rank >= c.world_size)
+    throw Error(rank_name + "=" + std::to_string(c.rank) + " with " + world_name + "=" + std::to_string(c.world_size) +
+                ": ranks are 0.." + std::to_string(c.world_size - 1) + "; " + fix_env);
+  if (c.master_port < 1 || c.master_port > 65535)
+    throw Error(port_name + "=" + std::to_string(c.master_port) + ": not a TCP port; choose one in [1, 65535]");
+  if (!(c.timeout_s > 0 && c.timeout_s <= 86400))
+    throw Error("--dist-timeout " + std::to_string(c.timeout_s) + ": must be in (0, 86400] seconds");
+  if (c.local_rank >= c.local_world_size) c.local_world_size = c.local_rank + 1;
+  (void)addr_name;
+  return c;
+}
+
+// ---------------------------------------------------------------------------
+
+struct Comm::Impl {
+  c10::intrusive_ptr<c10d::Store> store;  // the job's keys (prefixed)
+  c10::intrusive_ptr<c10d::ProcessGroupGloo> pg;
+  std::thread heartbeat;
+  std::atomic<bool> stop{false};
+  std::string prefix;
+
+  c10::intrusive_ptr<c10d::Store> client(const DistConfig& c, bool server, std::chrono::milliseconds timeout) const {
+    c10d::TCPStoreOptions so;
+    so.port = uint16_t(c.master_port);
+    so.isServer = server;
+    so.waitWorkers = false;
+    so.timeout = timeout;
+    return c10::make_intrusive<c10d::PrefixStore>(prefix, c10::make_intrusive<c10d::TCPStore>(c.master_addr, so));
+  }
+};
+
+Comm::Comm(const DistConfig& cfg) : cfg_(cfg), impl_(std::make_unique<Impl>()) {}
+
+Comm::~Comm() {
+  if (!impl_) return;
+  impl_->stop = true;
+  if (impl_->heartbeat.joinable()) impl_->heartbeat.join();
+}
+
+std::unique_ptr<Comm> Comm::connect(const DistConfig& cfg) {
+  quiet_c10d_logging();
+  std::unique_ptr<Comm> c(new Comm(cfg));
+  Impl& m = *c->impl_;
+  const auto timeout = std::chrono::milliseconds(int64_t(cfg.timeout_s * 1000));
+  const std::string where = cfg.master_addr + ":" + std::to_string(cfg.master_port);
+  const std::string me = "rank " + std::to_string(cfg.rank);
+  // torchrun's agent store serves every attempt; keys of this one live under its prefix.
+  m.prefix = (cfg.agent_store ? "/worker/attempt_" + std::to_string(cfg.restart_count) + "/" : std::string()) + "reefgen/";
+  const bool host = cfg.rank == 0 && !cfg.agent_store;
+  try {
+    m.store = m.client(cfg, host, timeout);
+  } catch (const std::exception& e) {
+    if (host)
+      throw Error(me + ": cannot host the rendezvous store on " + where + " (" + first_line_of(e.what()) +
+                  "); choose a free MASTER_PORT (or --master-port)");
+    throw Error(me + ": cannot reach the rendezvous store at " + where + " within " + std::to_string(int(cfg.timeout_s)) +
+                " s (from " + cfg.source + "); start rank 0 first, or fix MASTER_ADDR/MASTER_PORT (--master-addr/--master-port)");
+  }
+  // Liveness: every rank bumps its counter twice a second on its own
+  // connection, so a failed collective can tell a dead or stopped peer.
+  try {
+    auto hb = m.client(cfg, false, timeout);
+    m.store->set("joined/" + std::to_string(cfg.rank), std::vector<uint8_t>{1});
+    m.heartbeat = std::thread([&m, hb, r = cfg.rank] {
+      try {
+        while (!m.stop) {
+          hb->add("hb/" + std::to_string(r), 1);
+          for (int i = 0; i < 5 && !m.stop; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        }
+      } catch (...) {  // the store is gone: the next collective reports it
+      }
+    });
+  } catch (const std::exception& e) {
+    throw Error(me + ": the rendezvous store at " + where + " stopped answering (" + first_line_of(e.what()) + ")");
+  }
+  try {
+    auto opts = c10d::ProcessGroupGloo::Options::create(timeout);
+    const char* ifname = std::getenv("GLOO_SOCKET_IFNAME");
+    const bool loopback = cfg.master_addr == "localhost" || cfg.master_addr.rfind("127.", 0) == 0;
+    if (ifname && *ifname)
+      opts->devices.push_back(c10d::ProcessGroupGloo::createDeviceForInterface(ifname));
+    else if (loopback)
+      opts->devices.push_back(c10d::ProcessGroupGloo::createDeviceForHostname("127.0.0.1"));
+    else
+      opts->devices.push_back(c10d::ProcessGroupGloo::createDefaultDevice());
+    m.pg = c10::make_intrusive<c10d::ProcessGroupGloo>(m.store, cfg.rank, cfg.world_size, opts);
+  } catch (const std::exception& e) {
+    std::vector<int> missing;
+    try {
+      for (int r = 0; r < cfg.world_size; ++r)
+        if (!m.store->check({"joined/" + std::to_string(r)})) missing.push_back(r);
+    } catch (...) {
+    }
+    if (!missing.empty())
+      throw Error(me + ": rank" + (missing.size() > 1 ? "s " : " ") + ranks_list(missing) + " did not join within " +
+                  std::to_string(int(cfg.timeout_s)) + " s; start all " + std::to_string(cfg.world_size) +
+                  " ranks with the same MASTER_ADDR:MASTER_PORT (" + where + ")");
+    throw Error(me + ": cannot connect to the other ranks (" + first_line_of(e.what()) +
+                "); check that the hosts reach each other (GLOO_SOCKET_IFNAME names the interface)");
+  }
+  return c;
+}
+
+void Comm::fail(const std::string& what, const std::exception& e) {
+  const std::string me = "rank " + std::to_string(cfg_.rank);
+  // Who stopped? Read every rank's heartbeat twice, 2 s apart, on a fresh
+  // connection (ours may be the one that broke).
+  std::vector<int> silent;
+  try {
+    auto s = impl_->client(cfg_, false, std::chrono::milliseconds(5000));
+    std::vector<int64_t> before(size_t(cfg_.world_size));
+    for (int r = 0; r < cfg_.world_size; ++r) before[size_t(r)] = s->add("hb/" + std::to_string(r), 0);
+    std::this_thread::sleep_for(std::chrono::seconds(2));
+    for (int r = 0; r < cfg_.world_size; ++r)
+      if (r != cfg_.rank && s->add("hb/" + std::to_string(r), 0) == before[size_t(r)]) silent.push_back(r);
+  } catch (const std::exception&) {
+    if (!cfg_.agent_store && cfg_.rank != 0)
+      throw Error(me + ": rank 0 (which hosts the rendezvous store) is gone (killed or crashed) during " + what +
+                  "; the job is stopped");
+    throw Error(me + ": the rendezvous store at " + cfg_.master_addr + ":" + std::to_string(cfg_.master_port) +
+                " is gone during " + what + "; the job is stopped");
+  }
+  if (!silent.empty())
+    throw Error(me + ": rank" + (silent.size() > 1 ? "s " : " ") + ranks_list(silent) +
+                " stopped answering (killed or hung) during " + what + "; the job is stopped (" +
+                first_line_of(e.what()) + ")");
+  throw Error(me + ": " + what + " failed: " + first_line_of(e.what()));
+}
+
+namespace {
+template <class F>
+double timed(F f) {
+  const auto t0 = std::chrono::steady_clock::now();
+  f();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+}  // namespace
+
+void Comm::broadcast(std::vector<torch::Tensor> tensors, const std::string& what) {
+  try {
+    seconds_ += timed([&] {
+      c10d::BroadcastOptions o;
+      o.rootRank = 0;
+      for (auto& t : tensors) {
+        std::vector<at::Tensor> one = {t};
+        impl_->pg->broadcast(one, o)->wait();
+      }
+    });
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    fail(what, e);
+  }
+}
+
+std::string Comm::broadcast_string(const std::string& s, const std::string& what) {
+  torch::Tensor n = torch::tensor({int64_t(s.size())}, torch::kInt64);
+  broadcast({n}, what);
+  torch::Tensor bytes = torch::zeros({n.item<int64_t>()}, torch::kUInt8);
+  if (rank() == 0) std::memcpy(bytes.data_ptr(), s.data(), s.size());
+  if (bytes.numel()) broadcast({bytes}, what);
+  return std::string(static_cast<const char*>(bytes.data_ptr()), size_t(bytes.numel()));
+}
+
+void Comm::allreduce_sum(std::vector<torch::Tensor> tensors, const std::string& what) {
+  try {
+    seconds_ += timed([&] {
+      for (auto& t : tensors) {
+        std::vector<at::Tensor> one = {t};
+        impl_->pg->allreduce(one)->wait();
+        bytes_ += t.numel() * t.element_size();
+      }
+    });
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    fail(what, e);
+  }
+}
+
+void Comm::average_gradients(const std::vector<torch::Tensor>& params, const std::string& what, double bucket_mb) {
+  if (world_size() == 1) return;
+  std::vector<torch::Tensor> grads;
+  for (const auto& p : params)
+    if (p.grad().defined()) grads.push_back(p.grad());
+  const int64_t cap = std::max<int64_t>(1, int64_t(bucket_mb * 1e6 / 4));
+  struct Bucket {
+    std::vector<torch::Tensor> members;
+    torch::Tensor flat;  // {sum of numel}
+    c10::intrusive_ptr<c10d::Work> work;
+  };
+  std::vector<Bucket> buckets;
+  try {
+    seconds_ += timed([&] {
+      for (size_t i = 0; i < grads.size();) {
+        Bucket b;
+        int64_t n = 0;
+        while (i < grads.size() && (b.members.empty() || n + grads[i].numel() <= cap)) {
+          n += grads[i].numel();
+          b.members.push_back(grads[i++]);
+        }
+        std::vector<torch::Tensor> views;
+        for (auto& g : b.members) views.push_back(g.reshape({-1}));
+        b.flat = torch::cat(views);  // packed while the previous bucket is on the wire
+        std::vector<at::Tensor> one = {b.flat};
+        b.work = impl_->pg->allreduce(one);
+        bytes_ += n * int64_t(b.flat.element_size());
+        buckets.push_back(std::move(b));
+      }
+      const double inv = 1.0 / double(world_size());
+      for (auto& b : buckets) {
+        b.work->wait();
+        b.flat.mul_(inv);
+        int64_t off = 0;
+        for (auto& g : b.members) {
+          g.copy_(b.flat.narrow(0, off, g.numel()).view_as(g));
+          off += g.numel();
+        }
+      }
+    });
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    fail(what, e);
+  }
+}
+
+namespace {
+// sum over ranks; backward: the sum over ranks of the incoming gradients
+// (each rank's loss depends on every rank's input through the sum).
+struct ReplicaSumFn : torch::autograd::Function<ReplicaSumFn> {
+  static torch::Tensor forward(torch::autograd::AutogradContext* ctx, const torch::Tensor& x, int64_t comm) {
+    ctx->saved_data["comm"] = comm;
+    torch::Tensor y = x.detach().contiguous().clone();
+    reinterpret_cast<Comm*>(comm)->allreduce_sum({y}, "the synchronised BatchNorm statistics");
+    return y;
+  }
+  static torch::autograd::variable_list backward(torch::autograd::AutogradContext* ctx,
+                                                 torch::autograd::variable_list g) {
+    Comm* comm = reinterpret_cast<Comm*>(ctx->saved_data["comm"].toInt());
+    torch::Tensor gx = g[0].contiguous().clone();
+    comm->allreduce_sum({gx}, "the synchronised BatchNorm gradients");
+    return {gx, torch::Tensor()};
+  }
+};
+}  // namespace
+
+torch::Tensor Comm::replica_sum(const torch::Tensor& x) {
+  return ReplicaSumFn::apply(x, reinterpret_cast<int64_t>(this));
+}
+
+double Comm::take_collective_seconds() {
+  const double s = seconds_;
+  seconds_ = 0;
+  return s;
+}
+
+int launch_local_ranks(const LocalLaunch& l) {
+  if (l.nproc < 2 || l.nproc > 256) throw Error("--nproc " + std::to_string(l.nproc) + ": must be in [2, 256]");
+  quiet_c10d_logging();
+  c10d::TCPStoreOptions so;
+  so.port = 0;  // any free port
+  so.isServer = true;
+  so.waitWorkers = false;
+  c10::intrusive_ptr<c10d::TCPStore> store;
+  try {
+    store = c10::make_intrusive<c10d::TCPStore>("127.0.0.1", so);
+  } catch (const std::exception& e) {
+    throw Error("--nproc: cannot host the rendezvous store on 127.0.0.1 (" + first_line_of(e.what()) + ")");
+  }
+  const std::string port = std::to_string(store->getPort());
+
+  const char* ours[] = {"RANK=", "WORLD_SIZE=", "LOCAL_RANK=", "LOCAL_WORLD_SIZE=", "MASTER_ADDR=", "MASTER_PORT=",
+                        "TORCHELASTIC_USE_AGENT_STORE=", "TORCHELASTIC_RESTART_COUNT=", "SLURM_PROCID=", "SLURM_NTASKS="};
+  std::vector<std::string> base_env;
+  for (char** e = ::environ; *e; ++e) {
+    bool drop = false;
+    for (const char* k : ours) drop = drop || std::strncmp(*e, k, std::strlen(k)) == 0;
+    if (!drop) base_env.push_back(*e);
+  }
+  std::vector<pid_t> pids(size_t(l.nproc), -1);
+  std::vector<bool> done(size_t(l.nproc), false);
+  auto signal_all = [&](int sig) {
+    for (size_t r = 0; r < pids.size(); ++r)
+      if (pids[r] > 0 && !done[r]) ::kill(pids[r], sig);
+  };
+  for (int r = 0; r < l.nproc; ++r) {
+    std::vector<std::string> env = base_env;
+    for (const std::string& kv : {"RANK=" + std::to_string(r), "WORLD_SIZE=" + std::to_string(l.nproc),
+                                  "LOCAL_RANK=" + std::to_string(r), "LOCAL_WORLD_SIZE=" + std::to_string(l.nproc),
+                                  std::string("MASTER_ADDR=127.0.0.1"), "MASTER_PORT=" + port,
+                                  std::string("TORCHELASTIC_USE_AGENT_STORE=True"),
+                                  std::string("TORCHELASTIC_RESTART_COUNT=0")})
+      env.push_back(kv);
+    std::vector<char*> envp, argv;
+    for (auto& e : env) envp.push_back(e.data());
+    envp.push_back(nullptr);
+    std::string exe = l.exe;
+    std::vector<std::string> args = l.args;
+    argv.push_back(exe.data());
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    pid_t pid = -1;
+    const int err = ::posix_spawn(&pid, exe.c_str(), nullptr, nullptr, argv.data(), envp.data());
+    if (err) {
+      signal_all(SIGTERM);
+      for (pid_t q : pids)
+        if (q > 0) ::waitpid(q, nullptr, 0);
+      throw Error(l.exe + ": cannot start rank " + std::to_string(r) + " (" + std::strerror(err) + ")");
+    }
+    pids[size_t(r)] = pid;
+    if (l.on_log) l.on_log("rank " + std::to_string(r) + ": pid " + std::to_string(pid));
+  }
+  std::string failure;
+  bool interrupted = false, forwarded = false;
+  int remaining = l.nproc;
+  auto failed_at = std::chrono::steady_clock::time_point{};
+  while (remaining > 0) {
+    int status = 0;
+    const pid_t pid = ::waitpid(-1, &status, WNOHANG);
+    if (pid > 0) {
+      const auto it = std::find(pids.begin(), pids.end(), pid);
+      if (it == pids.end()) continue;
+      const size_t r = size_t(it - pids.begin());
+      done[r] = true;
+      --remaining;
+      const bool ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+      const bool stopped = WIFEXITED(status) && WEXITSTATUS(status) == 130;
+      if (stopped) interrupted = true;
+      if (!ok && !stopped && failure.empty()) {
+        failure = "rank " + std::to_string(r) +
+                  (WIFSIGNALED(status) ? " was killed by signal " + std::to_string(WTERMSIG(status)) + " (" +
+                                             strsignal(WTERMSIG(status)) + ")"
+                                       : " failed with exit code " + std::to_string(WEXITSTATUS(status)));
+        signal_all(SIGTERM);
+        failed_at = std::chrono::steady_clock::now();
+      }
+      continue;
+    }
+    if (l.stop && l.stop->load() && !forwarded) {
+      signal_all(SIGTERM);  // each rank checkpoints after the same step
+      forwarded = true;
+    }
+    if (!failure.empty() &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - failed_at).count() > l.grace_s)
+      signal_all(SIGKILL);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  if (!failure.empty()) throw Error(failure + "; the other ranks were stopped (its own message is above)");
+  return interrupted ? 130 : 0;
+}
+
+}  // namespace reefgen::train
