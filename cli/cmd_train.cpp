@@ -74,6 +74,7 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
     std::optional<std::string> engine, precision;
     std::optional<int> batch_size, log_every;
     int nproc = 1;
+    double bucket_mb = 4;
     train::DistFlags dist;
   };
   auto a = std::make_shared<Args>();
@@ -108,6 +109,9 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--dist-timeout", a->dist.timeout_s,
                   "Seconds before a silent rank fails the job (default 300; also the wait for all ranks to join)")
       ->check(finite_in(0.1, 86400));
+  sub->add_option("--bucket-mb", a->bucket_mb,
+                  "Data-parallel: gradients all-reduced in buckets of this many MB as backward produces them")
+      ->check(finite_in(1e-6, 1024));
   sub->add_option("--engine", a->engine, "Convolutions: onednn (default, faster) or torch (LibTorch's own)")
       ->check(CLI::IsMember({"onednn", "torch"}));
   sub->add_option("--precision", a->precision,
@@ -158,6 +162,7 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
             run.max_steps = a->max_steps;
             run.stop = &stop_requested();
             run.dist = dist;
+            run.bucket_mb = a->bucket_mb;
             const bool lead = dist.rank == 0;  // the other ranks say nothing but errors
             const bool tty = !g.quiet && lead && ::isatty(2);
             run.on_step = [&](const train::StepReport& r) {

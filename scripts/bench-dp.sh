@@ -5,7 +5,8 @@
 # Prints steps/s medians, their ratio and the all-reduce time per step.
 #   scripts/bench-dp.sh DATA [CONFIG...]     (default configs: paper, shipped)
 # DATA: a 256² dataset (reefgen dataset build). Steps: STEPS (default 30, the
-# first log window of 5 is dropped as warm-up).
+# first log window of 5 is dropped as warm-up). DP_FLAGS: extra flags for the
+# 2-rank runs, e.g. DP_FLAGS="--bucket-mb 4".
 set -euo pipefail
 data=${1:?usage: scripts/bench-dp.sh DATA [CONFIG...]}
 shift
@@ -19,14 +20,14 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 echo "cpu: $(lscpu | sed -n 's/^Model name: *//p' | head -1), $(nproc) cores"
 # mean s_per_iter and allreduce_s over the log rows after the first (warm-up) window
-stats() { awk -F, 'NR>2 {s+=$8; a+=$9; n++} END {printf "%.4f %.4f", s/n, a/n}' "$1/log.csv"; }
+stats() { awk -F, 'NR>2 {s+=$8; a+=$9; n++} END {printf "%.4f %.4f\n", s/n, a/n}' "$1/log.csv"; }
 for cfg in "${configs[@]}"; do
   one=() two=() ar=()
   for r in $(seq 1 "$reps"); do
     "$bin" -q train --config "$cfg" --data "$data" --out "$tmp/one$r" --batch-size 2 --threads 2 \
       --max-steps "$steps" --log-every 5 >/dev/null
     "$bin" -q train --config "$cfg" --data "$data" --out "$tmp/two$r" --batch-size 1 --threads 1 --nproc 2 \
-      --max-steps "$steps" --log-every 5 >/dev/null
+      --max-steps "$steps" --log-every 5 ${DP_FLAGS:-} >/dev/null
     read -r s1 _ < <(stats "$tmp/one$r")
     read -r s2 a2 < <(stats "$tmp/two$r")
     one+=("$s1") two+=("$s2") ar+=("$a2")

@@ -317,7 +317,7 @@ TEST(DataParallel, TwoRanksEqualOneRankWithTheGlobalBatch) {
   two.threads = 1;
   const fs::path cfg = write_config(base, two);
   ASSERT_EQ(run_cli({"train", "--config", cfg.string(), "--data", data.string(), "--out", (base / "two").string(),
-                     "--nproc", "2", "--dist-timeout", "60"},
+                     "--nproc", "2", "--dist-timeout", "60", "--bucket-mb", "0.002"},  // 500 floats: many buckets
                     {}, base / "two.err"),
             0)
       << read_text(base / "two.err");

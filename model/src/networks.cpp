@@ -45,19 +45,24 @@ namespace {
 // BatchNorm in training mode over the global batch of all replicas: the
 // same maths as BatchNorm2d (biased variance to normalise, unbiased in the
 // running estimate), written with differentiable ops around `sum` so that
-// autograd all-reduces the gradient terms too. Two passes (mean, then the
-// centred squares) rather than E[x²]−E[x]², which cancels in float32.
+// autograd all-reduces the gradient terms too. One all-reduce each way per
+// layer: the sums of x − c and (x − c)² and the element count travel
+// together. The shift c is the running mean, near the batch mean once
+// training is under way, so E[(x−c)²] − E[x−c]² does not cancel in float32
+// (at the start both are near 0: pix2pix's initialisation centres them).
 torch::Tensor sync_batch_norm(const torch::Tensor& x, nn::BatchNorm2dImpl& bn, const ReplicaSum& sum) {
   const int64_t C = x.size(1);  // x {N,C,H,W}
   const double local_n = double(x.numel() / C);
-  // The element count travels with the sums: one all-reduce for both.
-  const torch::Tensor stats = sum(torch::cat({x.sum({0, 2, 3}), torch::full({1}, local_n, x.options())}));  // {C+1}
-  const double n = stats[C].item<double>();
-  const torch::Tensor mean = stats.narrow(0, 0, C) / n;           // {C}
-  const torch::Tensor xc = x - mean.view({1, C, 1, 1});           // {N,C,H,W}
-  const torch::Tensor var = sum(xc.square().sum({0, 2, 3})) / n;  // {C}, biased
+  const torch::Tensor c = bn.options.track_running_stats() ? bn.running_mean.detach() : torch::zeros({C}, x.options());
+  const torch::Tensor xs = x - c.view({1, C, 1, 1});  // {N,C,H,W}
+  const torch::Tensor stats = sum(torch::cat(
+      {xs.sum({0, 2, 3}), xs.square().sum({0, 2, 3}), torch::full({1}, local_n, x.options())}));  // {2C+1}
+  const double n = stats[2 * C].item<double>();
+  const torch::Tensor m1 = stats.narrow(0, 0, C) / n, m2 = stats.narrow(0, C, C) / n;  // {C}
+  const torch::Tensor mean = c + m1;
+  const torch::Tensor var = (m2 - m1.square()).clamp_min(0);  // biased
   const double eps = bn.options.eps();
-  torch::Tensor y = xc * torch::rsqrt(var + eps).view({1, C, 1, 1});
+  torch::Tensor y = (x - mean.view({1, C, 1, 1})) * torch::rsqrt(var + eps).view({1, C, 1, 1});
   if (bn.options.affine()) y = y * bn.weight.view({1, C, 1, 1}) + bn.bias.view({1, C, 1, 1});
   if (bn.options.track_running_stats()) {
     torch::NoGradGuard no_grad;

@@ -36,6 +36,15 @@ void Pix2Pix::set_lr(double lr) {
     for (auto& group : opt->param_groups()) static_cast<torch::optim::AdamOptions&>(group.options()).lr(lr);
 }
 
+void Pix2Pix::set_comm(Comm* comm, double bucket_mb) {
+  comm_ = comm;
+  reduce_g_.reset();
+  reduce_d_.reset();
+  if (!comm || comm->world_size() == 1) return;
+  reduce_g_ = std::make_shared<GradientReducer>(*comm, g_->parameters(), "the all-reduce of G's gradients", bucket_mb);
+  reduce_d_ = std::make_shared<GradientReducer>(*comm, d_->parameters(), "the all-reduce of D's gradients", bucket_mb);
+}
+
 Losses Pix2Pix::step(const torch::Tensor& label, const torch::Tensor& height) {
   g_->train();
   d_->train();
@@ -66,8 +75,9 @@ Losses Pix2Pix::step(const torch::Tensor& label, const torch::Tensor& height) {
   const torch::Tensor pred_real = d_->forward(torch::cat({label, height}, 1));
   const torch::Tensor d_real = F::binary_cross_entropy_with_logits(pred_real, torch::ones_like(pred_real));
   // Halved so D learns more slowly than G (pix2pix).
+  if (reduce_d_) reduce_d_->begin();
   ((d_fake + d_real) * 0.5).backward();
-  if (comm_) comm_->average_gradients(d_->parameters(), "the all-reduce of D's gradients");
+  if (reduce_d_) reduce_d_->end();  // D's gradients: the mean over the ranks
   opt_d_->step();
 
   // G step against a frozen D: no gradients accumulate in D's parameters.
@@ -76,8 +86,9 @@ Losses Pix2Pix::step(const torch::Tensor& label, const torch::Tensor& height) {
   const torch::Tensor pred = d_->forward(torch::cat({label, fake}, 1));
   const torch::Tensor g_gan = F::binary_cross_entropy_with_logits(pred, torch::ones_like(pred));
   const torch::Tensor g_l1 = F::l1_loss(fake, height) * options_.lambda_l1;
+  if (reduce_g_) reduce_g_->begin();
   (g_gan + g_l1).backward();
-  if (comm_) comm_->average_gradients(g_->parameters(), "the all-reduce of G's gradients");
+  if (reduce_g_) reduce_g_->end();
   opt_g_->step();
   set_requires_grad(*d_, true);
 

@@ -559,7 +559,9 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
                (comm ? " per rank; " + std::to_string(world) + " ranks (" + run.dist.source + "), global batch " +
                            std::to_string(Bg)
                      : std::string()));
-  p.set_comm(comm.get());
+  if (!(run.bucket_mb > 0 && run.bucket_mb <= 1024))
+    throw Error("--bucket-mb " + fmt(run.bucket_mb) + ": must be in (0, 1024]");
+  p.set_comm(comm.get(), run.bucket_mb);
   Prefetcher loader(make_batch, step, end, params.loader_threads, params.prefetch);
   using clock = std::chrono::steady_clock;
   while (step < end) {

@@ -66,9 +66,6 @@ class Comm {
   std::string broadcast_string(const std::string& s, const std::string& what);
   // In place: the sum over ranks (float32 or float64 tensors).
   void allreduce_sum(std::vector<torch::Tensor> tensors, const std::string& what);
-  // Gradients of `params` replaced by their mean over ranks, in flat buckets
-  // of about `bucket_mb` all-reduced while the next bucket is packed.
-  void average_gradients(const std::vector<torch::Tensor>& params, const std::string& what, double bucket_mb = 25);
   // The differentiable sum over ranks (model::ReplicaSum) for synchronised BatchNorm.
   torch::Tensor replica_sum(const torch::Tensor& x);
 
@@ -80,12 +77,34 @@ class Comm {
   struct Impl;
 
  private:
+  friend class GradientReducer;
   explicit Comm(const DistConfig& cfg);
   [[noreturn]] void fail(const std::string& what, const std::exception& e);
   DistConfig cfg_;
   std::unique_ptr<Impl> impl_;
   double seconds_ = 0;
   int64_t bytes_ = 0;
+};
+
+// Averages the gradients of `params` over the ranks while backward is still
+// running: every parameter's gradient accumulator gets a hook, and once all
+// gradients of a bucket (about `bucket_mb`) are in, the bucket is packed and
+// its all-reduce starts on Gloo's threads as backward goes on. Buckets
+// follow the order in which gradients became ready on rank 0 in the first
+// step (broadcast, so every rank issues the same collectives in the same
+// order); that first step all-reduces after backward.
+class GradientReducer {
+ public:
+  GradientReducer(Comm& comm, std::vector<torch::Tensor> params, std::string what, double bucket_mb = 4);
+  ~GradientReducer();
+  GradientReducer(const GradientReducer&) = delete;
+  GradientReducer& operator=(const GradientReducer&) = delete;
+  void begin();  // before backward
+  void end();    // after backward: every gradient is the mean over the ranks
+
+ private:
+  struct State;
+  std::unique_ptr<State> s_;
 };
 
 // `reefgen train --nproc N`: N ranks of `exe args…` on this machine, on

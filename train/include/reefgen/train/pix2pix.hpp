@@ -10,6 +10,7 @@
 namespace reefgen::train {
 
 class Comm;
+class GradientReducer;
 
 struct Pix2PixOptions {
   model::UNetOptions g;       // generator: 3 -> 1 channels
@@ -34,7 +35,7 @@ class Pix2Pix {
   // Data-parallel (distributed.hpp): BatchNorm over the global batch and
   // gradients averaged over the ranks before each Adam step. nullptr (the
   // default): this process alone. The Comm must outlive the steps.
-  void set_comm(Comm* comm) { comm_ = comm; }
+  void set_comm(Comm* comm, double bucket_mb = 4);
   double lr() const { return lr_; }
 
   const Pix2PixOptions& options() const { return options_; }
@@ -50,6 +51,7 @@ class Pix2Pix {
   std::unique_ptr<FusedAdam> opt_g_, opt_d_;
   double lr_;
   Comm* comm_ = nullptr;
+  std::shared_ptr<GradientReducer> reduce_g_, reduce_d_;  // with comm_
 };
 
 }  // namespace reefgen::train

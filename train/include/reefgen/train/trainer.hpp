@@ -45,6 +45,10 @@ struct RunOptions {
   // the global batch is batch_size × world_size, sample for sample the batch
   // of a one-process run with that batch size.
   DistConfig dist;
+  // Gradients travel in buckets of about this many MB, each all-reduced as
+  // soon as backward has produced it (PyTorch DDP's bucket_cap_mb). Changes
+  // the speed only, (0, 1024]; 4 beat 1 and 25 on 2 cores (docs/BENCHMARKS.md).
+  double bucket_mb = 4;
 };
 
 struct RunResult {
