@@ -475,3 +475,37 @@ TEST(DataParallel, BadEnvironmentWritesNothing) {
   fs::remove_all(base);
   fs::remove_all(data);
 }
+
+// Ctrl-C (SIGINT to the launcher): every rank stops after the same step,
+// rank 0 writes the checkpoint, the job exits with 130 and resumes.
+TEST(DataParallel, InterruptStopsEveryRankAfterTheSameStepAndResumes) {
+  const fs::path data = make_dataset("dp_int_data", 10, 2);
+  const fs::path base = temp_dir("dp_int");
+  TrainParams p = dp_params();
+  p.batch_size = 1;
+  p.threads = 1;
+  p.epochs = 1000;
+  p.checkpoint_every = 1;
+  const fs::path cfg = write_config(base, p);
+  const std::vector<std::string> args = {"train", "--config", cfg.string(), "--data", data.string(),
+                                         "--out", (base / "run").string(), "--nproc", "2"};
+  const Proc job = spawn(args, {}, base / "job.err");
+  for (int i = 0; i < 600 && !fs::exists(base / "run" / "checkpoint.pt"); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  ASSERT_TRUE(fs::exists(base / "run" / "checkpoint.pt")) << read_text(base / "job.err");
+  ::kill(job.pid, SIGINT);
+  EXPECT_EQ(wait_for(job, 60), 130) << read_text(base / "job.err");
+  Pix2Pix q(pix2pix_options(p));
+  const int64_t step = load_checkpoint(base / "run" / "checkpoint.pt", q, p, nullptr, nullptr, 2);
+  EXPECT_GE(step, 1);
+  // log.csv ends at the checkpoint's step (nothing after it, nothing lost).
+  const auto rows = losses(base / "run" / "log.csv");
+  EXPECT_EQ(int64_t(rows.size()), step);
+  // --resume continues from there (stopped again by --max-steps).
+  std::vector<std::string> more = args;
+  more.insert(more.end(), {"--resume", "--max-steps", std::to_string(step + 2)});
+  ASSERT_EQ(run_cli(more, {}, base / "resume.err"), 0) << read_text(base / "resume.err");
+  EXPECT_EQ(int64_t(losses(base / "run" / "log.csv").size()), step + 2);
+  fs::remove_all(base);
+  fs::remove_all(data);
+}

@@ -331,7 +331,11 @@ struct GradientReducer::State {
       const torch::Tensor& g = params[i].grad();
       views.push_back(g.defined() ? g.reshape({-1}) : torch::zeros({params[i].numel()}, params[i].options()));
     }
-    InFlight f{b, torch::cat(views), {}};  // {bucket floats}
+    // A gradient as large as a bucket travels in place (no packing and
+    // unpacking passes over it); smaller ones are packed together.
+    const torch::Tensor& g0 = params[buckets[b][0]].grad();
+    const bool in_place = buckets[b].size() == 1 && g0.defined() && g0.is_contiguous();
+    InFlight f{b, in_place ? g0.view({-1}) : torch::cat(views), {}};  // {bucket floats}
     std::vector<at::Tensor> one = {f.flat};
     f.work = comm.impl_->pg->allreduce(one);
     comm.bytes_ += f.flat.numel() * int64_t(f.flat.element_size());
@@ -422,6 +426,8 @@ void GradientReducer::end() {
     for (auto& f : st.in_flight) {
       f.work->wait();
       f.flat.mul_(inv);
+      const torch::Tensor& g0 = st.params[st.buckets[f.bucket][0]].grad();
+      if (g0.defined() && g0.data_ptr() == f.flat.data_ptr()) continue;  // reduced in place
       int64_t off = 0;
       for (size_t i : st.buckets[f.bucket]) {
         torch::Tensor& p = st.params[i];
