@@ -58,7 +58,7 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
       "  reefgen train --data data/paper --out runs/paper --resume     # after Ctrl-C or a crash\n"
       "  reefgen train --config tuned.json --data data/paper --out runs/tuned --init runs/paper/checkpoint.pt\n"
       "  reefgen train --data data/paper --out runs/dp --nproc 2 --threads 1   # 2 data-parallel ranks here\n"
-      "  torchrun --no-python --nnodes 4 --nproc-per-node 1 ... reefgen train --data ... --out ...\n"
+      "  torchrun --no_python --nnodes 4 --nproc_per_node 1 ... reefgen train --data ... --out ...\n"
       "Ctrl-C (SIGINT) or SIGTERM writes a checkpoint and RUN/generator.pt, then exits with 130.\n"
       "Under torchrun (RANK, WORLD_SIZE, MASTER_ADDR, MASTER_PORT) or srun (SLURM_PROCID, SLURM_NTASKS,\n"
       "SLURM_JOB_NODELIST) each process is one rank of a data-parallel job; --batch-size is per rank\n"

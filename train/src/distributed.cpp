@@ -17,15 +17,11 @@
 #include <torch/csrc/distributed/c10d/TCPStore.hpp>
 
 #include "reefgen/io.hpp"
+#include "reefgen/model/archive.hpp"
 
 namespace reefgen::train {
 
 namespace {
-
-std::string first_line_of(const std::string& s) {
-  const std::string l = s.substr(0, s.find('\n'));
-  return l.size() > 300 ? l.substr(0, 300) + "..." : l;
-}
 
 // Strict integer parse: the whole string, within [lo, hi].
 int parse_int(const std::string& name, const std::string& v, long lo, long hi, const std::string& fix) {
@@ -77,7 +73,7 @@ DistConfig dist_config_from(const std::function<const char*(const char*)>& geten
     return v ? std::string(v) : std::string();
   };
   DistConfig c;
-  std::string rank_name = "RANK", world_name = "WORLD_SIZE", addr_name = "MASTER_ADDR", port_name = "MASTER_PORT";
+  std::string rank_name = "RANK", world_name = "WORLD_SIZE", port_name = "MASTER_PORT";
   const std::string fix_env = "fix the launcher's environment or pass --rank/--world-size";
   if (!get("RANK").empty() || !get("WORLD_SIZE").empty()) {
     if (get("RANK").empty() || get("WORLD_SIZE").empty())
@@ -106,7 +102,6 @@ DistConfig dist_config_from(const std::function<const char*(const char*)>& geten
     if (get("MASTER_ADDR").empty()) {
       if (nodes.empty()) throw Error("SLURM_JOB_NODELIST is not set; set MASTER_ADDR to the first node's host name");
       c.master_addr = first_slurm_host(nodes);
-      addr_name = "the first host of SLURM_JOB_NODELIST";
     }
   }
   if (!get("MASTER_ADDR").empty()) c.master_addr = get("MASTER_ADDR");
@@ -114,7 +109,7 @@ DistConfig dist_config_from(const std::function<const char*(const char*)>& geten
     c.master_port = parse_int("MASTER_PORT", get("MASTER_PORT"), 1, 65535, "choose a free TCP port");
   if (flags.rank >= 0) c.rank = flags.rank, rank_name = "--rank";
   if (flags.world_size >= 0) c.world_size = flags.world_size, world_name = "--world-size";
-  if (!flags.master_addr.empty()) c.master_addr = flags.master_addr, addr_name = "--master-addr";
+  if (!flags.master_addr.empty()) c.master_addr = flags.master_addr;
   if (flags.master_port >= 0) c.master_port = flags.master_port, port_name = "--master-port";
   if (flags.timeout_s >= 0) c.timeout_s = flags.timeout_s;
   if (flags.rank >= 0 || flags.world_size >= 0) c.source = "the flags";
@@ -128,7 +123,6 @@ DistConfig dist_config_from(const std::function<const char*(const char*)>& geten
   if (!(c.timeout_s > 0 && c.timeout_s <= 86400))
     throw Error("--dist-timeout " + std::to_string(c.timeout_s) + ": must be in (0, 86400] seconds");
   if (c.local_rank >= c.local_world_size) c.local_world_size = c.local_rank + 1;
-  (void)addr_name;
   return c;
 }
 
@@ -173,7 +167,7 @@ std::unique_ptr<Comm> Comm::connect(const DistConfig& cfg) {
     m.store = m.client(cfg, host, timeout);
   } catch (const std::exception& e) {
     if (host)
-      throw Error(me + ": cannot host the rendezvous store on " + where + " (" + first_line_of(e.what()) +
+      throw Error(me + ": cannot host the rendezvous store on " + where + " (" + model::first_line(e.what()) +
                   "); choose a free MASTER_PORT (or --master-port)");
     throw Error(me + ": cannot reach the rendezvous store at " + where + " within " + std::to_string(int(cfg.timeout_s)) +
                 " s (from " + cfg.source + "); start rank 0 first, or fix MASTER_ADDR/MASTER_PORT (--master-addr/--master-port)");
@@ -193,7 +187,7 @@ std::unique_ptr<Comm> Comm::connect(const DistConfig& cfg) {
       }
     });
   } catch (const std::exception& e) {
-    throw Error(me + ": the rendezvous store at " + where + " stopped answering (" + first_line_of(e.what()) + ")");
+    throw Error(me + ": the rendezvous store at " + where + " stopped answering (" + model::first_line(e.what()) + ")");
   }
   try {
     auto opts = c10d::ProcessGroupGloo::Options::create(timeout);
@@ -217,7 +211,7 @@ std::unique_ptr<Comm> Comm::connect(const DistConfig& cfg) {
       throw Error(me + ": rank" + (missing.size() > 1 ? "s " : " ") + ranks_list(missing) + " did not join within " +
                   std::to_string(int(cfg.timeout_s)) + " s; start all " + std::to_string(cfg.world_size) +
                   " ranks with the same MASTER_ADDR:MASTER_PORT (" + where + ")");
-    throw Error(me + ": cannot connect to the other ranks (" + first_line_of(e.what()) +
+    throw Error(me + ": cannot connect to the other ranks (" + model::first_line(e.what()) +
                 "); check that the hosts reach each other (GLOO_SOCKET_IFNAME names the interface)");
   }
   return c;
@@ -245,8 +239,8 @@ void Comm::fail(const std::string& what, const std::exception& e) {
   if (!silent.empty())
     throw Error(me + ": rank" + (silent.size() > 1 ? "s " : " ") + ranks_list(silent) +
                 " stopped answering (killed or hung) during " + what + "; the job is stopped (" +
-                first_line_of(e.what()) + ")");
-  throw Error(me + ": " + what + " failed: " + first_line_of(e.what()));
+                model::first_line(e.what()) + ")");
+  throw Error(me + ": " + what + " failed: " + model::first_line(e.what()));
 }
 
 namespace {
@@ -488,7 +482,7 @@ int launch_local_ranks(const LocalLaunch& l) {
   try {
     store = c10::make_intrusive<c10d::TCPStore>("127.0.0.1", so);
   } catch (const std::exception& e) {
-    throw Error("--nproc: cannot host the rendezvous store on 127.0.0.1 (" + first_line_of(e.what()) + ")");
+    throw Error("--nproc: cannot host the rendezvous store on 127.0.0.1 (" + model::first_line(e.what()) + ")");
   }
   const std::string port = std::to_string(store->getPort());
 

@@ -372,54 +372,54 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
   const fs::path ckpt = run.out / "checkpoint.pt";
   std::optional<DirLock> lock;
   const fs::path log_csv = run.out / "log.csv", val_csv = run.out / "val.csv";
-  if (lead) {
-  if (run.resume && !fs::exists(ckpt))  // checked before anything is created
-    throw Error(run.out.string() + ": no checkpoint.pt to resume from; start a new run without --resume " +
-                "(in an empty or new --out folder)");
-  if (!run.resume && !run.init_from.empty() && !fs::is_regular_file(run.init_from))
-    throw Error(run.init_from.string() +
-                ": no such checkpoint to start from (--init takes another run's RUN/checkpoint.pt)");
-  ensure_writable_dir(run.out);
-  // One process per run folder: two would interleave log.csv and overwrite
-  // each other's checkpoints.
-  lock.emplace(run.out, "run folder");
-  if (run.resume) {  // temp files of a killed run (kill -9 mid-write) are never completed: drop them
-    remove_stale_temps(run.out);
-    if (fs::is_directory(run.out / "val")) remove_stale_temps(run.out / "val");
-  }
-  // A resumed run reads the same data as before: another size, height range
-  // or number of pairs would change the sample order and what the model means.
-  if (run.resume && fs::exists(run.out / "run.json")) {
-    const json before = read_json(run.out / "run.json");
-    auto differs = [&](const char* key, const json& now) {
-      if (before.contains(key) && before.at(key) != now)
-        throw Error(run.data.string() + ": not the dataset this run was started with (" + key + " " +
-                    before.at(key).dump() + " then, " + now.dump() + " now; " +
-                    before.value("data", std::string("?")) + "); resume with --data " +
-                    before.value("data", std::string("?")) + " or start a new run");
-    };
-    differs("size_px", data.size_px);
-    // The manifest lists every pair with its files' checksums: the same
-    // manifest is the same data, wherever the folder was moved.
-    differs("manifest_fnv64", file_checksum(run.data / "manifest.jsonl"));
-    differs("height_range_m", json::array({data.range.lo_m, data.range.hi_m}));
-    if (before.contains("pairs")) {
-      const json& pb = before.at("pairs");
-      if (pb.value("train", int64_t(-1)) != n)
-        throw Error(run.data.string() + ": not the dataset this run was started with (" +
-                    std::to_string(pb.value("train", int64_t(-1))) + " training pairs then, " + std::to_string(n) +
-                    " now); resume with --data " + before.value("data", std::string("?")) + " or start a new run");
+  if (lead) {  // the run folder: rank 0 alone reads and writes it
+    if (run.resume && !fs::exists(ckpt))  // checked before anything is created
+      throw Error(run.out.string() + ": no checkpoint.pt to resume from; start a new run without --resume " +
+                  "(in an empty or new --out folder)");
+    if (!run.resume && !run.init_from.empty() && !fs::is_regular_file(run.init_from))
+      throw Error(run.init_from.string() +
+                  ": no such checkpoint to start from (--init takes another run's RUN/checkpoint.pt)");
+    ensure_writable_dir(run.out);
+    // One process per run folder: two would interleave log.csv and overwrite
+    // each other's checkpoints.
+    lock.emplace(run.out, "run folder");
+    if (run.resume) {  // temp files of a killed run (kill -9 mid-write) are never completed: drop them
+      remove_stale_temps(run.out);
+      if (fs::is_directory(run.out / "val")) remove_stale_temps(run.out / "val");
+    }
+    // A resumed run reads the same data as before: another size, height range
+    // or number of pairs would change the sample order and what the model means.
+    if (run.resume && fs::exists(run.out / "run.json")) {
+      const json before = read_json(run.out / "run.json");
+      auto differs = [&](const char* key, const json& now) {
+        if (before.contains(key) && before.at(key) != now)
+          throw Error(run.data.string() + ": not the dataset this run was started with (" + key + " " +
+                      before.at(key).dump() + " then, " + now.dump() + " now; " +
+                      before.value("data", std::string("?")) + "); resume with --data " +
+                      before.value("data", std::string("?")) + " or start a new run");
+      };
+      differs("size_px", data.size_px);
+      // The manifest lists every pair with its files' checksums: the same
+      // manifest is the same data, wherever the folder was moved.
+      differs("manifest_fnv64", file_checksum(run.data / "manifest.jsonl"));
+      differs("height_range_m", json::array({data.range.lo_m, data.range.hi_m}));
+      if (before.contains("pairs")) {
+        const json& pb = before.at("pairs");
+        if (pb.value("train", int64_t(-1)) != n)
+          throw Error(run.data.string() + ": not the dataset this run was started with (" +
+                      std::to_string(pb.value("train", int64_t(-1))) + " training pairs then, " + std::to_string(n) +
+                      " now); resume with --data " + before.value("data", std::string("?")) + " or start a new run");
+      }
+    }
+    if (!run.resume && fs::exists(ckpt))
+      throw Error(run.out.string() + ": already holds a run; pass --resume to continue it or choose another --out");
+    // A run that failed before its first checkpoint (full disk, bad data) left
+    // run.json and maybe log rows but nothing to resume: a new run starts over.
+    if (!run.resume) {
+      truncate_log(log_csv, 0);
+      truncate_log(val_csv, 0);
     }
   }
-  if (!run.resume && fs::exists(ckpt))
-    throw Error(run.out.string() + ": already holds a run; pass --resume to continue it or choose another --out");
-  // A run that failed before its first checkpoint (full disk, bad data) left
-  // run.json and maybe log rows but nothing to resume: a new run starts over.
-  if (!run.resume) {
-    truncate_log(log_csv, 0);
-    truncate_log(val_csv, 0);
-  }
-  }  // lead
 
   torch::manual_seed(params.seed);  // weight initialisation
   Pix2Pix p(pix2pix_options(params));
@@ -496,8 +496,8 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
 
   // Fixed validation samples (the val split, else the first training pairs), no jitter.
   const std::vector<PairRef>& val = data.val.empty() ? data.train : data.val;
-  std::vector<Sample> val_fixed;
-  for (int i = 0; i < std::min<int>(params.val_samples, int(val.size())); ++i)
+  std::vector<Sample> val_fixed;  // rank 0 validates
+  for (int i = 0; lead && i < std::min<int>(params.val_samples, int(val.size())); ++i)
     val_fixed.push_back(load_sample(data, val[size_t(i)], {}, 0));
 
   const double metres_per_unit = (data.range.hi_m - data.range.lo_m) / 2.0;
