@@ -509,3 +509,38 @@ TEST(DataParallel, InterruptStopsEveryRankAfterTheSameStepAndResumes) {
   fs::remove_all(base);
   fs::remove_all(data);
 }
+
+// A hung rank (SIGSTOP: alive, silent): the survivor's collective times out
+// after --dist-timeout and it names the silent rank; the launcher stops the
+// job (SIGKILL after its grace period) instead of waiting forever.
+TEST(DataParallel, HungRankTimesOutNamingIt) {
+  const fs::path data = make_dataset("dp_hang_data", 10, 2);
+  const fs::path base = temp_dir("dp_hang");
+  TrainParams p = dp_params();
+  p.batch_size = 1;
+  p.threads = 1;
+  p.epochs = 1000;
+  p.checkpoint_every = 1;
+  const fs::path cfg = write_config(base, p);
+  const Proc job = spawn({"train", "--config", cfg.string(), "--data", data.string(), "--out", (base / "run").string(),
+                          "--nproc", "2", "--dist-timeout", "4"},
+                         {}, base / "job.err");
+  pid_t rank1 = -1;
+  for (int i = 0; i < 600 && (rank1 < 0 || !fs::exists(base / "run" / "checkpoint.pt")); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    const std::string err = read_text(base / "job.err");
+    const size_t at = err.find("rank 1: pid ");
+    if (at != std::string::npos) rank1 = pid_t(std::stol(err.substr(at + 12)));
+  }
+  ASSERT_GT(rank1, 0) << read_text(base / "job.err");
+  ASSERT_TRUE(fs::exists(base / "run" / "checkpoint.pt")) << read_text(base / "job.err");
+  ::kill(rank1, SIGSTOP);
+  const int code = wait_for(job, 90);
+  const std::string err = read_text(base / "job.err");
+  ::kill(rank1, SIGKILL);  // in case the launcher did not
+  EXPECT_NE(code, 0) << err;
+  EXPECT_NE(code, -1) << "the job hung: " << err;
+  EXPECT_NE(err.find("rank 0: rank 1 stopped answering"), std::string::npos) << err;
+  fs::remove_all(base);
+  fs::remove_all(data);
+}
