@@ -400,45 +400,62 @@ TEST(DataParallel, ResumeAcrossWorldSizes) {
   fs::remove_all(data);
 }
 
+// A 2-rank job far longer than any test (--nproc 2, a checkpoint per step),
+// returned once training is under way: the launcher has named rank 1's pid
+// and rank 0 has written a checkpoint.
+struct LongJob {
+  fs::path data, base;
+  TrainParams params;
+  std::vector<std::string> args;
+  Proc job;
+  pid_t rank1 = -1;
+};
+LongJob start_long_job(const std::string& name, const std::vector<std::string>& extra) {
+  LongJob j;
+  j.data = make_dataset(name + "_data", 10, 2);
+  j.base = temp_dir(name);
+  j.params = dp_params();
+  j.params.batch_size = 1;
+  j.params.threads = 1;
+  j.params.epochs = 1000;
+  j.params.checkpoint_every = 1;
+  const fs::path cfg = write_config(j.base, j.params);
+  j.args = {"train", "--config", cfg.string(), "--data", j.data.string(), "--out", (j.base / "run").string(), "--nproc", "2"};
+  std::vector<std::string> all = j.args;
+  all.insert(all.end(), extra.begin(), extra.end());
+  j.job = spawn(all, {}, j.base / "job.err");
+  for (int i = 0; i < 600 && (j.rank1 < 0 || !fs::exists(j.base / "run" / "checkpoint.pt")); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    const std::string err = read_text(j.base / "job.err");
+    const size_t at = err.find("rank 1: pid ");
+    if (at != std::string::npos) j.rank1 = pid_t(std::stol(err.substr(at + 12)));
+  }
+  return j;
+}
+
 // kill -9 of one rank mid-run: the job ends within the timeout, non-zero,
 // with the launcher and the surviving rank both naming the dead one.
 TEST(DataParallel, KilledRankFailsTheJobNamingIt) {
-  const fs::path data = make_dataset("dp_kill_data", 10, 2);
-  const fs::path base = temp_dir("dp_kill");
-  TrainParams p = dp_params();
-  p.batch_size = 1;
-  p.threads = 1;
-  p.epochs = 1000;  // far longer than the test
-  p.checkpoint_every = 1;
-  const fs::path cfg = write_config(base, p);
-  const Proc job = spawn({"train", "--config", cfg.string(), "--data", data.string(), "--out", (base / "run").string(),
-                          "--nproc", "2", "--dist-timeout", "20"},
-                         {}, base / "job.err");
-  // The launcher names each rank's pid; wait for training to be under way.
-  pid_t rank1 = -1;
-  for (int i = 0; i < 600 && (rank1 < 0 || !fs::exists(base / "run" / "checkpoint.pt")); ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    const std::string err = read_text(base / "job.err");
-    const size_t at = err.find("rank 1: pid ");
-    if (at != std::string::npos) rank1 = pid_t(std::stol(err.substr(at + 12)));
-  }
-  ASSERT_GT(rank1, 0) << read_text(base / "job.err");
-  ASSERT_TRUE(fs::exists(base / "run" / "checkpoint.pt")) << read_text(base / "job.err");
+  const LongJob j = start_long_job("dp_kill", {"--dist-timeout", "20"});
+  const Proc& job = j.job;
+  const pid_t rank1 = j.rank1;
+  ASSERT_GT(rank1, 0) << read_text(j.base / "job.err");
+  ASSERT_TRUE(fs::exists(j.base / "run" / "checkpoint.pt")) << read_text(j.base / "job.err");
   const auto t0 = std::chrono::steady_clock::now();
   ::kill(rank1, SIGKILL);
   const int code = wait_for(job, 60);
   const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const std::string err = read_text(base / "job.err");
+  const std::string err = read_text(j.base / "job.err");
   EXPECT_NE(code, 0) << err;
   EXPECT_NE(code, -1) << "the job hung after a rank was killed: " << err;
   EXPECT_LT(took, 30) << err;
   EXPECT_NE(err.find("rank 1 was killed by signal 9"), std::string::npos) << err;
   EXPECT_NE(err.find("rank 0: rank 1 stopped answering"), std::string::npos) << err;
   // The last checkpoint is whole: the run can be resumed.
-  Pix2Pix q(pix2pix_options(p));
-  EXPECT_GE(load_checkpoint(base / "run" / "checkpoint.pt", q, p, nullptr, nullptr, 2), 1);
-  fs::remove_all(base);
-  fs::remove_all(data);
+  Pix2Pix q(pix2pix_options(j.params));
+  EXPECT_GE(load_checkpoint(j.base / "run" / "checkpoint.pt", q, j.params, nullptr, nullptr, 2), 1);
+  fs::remove_all(j.base);
+  fs::remove_all(j.data);
 }
 
 // A bad environment: one line naming the variable, non-zero, nothing written.
@@ -479,19 +496,10 @@ TEST(DataParallel, BadEnvironmentWritesNothing) {
 // Ctrl-C (SIGINT to the launcher): every rank stops after the same step,
 // rank 0 writes the checkpoint, the job exits with 130 and resumes.
 TEST(DataParallel, InterruptStopsEveryRankAfterTheSameStepAndResumes) {
-  const fs::path data = make_dataset("dp_int_data", 10, 2);
-  const fs::path base = temp_dir("dp_int");
-  TrainParams p = dp_params();
-  p.batch_size = 1;
-  p.threads = 1;
-  p.epochs = 1000;
-  p.checkpoint_every = 1;
-  const fs::path cfg = write_config(base, p);
-  const std::vector<std::string> args = {"train", "--config", cfg.string(), "--data", data.string(),
-                                         "--out", (base / "run").string(), "--nproc", "2"};
-  const Proc job = spawn(args, {}, base / "job.err");
-  for (int i = 0; i < 600 && !fs::exists(base / "run" / "checkpoint.pt"); ++i)
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  const LongJob j = start_long_job("dp_int", {});
+  const Proc& job = j.job;
+  const fs::path& base = j.base;
+  const TrainParams& p = j.params;
   ASSERT_TRUE(fs::exists(base / "run" / "checkpoint.pt")) << read_text(base / "job.err");
   ::kill(job.pid, SIGINT);
   EXPECT_EQ(wait_for(job, 60), 130) << read_text(base / "job.err");
@@ -502,45 +510,29 @@ TEST(DataParallel, InterruptStopsEveryRankAfterTheSameStepAndResumes) {
   const auto rows = losses(base / "run" / "log.csv");
   EXPECT_EQ(int64_t(rows.size()), step);
   // --resume continues from there (stopped again by --max-steps).
-  std::vector<std::string> more = args;
+  std::vector<std::string> more = j.args;
   more.insert(more.end(), {"--resume", "--max-steps", std::to_string(step + 2)});
   ASSERT_EQ(run_cli(more, {}, base / "resume.err"), 0) << read_text(base / "resume.err");
   EXPECT_EQ(int64_t(losses(base / "run" / "log.csv").size()), step + 2);
   fs::remove_all(base);
-  fs::remove_all(data);
+  fs::remove_all(j.data);
 }
 
 // A hung rank (SIGSTOP: alive, silent): the survivor's collective times out
 // after --dist-timeout and it names the silent rank; the launcher stops the
 // job (SIGKILL after its grace period) instead of waiting forever.
 TEST(DataParallel, HungRankTimesOutNamingIt) {
-  const fs::path data = make_dataset("dp_hang_data", 10, 2);
-  const fs::path base = temp_dir("dp_hang");
-  TrainParams p = dp_params();
-  p.batch_size = 1;
-  p.threads = 1;
-  p.epochs = 1000;
-  p.checkpoint_every = 1;
-  const fs::path cfg = write_config(base, p);
-  const Proc job = spawn({"train", "--config", cfg.string(), "--data", data.string(), "--out", (base / "run").string(),
-                          "--nproc", "2", "--dist-timeout", "4"},
-                         {}, base / "job.err");
-  pid_t rank1 = -1;
-  for (int i = 0; i < 600 && (rank1 < 0 || !fs::exists(base / "run" / "checkpoint.pt")); ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    const std::string err = read_text(base / "job.err");
-    const size_t at = err.find("rank 1: pid ");
-    if (at != std::string::npos) rank1 = pid_t(std::stol(err.substr(at + 12)));
-  }
-  ASSERT_GT(rank1, 0) << read_text(base / "job.err");
-  ASSERT_TRUE(fs::exists(base / "run" / "checkpoint.pt")) << read_text(base / "job.err");
+  const LongJob j = start_long_job("dp_hang", {"--dist-timeout", "4"});
+  const pid_t rank1 = j.rank1;
+  ASSERT_GT(rank1, 0) << read_text(j.base / "job.err");
+  ASSERT_TRUE(fs::exists(j.base / "run" / "checkpoint.pt")) << read_text(j.base / "job.err");
   ::kill(rank1, SIGSTOP);
-  const int code = wait_for(job, 90);
-  const std::string err = read_text(base / "job.err");
+  const int code = wait_for(j.job, 90);
+  const std::string err = read_text(j.base / "job.err");
   ::kill(rank1, SIGKILL);  // in case the launcher did not
   EXPECT_NE(code, 0) << err;
   EXPECT_NE(code, -1) << "the job hung: " << err;
   EXPECT_NE(err.find("rank 0: rank 1 stopped answering"), std::string::npos) << err;
-  fs::remove_all(base);
-  fs::remove_all(data);
+  fs::remove_all(j.base);
+  fs::remove_all(j.data);
 }
