@@ -1,5 +1,6 @@
 // reefgen train: pix2pix on a dataset folder (paper §6, docs/TRAINING.md).
 // Thin: flags -> TrainParams, signals -> a stop flag, progress -> stderr.
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -165,12 +166,20 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
             run.bucket_mb = a->bucket_mb;
             const bool lead = dist.rank == 0;  // the other ranks say nothing but errors
             const bool tty = !g.quiet && lead && ::isatty(2);
+            // A line redrawn in place on a terminal; otherwise (a log file, a
+            // batch job) one line every 10 s.
+            const bool lines = !g.quiet && lead && !tty;
+            auto last_line = std::chrono::steady_clock::now();
             run.on_step = [&](const train::StepReport& r) {
-              if (!tty) return;
+              if (!tty && !lines) return;
+              const auto now = std::chrono::steady_clock::now();
+              if (lines && now - last_line < std::chrono::seconds(10) && r.step != 1 && r.step != r.total) return;
+              last_line = now;
               const double eta_min = r.seconds_per_step * double(r.total - r.step) / 60.0;
-              std::fprintf(stderr, "\rstep %lld/%lld  G_GAN %.3f  G_L1 %.2f  D_real %.3f  D_fake %.3f  lr %.2e  %.2f s/it  ETA %.0f min   ",
-                           static_cast<long long>(r.step), static_cast<long long>(r.total), r.losses.g_gan,
-                           r.losses.g_l1, r.losses.d_real, r.losses.d_fake, r.lr, r.seconds_per_step, eta_min);
+              std::fprintf(stderr, "%sstep %lld/%lld  G_GAN %.3f  G_L1 %.2f  D_real %.3f  D_fake %.3f  lr %.2e  %.2f s/it  ETA %.0f min%s",
+                           tty ? "\r" : "train: ", static_cast<long long>(r.step), static_cast<long long>(r.total),
+                           r.losses.g_gan, r.losses.g_l1, r.losses.d_real, r.losses.d_fake, r.lr, r.seconds_per_step,
+                           eta_min, tty ? "   " : "\n");
               std::fflush(stderr);
             };
             run.on_log = [&](const std::string& s) {
