@@ -134,6 +134,25 @@ TEST_F(Studio, RawCanvasPixelsGiveThePngsHeights) {
   ASSERT_TRUE(p);
   ASSERT_EQ(p->status, 200) << p->body;
   EXPECT_EQ(cv::norm(parse_heights(r->body).h, parse_heights(p->body).h, cv::NORM_INF), 0.0);
+  // ?enc=u16 (what the page asks for): half the bytes, heights within half a step.
+  auto u = client->Post(q + "&enc=u16", raw, "application/x-reefgen-rgba");
+  ASSERT_TRUE(u);
+  ASSERT_EQ(u->status, 200) << u->body;
+  {
+    uint32_t n = 0;
+    for (int i = 0; i < 4; ++i) n |= uint32_t(uint8_t(u->body[size_t(i)])) << (8 * i);
+    const json meta = json::parse(u->body.substr(4, n));
+    ASSERT_EQ(meta.at("encoding"), "u16");
+    const int s = meta.at("size");
+    ASSERT_EQ(u->body.size(), 4 + n + size_t(s) * size_t(s) * 2);
+    cv::Mat1w qh(s, s);
+    std::memcpy(qh.ptr<uint16_t>(), u->body.data() + 4 + n, size_t(s) * size_t(s) * 2);
+    cv::Mat1f back;
+    qh.convertTo(back, CV_32F, double(meta.at("u16_step_m")), double(meta.at("u16_lo_m")));
+    const cv::Mat1f f32 = parse_heights(p->body).h;
+    EXPECT_LE(cv::norm(back, f32, cv::NORM_INF), 0.5 * double(meta.at("u16_step_m")) + 1e-3);
+    EXPECT_LT(double(meta.at("u16_step_m")), 0.02);  // metres: finer than the view can show
+  }
   // Wrong byte count, missing or out-of-range sides: 400 naming the fix.
   expect_error(client->Post(q, raw.substr(1), "application/x-reefgen-rgba"), 400, "send w·h·4 bytes");
   expect_error(client->Post("/api/infer?w=256", raw, "application/x-reefgen-rgba"), 400, "?h=");

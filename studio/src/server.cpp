@@ -292,15 +292,34 @@ struct StudioServer::Impl {
   // north]. Binary, not base64 in JSON: a quarter smaller, no decoding, and
   // the HTTP library leaves octet-streams uncompressed (its brotli pass on a
   // JSON answer cost ~1 s per stroke).
-  static void send_heights(httplib::Response& res, const cv::Mat1f& h, json meta) {
+  // [uint32 n][n bytes JSON][heights], little-endian (x86-64). Heights are
+  // float32, or with ?enc=u16 uint16 steps of `u16_step_m` above `u16_lo_m` (half
+  // the bytes: at 1024² the page's view gets 2 MB instead of 4; 1 cm steps
+  // for a 650 m range are below anything the view can show, and exports are
+  // recomputed from the sketch, never from these numbers).
+  static void send_heights(httplib::Response& res, const cv::Mat1f& h, json meta, bool u16) {
     CV_Assert(h.isContinuous());
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(h, &lo, &hi);
+    const double step = hi > lo ? (hi - lo) / 65535.0 : 1.0;
+    if (u16) {
+      meta["encoding"] = "u16";
+      meta["u16_lo_m"] = lo;
+      meta["u16_step_m"] = step;
+    }
     std::string head = meta.dump(-1, ' ', false, json::error_handler_t::replace);
     while ((4 + head.size()) % 4) head += ' ';
-    std::string body(4 + head.size() + h.total() * sizeof(float), '\0');
+    const size_t bytes = h.total() * (u16 ? sizeof(uint16_t) : sizeof(float));
+    std::string body(4 + head.size() + bytes, '\0');
     const uint32_t n = uint32_t(head.size());
     for (int i = 0; i < 4; ++i) body[size_t(i)] = char(n >> (8 * i) & 0xff);
     std::memcpy(&body[4], head.data(), head.size());
-    std::memcpy(&body[4 + head.size()], h.ptr<float>(), h.total() * sizeof(float));  // x86-64: little-endian
+    if (u16) {
+      cv::Mat1w q(h.rows, h.cols, reinterpret_cast<uint16_t*>(&body[4 + head.size()]));
+      h.convertTo(q, CV_16U, 1.0 / step, -lo / step);  // rounds and saturates
+    } else {
+      std::memcpy(&body[4 + head.size()], h.ptr<float>(), bytes);
+    }
     res.set_content(body, "application/octet-stream");
   }
 
@@ -408,7 +427,7 @@ struct StudioServer::Impl {
         const auto t0 = std::chrono::steady_clock::now();
         const cv::Mat1f h = infer::infer_heights(gen, {s}, io)[0];
         const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-        send_heights(res, h, heights_meta(h, ms));
+        send_heights(res, h, heights_meta(h, ms), req.get_param_value("enc") == "u16");
       });
     }));
     svr.Post("/api/generate", guarded([this](const httplib::Request& req, httplib::Response& res) {
@@ -425,7 +444,7 @@ struct StudioServer::Impl {
         cv::imencode(".png", encode_labels(f.label, sp.subsidence), png);
         j["label_png"] = base64_encode(png.data(), png.size());
         j["metres_per_px"] = sp.world_size_m / f.height_m.cols;
-        send_heights(res, f.height_m, j);
+        send_heights(res, f.height_m, j, req.get_param_value("enc") == "u16");
       });
     }));
     svr.Post("/api/export", guarded([this](const httplib::Request& req, httplib::Response& res) {

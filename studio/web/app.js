@@ -73,12 +73,18 @@ async function api(path, body, contentType) {
   }
   return res;
 }
-// The server's heights answer: [uint32 n][n bytes JSON][size² float32], little-endian.
+// The server's heights answer: [uint32 n][n bytes JSON][size² heights],
+// little-endian. The page asks for uint16 steps (?enc=u16: half the bytes of
+// float32, 1 cm steps) and expands them here.
 async function readHeights(res) {
   const buf = await res.arrayBuffer();
   const n = new DataView(buf).getUint32(0, true);
   const meta = JSON.parse(new TextDecoder().decode(new Uint8Array(buf, 4, n)));
-  return { meta, h: new Float32Array(buf, 4 + n, meta.size * meta.size) };
+  const N = meta.size * meta.size;
+  if (meta.encoding !== 'u16') return { meta, h: new Float32Array(buf, 4 + n, N) };
+  const q = new Uint16Array(buf, 4 + n, N), h = new Float32Array(N), lo = meta.u16_lo_m, step = meta.u16_step_m;
+  for (let i = 0; i < N; i++) h[i] = lo + q[i] * step;
+  return { meta, h };
 }
 async function runUpdate(makeRequest, t0) {
   const id = ++latestRequest, forMode = mode;
@@ -258,7 +264,7 @@ function requestInfer() {
     const t = performance.now();
     const px = pctx.getImageData(0, 0, paint.width, paint.height).data;
     probe.encode_ms = performance.now() - t;
-    return api(`/api/infer?w=${paint.width}&h=${paint.height}`, px, 'application/x-reefgen-rgba');
+    return api(`/api/infer?w=${paint.width}&h=${paint.height}&enc=u16`, px, 'application/x-reefgen-rgba');
   });
 }
 
@@ -475,7 +481,7 @@ function requestGenerate() {
   requestAnimationFrame(() => {
     generatePending = false;
     if (mode !== 'curves') return;
-    submit(() => api('/api/generate?size=256', JSON.stringify(specForServer()), 'application/json'));
+    submit(() => api('/api/generate?size=256&enc=u16', JSON.stringify(specForServer()), 'application/json'));
   });
 }
 function showLabel(b64) {
