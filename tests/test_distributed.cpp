@@ -109,47 +109,37 @@ void expect_error(const Env& env, const std::string& needle, const DistFlags& fl
 
 }  // namespace
 
+// Every field of a DistConfig but `source`, in one line: a whole config is
+// compared at once, so a field parsed wrongly or left at a stale default shows.
+std::string fields(const DistConfig& c) {
+  char b[256];
+  std::snprintf(b, sizeof b, "rank %d of %d, local %d of %d, %s:%d, agent %d attempt %d, timeout %g", c.rank,
+                c.world_size, c.local_rank, c.local_world_size, c.master_addr.c_str(), c.master_port,
+                int(c.agent_store), c.restart_count, c.timeout_s);
+  return b;
+}
+
 TEST(DistConfig, TorchrunSlurmAndFlags) {
-  const DistConfig single = from({});
-  EXPECT_EQ(single.world_size, 1);
-  EXPECT_EQ(single.rank, 0);
-
-  const DistConfig t = from({{"RANK", "3"}, {"WORLD_SIZE", "8"}, {"LOCAL_RANK", "1"}, {"LOCAL_WORLD_SIZE", "2"},
-                             {"MASTER_ADDR", "node7"}, {"MASTER_PORT", "29511"},
-                             {"TORCHELASTIC_USE_AGENT_STORE", "True"}, {"TORCHELASTIC_RESTART_COUNT", "2"}});
-  EXPECT_EQ(t.rank, 3);
-  EXPECT_EQ(t.world_size, 8);
-  EXPECT_EQ(t.local_rank, 1);
-  EXPECT_EQ(t.local_world_size, 2);
-  EXPECT_EQ(t.master_addr, "node7");
-  EXPECT_EQ(t.master_port, 29511);
-  EXPECT_TRUE(t.agent_store);
-  EXPECT_EQ(t.restart_count, 2);
+  EXPECT_EQ(fields(from({})), "rank 0 of 1, local 0 of 1, 127.0.0.1:29500, agent 0 attempt 0, timeout 300");
+  EXPECT_EQ(fields(from({{"RANK", "3"}, {"WORLD_SIZE", "8"}, {"LOCAL_RANK", "1"}, {"LOCAL_WORLD_SIZE", "2"},
+                         {"MASTER_ADDR", "node7"}, {"MASTER_PORT", "29511"},
+                         {"TORCHELASTIC_USE_AGENT_STORE", "True"}, {"TORCHELASTIC_RESTART_COUNT", "2"}})),
+            "rank 3 of 8, local 1 of 2, node7:29511, agent 1 attempt 2, timeout 300");
   EXPECT_FALSE(from({{"RANK", "0"}, {"WORLD_SIZE", "2"}, {"TORCHELASTIC_USE_AGENT_STORE", "False"}}).agent_store);
-
-  const DistConfig s = from({{"SLURM_PROCID", "5"}, {"SLURM_NTASKS", "6"}, {"SLURM_LOCALID", "1"},
-                             {"SLURM_NTASKS_PER_NODE", "2(x3)"}, {"SLURM_JOB_NODELIST", "reef[07-09],gpu1"}});
-  EXPECT_EQ(s.rank, 5);
-  EXPECT_EQ(s.world_size, 6);
-  EXPECT_EQ(s.local_rank, 1);
-  EXPECT_EQ(s.local_world_size, 2);
-  EXPECT_EQ(s.master_addr, "reef07");
-  EXPECT_EQ(s.master_port, 29500);
+  EXPECT_EQ(fields(from({{"SLURM_PROCID", "5"}, {"SLURM_NTASKS", "6"}, {"SLURM_LOCALID", "1"},
+                         {"SLURM_NTASKS_PER_NODE", "2(x3)"}, {"SLURM_JOB_NODELIST", "reef[07-09],gpu1"}})),
+            "rank 5 of 6, local 1 of 2, reef07:29500, agent 0 attempt 0, timeout 300");
   // torchrun's variables win over SLURM's (torchrun inside an allocation).
   EXPECT_EQ(from({{"RANK", "1"}, {"WORLD_SIZE", "2"}, {"SLURM_PROCID", "0"}, {"SLURM_NTASKS", "1"}}).world_size, 2);
-
+  // Flags win over both.
   DistFlags f;
   f.rank = 1;
   f.world_size = 4;
   f.master_addr = "10.0.0.1";
   f.master_port = 4000;
   f.timeout_s = 12;
-  const DistConfig fl = from({{"RANK", "0"}, {"WORLD_SIZE", "2"}}, f);
-  EXPECT_EQ(fl.rank, 1);
-  EXPECT_EQ(fl.world_size, 4);
-  EXPECT_EQ(fl.master_addr, "10.0.0.1");
-  EXPECT_EQ(fl.master_port, 4000);
-  EXPECT_EQ(fl.timeout_s, 12);
+  EXPECT_EQ(fields(from({{"RANK", "0"}, {"WORLD_SIZE", "2"}}, f)),
+            "rank 1 of 4, local 0 of 1, 10.0.0.1:4000, agent 0 attempt 0, timeout 12");
 }
 
 TEST(DistConfig, FirstSlurmHost) {
