@@ -57,7 +57,7 @@ std::function<int()> add_bench_realism_command(CLI::App* bench, const GlobalOpti
     int specs = 50, size = 1025;
     uint64_t seed = 1;
     double subsidence = 0;
-    std::string model, painted = "tests/data/painted";
+    std::string model, painted = "tests/data/painted", erosion;
   };
   auto a = std::make_shared<Args>();
   auto* sub = bench->add_subcommand(
@@ -75,6 +75,7 @@ std::function<int()> add_bench_realism_command(CLI::App* bench, const GlobalOpti
       ->check(finite_in(0, 1));
   sub->add_option("-m,--model", a->model, "Generator for the painted sketches (default: the shipped model)");
   sub->add_option("--painted", a->painted, "Folder of painted sketches ('' = none)")->capture_default_str();
+  sub->add_option("--erosion", a->erosion, "JSON of the painted sketches' amplification params (as infer --erosion)");
   return [a, &g]() -> int {
     nlohmann::json out = {{"bench", "realism"}, {"size", a->size}, {"cpu", cpu_model()}};
     if (a->specs > 0) {
@@ -103,6 +104,7 @@ std::function<int()> add_bench_realism_command(CLI::App* bench, const GlobalOpti
       model::GeneratorFile gen = model::load_generator(model_path);
       infer::InferOptions io;
       io.size_px = a->size;
+      if (!a->erosion.empty()) io.erosion = procgen::erosion_params_from_json(read_json(a->erosion), a->erosion);
       std::vector<RealismStats> stats;
       std::vector<double> ms;
       nlohmann::json per = nlohmann::json::object();

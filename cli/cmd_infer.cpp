@@ -35,7 +35,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
       "  reefgen infer sketch.png -m generator.pt -o out/v --stochastic --seed 7\n");
   struct Args {
     std::vector<std::string> inputs;
-    std::string model, out, mesh;
+    std::string model, out, mesh, erosion;
     bool png16 = false, r16 = false, preview = false, stochastic = false, running_stats = false;
     std::string precision = "fp32";  // the same heights on every CPU; bf16/auto are faster (docs/BENCHMARKS.md)
     std::string engine = "auto";
@@ -60,6 +60,9 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                   "(erosion carves valleys at each finer level, docs/EROSION.md), e.g. 1025/2049/4097 for Unity, "
                   "1009/2017/4033 for Unreal")
       ->check(CLI::Range(16, 8192));
+  sub->add_option("--erosion", a->erosion,
+                  "JSON of the amplification's erosion params above the model's side (docs/EROSION.md; every key "
+                  "optional, e.g. {\"amplify_roughness\": 0.5})");
   sub->add_flag("--preview", a->preview, "Also PREFIX.preview.png: coloured, hill-shaded");
   sub->add_flag("--stochastic", a->stochastic, "Dropout on (pix2pix's noise): a different island per --seed");
   sub->add_option("--seed", a->seed, "Dropout masks for --stochastic")->capture_default_str()->check(seed_value());
@@ -149,6 +152,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
             io.seed = a->seed;
             io.size_px = a->size;
             io.world_size_m = a->world_size_m;
+            if (!a->erosion.empty()) io.erosion = procgen::erosion_params_from_json(read_json(a->erosion), a->erosion);
             // Chunks of 32 sketches: memory stays bounded for folders of any
             // size. Every output is staged and renamed into place at the end:
             // a failure anywhere (a bad sketch after the first chunk, a mesh

@@ -316,6 +316,16 @@ expect_error "must be a finite number" generate --preset atoll --subsidence nan 
 expect_error "must be a finite number" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --world-size inf
 expect_error "bf16 on the torch engine needs a resize-convolution generator" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --precision bf16 --engine torch
 expect_error "engine 'gpu'" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --engine gpu
+# --erosion: the amplification's params from a file; bad keys and values named, a real change of the output.
+echo '{"amplify_rough": 0.5}' > "$T/bad_er.json"
+echo '{"amplify_roughness": 3}' > "$T/range_er.json"
+expect_error 'bad_er.json: unknown key "erosion.amplify_rough"' infer "$T/s/one.png" -m "$M" -o "$T/e/x" --size 300 --erosion "$T/bad_er.json"
+expect_error "range_er.json" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --size 300 --erosion "$T/range_er.json"
+expect_error "missing_er.json" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --size 300 --erosion "$T/missing_er.json"
+echo '{"amplify_roughness": 0}' > "$T/smooth_er.json"
+"$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/er0" --size 300 >/dev/null || bad "infer --size 300"
+"$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/er1" --size 300 --erosion "$T/smooth_er.json" >/dev/null || bad "infer --erosion"
+cmp -s "$T/i/er0.height.exr" "$T/i/er1.height.exr" && bad "--erosion changed nothing" || ok
 # reefgen's engine runs pix2pix's transposed generator in bf16 too, and records what ran.
 "$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/tbf" --precision bf16 >/dev/null \
   && "$PY" -c "import json,sys; m=json.load(open(sys.argv[1]))['mode']; assert m['engine']=='onednn' and m['precision']=='bf16', m" "$T/i/tbf.json" \

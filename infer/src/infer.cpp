@@ -142,7 +142,7 @@ std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<
     if (want.width == want.height && want.width > h.cols && o.amplify && h.rows == h.cols) {
       cv::Mat1b label;
       cv::resize(sketches[i].label, label, want, 0, 0, cv::INTER_NEAREST);
-      h = procgen::amplify_heights(h, label, o.world_size_m, o.seed);
+      h = procgen::amplify_heights(h, label, o.world_size_m, o.seed, o.erosion);
       cv::min(cv::max(h, g.range.lo_m), g.range.hi_m, h);
     } else if (want.width <= h.cols && want.height <= h.rows && h.size() != want) {
       cv::resize(h, h, want, 0, 0, cv::INTER_AREA);

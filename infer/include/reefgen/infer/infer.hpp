@@ -10,6 +10,7 @@
 #include "reefgen/labels.hpp"
 #include "reefgen/model/dnnl_conv.hpp"
 #include "reefgen/model/generator_file.hpp"
+#include "reefgen/procgen/erosion.hpp"
 
 namespace reefgen::infer {
 
@@ -42,6 +43,7 @@ struct InferOptions {
   int size_px = 0;             // output side, [0, 8192]; 0 = the sketch's own size
   double world_size_m = kCanvasWorldSizeM;  // canvas width in metres (the amplification's erosion works in metres)
   bool amplify = true;         // above the model's side: erosion + detail (procgen amplify_heights), not a stretch
+  procgen::ErosionParams erosion;  // the amplification's erosion and detail (docs/EROSION.md); defaults = the shipped tuning
 };
 
 // The engine and precision these options run with this generator on this
