@@ -7,14 +7,15 @@
 
 #include "app.hpp"
 #include "reefgen/io.hpp"
-#include "reefgen/procgen/floating.hpp"
+#include "reefgen/islands/floating.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
-#include "reefgen/procgen/terrains.hpp"
+#include "reefgen/islands/terrains.hpp"
 
 namespace reefgen {
 
 using namespace procgen;
+using namespace islands;
 
 namespace {
 

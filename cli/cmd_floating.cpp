@@ -8,7 +8,7 @@
 #include "reefgen/constants.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/mesh.hpp"
-#include "reefgen/procgen/floating.hpp"
+#include "reefgen/islands/floating.hpp"
 #include "reefgen/version.hpp"
 
 namespace reefgen {
@@ -103,7 +103,7 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
             // Params: a preset, a file, or defaults (terrain-top for a height field alone).
             std::string preset = a->preset;
             if (preset.empty() && a->config.empty() && a->painting.empty()) preset = "terrain-top";
-            procgen::FloatingParams p;
+            islands::FloatingParams p;
             if (!preset.empty()) {
               const auto it = presets.find(preset);
               if (it == presets.end()) {
@@ -111,9 +111,9 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
                 for (const auto& [n, t] : presets) names += (names.empty() ? "" : ", ") + n;
                 throw Error("--preset " + preset + ": unknown; use one of " + names);
               }
-              p = procgen::floating_params_from_json(nlohmann::json::parse(it->second), "preset " + preset);
+              p = islands::floating_params_from_json(nlohmann::json::parse(it->second), "preset " + preset);
             } else if (!a->config.empty()) {
-              p = procgen::floating_params_from_json(read_json(a->config), a->config);
+              p = islands::floating_params_from_json(read_json(a->config), a->config);
             }
             if (sub->count("--depth-stretch")) p.depth_stretch = a->depth_stretch;
             if (sub->count("--simplify")) p.simplify_px = a->simplify_px;
@@ -138,7 +138,7 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
               }
             }
             if (sub->count("--metres-per-px")) p.metres_per_px = a->metres_per_px;
-            procgen::validate(p);
+            islands::validate(p);
             if (!a->painting.empty()) {
               if (!fs::is_regular_file(a->painting)) throw Error(a->painting + ": no such file (check the path)");
               cv::Mat img = read_image(a->painting, cv::IMREAD_UNCHANGED);
@@ -155,23 +155,23 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
                 p.smooth_px *= double(small.cols) / img.cols;
                 img = small;
               }
-              labels = procgen::segment_painting(img, p, a->painting, &top_rgb);
+              labels = islands::segment_painting(img, p, a->painting, &top_rgb);
               if (terrain.empty()) {
-                h0 = procgen::floating_features(labels.size(), p, a->seed);
+                h0 = islands::floating_features(labels.size(), p, a->seed);
               } else {  // the terrain's land relief under the painted outline
                 cv::resize(cv::max(terrain, 0.f), h0, labels.size(), 0, 0, cv::INTER_LINEAR);
               }
             } else {
               labels = cv::Mat1b(terrain.size());
               for (int r = 0; r < terrain.rows; ++r)
-                for (int c = 0; c < terrain.cols; ++c) labels(r, c) = terrain(r, c) > 0 ? procgen::kPaintTop : procgen::kPaintBackground;
+                for (int c = 0; c < terrain.cols; ++c) labels(r, c) = terrain(r, c) > 0 ? islands::kPaintTop : islands::kPaintBackground;
               if (cv::countNonZero(labels) == 0) throw Error(a->height + ": no land (no height above 0 m) to float; use a terrain with land, or paint the outline (--painting)");
               h0 = cv::max(terrain, 0.f);
             }
             const std::string source = a->painting.empty() ? a->height : a->painting;
-            procgen::FloatingIsland isl;
+            islands::FloatingIsland isl;
             try {
-              isl = procgen::floating_island(labels, h0, p, top_rgb);
+              isl = islands::floating_island(labels, h0, p, top_rgb);
             } catch (const Error& e) {
               throw Error(source + ": " + e.what());
             }
@@ -180,8 +180,8 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
             if (!rep.closed_manifold())
               throw Error(source + ": internal error: the mesh is not closed (" + std::to_string(rep.open_edges) +
                           " open edges, " + std::to_string(rep.degenerate) + " degenerate triangles); please report it");
-            const double iou = procgen::mask_iou(procgen::mesh_silhouette(isl.mesh, labels.size(), p.metres_per_px),
-                                                 labels == procgen::kPaintTop);
+            const double iou = islands::mask_iou(islands::mesh_silhouette(isl.mesh, labels.size(), p.metres_per_px),
+                                                 labels == islands::kPaintTop);
 
             // Staged, renamed into place together: a failure (an output that
             // is a folder, a full disk) leaves earlier files as they were.
@@ -199,7 +199,7 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
             if (!a->preview.empty()) {
               const fs::path path(a->preview);
               ensure_writable_dir(path.has_parent_path() ? path.parent_path() : fs::path("."));
-              staged.write(path, [&](const fs::path& t) { write_png(t, procgen::render_mesh(isl.mesh, 768)); });
+              staged.write(path, [&](const fs::path& t) { write_png(t, islands::render_mesh(isl.mesh, 768)); });
             }
             const nlohmann::json side = {
                 {"reefgen_version", kVersion},
@@ -207,7 +207,7 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
                 {"features", terrain.empty() ? "noise" : fs::absolute(a->height).string()},
                 {"seed", a->seed},
                 {"preset", preset},
-                {"params", procgen::to_json(p)},
+                {"params", islands::to_json(p)},
                 {"mesh", {{"files", a->out}, {"units", "metres"}, {"up", "+Y"},
                           {"vertices", isl.mesh.positions.size()}, {"triangles", isl.mesh.triangles.size()},
                           {"shells", isl.islands}, {"closed_2_manifold", true}, {"volume_m3", rep.volume_m3}}},

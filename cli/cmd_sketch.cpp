@@ -1,14 +1,12 @@
-// reefgen sketch random: label sketches from thresholded noise (paper Fig. 17).
+// reefgen sketch: label sketches from thresholded noise (paper Fig. 17), the
+// other island systems or a height field, to try `reefgen infer` without drawing.
 #include <cstdio>
 
 #include "app.hpp"
-#include "reefgen/constants.hpp"
-#include "reefgen/infer/export.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
-#include "reefgen/preview.hpp"
 #include "reefgen/procgen/sketch.hpp"
-#include "reefgen/procgen/terrains.hpp"
+#include "reefgen/islands/terrains.hpp"
 
 namespace reefgen {
 
@@ -39,7 +37,7 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
     uint64_t seed = 1;
     int size = 256;
     double subsidence = 0.0;
-    procgen::SketchBands bands;
+    islands::SketchBands bands;
   };
   auto f = std::make_shared<FromArgs>();
   sub->add_option("--from", f->from, "mapgen4, wilbur, noise, or a height EXR (metres): its land/water and depth/elevation bands become the five regions");
@@ -83,11 +81,11 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
                 throw Error("--config " + f->config + ": applies to --from mapgen4 or wilbur only");
               try {
                 if (terrain && !f->config.empty()) {
-                  s = procgen::height_to_sketch(procgen::configured_terrain(f->from, read_json(f->config), f->config,
+                  s = islands::height_to_sketch(islands::configured_terrain(f->from, read_json(f->config), f->config,
                                                                             sub->count("--size") ? f->size : 0, f->seed),
                                                 f->subsidence, f->bands);
                 } else if (terrain) {
-                  s = procgen::height_to_sketch(procgen::named_terrain(f->from, f->size, f->seed), f->subsidence, f->bands);
+                  s = islands::height_to_sketch(islands::named_terrain(f->from, f->size, f->seed), f->subsidence, f->bands);
                 } else if (f->from == "noise") {
                   procgen::SketchParams sp;
                   sp.size_px = f->size;
@@ -101,7 +99,7 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
                   const cv::Mat1f h = read_exr_height(exr);
                   if (cv::checkRange(h, true) == false)
                     throw Error(exr.string() + ": the height field holds NaN or infinite values; fix or regenerate it");
-                  s = procgen::height_to_sketch(h, f->subsidence, f->bands);
+                  s = islands::height_to_sketch(h, f->subsidence, f->bands);
                 }
               } catch (const std::invalid_argument& e) {
                 throw Error(std::string(e.what()));
@@ -133,67 +131,6 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
             }
             staged.commit();
             for (const auto& path : staged.finals()) std::printf("%s\n", path.c_str());
-            return 0;
-          }};
-}
-
-Command add_terrain_command(CLI::App& app, const GlobalOptions&) {
-  auto* sub = app.add_subcommand(
-      "terrain",
-      "Height fields from the other island systems (mapgen4-style, Wilbur-style), on reefgen's conventions\n\n"
-      "Examples:\n"
-      "  reefgen terrain mapgen4 --seed 2 -o out/m4 --preview\n"
-      "  reefgen terrain wilbur --seed 5 --size 512 -o out/w5\n"
-      "  reefgen terrain wilbur --config configs/terrains/wilbur.json --seed 5 -o out/w5\n"
-      "  reefgen terrain mapgen4 --config configs/terrains/mapgen4-round.json -o out/m4r --mesh glb\n");
-  struct Args {
-    std::string kind, out, config;
-    uint64_t seed = 1;
-    int size = 256;
-    bool preview = false;
-    std::string mesh;
-  };
-  auto a = std::make_shared<Args>();
-  sub->add_option("kind", a->kind, "mapgen4 or wilbur")->required();
-  sub->add_option("--mesh", a->mesh, "Also a grid mesh: glb or obj (PREFIX.glb / PREFIX.obj; metres, +Y up)")
-      ->check(CLI::IsMember({"glb", "obj"}));
-  sub->add_option("--config", a->config, "Params JSON (configs/terrains/KIND.json is the defaults serialised)");
-  sub->add_option("-o,--output,--out", a->out, "Output prefix: PREFIX.height.exr (+ PREFIX.preview.png)")->required();
-  sub->add_option("--seed", a->seed, "Seed")->capture_default_str()->check(seed_value());
-  sub->add_option("--size", a->size, "W")->capture_default_str();
-  sub->add_flag("--preview", a->preview, "Also the coloured, hill-shaded preview");
-  return {sub, [a, sub]() -> int {
-            cv::Mat1f h;
-            try {
-              if (!a->config.empty())
-                h = procgen::configured_terrain(a->kind, read_json(a->config), a->config,
-                                                sub->count("--size") ? a->size : 0, a->seed);
-              else
-                h = procgen::named_terrain(a->kind, a->size, a->seed);
-            } catch (const std::invalid_argument& e) {
-              throw Error(std::string(e.what()));
-            }
-            const fs::path prefix = output_names(a->out).prefix;  // refuses "-o dir/" (hidden .height.exr)
-            if (prefix.has_parent_path()) ensure_writable_dir(prefix.parent_path());
-            StagedOutputs staged;  // all or nothing: a failure keeps an earlier result as it was
-            staged.write(prefix.string() + ".height.exr", [&](const fs::path& t) {
-              write_exr_height(t, h,
-                               {{"reefgen:generator", a->kind}, {"reefgen:seed", std::to_string(a->seed)},
-                                // reefgen's canvas convention (docs/DESIGN.md §2: 6 km across), so that
-                                // `reefgen floating --height` and previews know the scale.
-                                {"reefgen:metres_per_pixel", std::to_string(kCanvasWorldSizeM / h.cols)}});
-            });
-            if (a->preview)
-              staged.write(prefix.string() + ".preview.png", [&](const fs::path& t) { write_png(t, render_preview(h)); });
-            if (!a->mesh.empty()) {
-              const infer::MeshOptions mo{kCanvasWorldSizeM / h.cols, 1.0};
-              staged.write(prefix.string() + "." + a->mesh, [&](const fs::path& t) {
-                if (a->mesh == "glb") infer::write_glb(t, h, mo);
-                else infer::write_obj(t, h, mo);
-              });
-            }
-            staged.commit();
-            std::printf("%s.height.exr\n", prefix.c_str());
             return 0;
           }};
 }

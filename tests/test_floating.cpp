@@ -5,11 +5,11 @@
 #include <opencv2/imgproc.hpp>
 
 #include "reefgen/mesh.hpp"
-#include "reefgen/procgen/floating.hpp"
+#include "reefgen/islands/floating.hpp"
 #include "test_util.hpp"
 
 using namespace reefgen;
-using namespace reefgen::procgen;
+using namespace reefgen::islands;
 using test::expect_error_naming;
 using test::temp_dir;
 

@@ -3,10 +3,11 @@
 
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
-#include "reefgen/procgen/terrains.hpp"
+#include "reefgen/islands/terrains.hpp"
 
 using namespace reefgen;
 using namespace reefgen::procgen;
+using namespace reefgen::islands;
 
 namespace {
 int land_pixels(const cv::Mat1f& h) {
@@ -49,7 +50,7 @@ TEST(Wilbur, RecipeProperties) {
     }
   ASSERT_GT(n, 0);
   EXPECT_LT(sum3, sum1);
-  EXPECT_THROW(wilbur_height(WilburParams{64, 0}, 1), std::invalid_argument);
+  EXPECT_THROW(wilbur_height(WilburParams{64, 0}, 1), reefgen::Error);
 }
 
 TEST(HeightToSketch, BandsGiveTheFiveRegions) {
@@ -60,7 +61,7 @@ TEST(HeightToSketch, BandsGiveTheFiveRegions) {
   const int want[7] = {kIsland, kIsland, kBeach, kBeach, kLagoon, kReef, kAbyss};
   for (int c = 0; c < 7; ++c) EXPECT_EQ(s.label(0, c), want[c]) << "height " << v[c];
   EXPECT_EQ(s.subsidence(0, 3), 0.4f);
-  EXPECT_THROW(height_to_sketch(h, 0.4, SketchBands{8, 50, 40}), std::invalid_argument);
+  EXPECT_THROW(height_to_sketch(h, 0.4, SketchBands{8, 50, 40}), reefgen::Error);
 }
 
 TEST(Mapgen4, GoldenValuesAndDeterminism) {
@@ -78,7 +79,7 @@ TEST(Mapgen4, GoldenValuesAndDeterminism) {
   cv::minMaxLoc(h, &lo, &hi);
   EXPECT_GE(lo, -p.depth_m);
   EXPECT_LE(hi, p.peak_m);
-  EXPECT_THROW(mapgen4_height(Mapgen4Params{64, 0.001}, 1), std::invalid_argument);
+  EXPECT_THROW(mapgen4_height(Mapgen4Params{64, 0.001}, 1), reefgen::Error);
 }
 
 TEST(Mapgen4, PoissonDiskKeepsItsDistanceAndFillsTheSquare) {

@@ -9,7 +9,7 @@
 #include "reefgen/procgen/erosion.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
-#include "reefgen/procgen/terrains.hpp"
+#include "reefgen/islands/terrains.hpp"
 #include "reefgen/rng.hpp"
 
 namespace reefgen::augment {
@@ -186,8 +186,8 @@ Pair make_pair(uint64_t seed, int64_t index, const DatasetParams& p, PairInfo* o
   Pair pair;
   if (source != "curves") {
     // A young island (λ = 0) of the other system, its label cut by height bands.
-    const cv::Mat1f h = procgen::named_terrain(source, p.size_px, derive_seed(seed, static_cast<uint64_t>(index), source));
-    pair = {h, procgen::height_to_sketch(h, 0.0).label, cv::Mat1f(h.size(), 0.0f)};
+    const cv::Mat1f h = islands::named_terrain(source, p.size_px, derive_seed(seed, static_cast<uint64_t>(index), source));
+    pair = {h, islands::height_to_sketch(h, 0.0).label, cv::Mat1f(h.size(), 0.0f)};
     info.subsidence = 0.0;
     aug["source"] = source;
   } else if (!do_paste) {

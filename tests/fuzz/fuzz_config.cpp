@@ -12,9 +12,9 @@
 #include "reefgen/augment/dataset.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/procgen/erosion.hpp"
-#include "reefgen/procgen/floating.hpp"
+#include "reefgen/islands/floating.hpp"
 #include "reefgen/procgen/spec.hpp"
-#include "reefgen/procgen/terrains.hpp"
+#include "reefgen/islands/terrains.hpp"
 #include "reefgen/train/params.hpp"
 
 namespace {
@@ -41,8 +41,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   expect_clean([&] { (void)augment::dataset_params_from_json(j, "fuzz.json"); });
   expect_clean([&] { (void)train::train_params_from_json(j, "fuzz.json"); });
   expect_clean([&] { (void)procgen::erosion_params_from_json(j, "fuzz.json"); });
-  expect_clean([&] { (void)procgen::floating_params_from_json(j, "fuzz.json"); });
+  expect_clean([&] { (void)islands::floating_params_from_json(j, "fuzz.json"); });
   for (const char* kind : {"mapgen4", "wilbur"})  // parsed and run at 16² (the size override keeps it fast)
-    expect_clean([&] { (void)procgen::configured_terrain(kind, j, "fuzz.json", 16, 1); });
+    expect_clean([&] { (void)islands::configured_terrain(kind, j, "fuzz.json", 16, 1); });
   return 0;
 }

@@ -1,7 +1,7 @@
 #pragma once
 // JSON for params structs that provide a field walk
 //   static void fields(P& p, F&& f)  calling f("name", p.name) per field
-// in namespace reefgen::procgen (found by argument-dependent lookup). One walk
+// in the params struct's namespace (found by argument-dependent lookup). One walk
 // serves serialisation, the key list and parsing, so a field cannot be
 // forgotten in one of them.
 #include <algorithm>
@@ -13,7 +13,7 @@
 #include "reefgen/io.hpp"
 #include "reefgen/json_read.hpp"
 
-namespace reefgen::procgen {
+namespace reefgen {
 
 template <class P>
 nlohmann::json params_json(P p) {
@@ -45,4 +45,4 @@ P params_from_json(const nlohmann::json& j, const std::string& origin, const std
   return p;
 }
 
-}  // namespace reefgen::procgen
+}  // namespace reefgen

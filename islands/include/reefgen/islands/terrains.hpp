@@ -10,7 +10,7 @@
 
 #include "reefgen/procgen/sketch.hpp"
 
-namespace reefgen::procgen {
+namespace reefgen::islands {
 
 // Wilbur-style island (Joe Wilbur's island-shaping recipe): fBm n spanned to
 // [0, 1], s = n·exp(−(r/4)²) − r² on [−1, 1]², land height = peak·s^p where
@@ -34,11 +34,11 @@ struct SketchBands {
   double reef_depth_m = 40.0;    // then reef down to this depth, deeper is abyss, > lagoon_depth_m
 };
 // Regions by height bands; subsidence λ uniform (the value channel).
-Sketch height_to_sketch(const cv::Mat1f& height_m, double subsidence, const SketchBands& b = {});
+procgen::Sketch height_to_sketch(const cv::Mat1f& height_m, double subsidence, const SketchBands& b = {});
 
-}  // namespace reefgen::procgen
+}  // namespace reefgen::islands
 
-namespace reefgen::procgen {
+namespace reefgen::islands {
 
 // mapgen4-style island (redblobgames' mapgen4; Guerra, "Procedural Island
 // Generation" I-II): Bridson Poisson-disk points plus boundary rings,
@@ -67,11 +67,11 @@ cv::Mat1f mapgen4_height(const Mapgen4Params& p, uint64_t seed);
 // 30 candidates per active point), deterministic in `seed`.
 std::vector<cv::Point2d> poisson_disk(double radius, uint64_t seed);
 
-}  // namespace reefgen::procgen
+}  // namespace reefgen::islands
 
-namespace reefgen::procgen {
+namespace reefgen::islands {
 // "mapgen4" or "wilbur" with default parameters at `size_px`; throws
-// std::invalid_argument naming the choices for anything else.
+// reefgen::Error naming the choices for anything else.
 cv::Mat1f named_terrain(const std::string& kind, int size_px, uint64_t seed);
 
 // The same with parameters from JSON (configs/terrains/*.json are these params
@@ -81,4 +81,4 @@ cv::Mat1f configured_terrain(const std::string& kind, const nlohmann::json& para
                              int size_px, uint64_t seed);
 nlohmann::json to_json(const WilburParams& p);
 nlohmann::json to_json(const Mapgen4Params& p);
-}  // namespace reefgen::procgen
+}  // namespace reefgen::islands

@@ -25,7 +25,7 @@
 
 #include "reefgen/mesh.hpp"
 
-namespace reefgen::procgen {
+namespace reefgen::islands {
 
 struct FloatingParams {
   double alpha_top = 0.2;       // α_top: overall scale of the top surface, [0, 100]
@@ -94,4 +94,4 @@ double mask_iou(const cv::Mat1b& a, const cv::Mat1b& b);
 // A shaded oblique view of the mesh (BGR), for previews and docs.
 cv::Mat3b render_mesh(const Mesh& m, int width_px, double yaw_deg = 30, double pitch_deg = 25);
 
-}  // namespace reefgen::procgen
+}  // namespace reefgen::islands

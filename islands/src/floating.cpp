@@ -1,4 +1,4 @@
-#include "reefgen/procgen/floating.hpp"
+#include "reefgen/islands/floating.hpp"
 
 #include <cstdio>
 
@@ -8,12 +8,15 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "params_json.hpp"
+#include "reefgen/params_json.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/procgen/noise.hpp"
 #include "reefgen/rng.hpp"
 
-namespace reefgen::procgen {
+namespace reefgen::islands {
+
+using procgen::GradientNoise2;
+using procgen::NoiseTile;
 
 #define REEFGEN_FLOATING_FIELDS(X)                                                                            \
   X(alpha_top) X(beta_top) X(alpha_bottom) X(beta_bottom) X(depth_stretch) X(metres_per_px) X(feature_m)    \
@@ -544,4 +547,4 @@ cv::Mat3b render_mesh(const Mesh& m, int width_px, double yaw_deg, double pitch_
   return img;
 }
 
-}  // namespace reefgen::procgen
+}  // namespace reefgen::islands

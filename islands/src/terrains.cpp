@@ -1,4 +1,4 @@
-#include "reefgen/procgen/terrains.hpp"
+#include "reefgen/islands/terrains.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -8,17 +8,21 @@
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/noise.hpp"
 #include "reefgen/rng.hpp"
-#include "params_json.hpp"
+#include "reefgen/params_json.hpp"
 
-namespace reefgen::procgen {
+namespace reefgen::islands {
+
+using procgen::GradientNoise2;
+using procgen::NoiseTile;
+using procgen::Sketch;
 
 cv::Mat1f wilbur_height(const WilburParams& p, uint64_t seed) {
-  if (p.size_px < 16 || p.size_px > 4096) throw std::invalid_argument("wilbur: size must be in [16, 4096]");
-  if (p.octaves < 1 || p.octaves > 10) throw std::invalid_argument("wilbur: octaves must be in [1, 10]");
-  if (!(p.frequency > 0 && p.frequency <= 64)) throw std::invalid_argument("wilbur: frequency must be in (0, 64]");
-  if (!(p.exponent > 0 && p.exponent <= 10)) throw std::invalid_argument("wilbur: exponent must be in (0, 10]");
-  if (!(p.peak_m > 0 && p.peak_m <= 1e4)) throw std::invalid_argument("wilbur: peak_m must be in (0, 1e4]");
-  if (!(p.depth_m > 0 && p.depth_m <= 1e4)) throw std::invalid_argument("wilbur: depth_m must be in (0, 1e4]");
+  if (p.size_px < 16 || p.size_px > 4096) throw Error("wilbur: size must be in [16, 4096]");
+  if (p.octaves < 1 || p.octaves > 10) throw Error("wilbur: octaves must be in [1, 10]");
+  if (!(p.frequency > 0 && p.frequency <= 64)) throw Error("wilbur: frequency must be in (0, 64]");
+  if (!(p.exponent > 0 && p.exponent <= 10)) throw Error("wilbur: exponent must be in (0, 10]");
+  if (!(p.peak_m > 0 && p.peak_m <= 1e4)) throw Error("wilbur: peak_m must be in (0, 1e4]");
+  if (!(p.depth_m > 0 && p.depth_m <= 1e4)) throw Error("wilbur: depth_m must be in (0, 1e4]");
   const int W = p.size_px;
   const GradientNoise2 noise(derive_seed(seed, 0, "wilbur"));
   Rng rng(derive_seed(seed, 1, "wilbur-offset"));
@@ -44,10 +48,10 @@ cv::Mat1f wilbur_height(const WilburParams& p, uint64_t seed) {
   return h;
 }
 
-Sketch height_to_sketch(const cv::Mat1f& h, double subsidence, const SketchBands& b) {
+procgen::Sketch height_to_sketch(const cv::Mat1f& h, double subsidence, const SketchBands& b) {
   if (!(b.beach_top_m > 0 && b.lagoon_depth_m > 0 && b.reef_depth_m > b.lagoon_depth_m))
-    throw std::invalid_argument("sketch bands: need beach_top_m > 0 and 0 < lagoon_depth_m < reef_depth_m");
-  if (!(subsidence >= 0 && subsidence <= 1)) throw std::invalid_argument("sketch: subsidence must be in [0, 1]");
+    throw Error("sketch bands: need beach_top_m > 0 and 0 < lagoon_depth_m < reef_depth_m");
+  if (!(subsidence >= 0 && subsidence <= 1)) throw Error("sketch: subsidence must be in [0, 1]");
   Sketch s{cv::Mat1b(h.size()), cv::Mat1f(h.size(), float(subsidence))};
   for (int r = 0; r < h.rows; ++r)
     for (int c = 0; c < h.cols; ++c) {
@@ -73,7 +77,7 @@ cv::Mat1f named_terrain(const std::string& kind, int size_px, uint64_t seed) {
     p.size_px = size_px;
     return wilbur_height(p, seed);
   }
-  throw std::invalid_argument("terrain '" + kind + "': use mapgen4 or wilbur");
+  throw Error("terrain '" + kind + "': use mapgen4 or wilbur");
 }
 
 #define REEFGEN_WILBUR_FIELDS(X) X(size_px) X(octaves) X(frequency) X(exponent) X(peak_m) X(depth_m)
@@ -110,10 +114,10 @@ cv::Mat1f configured_terrain(const std::string& kind, const nlohmann::json& j, c
       if (size_px > 0) p.size_px = size_px;
       return mapgen4_height(p, seed);
     }
-  } catch (const std::invalid_argument& e) {
+  } catch (const Error& e) {
     throw Error(origin + ": " + e.what());
   }
   throw Error("terrain '" + kind + "': use mapgen4 or wilbur");
 }
 
-}  // namespace reefgen::procgen
+}  // namespace reefgen::islands
