@@ -10,7 +10,6 @@
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/model/shipped.hpp"
-#include "reefgen/preview.hpp"
 #include "reefgen/train/fused_adam.hpp"
 #include "reefgen/version.hpp"
 
@@ -172,13 +171,19 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                 const fs::path prefix = many ? out_dir / inputs[i].stem() : single.prefix;
                 const cv::Mat1f& h = heights[i % kChunk];
                 const double mpp = a->world_size_m / h.cols;
-                // 16-bit files span this field's own heights (amplified fields may
-                // leave the model's range): never clipped. The model's range is kept
-                // in the sidecar for reference.
-                const infer::HeightRange er = infer::export_range(h);
-                const double lo = er.lo_m, hi = er.hi_m;
                 double hmin, hmax;
                 cv::minMaxLoc(h, &hmin, &hmax);
+                infer::HeightFiles hf;
+                hf.png16 = a->png16;
+                hf.r16 = a->r16;
+                hf.preview = a->preview;
+                hf.mesh = mesh_format;
+                hf.mesh_path = mesh_path;
+                hf.exaggeration = a->exaggeration;
+                const fs::path exr = many ? fs::path(prefix.string() + ".height.exr") : single.height;
+                hf.exr_path = exr;
+                // The model's range is kept in the sidecar for reference; the
+                // 16-bit files span the field's own (stage_height_files).
                 nlohmann::json side = {
                     {"reefgen_version", kVersion},
                     {"sketch", fs::absolute(inputs[i]).string()},
@@ -191,48 +196,10 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                     {"size_px", {h.cols, h.rows}},
                     {"metres_per_px", mpp},
                     {"height_range_m", {hmin, hmax}},
-                    {"model_range_m", {gen.range.lo_m, gen.range.hi_m}},
-                    {"files", nlohmann::json::object()}};
-                auto add = [&](const std::string& kind, const fs::path& p) { side["files"][kind] = p.filename().string(); };
-                const fs::path exr = many ? fs::path(prefix.string() + ".height.exr") : single.height;
-                staged.write(exr, [&](const fs::path& t) {
-                  write_exr_height(t, h, {{"reefgen:version", kVersion}, {"reefgen:metres_per_pixel", std::to_string(mpp)}});
-                });
-                add("height_exr", exr);
-                if (a->png16) {
-                  const fs::path p = prefix.string() + ".height.png";
-                  staged.write(p, [&](const fs::path& t) { infer::write_png16(t, h, lo, hi); });
-                  add("height_png16", p);
-                  side["png16"] = {{"encoding", "linear: metres = lo + v/65535·(hi − lo)"}, {"lo_m", lo}, {"hi_m", hi},
-                                   {"import", nlohmann::json::parse(infer::engine_import_json(h.cols, h.rows, er, mpp))}};
-                }
-                if (a->r16) {
-                  const fs::path p = prefix.string() + ".r16";
-                  staged.write(p, [&](const fs::path& t) { infer::write_r16(t, h, lo, hi); });
-                  add("height_r16", p);
-                  const std::string note = infer::r16_import_note(h.cols, h.rows, lo, hi, mpp);
-                  side["r16"] = {{"width", h.cols}, {"height", h.rows}, {"byte_order", "little-endian"},
-                                 {"lo_m", lo}, {"hi_m", hi}, {"import_note", note},
-                                 {"import", nlohmann::json::parse(infer::engine_import_json(h.cols, h.rows, er, mpp))}};
-                  r16_notes.push_back(p.string() + ": " + note);  // printed once the files are in place
-                }
-                if (!mesh_format.empty()) {
-                  const fs::path p = mesh_path.empty() ? fs::path(prefix.string() + "." + mesh_format) : mesh_path;
-                  infer::MeshOptions mo{mpp, a->exaggeration};
-                  staged.write(p, [&](const fs::path& t) {
-                    if (mesh_format == "obj") infer::write_obj(t, h, mo);
-                    else infer::write_glb(t, h, mo);
-                  });
-                  add("mesh", p);
-                  side["mesh"] = {{"format", mesh_format}, {"up", "+Y"}, {"units", "metres"}, {"exaggeration", a->exaggeration}};
-                }
-                if (a->preview) {
-                  const fs::path p = prefix.string() + ".preview.png";
-                  PreviewOptions po;
-                  po.metres_per_px = mpp;
-                  staged.write(p, [&](const fs::path& t) { write_png(t, render_preview(h, po)); });
-                  add("preview", p);
-                }
+                    {"model_range_m", {gen.range.lo_m, gen.range.hi_m}}};
+                side.update(infer::stage_height_files(staged, prefix, h, mpp, hf));
+                if (a->r16)  // printed once the files are in place
+                  r16_notes.push_back(prefix.string() + ".r16: " + side["r16"]["import_note"].get<std::string>());
                 const fs::path js = prefix.string() + ".json";
                 staged.write(js, [&](const fs::path& t) { write_json_atomic(t, side); });  // last of its sketch
                 results.push_back(exr);

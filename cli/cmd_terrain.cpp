@@ -8,7 +8,6 @@
 #include "reefgen/infer/export.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/islands/terrains.hpp"
-#include "reefgen/preview.hpp"
 
 namespace reefgen {
 
@@ -44,22 +43,13 @@ Command add_terrain_command(CLI::App& app, const GlobalOptions&) {
             const fs::path prefix = output_names(a->out).prefix;  // refuses "-o dir/" (hidden .height.exr)
             if (prefix.has_parent_path()) ensure_writable_dir(prefix.parent_path());
             StagedOutputs staged;  // all or nothing: a failure keeps an earlier result as it was
-            staged.write(prefix.string() + ".height.exr", [&](const fs::path& t) {
-              write_exr_height(t, h,
-                               {{"reefgen:generator", a->kind}, {"reefgen:seed", std::to_string(a->seed)},
-                                // reefgen's canvas convention (docs/DESIGN.md §2: 6 km across), so that
-                                // `reefgen floating --height` and previews know the scale.
-                                {"reefgen:metres_per_pixel", std::to_string(kCanvasWorldSizeM / h.cols)}});
-            });
-            if (a->preview)
-              staged.write(prefix.string() + ".preview.png", [&](const fs::path& t) { write_png(t, render_preview(h)); });
-            if (!a->mesh.empty()) {
-              const infer::MeshOptions mo{kCanvasWorldSizeM / h.cols, 1.0};
-              staged.write(prefix.string() + "." + a->mesh, [&](const fs::path& t) {
-                if (a->mesh == "glb") infer::write_glb(t, h, mo);
-                else infer::write_obj(t, h, mo);
-              });
-            }
+            infer::HeightFiles hf;
+            hf.preview = a->preview;
+            hf.mesh = a->mesh;
+            // reefgen's canvas convention (docs/DESIGN.md §2: 6 km across), so that
+            // `reefgen floating --height` and previews know the scale.
+            hf.exr_attributes = {{"reefgen:generator", a->kind}, {"reefgen:seed", std::to_string(a->seed)}};
+            infer::stage_height_files(staged, prefix, h, kCanvasWorldSizeM / h.cols, hf);
             staged.commit();
             std::printf("%s.height.exr\n", prefix.c_str());
             return 0;

@@ -124,6 +124,51 @@ TEST(Export, SixteenBitFilesSpanTheFieldsOwnRange) {
   fs::remove_all(d);
 }
 
+// One writer for infer, terrain and the studio: every requested file, named
+// from the prefix, nothing in place before commit, the sidecar naming them
+// with the range the 16-bit files really use.
+TEST(Export, StageHeightFilesWritesWhatWasAskedOnCommit) {
+  const fs::path d = temp_dir("stage");
+  cv::Mat1f h = bumpy(64);
+  h(5, 5) = 612.f;  // above the model's nominal range: must not clip
+  HeightFiles f;
+  f.png16 = f.r16 = f.preview = true;
+  f.mesh = "glb";
+  f.exr_attributes = {{"reefgen:seed", "7"}};
+  nlohmann::json side;
+  {
+    StagedOutputs staged;
+    side = stage_height_files(staged, d / "isl", h, 25.0, f);
+    EXPECT_FALSE(fs::exists(d / "isl.height.exr"));  // staged, not yet in place
+    staged.commit();
+  }
+  for (const char* suffix : {".height.exr", ".height.png", ".r16", ".glb", ".preview.png"})
+    EXPECT_TRUE(fs::is_regular_file(d / ("isl" + std::string(suffix)))) << suffix;
+  EXPECT_EQ(side["files"].size(), 5u);
+  EXPECT_EQ(side["files"]["height_r16"], "isl.r16");
+  const double lo = side["png16"]["lo_m"], hi = side["png16"]["hi_m"];
+  EXPECT_GE(hi, 612.0);
+  EXPECT_LE(cv::norm(read_png16(d / "isl.height.png", lo, hi), h, cv::NORM_INF), (hi - lo) / 65535 / 2 + 1e-3);
+  EXPECT_EQ(side["r16"]["lo_m"], lo);
+  EXPECT_NE(side["r16"]["import_note"].get<std::string>().find("Width 64"), std::string::npos);
+  ExrAttributes attrs;
+  (void)read_exr_height(d / "isl.height.exr", &attrs);
+  EXPECT_EQ(attrs["reefgen:seed"], "7");
+  EXPECT_EQ(std::stod(attrs["reefgen:metres_per_pixel"]), 25.0);
+  // Only what is asked: the EXR alone, and a bad mesh format refused by name.
+  HeightFiles only;
+  {
+    StagedOutputs staged;
+    EXPECT_EQ(stage_height_files(staged, d / "one", h, 25.0, only)["files"].size(), 1u);
+    staged.commit();
+  }
+  EXPECT_FALSE(fs::exists(d / "one.height.png"));
+  only.mesh = "fbx";
+  StagedOutputs staged;
+  test::expect_error_naming([&] { stage_height_files(staged, d / "bad", h, 25.0, only); }, "fbx");
+  fs::remove_all(d);
+}
+
 TEST(Export, ObjReadsBack) {
   const fs::path d = temp_dir("obj");
   const cv::Mat1f h = bumpy(16);

@@ -10,6 +10,8 @@
 
 #include "reefgen/io.hpp"
 #include "reefgen/mesh.hpp"
+#include "reefgen/preview.hpp"
+#include "reefgen/version.hpp"
 
 namespace reefgen::infer {
 
@@ -146,6 +148,61 @@ void write_obj(const fs::path& path, const cv::Mat1f& h, const MeshOptions& o) {
 
 void write_glb(const fs::path& path, const cv::Mat1f& h, const MeshOptions& o) {
   reefgen::write_glb(path, grid_mesh(h, o), "island");
+}
+
+nlohmann::json stage_height_files(StagedOutputs& staged, const std::filesystem::path& prefix,
+                                  const cv::Mat1f& height_m, double metres_per_px, const HeightFiles& f) {
+  const std::string pre = prefix.string();
+  const HeightRange er = export_range(height_m);
+  const double lo = er.lo_m, hi = er.hi_m;
+  nlohmann::json side = {{"files", nlohmann::json::object()}};
+  auto add = [&](const std::string& kind, const std::filesystem::path& p) { side["files"][kind] = p.filename().string(); };
+  auto import_numbers = [&] {
+    return nlohmann::json::parse(engine_import_json(height_m.cols, height_m.rows, er, metres_per_px));
+  };
+  if (f.exr) {
+    const std::filesystem::path p = f.exr_path.empty() ? std::filesystem::path(pre + ".height.exr") : f.exr_path;
+    std::map<std::string, std::string> attrs = f.exr_attributes;
+    attrs["reefgen:version"] = kVersion;
+    attrs["reefgen:metres_per_pixel"] = std::to_string(metres_per_px);
+    staged.write(p, [&](const std::filesystem::path& t) { write_exr_height(t, height_m, attrs); });
+    add("height_exr", p);
+  }
+  if (f.png16) {
+    const std::filesystem::path p = pre + ".height.png";
+    staged.write(p, [&](const std::filesystem::path& t) { write_png16(t, height_m, lo, hi); });
+    add("height_png16", p);
+    side["png16"] = {{"encoding", "linear: metres = lo + v/65535·(hi − lo)"}, {"lo_m", lo}, {"hi_m", hi},
+                     {"import", import_numbers()}};
+  }
+  if (f.r16) {
+    const std::filesystem::path p = pre + ".r16";
+    staged.write(p, [&](const std::filesystem::path& t) { write_r16(t, height_m, lo, hi); });
+    add("height_r16", p);
+    side["r16"] = {{"width", height_m.cols}, {"height", height_m.rows}, {"byte_order", "little-endian"},
+                   {"lo_m", lo}, {"hi_m", hi},
+                   {"import_note", r16_import_note(height_m.cols, height_m.rows, lo, hi, metres_per_px)},
+                   {"import", import_numbers()}};
+  }
+  if (!f.mesh.empty()) {
+    if (f.mesh != "obj" && f.mesh != "glb") throw Error("mesh format '" + f.mesh + "': use obj or glb");
+    const std::filesystem::path p = f.mesh_path.empty() ? std::filesystem::path(pre + "." + f.mesh) : f.mesh_path;
+    const MeshOptions mo{metres_per_px, f.exaggeration};
+    staged.write(p, [&](const std::filesystem::path& t) {
+      if (f.mesh == "obj") write_obj(t, height_m, mo);
+      else write_glb(t, height_m, mo);
+    });
+    add("mesh", p);
+    side["mesh"] = {{"format", f.mesh}, {"up", "+Y"}, {"units", "metres"}, {"exaggeration", f.exaggeration}};
+  }
+  if (f.preview) {
+    const std::filesystem::path p = pre + ".preview.png";
+    PreviewOptions po;
+    po.metres_per_px = metres_per_px;
+    staged.write(p, [&](const std::filesystem::path& t) { write_png(t, render_preview(height_m, po)); });
+    add("preview", p);
+  }
+  return side;
 }
 
 }  // namespace reefgen::infer

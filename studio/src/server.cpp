@@ -504,24 +504,26 @@ struct StudioServer::Impl {
         // Unity's terrains are 2^n + 1 samples a side: resample to that.
         cv::resize(h, exported, {h.cols + 1, h.rows + 1}, 0, 0, cv::INTER_LINEAR);
       }
-      const infer::HeightRange er = infer::export_range(exported);
-      const double lo = er.lo_m, hi = er.hi_m;
+      // r16: the resampled field's own spacing.
+      const double export_mpp = mpp * h.cols / exported.cols;
       StagedOutputs staged;
-      staged.write(path, [&](const fs::path& t) {
-        if (format == "exr") write_exr_height(t, h, {{"reefgen:version", kVersion}, {"reefgen:metres_per_pixel", std::to_string(mpp)}});
-        else if (format == "png16") infer::write_png16(t, h, lo, hi);
-        else if (format == "r16") infer::write_r16(t, exported, lo, hi);
-        else if (format == "glb") infer::write_glb(t, h, infer::MeshOptions{mpp, 1.0});
-        else if (format == "obj") infer::write_obj(t, h, infer::MeshOptions{mpp, 1.0});
-        else if (format == "sketch") write_png(t, label);
-        else write_json_atomic(t, spec_json);
-      });
-      if (format == "png16" || format == "r16") {
-        const std::string import =
-            infer::engine_import_json(exported.cols, exported.rows, er, mpp * h.cols / exported.cols);
-        staged.write(o.out_dir / (name + ".import.json"),
-                     [&](const fs::path& t) { write_json_atomic(t, json::parse(import)); });
-        res.set_header("X-Reefgen-Range-M", std::to_string(lo) + " " + std::to_string(hi));
+      if (format == "sketch") {
+        staged.write(path, [&](const fs::path& t) { write_png(t, label); });
+      } else if (format == "spec") {
+        staged.write(path, [&](const fs::path& t) { write_json_atomic(t, spec_json); });
+      } else {
+        infer::HeightFiles hf;
+        hf.exr = format == "exr";
+        hf.png16 = format == "png16";
+        hf.r16 = format == "r16";
+        if (format == "glb" || format == "obj") hf.mesh = format;
+        const json side = infer::stage_height_files(staged, o.out_dir / name, exported, export_mpp, hf);
+        if (side.contains(format)) {  // png16, r16: the range and each engine's numbers beside the file
+          staged.write(o.out_dir / (name + ".import.json"),
+                       [&](const fs::path& t) { write_json_atomic(t, side[format]["import"]); });
+          res.set_header("X-Reefgen-Range-M", std::to_string(side[format]["lo_m"].get<double>()) + " " +
+                                                  std::to_string(side[format]["hi_m"].get<double>()));
+        }
       }
       staged.commit();
       const std::string bytes = read_text(path);

@@ -2,11 +2,14 @@
 // Height-field formats terrain tools import (docs/EXPORTS.md). All written
 // atomically; heights in metres, sea level 0.
 #include <filesystem>
+#include <map>
 #include <string>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
 #include "reefgen/constants.hpp"
+#include "reefgen/io.hpp"
 #include "reefgen/mesh.hpp"
 
 namespace reefgen::infer {
@@ -44,5 +47,25 @@ struct MeshOptions {
 Mesh grid_mesh(const cv::Mat1f& height_m, const MeshOptions& o);
 void write_obj(const std::filesystem::path& path, const cv::Mat1f& height_m, const MeshOptions& o);
 void write_glb(const std::filesystem::path& path, const cv::Mat1f& height_m, const MeshOptions& o);
+
+// The files of one height field, named from one prefix: PREFIX.height.exr,
+// PREFIX.height.png (16-bit), PREFIX.r16, PREFIX.obj / PREFIX.glb and
+// PREFIX.preview.png. Written by `infer`, `terrain` and the studio's export
+// alike, so a file and its import numbers are the same whoever wrote it.
+struct HeightFiles {
+  bool exr = true, png16 = false, r16 = false, preview = false;
+  std::string mesh;                   // "", "obj" or "glb"
+  std::filesystem::path exr_path;     // "" = PREFIX.height.exr
+  std::filesystem::path mesh_path;    // "" = PREFIX.<mesh>
+  double exaggeration = 1.0;          // the mesh's vertical scale, (0, 100]
+  std::map<std::string, std::string> exr_attributes;  // beside reefgen:version and reefgen:metres_per_pixel
+};
+// Stages each requested file of height_m (metres_per_px apart) in `staged`
+// (nothing is in place before staged.commit()) and returns what a sidecar
+// says about them: "files" {kind: file name}; "png16" / "r16": the linear
+// range (the field's own, export_range: never clipped), the byte order and
+// each engine's import numbers (engine_import_json), R16's import note; "mesh".
+nlohmann::json stage_height_files(StagedOutputs& staged, const std::filesystem::path& prefix,
+                                  const cv::Mat1f& height_m, double metres_per_px, const HeightFiles& f);
 
 }  // namespace reefgen::infer
