@@ -18,6 +18,7 @@
 #include <CLI/CLI.hpp>
 
 #include "reefgen/io.hpp"
+#include "reefgen/parallel.hpp"
 
 namespace reefgen {
 
@@ -89,71 +90,6 @@ double seconds_of(F&& f) {
   const auto t0 = std::chrono::steady_clock::now();
   f();
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-inline int default_threads() {
-  const unsigned n = std::thread::hardware_concurrency();
-  return n ? static_cast<int>(n) : 1;
-}
-
-// A progress line on stderr, only when stderr is a terminal and not -q; data
-// goes to stdout, so piping a command never mixes the two.
-class Progress {
- public:
-  Progress(std::string what, size_t total, bool quiet)
-      : what_(std::move(what)), total_(total), on_(!quiet && ::isatty(2)), start_(clock::now()) {}
-  void tick(size_t done) {
-    if (!on_) return;
-    std::lock_guard<std::mutex> lock(m_);
-    const auto now = clock::now();
-    if (done < total_ && now - last_ < std::chrono::milliseconds(200)) return;
-    last_ = now;
-    const double s = std::chrono::duration<double>(now - start_).count();
-    std::fprintf(stderr, "\r%s %zu/%zu (%.0f%%) %.1f/s   ", what_.c_str(), done, total_,
-                 total_ ? 100.0 * done / total_ : 100.0, s > 0 ? done / s : 0.0);
-    if (done >= total_) std::fprintf(stderr, "\n");
-    std::fflush(stderr);
-  }
-
- private:
-  using clock = std::chrono::steady_clock;
-  std::string what_;
-  size_t total_;
-  bool on_;
-  clock::time_point start_, last_{};
-  std::mutex m_;
-};
-
-// Runs task(i) for i in [0, n) on `threads` workers. The first exception stops
-// the remaining work and is rethrown. Tasks must be independent: each output
-// depends only on its index, never on scheduling.
-inline void parallel_for(size_t n, int threads, const std::function<void(size_t)>& task,
-                         const std::function<void(size_t)>& on_done = {}) {
-  std::atomic<size_t> next{0}, done{0};
-  std::atomic<bool> failed{false};
-  std::exception_ptr error;
-  std::mutex m;
-  auto worker = [&] {
-    for (;;) {
-      const size_t i = next.fetch_add(1);
-      if (i >= n || failed) return;
-      try {
-        task(i);
-      } catch (...) {
-        std::lock_guard<std::mutex> lock(m);
-        if (!failed.exchange(true)) error = std::current_exception();
-        return;
-      }
-      const size_t d = ++done;
-      if (on_done) on_done(d);
-    }
-  };
-  const int t = std::max(1, std::min<int>(threads, static_cast<int>(n)));
-  std::vector<std::thread> pool;
-  for (int k = 1; k < t; ++k) pool.emplace_back(worker);
-  worker();
-  for (auto& th : pool) th.join();
-  if (error) std::rethrow_exception(error);
 }
 
 // CLI11 validator: a finite number in [lo, hi]. CLI::Range lets NaN through

@@ -6,8 +6,10 @@
 #include <opencv2/imgproc.hpp>
 
 #include "reefgen/augment/augment.hpp"
+#include "reefgen/augment/build.hpp"
 #include "reefgen/augment/dataset.hpp"
 #include "reefgen/io.hpp"
+#include "test_util.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
@@ -248,4 +250,38 @@ TEST(Dataset, ConfigErrorsNameTheKey) {
   EXPECT_NE(err(R"({"subsidence_min": 0.5, "subsidence_max": 0.2})").find("subsidence_max"), std::string::npos);
   EXPECT_NE(err(R"({"erosion": {"rain": 1}})").find("erosion.rain"), std::string::npos);
   EXPECT_NE(err(R"({"erosion": {"steps": 2.5}})").find("integer"), std::string::npos);
+}
+
+// The build library: two shards merged give the one-process build's manifest
+// byte for byte, whatever the thread count; a resumed build reuses every pair;
+// merge refuses a missing shard and stats count what was built.
+TEST(DatasetBuild, ShardsMergedEqualOneBuildWhateverTheThreads) {
+  const fs::path d = test::temp_dir("build");
+  DatasetParams p;
+  p.count = 6;
+  p.size_px = 32;
+  BuildOptions o;
+  o.seed = 3;
+  o.quiet = true;
+  o.out = d / "one";
+  o.threads = 2;
+  const BuildResult one = build_dataset(p, o);
+  EXPECT_EQ(one.pairs, 6u);
+  EXPECT_EQ(one.reused, 0u);
+  o.threads = 1;
+  EXPECT_EQ(build_dataset(p, o).reused, 6u);  // resumed: every pair verified, none rewritten
+  o.out = d / "sharded";
+  o.shard = "1/2";
+  EXPECT_EQ(build_dataset(p, o).pairs, 3u);
+  test::expect_error_naming([&] { merge_dataset(o.out); }, "1 of 2 shard manifests");
+  o.shard = "0/2";
+  build_dataset(p, o);
+  const MergeResult m = merge_dataset(o.out);
+  EXPECT_EQ(m.shards, 2u);
+  EXPECT_EQ(read_text(m.manifest), read_text(one.manifest));
+  const nlohmann::json st = dataset_stats(o.out, 2, true);
+  EXPECT_EQ(st["pairs"], 6);
+  EXPECT_TRUE(fs::is_regular_file(o.out / "contact_sheet.png"));
+  test::expect_error_naming([&] { parse_shard("2/2"); }, "2/2");
+  fs::remove_all(d);
 }

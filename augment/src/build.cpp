@@ -1,0 +1,338 @@
+// Building a training set on disk (docs/DATASET.md): pairs written as
+// SPLIT/INDEX.label.png + SPLIT/INDEX.height.exr with a manifest, resumable,
+// sharded over machines and merged with checksums verified; and its stats.
+// Every pair is a pure function of (seed, index), so a build can be resumed,
+// sharded and verified by rebuilding.
+#include "reefgen/augment/build.hpp"
+
+#include <array>
+#include <atomic>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <regex>
+#include <set>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "reefgen/constants.hpp"
+#include "reefgen/io.hpp"
+#include "reefgen/labels.hpp"
+#include "reefgen/parallel.hpp"
+#include "reefgen/preview.hpp"
+#include "reefgen/version.hpp"
+
+namespace reefgen::augment {
+
+using nlohmann::json;
+
+namespace {
+
+// Heights are normalised for training by this fixed range (docs/DESIGN.md §5: "a fixed
+// range stored with the model"). It bounds every generated height: M(0) =
+// -100 m (coral keeps the floor there) up to M(1) = 500 m × (1 + detail noise
+// 0.1) + smooth-max overshoot ≤ 1 m.
+constexpr double kNormFloorM = kAbyssFloorM, kNormPeakM = kHeightCeilingM;
+
+}  // namespace
+
+std::pair<int, int> parse_shard(const std::string& s) {
+  std::smatch m;
+  static const std::regex re(R"((\d{1,6})/(\d{1,6}))");
+  if (!std::regex_match(s, m, re)) throw Error("--shard " + s + ": must be I/N with 0 ≤ I < N ≤ 999999, e.g. 0/4");
+  const int i = std::stoi(m[1]), n = std::stoi(m[2]);
+  if (n < 1 || i >= n) throw Error("--shard " + s + ": need 0 ≤ I < N");
+  return {i, n};
+}
+
+namespace {
+
+std::string pair_stem(const PairInfo& info) {
+  char name[32];
+  std::snprintf(name, sizeof name, "%08lld", static_cast<long long>(info.index));
+  return std::string(split_name(info.split)) + "/" + name;
+}
+
+std::string manifest_name(int i, int n) {
+  return n == 1 ? "manifest.jsonl" : "manifest.shard-" + std::to_string(i) + "-of-" + std::to_string(n) + ".jsonl";
+}
+
+// Verifies that existing files hold exactly this pair (a resumed build), or
+// throws naming the file. Returns false when the files are absent.
+bool existing_matches(const fs::path& label_path, const fs::path& height_path, const cv::Mat3b& label_bgr,
+                      const Pair& pair) {
+  const bool hl = fs::exists(label_path), hh = fs::exists(height_path);
+  if (!hl && !hh) return false;
+  if (hl != hh) return false;  // interrupted between the two writes: rewrite both
+  cv::Mat l;
+  try {
+    l = read_image(label_path, cv::IMREAD_UNCHANGED);
+  } catch (const Error&) {
+  }
+  if (l.empty() || l.type() != CV_8UC3 || cv::norm(l, label_bgr, cv::NORM_INF) != 0)
+    throw Error(label_path.string() + " is corrupt or from another dataset; delete it or build into an empty folder");
+  cv::Mat1f h;
+  try {
+    h = read_exr_height(height_path);
+  } catch (const Error&) {
+    throw Error(height_path.string() + " is corrupt or from another dataset; delete it or build into an empty folder");
+  }
+  if (h.size() != pair.height_m.size() || cv::norm(h, pair.height_m, cv::NORM_INF) != 0)
+    throw Error(height_path.string() + " is corrupt or from another dataset; delete it or build into an empty folder");
+  return true;
+}
+
+}  // namespace
+
+BuildResult build_dataset(const DatasetParams& p, const BuildOptions& a) {
+  if (a.threads < 1 || a.threads > 256) throw Error("--threads must be in 1..256");
+  const auto [shard_i, shard_n] = parse_shard(a.shard);
+  const fs::path dir = a.out;
+  // A folder that is not a dataset is refused unless empty: the build writes
+  // dataset.json, manifest.jsonl and split folders and would replace a user's
+  // file of the same name. Its own files (locks, splits) are fine: shards of
+  // one folder start side by side.
+  {
+    std::error_code ec;
+    if (fs::exists(dir, ec) && !fs::is_directory(dir, ec))
+      throw Error(dir.string() + ": exists and is not a folder; choose another --out");
+    if (fs::is_directory(dir, ec) && !fs::exists(dir / "dataset.json", ec)) {
+      for (const auto& e : fs::directory_iterator(dir, ec)) {
+        const std::string name = e.path().filename().string();
+        const bool own = name.rfind(".reefgen.shard-", 0) == 0 ||
+                         ((name == "train" || name == "val" || name == "test") && e.is_directory(ec));
+        if (!own)
+          throw Error(dir.string() + ": not a reefgen dataset and not empty (holds " + name +
+                      "); build into an empty or new folder");
+      }
+    }
+  }
+  ensure_writable_dir(dir);
+  for (auto s : {Split::kTrain, Split::kVal, Split::kTest}) ensure_writable_dir(dir / split_name(s));
+  // One builder per shard of a folder (shards of one folder may run side by
+  // side); a killed builder's temp files are dropped, its finished pairs kept.
+  const DirLock lock(dir, "dataset shard " + a.shard,
+                     ".reefgen.shard-" + std::to_string(shard_i) + "-of-" + std::to_string(shard_n) + ".lock");
+  remove_stale_temps(dir);
+  for (auto s : {Split::kTrain, Split::kVal, Split::kTest}) remove_stale_temps(dir / split_name(s));
+
+  json meta = {{"tool", "reefgen"},
+               {"format", 1},
+               {"seed", a.seed},
+               {"params", p},
+               {"height_normalisation_m", {kNormFloorM, kNormPeakM}},
+               {"sea_level_m", 0.0},
+               {"label_encoding", "HSV: hue 60*(id+1) deg for island, beach, lagoon, reef; 0 deg abyss; V = 1 - 0.75*subsidence"},
+               {"files", "SPLIT/INDEX.label.png (RGB 8-bit) + SPLIT/INDEX.height.exr (float32, channel Y, metres)"}};
+  const fs::path meta_path = dir / "dataset.json";
+  if (fs::exists(meta_path)) {
+    json old = read_json(meta_path);
+    old.erase("version");
+    if (old != meta) throw Error(meta_path.string() + " describes another dataset (seed or params differ); use an empty --out folder");
+  }
+  meta["version"] = kVersion;
+  write_json_atomic(meta_path, meta);
+
+  std::vector<int64_t> indices;
+  for (int64_t i = shard_i; i < p.count; i += shard_n) indices.push_back(i);
+  // Lines are streamed to the manifest's temporary file in index order as soon
+  // as the pairs before them are done: memory holds only the few lines that
+  // finished out of order, whatever the dataset size.
+  AtomicTextWriter manifest(dir / manifest_name(shard_i, shard_n));
+  std::mutex manifest_mutex;
+  std::map<size_t, std::string> pending;
+  size_t next_line = 0;
+  auto put_line = [&](size_t k, std::string line) {
+    std::lock_guard<std::mutex> lock(manifest_mutex);
+    pending.emplace(k, std::move(line));
+    for (auto it = pending.begin(); it != pending.end() && it->first == next_line; it = pending.erase(it), ++next_line)
+      manifest.write(it->second + "\n");
+  };
+  std::atomic<size_t> reused{0};
+  Progress progress("dataset", indices.size(), a.quiet);
+  parallel_for(
+      indices.size(), a.threads,
+      [&](size_t k) {
+        PairInfo info;
+        const Pair pair = make_pair(a.seed, indices[k], p, &info);
+        const std::string stem = pair_stem(info);
+        const fs::path label_path = dir / (stem + ".label.png"), height_path = dir / (stem + ".height.exr");
+        const cv::Mat3b label_bgr = encode_labels(pair.label, pair.subsidence);
+        if (existing_matches(label_path, height_path, label_bgr, pair)) {
+          ++reused;
+        } else {
+          // Uncompressed EXR, zlib level 1 PNG: compressing cost more than
+          // generating the pair (noisy floats shrink by only ~20 %).
+          write_exr_height(height_path, pair.height_m, {{"reefgen:version", kVersion}}, 0);
+          write_png(label_path, label_bgr, 1);
+        }
+        double lo, hi;
+        cv::minMaxLoc(pair.height_m, &lo, &hi);
+        put_line(k, json{{"index", info.index},
+                      {"split", split_name(info.split)},
+                      {"configuration", info.configuration},
+                      {"subsidence", info.subsidence},
+                      {"augmentation", info.augmentation},
+                      {"height_range_m", {lo, hi}},
+                      {"label", stem + ".label.png"},
+                      {"height", stem + ".height.exr"},
+                      {"label_fnv64", file_checksum(label_path)},
+                      {"height_fnv64", file_checksum(height_path)}}.dump());
+      },
+      [&](size_t d) { progress.tick(d); });
+  if (next_line != indices.size()) throw Error(dir.string() + ": internal error: manifest incomplete");
+  manifest.commit();
+  return {dir / manifest_name(shard_i, shard_n), indices.size(), size_t(reused)};
+}
+
+MergeResult merge_dataset(const fs::path& dir) {
+  const json meta = read_json(dir / "dataset.json");
+  const int64_t count = meta.at("params").at("count").get<int64_t>();
+  std::vector<fs::path> shards;
+  int n = 0;
+  static const std::regex re(R"(manifest\.shard-(\d{1,6})-of-(\d{1,6})\.jsonl)");
+  for (const auto& e : fs::directory_iterator(dir)) {
+    std::smatch m;
+    const std::string name = e.path().filename().string();
+    if (!std::regex_match(name, m, re)) continue;
+    const int sn = std::stoi(m[2]);
+    if (sn < 1) throw Error(e.path().string() + ": a shard of 0 shards; delete this file");
+    if (n && sn != n) throw Error(dir.string() + ": shard manifests of different N (" + std::to_string(n) + ", " + std::to_string(sn) + ")");
+    n = sn;
+    shards.push_back(e.path());
+  }
+  if (shards.empty()) throw Error(dir.string() + ": no manifest.shard-I-of-N.jsonl to merge");
+  if (static_cast<int>(shards.size()) != n)
+    throw Error(dir.string() + ": " + std::to_string(shards.size()) + " of " + std::to_string(n) + " shard manifests present; build the missing shards first");
+  // Shard I holds the indices i with i % N == I in increasing order, so the
+  // merged manifest is read off the shards round-robin: streamed, flat memory.
+  std::vector<std::ifstream> in(static_cast<size_t>(n));
+  for (const auto& sp : shards) {
+    std::smatch m;
+    const std::string name = sp.filename().string();
+    std::regex_match(name, m, re);
+    const int i = std::stoi(m[1]);
+    if (i >= n) throw Error(sp.string() + ": shard " + std::to_string(i) + " of " + std::to_string(n) + " does not exist; delete this file");
+    in[static_cast<size_t>(i)].open(sp);
+  }
+  AtomicTextWriter merged(dir / "manifest.jsonl");
+  std::set<std::string> listed;  // file names, to find foreign files afterwards
+  for (int64_t i = 0; i < count; ++i) {
+    const fs::path s = dir / manifest_name(int(i % n), n);
+    std::string line;
+    if (!std::getline(in[static_cast<size_t>(i % n)], line))
+      throw Error(s.string() + ": ends before pair " + std::to_string(i) + "; rebuild that shard");
+    json r;
+    try {
+      r = json::parse(line);
+    } catch (const json::exception&) {
+      throw Error(s.string() + ": corrupt line; rebuild that shard");
+    }
+    if (r.at("index").get<int64_t>() != i)
+      throw Error(s.string() + ": expected pair " + std::to_string(i) + ", found " + r.at("index").dump() + "; rebuild that shard");
+    for (const char* kind : {"label", "height"}) {
+      const std::string rel = r.at(kind).get<std::string>();
+      const fs::path f = dir / rel;
+      if (!fs::exists(f) || file_checksum(f) != r.at(std::string(kind) + "_fnv64").get<std::string>())
+        throw Error(f.string() + ": missing or checksum mismatch; rebuild its shard");
+      listed.insert(rel);
+    }
+    merged.write(r.dump() + "\n");
+  }
+  for (size_t k = 0; k < in.size(); ++k) {
+    std::string extra;
+    if (std::getline(in[k], extra) && !extra.empty())
+      throw Error((dir / manifest_name(int(k), n)).string() + ": more pairs than dataset.json's count; rebuild that shard");
+  }
+  // Files in the split folders that no manifest lists: another build's, or copied in by mistake.
+  std::vector<std::string> foreign;
+  for (auto sp : {Split::kTrain, Split::kVal, Split::kTest})
+    if (fs::exists(dir / split_name(sp)))
+      for (const auto& e : fs::directory_iterator(dir / split_name(sp))) {
+        const std::string rel = std::string(split_name(sp)) + "/" + e.path().filename().string();
+        if (!listed.count(rel)) foreign.push_back(rel);
+      }
+  if (!foreign.empty())
+    throw Error(dir.string() + ": " + std::to_string(foreign.size()) + " file(s) no manifest lists, e.g. " + foreign.front() +
+                "; remove them (or build into a clean folder) and merge again");
+  merged.commit();
+  return {dir / "manifest.jsonl", shards.size(), count};
+}
+
+json dataset_stats(const fs::path& dir, int sheet_pairs, bool quiet) {
+  if (sheet_pairs < 0 || sheet_pairs > 1024) throw Error("--sheet must be in 0..1024");
+  const json meta = read_json(dir / "dataset.json");
+  const fs::path manifest = dir / "manifest.jsonl";
+  if (!fs::exists(manifest)) throw Error(manifest.string() + ": missing; finish the build (or `dataset merge` its shards)");
+  std::ifstream in(manifest);
+  std::map<std::string, int64_t> per_split;
+  std::array<double, kNumRegions> region_px{};
+  std::vector<int64_t> lambda_hist(10, 0);
+  double hmin = 1e30, hmax = -1e30, total_px = 0;
+  int64_t n = 0;
+  std::vector<cv::Mat> tiles;
+  const int tile = 128;
+  std::string line;
+  std::vector<json> records;
+  for (size_t no = 1; std::getline(in, line); ++no) {
+    json r = json::parse(line, nullptr, false);
+    if (r.is_discarded() || !r.is_object() || !r.contains("split") || !r["split"].is_string() ||
+        !r.contains("label") || !r["label"].is_string() || !r.contains("height") || !r["height"].is_string() ||
+        !r.contains("subsidence") || !r["subsidence"].is_number())
+      throw Error(manifest.string() + ":" + std::to_string(no) +
+                  ": not a pair record (truncated or edited manifest); rebuild the dataset (it resumes)");
+    records.push_back(std::move(r));
+  }
+  const int size_px = meta.contains("params") ? meta["params"].value("size_px", 0) : 0;
+  Progress progress("stats", records.size(), quiet);
+  for (const auto& r : records) {
+    ++per_split[r.at("split").get<std::string>()];
+    const fs::path lp = dir / r.at("label").get<std::string>(), hp = dir / r.at("height").get<std::string>();
+    const auto d = read_sketch(lp);
+    const cv::Mat1f h = read_exr_height(hp);
+    for (const auto& [m, path] : {std::pair<cv::Size, fs::path>{d.label.size(), lp}, {h.size(), hp}})
+      if (size_px > 0 && (m.width != size_px || m.height != size_px))
+        throw Error(path.string() + ": " + std::to_string(m.width) + "x" + std::to_string(m.height) + ", not " +
+                    std::to_string(size_px) + "x" + std::to_string(size_px) + " as dataset.json says; rebuild this pair");
+    if (!cv::checkRange(h, true))
+      throw Error(hp.string() + ": holds NaN or infinite heights; rebuild this pair (delete it and run dataset build again)");
+    for (int y = 0; y < d.label.rows; ++y)
+      for (int x = 0; x < d.label.cols; ++x) region_px[d.label(y, x)] += 1;
+    total_px += static_cast<double>(d.label.total());
+    const double lam = r.at("subsidence").get<double>();
+    ++lambda_hist[std::min(9, static_cast<int>(lam * 10))];
+    double lo, hi;
+    cv::minMaxLoc(h, &lo, &hi);
+    hmin = std::min(hmin, lo);
+    hmax = std::max(hmax, hi);
+    if (static_cast<int>(tiles.size()) < sheet_pairs) {
+      cv::Mat lab = read_image(lp, cv::IMREAD_COLOR), prev, a, b;
+      cv::resize(lab, a, {tile, tile}, 0, 0, cv::INTER_NEAREST);
+      cv::resize(render_preview(h), b, {tile, tile}, 0, 0, cv::INTER_AREA);
+      cv::hconcat(a, b, prev);
+      tiles.push_back(prev);
+    }
+    progress.tick(static_cast<size_t>(++n));
+  }
+  json out_j = {{"pairs", n}, {"per_split", per_split}, {"height_range_m", {hmin, hmax}}, {"seed", meta.at("seed")}};
+  json fractions = json::object();
+  for (int i = 0; i < kNumRegions; ++i) fractions[kRegionNames[i]] = total_px > 0 ? region_px[i] / total_px : 0.0;
+  out_j["region_pixel_fraction"] = fractions;
+  out_j["subsidence_histogram"] = {{"bin_width", 0.1}, {"counts", lambda_hist}};
+  if (!tiles.empty()) {
+    // Grid of label | height previews, 4 pairs per row.
+    const int cols = 4, rows = (static_cast<int>(tiles.size()) + cols - 1) / cols;
+    cv::Mat sheet(rows * tile, cols * 2 * tile, CV_8UC3, cv::Scalar(40, 40, 40));
+    for (size_t k = 0; k < tiles.size(); ++k)
+      tiles[k].copyTo(sheet(cv::Rect(static_cast<int>(k % cols) * 2 * tile, static_cast<int>(k / cols) * tile, 2 * tile, tile)));
+    write_png(dir / "contact_sheet.png", sheet);
+    out_j["contact_sheet"] = "contact_sheet.png";
+  }
+  write_json_atomic(dir / "stats.json", out_j);
+  return out_j;
+}
+
+
+}  // namespace reefgen::augment
