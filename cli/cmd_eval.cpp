@@ -143,7 +143,7 @@ Command add_eval_command(CLI::App& app, const GlobalOptions& g) {
                 md += line;
               }
               md += "\nClean sketches, per region:\n\n| region | MAE (m) | RMSE (m) | pixel share |\n|---|---|---|---|\n";
-              for (const char* name : {"mountain", "beach", "lagoon", "reef", "abyss"}) {
+              for (const char* name : kRegionNames) {
                 const json& r = results["clean"]["per_region"][name];
                 char line[160];
                 std::snprintf(line, sizeof line, "| %s | %.2f | %.2f | %.3f |\n", name, r["mae_m"].get<double>(),

@@ -23,7 +23,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
   auto* sub = app.add_subcommand(
       "infer",
       "Turn painted label sketches into height fields with a trained generator\n\n"
-      "Colours (paper §7): red abyss, blue reef, cyan lagoon, green beach, yellow mountain;\n"
+      "Colours (paper §7): red abyss, blue reef, cyan lagoon, green beach, yellow island (mountain);\n"
       "darker = more subsidence. Any size (resized to the model's side and back), PNG/JPEG,\n"
       "8/16-bit, alpha, anti-aliased brushes.\n\n"
       "Examples:\n"

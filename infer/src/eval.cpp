@@ -31,12 +31,11 @@ void MetricSums::add(const MetricSums& o) {
 }
 
 json MetricSums::finish() const {
-  static const char* names[5] = {"mountain", "beach", "lagoon", "reef", "abyss"};
   auto r4 = [](double v) { return std::round(v * 1e4) / 1e4; };  // stable, readable JSON
   json per_region = json::object();
-  for (int r = 0; r < 5; ++r) {
+  for (int r = 0; r < kNumRegions; ++r) {
     const double n = double(std::max<int64_t>(1, px_region[size_t(r)]));
-    per_region[names[r]] = {{"mae_m", r4(abs_region[size_t(r)] / n)},
+    per_region[kRegionNames[size_t(r)]] = {{"mae_m", r4(abs_region[size_t(r)] / n)},
                             {"rmse_m", r4(std::sqrt(sq_region[size_t(r)] / n))},
                             {"pixel_share", r4(double(px_region[size_t(r)]) / double(std::max<int64_t>(1, pixels)))}};
   }

@@ -14,6 +14,8 @@ namespace reefgen {
 
 enum Region : uint8_t { kIsland = 0, kBeach = 1, kLagoon = 2, kReef = 3, kAbyss = 4 };
 inline constexpr int kNumRegions = 5;
+// Region 0 is "island" everywhere (the paper's name; the yellow brush paints
+// the mountain of it): sidecars, stats.json, eval's per_region keys.
 inline constexpr std::array<const char*, kNumRegions> kRegionNames = {"island", "beach", "lagoon", "reef", "abyss"};
 
 // Hue in degrees of a region id (0..4).
