@@ -13,25 +13,6 @@
 
 namespace reefgen {
 
-namespace {
-
-// Metres per pixel a reefgen EXR states (metres_per_px: what infer wrote
-// before 2026-11-23); 0 when it states none.
-double exr_metres_per_px(const ExrAttributes& attrs) {
-  for (const char* key : {"reefgen:metres_per_pixel", "reefgen:metres_per_px"}) {
-    const auto it = attrs.find(key);
-    if (it != attrs.end()) {
-      try {
-        return std::stod(it->second);
-      } catch (const std::exception&) {
-      }
-    }
-  }
-  return 0;
-}
-
-}  // namespace
-
 Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
   auto* sub = app.add_subcommand(
       "floating",
@@ -127,34 +108,16 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
               ExrAttributes attrs;
               terrain = read_exr_height(a->height, &attrs);
               if (a->painting.empty()) {  // the terrain is the canvas: its pixel size, or reefgen's 6 km across
-                const double mpp = exr_metres_per_px(attrs);
+                const double mpp = exr_metres_per_px(attrs);  // else reefgen's 6 km canvas
                 p.metres_per_px = mpp > 0 ? mpp : kCanvasWorldSizeM / terrain.cols;
               }
-              for (const float v : terrain) {
-                if (!std::isfinite(v)) throw Error(a->height + ": height field holds NaN or infinity; regenerate it");
-                // Beyond ±100 km a float32 mesh loses its sub-metre steps and is no longer closed.
-                if (std::abs(v) > 1e5f)
-                  throw Error(a->height + ": height " + std::to_string(v) + " m is beyond ±100 km; is it in metres?");
-              }
+              islands::check_floating_heights(terrain, a->height);
             }
             if (sub->count("--metres-per-px")) p.metres_per_px = a->metres_per_px;
             islands::validate(p);
             if (!a->painting.empty()) {
               if (!fs::is_regular_file(a->painting)) throw Error(a->painting + ": no such file (check the path)");
-              cv::Mat img = read_image(a->painting, cv::IMREAD_UNCHANGED);
-              if (a->max_size < 0) throw Error("--max-size must be ≥ 0");
-              const int long_side = std::max(img.cols, img.rows);
-              if (a->max_size > 0 && long_side > a->max_size) {
-                // Shrink with area averaging (edges become blends, which the
-                // segmentation assigns); pixels get bigger, the island keeps its size.
-                const double k = double(a->max_size) / long_side;
-                cv::Mat small;
-                cv::resize(img, small, cv::Size(std::max(1, int(std::lround(img.cols * k))), std::max(1, int(std::lround(img.rows * k)))), 0, 0, cv::INTER_AREA);
-                p.metres_per_px *= double(img.cols) / small.cols;
-                p.feature_px = std::max(1.0, p.feature_px * small.cols / double(img.cols));
-                p.smooth_px *= double(small.cols) / img.cols;
-                img = small;
-              }
+              const cv::Mat img = islands::shrink_painting(read_image(a->painting, cv::IMREAD_UNCHANGED), a->max_size, p);
               labels = islands::segment_painting(img, p, a->painting, &top_rgb);
               if (terrain.empty()) {
                 h0 = islands::floating_features(labels.size(), p, a->seed);
@@ -162,11 +125,9 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
                 cv::resize(cv::max(terrain, 0.f), h0, labels.size(), 0, 0, cv::INTER_LINEAR);
               }
             } else {
-              labels = cv::Mat1b(terrain.size());
-              for (int r = 0; r < terrain.rows; ++r)
-                for (int c = 0; c < terrain.cols; ++c) labels(r, c) = terrain(r, c) > 0 ? islands::kPaintTop : islands::kPaintBackground;
-              if (cv::countNonZero(labels) == 0) throw Error(a->height + ": no land (no height above 0 m) to float; use a terrain with land, or paint the outline (--painting)");
-              h0 = cv::max(terrain, 0.f);
+              islands::HeightTop top = islands::top_of_height_field(terrain, a->height);
+              labels = top.labels;
+              h0 = top.h0_m;
             }
             const std::string source = a->painting.empty() ? a->height : a->painting;
             islands::FloatingIsland isl;

@@ -24,13 +24,7 @@ struct RealismArgs {
 double cell_size(const RealismArgs& a, const ExrAttributes& attrs, int width, const std::string& file) {
   if (a.metres_per_px > 0) return a.metres_per_px;
   if (a.world_size_m > 0) return a.world_size_m / width;
-  if (auto it = attrs.find("reefgen:metres_per_pixel"); it != attrs.end()) {
-    try {
-      const double v = std::stod(it->second);
-      if (v > 0 && std::isfinite(v)) return v;
-    } catch (const std::exception&) {
-    }
-  }
+  if (const double v = exr_metres_per_px(attrs); v > 0) return v;
   throw Error(file + ": no metres per pixel in the file; pass --metres-per-px M or --world-size M");
 }
 

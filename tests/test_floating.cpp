@@ -1,5 +1,7 @@
 // Floating islands from a painting: segmentation, basemaps, closed meshes,
 // silhouettes, exports read back; and the mesh inspection itself.
+#include <limits>
+
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -362,4 +364,35 @@ TEST(Floating, PaintedTopColoursReachTheMesh) {
   EXPECT_NEAR(grass[1], 0.434f, 0.01f);  // #4caf50 in linear RGB
   EXPECT_LT(grass[0], 0.1f);
   EXPECT_NEAR(rock[0], 0.258f, 0.01f);  // #8b5a2b in linear RGB
+}
+
+// The CLI's painting and height-field handling, now library functions: a
+// shrunk painting keeps its ground size, a height field's land is the top,
+// and bad fields are refused naming the file.
+TEST(Floating, ShrinkPaintingAndTopOfHeightField) {
+  FloatingParams p;
+  p.metres_per_px = 2.0;
+  p.feature_px = 40;
+  const cv::Mat img(400, 200, CV_8UC3, cv::Scalar(0, 200, 0));
+  const cv::Mat small = shrink_painting(img, 100, p);
+  EXPECT_EQ(small.rows, 100);
+  EXPECT_EQ(small.cols, 50);
+  EXPECT_DOUBLE_EQ(p.metres_per_px * small.cols, 2.0 * 200);  // same ground width
+  EXPECT_DOUBLE_EQ(p.feature_px, 10.0);
+  EXPECT_EQ(shrink_painting(img, 0, p).cols, 200);  // 0 = as painted
+  EXPECT_EQ(shrink_painting(img, 500, p).cols, 200);
+  expect_error_naming([&] { shrink_painting(img, -1, p); }, "max-size");
+
+  cv::Mat1f h(8, 8, -5.f);
+  h(3, 4) = 12.f;
+  h(4, 4) = 3.f;
+  const HeightTop t = top_of_height_field(h, "f.exr");
+  EXPECT_EQ(cv::countNonZero(t.labels == kPaintTop), 2);
+  EXPECT_FLOAT_EQ(t.h0_m(3, 4), 12.f);
+  EXPECT_FLOAT_EQ(t.h0_m(0, 0), 0.f);
+  expect_error_naming([&] { top_of_height_field(cv::Mat1f(8, 8, -1.f), "sea.exr"); }, "sea.exr: no land");
+  h(0, 0) = std::numeric_limits<float>::quiet_NaN();
+  expect_error_naming([&] { top_of_height_field(h, "nan.exr"); }, "nan.exr");
+  h(0, 0) = 2e5f;
+  expect_error_naming([&] { top_of_height_field(h, "km.exr"); }, "100 km");
 }

@@ -11,6 +11,7 @@
 #include <cctype>
 #include <atomic>
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -453,6 +454,19 @@ void refuse_output_over_input(const std::vector<fs::path>& inputs, const std::ve
         throw Error(out.string() + ": this output is also an input (" + in.string() +
                     "); choose another output name so the input is not overwritten");
     }
+}
+
+double exr_metres_per_px(const ExrAttributes& attrs) {
+  for (const char* key : {"reefgen:metres_per_pixel", "reefgen:metres_per_px"}) {
+    const auto it = attrs.find(key);
+    if (it == attrs.end()) continue;
+    try {
+      const double v = std::stod(it->second);
+      if (v > 0 && std::isfinite(v)) return v;
+    } catch (const std::exception&) {
+    }
+  }
+  return 0;
 }
 
 }  // namespace reefgen

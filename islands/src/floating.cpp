@@ -547,4 +547,40 @@ cv::Mat3b render_mesh(const Mesh& m, int width_px, double yaw_deg, double pitch_
   return img;
 }
 
+cv::Mat shrink_painting(const cv::Mat& image, int max_px, FloatingParams& p) {
+  if (max_px < 0) throw Error("--max-size must be ≥ 0");
+  const int long_side = std::max(image.cols, image.rows);
+  if (max_px == 0 || long_side <= max_px) return image;
+  const double k = double(max_px) / long_side;
+  cv::Mat small;
+  cv::resize(image, small,
+             cv::Size(std::max(1, int(std::lround(image.cols * k))), std::max(1, int(std::lround(image.rows * k)))), 0,
+             0, cv::INTER_AREA);
+  p.metres_per_px *= double(image.cols) / small.cols;
+  p.feature_px = std::max(1.0, p.feature_px * small.cols / double(image.cols));
+  p.smooth_px *= double(small.cols) / image.cols;
+  return small;
+}
+
+void check_floating_heights(const cv::Mat1f& height_m, const std::string& origin) {
+  for (const float v : height_m) {
+    if (!std::isfinite(v)) throw Error(origin + ": height field holds NaN or infinity; regenerate it");
+    // Beyond ±100 km a float32 mesh loses its sub-metre steps and is no longer closed.
+    if (std::abs(v) > 1e5f)
+      throw Error(origin + ": height " + std::to_string(v) + " m is beyond ±100 km; is it in metres?");
+  }
+}
+
+HeightTop top_of_height_field(const cv::Mat1f& height_m, const std::string& origin) {
+  check_floating_heights(height_m, origin);
+  HeightTop t;
+  t.labels = cv::Mat1b(height_m.size());
+  for (int r = 0; r < height_m.rows; ++r)
+    for (int c = 0; c < height_m.cols; ++c) t.labels(r, c) = height_m(r, c) > 0 ? kPaintTop : kPaintBackground;
+  if (cv::countNonZero(t.labels) == 0)
+    throw Error(origin + ": no land (no height above 0 m) to float; use a terrain with land, or paint the outline (--painting)");
+  t.h0_m = cv::max(height_m, 0.f);
+  return t;
+}
+
 }  // namespace reefgen::islands

@@ -108,6 +108,10 @@ void write_exr_height(const fs::path& path, const cv::Mat1f& height_m, const Exr
 // Reads channel "Y" (or the only channel) of an EXR file; attributes of string
 // type are returned in `attrs` when not null.
 cv::Mat1f read_exr_height(const fs::path& path, ExrAttributes* attrs = nullptr);
+// The ground size of a pixel an EXR states (reefgen:metres_per_pixel, or
+// reefgen:metres_per_px as infer wrote it before 2026-11-23); 0 when it
+// states none or no positive finite number.
+double exr_metres_per_px(const ExrAttributes& attrs);
 
 // An exclusive lock on a folder (a run folder, a dataset being built), held
 // for the object's lifetime through DIR/.reefgen.lock (flock: released by the

@@ -65,6 +65,21 @@ cv::Mat1b segment_painting(const cv::Mat& image, const FloatingParams& p, const 
 // Noise features H₀ ∈ [0, feature_m] (metres) of the given size.
 cv::Mat1f floating_features(cv::Size size, const FloatingParams& p, uint64_t seed);
 
+// A painting shrunk (area averaging: edges become blends, which the
+// segmentation assigns) so its long side is at most max_px (0 = as painted);
+// p's pixel sizes follow so the island keeps its ground size and look.
+cv::Mat shrink_painting(const cv::Mat& image, int max_px, FloatingParams& p);
+
+// A height field's land (h > 0) as the top (labels kPaintTop) and its relief
+// as the features H₀. Throws reefgen::Error naming `origin` for NaN or
+// infinite heights, heights beyond ±100 km (not metres), or no land.
+struct HeightTop {
+  cv::Mat1b labels;
+  cv::Mat1f h0_m;
+};
+HeightTop top_of_height_field(const cv::Mat1f& height_m, const std::string& origin);
+void check_floating_heights(const cv::Mat1f& height_m, const std::string& origin);
+
 // Basemaps of one blob (mask of its pixels) at pixel centres: B (unitless,
 // [0, 1]), σ·B and B' (metres, B' ≥ 0: c_b clamped at 0); 0 outside the blob's rows' spans.
 struct Basemaps {
