@@ -257,6 +257,9 @@ expect_error "NaN or infinite" eval -m "$M" --data "$T/dnan" --split train --max
 cmp -s "$T/ev1/eval.json" "$T/ev2/eval.json" && ok || bad "eval not reproducible"
 for f in eval.json eval.md worst.png; do [ -s "$T/ev1/$f" ] || bad "eval: no $f"; done
 grep -q '"jpeg_q50"' "$T/ev1/eval.json" && ok || bad "eval: no perturbed results"
+# eval.md: the perturbations in their order, then region 0 by its one name.
+[ "$(sed -n 3,7p "$T/ev1/eval.md" | cut -d'|' -f2 | tr -d ' ' | tr '\n' ' ')" = "clean blur_sigma2 jpeg_q50 hue_jitter_15deg brush_noise " ] && ok || bad "eval.md rows: $(cat "$T/ev1/eval.md")"
+grep -q '^| island |' "$T/ev1/eval.md" && ok || bad "eval.md: no island row"
 # Never overwrite an input; two sketches with one stem refused (issue 13).
 mkdir -p "$T/s/a" "$T/s/b"; cp "$T/s/one.png" "$T/s/a/x.png"; cp "$T/s/one.png" "$T/s/b/x.png"
 expect_error "would both write" infer "$T/s/a" "$T/s/b" -m "$M" -o "$T/e"

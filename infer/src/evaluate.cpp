@@ -1,0 +1,113 @@
+#include "reefgen/infer/evaluate.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numeric>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "reefgen/infer/infer.hpp"
+#include "reefgen/io.hpp"
+#include "reefgen/labels.hpp"
+#include "reefgen/parallel.hpp"
+#include "reefgen/preview.hpp"
+
+namespace reefgen::infer {
+
+using nlohmann::json;
+
+EvalPair read_eval_pair(const std::filesystem::path& label, const std::filesystem::path& height, int size_px,
+                        int64_t index, const std::string& name) {
+  EvalPair p;
+  p.label_bgr = read_image(label, cv::IMREAD_COLOR);
+  p.truth_m = read_exr_height(height);
+  p.index = index;
+  p.name = name;
+  for (const auto& [m, path] : {std::pair<cv::Size, std::filesystem::path>{p.label_bgr.size(), label}, {p.truth_m.size(), height}})
+    if (m.width != size_px || m.height != size_px)
+      throw Error(path.string() + ": " + std::to_string(m.width) + "x" + std::to_string(m.height) + ", not " +
+                  std::to_string(size_px) + "x" + std::to_string(size_px) + " as dataset.json says; rebuild the dataset");
+  if (!cv::checkRange(p.truth_m, true))
+    throw Error(height.string() + ": the true heights hold NaN or infinite values; rebuild the dataset (reefgen dataset build)");
+  return p;
+}
+
+EvalResult evaluate(model::GeneratorFile& g, const std::vector<EvalPair>& pairs, const EvalOptions& o) {
+  const size_t n = pairs.size();
+  std::vector<DecodedSketch> clean;
+  for (const auto& p : pairs) clean.push_back(decode_sketch(p.label_bgr, p.name));
+  std::vector<Perturbation> kinds = {Perturbation::None};
+  if (o.perturb)
+    kinds.insert(kinds.end(), {Perturbation::Blur, Perturbation::Jpeg50, Perturbation::HueJitter, Perturbation::BrushNoise});
+  InferOptions io;
+  io.running_stats = o.running_stats;
+  EvalResult r;
+  r.metrics = json::object();
+  std::vector<double> clean_mae(n);
+  std::vector<cv::Mat1f> clean_pred;
+  Progress progress("eval", n * kinds.size(), o.quiet);
+  size_t done = 0;
+  for (const auto kind : kinds) {
+    MetricSums sums;
+    for (size_t i = 0; i < n; ++i) {  // one at a time: progress, bounded memory
+      const DecodedSketch sk = kind == Perturbation::None
+                                   ? clean[i]
+                                   : decode_sketch(perturb(pairs[i].label_bgr, kind, uint64_t(pairs[i].index)), pairs[i].name);
+      const cv::Mat1f pred = infer_heights(g, {sk}, io)[0];
+      const MetricSums m = pair_metrics(pred, pairs[i].truth_m, clean[i].label, g.range.lo_m, g.range.hi_m,
+                                        o.world_size_m / pred.cols);
+      sums.add(m);
+      if (kind == Perturbation::None) {
+        clean_mae[i] = m.abs_sum / double(m.pixels);
+        clean_pred.push_back(pred);
+      }
+      progress.tick(++done);
+    }
+    r.metrics[perturbation_name(kind)] = sums.finish();
+  }
+  // Worst cases on clean sketches: label | truth | prediction.
+  std::vector<size_t> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](size_t x, size_t y) { return clean_mae[x] > clean_mae[y]; });
+  r.worst = json::array();
+  std::vector<cv::Mat> rows;
+  for (size_t k = 0; k < std::min<size_t>(4, n); ++k) {
+    const size_t i = order[k];
+    r.worst.push_back({{"index", pairs[i].index}, {"label", pairs[i].name}, {"mae_m", std::round(clean_mae[i] * 1e4) / 1e4}});
+    cv::Mat row;
+    cv::hconcat(std::vector<cv::Mat>{pairs[i].label_bgr, render_preview(pairs[i].truth_m), render_preview(clean_pred[i])}, row);
+    rows.push_back(row);
+  }
+  if (!rows.empty()) cv::vconcat(rows, r.worst_sheet);
+  return r;
+}
+
+void write_eval_files(const std::filesystem::path& dir, const json& report, const cv::Mat& worst_sheet) {
+  ensure_writable_dir(dir);
+  write_json_atomic(dir / "eval.json", report);
+  std::string md = "| sketches | MAE (m) | RMSE (m) | SSIM | slope W1 (°) | coastline agreement |\n|---|---|---|---|---|---|\n";
+  const json& metrics = report.at("metrics");
+  for (const Perturbation p : {Perturbation::None, Perturbation::Blur, Perturbation::Jpeg50, Perturbation::HueJitter,
+                               Perturbation::BrushNoise}) {
+    if (!metrics.contains(perturbation_name(p))) continue;
+    const json& m = metrics.at(perturbation_name(p));
+    char line[256];
+    std::snprintf(line, sizeof line, "| %s | %.2f | %.2f | %.4f | %.3f | %.4f |\n", perturbation_name(p), m["mae_m"].get<double>(),
+                  m["rmse_m"].get<double>(), m["ssim"].get<double>(), m["slope_w1_deg"].get<double>(),
+                  m["coastline_agreement"].get<double>());
+    md += line;
+  }
+  md += "\nClean sketches, per region:\n\n| region | MAE (m) | RMSE (m) | pixel share |\n|---|---|---|---|\n";
+  for (const char* name : kRegionNames) {
+    const json& r = metrics.at("clean").at("per_region").at(name);
+    char line[160];
+    std::snprintf(line, sizeof line, "| %s | %.2f | %.2f | %.3f |\n", name, r["mae_m"].get<double>(),
+                  r["rmse_m"].get<double>(), r["pixel_share"].get<double>());
+    md += line;
+  }
+  write_text_atomic(dir / "eval.md", md);
+  if (!worst_sheet.empty()) write_png(dir / "worst.png", worst_sheet);
+}
+
+}  // namespace reefgen::infer
