@@ -245,11 +245,16 @@ TEST(Dataset, ConfigErrorsNameTheKey) {
     }
     return std::string("no error");
   };
-  EXPECT_NE(err(R"({"continuous_subsidence": 1})").find("continuous_subsidence must be true or false"), std::string::npos);
+  EXPECT_NE(err(R"({"continuous_subsidence": 1})").find("x.json: continuous_subsidence = 1 must be true or false"), std::string::npos);
   EXPECT_NE(err(R"({"border_px": 2.5})").find("border_px"), std::string::npos);
   EXPECT_NE(err(R"({"subsidence_min": 0.5, "subsidence_max": 0.2})").find("subsidence_max"), std::string::npos);
   EXPECT_NE(err(R"({"erosion": {"rain": 1}})").find("erosion.rain"), std::string::npos);
-  EXPECT_NE(err(R"({"erosion": {"steps": 2.5}})").find("integer"), std::string::npos);
+  EXPECT_NE(err(R"({"erosion": {"steps": 2.5}})").find("x.json: erosion.steps = 2.5 must be a whole number"), std::string::npos);
+  EXPECT_NE(err(R"({"erosion": {"m_area": 2}})").find("x.json: erosion.m_area = 2 is out of range; expected [0.1, 1]"), std::string::npos);
+  EXPECT_NE(err(R"({"erosion": 3})").find("erosion must be a JSON object"), std::string::npos);
+  EXPECT_NE(err(R"({"p_wilbur": 0.6, "p_mapgen4": 0.6})").find("add up to more than 1"), std::string::npos);
+  EXPECT_NE(err(R"({"description": "kept", "cout": 3})").find("unknown key \"cout\""), std::string::npos);
+  EXPECT_EQ(err(R"({"description": "a note for people"})"), "no error");
 }
 
 // The build library: two shards merged give the one-process build's manifest
@@ -284,4 +289,11 @@ TEST(DatasetBuild, ShardsMergedEqualOneBuildWhateverTheThreads) {
   EXPECT_TRUE(fs::is_regular_file(o.out / "contact_sheet.png"));
   test::expect_error_naming([&] { parse_shard("2/2"); }, "2/2");
   fs::remove_all(d);
+}
+
+// Every DatasetParams field, the nested erosion's too, survives the config
+// file round trip (issue 23: there was no such test).
+TEST(Dataset, ParamsRoundTripEveryField) {
+  test::expect_params_round_trip<DatasetParams>(
+      [](const nlohmann::json& j) { return dataset_params_from_json(j, "round-trip.json"); });
 }

@@ -173,30 +173,8 @@ TEST(Erosion, RefinementLevels) {
 }
 
 TEST(Erosion, ParamsJsonRoundTripAndErrors) {
-  ErosionParams p;
-  p.enabled = false;
-  p.k_fluvial = 3e-6;
-  p.m_area = 0.55;
-  p.hard_erodibility = 0.3;
-  p.diffusivity = 0.07;
-  p.duration_yr = 1234;
-  p.steps = 5;
-  p.base_px = 128;
-  p.refine_steps = 4;
-  p.refine_duration_yr = 99;
-  p.noise_amplitude = 0.5;
-  p.flow_exponent = 2;
-  p.amplify_roughness = 0.1;
-  p.amplify_feature_m = 300;
-  p.amplify_duration_scale = 1.5;
-  nlohmann::json j;
-  to_json(j, p);
-  nlohmann::json d;
-  to_json(d, ErosionParams{});
-  for (auto it = j.begin(); it != j.end(); ++it) EXPECT_NE(*it, d[it.key()]) << it.key() << " was left at its default";
-  nlohmann::json back;
-  to_json(back, erosion_params_from_json(j, "t.json"));
-  EXPECT_EQ(back, j);
+  reefgen::test::expect_params_round_trip<ErosionParams>(
+      [](const nlohmann::json& j) { return erosion_params_from_json(j, "t.json"); });
   auto parse = [](const char* text) {
     return [text] { erosion_params_from_json(nlohmann::json::parse(text), "t.json"); };
   };

@@ -2,12 +2,16 @@
 // Helpers shared by the GoogleTest files.
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
+#include <functional>
+#include <type_traits>
 #include <string>
 
 #include <gtest/gtest.h>
 
 #include "reefgen/io.hpp"
+#include "reefgen/params_json.hpp"
 
 namespace reefgen::test {
 
@@ -34,6 +38,52 @@ inline int count_files(const fs::path& d) {
   int n = 0;
   for (const auto& e : fs::directory_iterator(d)) (void)e, ++n;
   return n;
+}
+
+// Sets every field of a params struct that has a field walk to a value that
+// is not its default and lies inside its range (bools flipped, numbers moved
+// 37 % of the way to the far end of the range, nested structs likewise);
+// strings and lists are left alone (their valid values are not generic).
+template <class P>
+void set_every_field_off_default(P& p) {
+  fields(p, [](const char*, auto& v, auto... range) {
+    using T = std::decay_t<decltype(v)>;
+    if constexpr (has_fields_v<T>) {
+      set_every_field_off_default(v);
+    } else if constexpr (std::is_same_v<T, bool>) {
+      v = !v;
+    } else if constexpr (std::is_arithmetic_v<T> && sizeof...(range) == 1) {
+      const Range r = (range, ...);
+      const double d = double(v), to = (r.hi - d >= d - r.lo) ? r.hi : r.lo;
+      double x = d + 0.37 * (to - d);
+      if constexpr (std::is_integral_v<T>) x = std::round(x) == d ? d + (to > d ? 1 : -1) : std::round(x);
+      v = static_cast<T>(x);
+    }
+  });
+}
+
+// The round trip of a params struct through its own to_json and `parse`
+// with every field off its default: each field must come back, and each one
+// must really have been moved (so a field that serialisation or parsing
+// dropped cannot hide behind its default).
+template <class P, class Parse>
+void expect_params_round_trip(Parse parse) {
+  P p;
+  set_every_field_off_default(p);
+  const nlohmann::json j = params_json(p), d = params_json(P{});
+  std::function<void(const nlohmann::json&, const nlohmann::json&, const std::string&)> moved =
+      [&](const nlohmann::json& a, const nlohmann::json& b, const std::string& where) {
+        for (auto it = a.begin(); it != a.end(); ++it) {
+          if (it->is_object()) {
+            moved(*it, b.at(it.key()), where + it.key() + ".");
+          } else if (it->is_number() || it->is_boolean()) {
+            EXPECT_NE(*it, b.at(it.key())) << where + it.key() << " left at its default";
+          }
+        }
+      };
+  moved(j, d, "");
+  const P q = parse(j);
+  EXPECT_EQ(params_json(q), j);
 }
 
 }  // namespace reefgen::test

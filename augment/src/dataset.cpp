@@ -16,68 +16,19 @@ namespace reefgen::augment {
 
 using nlohmann::json;
 
-void to_json(json& j, const DatasetParams& p) {
-  j = json{{"count", p.count},           {"size_px", p.size_px},         {"levels", p.levels},
-           {"val_fraction", p.val_fraction}, {"test_fraction", p.test_fraction}, {"p_affine", p.p_affine},
-           {"scale_min", p.scale_min},   {"scale_max", p.scale_max},     {"p_translate", p.p_translate},
-           {"p_paste", p.p_paste},       {"paste_scale", p.paste_scale}, {"max_iou", p.max_iou},
-           {"p_mapgen4", p.p_mapgen4},   {"p_wilbur", p.p_wilbur},
-           {"continuous_subsidence", p.continuous_subsidence}, {"subsidence_min", p.subsidence_min},
-           {"subsidence_max", p.subsidence_max}, {"whole_islands", p.whole_islands}, {"border_px", p.border_px},
-           {"p_erosion", p.p_erosion}};
-  procgen::to_json(j["erosion"], p.erosion);
-}
+void to_json(json& j, const DatasetParams& p) { j = params_json(p); }
 
 DatasetParams dataset_params_from_json(const json& j, const std::string& origin) {
-  if (!j.is_object()) throw Error(origin + ": the dataset config must be a JSON object");
-  DatasetParams p;
-  json known;
-  to_json(known, p);
-  for (auto it = j.begin(); it != j.end(); ++it) {
-    if (it.key() == "description" || it.key() == "erosion") continue;
-    if (!known.contains(it.key())) throw Error(origin + ": unknown key \"" + it.key() + "\" in the dataset config");
-    if (known[it.key()].is_boolean()) {
-      if (!it->is_boolean()) throw Error(origin + ": " + it.key() + " must be true or false");
-    } else if (!it->is_number()) {
-      throw Error(origin + ": " + it.key() + " must be a number");
-    }
-  }
-  auto num = [&](const char* k, double& v, double lo, double hi) {
-    if (j.contains(k)) v = j[k].get<double>();
-    if (!(v >= lo && v <= hi))
-      throw Error(origin + ": " + k + " = " + std::to_string(v) + " is out of range; expected [" + std::to_string(lo) +
-                  ", " + std::to_string(hi) + "]");
+  const DatasetParams p = params_from_json<DatasetParams>(j, origin, "docs/DATASET.md", "", {"description"});
+  auto order = [&](const char* lo_key, double lo, const char* hi_key, double hi) {
+    if (!(hi >= lo))
+      throw Error(origin + ": " + hi_key + " = " + std::to_string(hi) + " is below " + lo_key + " = " + std::to_string(lo));
   };
-  double count = double(p.count), size = p.size_px, levels = p.levels;
-  num("count", count, 1, 1e8);
-  num("size_px", size, 16, 4096);
-  num("levels", levels, 1, 64);
-  for (const auto& [k, v] : {std::pair<const char*, double>{"count", count}, {"size_px", size}, {"levels", levels}})
-    if (v != std::floor(v)) throw Error(origin + ": " + k + " = " + j[k].dump() + " must be a whole number");
-  p.count = static_cast<int64_t>(count);
-  p.size_px = static_cast<int>(size);
-  p.levels = static_cast<int>(levels);
-  num("val_fraction", p.val_fraction, 0, 0.5);
-  num("test_fraction", p.test_fraction, 0, 0.5);
-  num("p_affine", p.p_affine, 0, 1);
-  num("scale_min", p.scale_min, 1e-3, 4);
-  num("scale_max", p.scale_max, p.scale_min, 4);
-  num("p_translate", p.p_translate, 0, 1);
-  num("p_paste", p.p_paste, 0, 1);
-  num("paste_scale", p.paste_scale, 1e-3, 1);
-  num("max_iou", p.max_iou, 0, 1);
-  num("p_mapgen4", p.p_mapgen4, 0, 1);
-  num("p_wilbur", p.p_wilbur, 0, 1 - p.p_mapgen4);
-  if (j.contains("continuous_subsidence")) p.continuous_subsidence = j["continuous_subsidence"].get<bool>();
-  if (j.contains("whole_islands")) p.whole_islands = j["whole_islands"].get<bool>();
-  num("subsidence_min", p.subsidence_min, 0, 1);
-  num("subsidence_max", p.subsidence_max, p.subsidence_min, 1);
-  double border = p.border_px;
-  num("border_px", border, 1, 64);
-  if (border != std::floor(border)) throw Error(origin + ": border_px must be an integer");
-  p.border_px = static_cast<int>(border);
-  num("p_erosion", p.p_erosion, 0, 1);
-  if (j.contains("erosion")) p.erosion = procgen::erosion_params_from_json(j["erosion"], origin);
+  order("scale_min", p.scale_min, "scale_max", p.scale_max);
+  order("subsidence_min", p.subsidence_min, "subsidence_max", p.subsidence_max);
+  if (p.p_mapgen4 + p.p_wilbur > 1)
+    throw Error(origin + ": p_wilbur = " + std::to_string(p.p_wilbur) + " and p_mapgen4 = " + std::to_string(p.p_mapgen4) +
+                " add up to more than 1");
   return p;
 }
 

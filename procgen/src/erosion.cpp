@@ -16,49 +16,10 @@ namespace reefgen::procgen {
 
 using nlohmann::json;
 
-#define REEFGEN_EROSION_FIELDS(X)                                                                            \
-  X(k_fluvial, 0, 1) X(m_area, 0.1, 1) X(hard_erodibility, 0, 1) X(diffusivity, 0, 100)                     \
-  X(duration_yr, 0, 1e8) X(steps, 0, 1000) X(base_px, 16, 8192) X(refine_steps, 0, 100)                    \
-  X(refine_duration_yr, 0, 1e8) X(noise_amplitude, 0, 1) X(flow_exponent, 0, 10)                                        \
-  X(amplify_roughness, 0, 1) X(amplify_feature_m, 1, 1e5) X(amplify_duration_scale, 0, 100)
-
-void to_json(json& j, const ErosionParams& p) {
-  j = json::object();
-  j["enabled"] = p.enabled;
-#define X(f, lo, hi) j[#f] = p.f;
-  REEFGEN_EROSION_FIELDS(X)
-#undef X
-}
+void to_json(json& j, const ErosionParams& p) { j = params_json(p); }
 
 ErosionParams erosion_params_from_json(const json& j, const std::string& origin) {
-  if (!j.is_object()) throw Error(origin + ": erosion must be a JSON object");
-  static const std::set<std::string> known = {"enabled",
-#define X(f, lo, hi) #f,
-                                              REEFGEN_EROSION_FIELDS(X)
-#undef X
-  };
-  for (const auto& [k, v] : j.items())
-    if (!known.count(k)) throw Error(origin + ": unknown key \"erosion." + k + "\"");
-  ErosionParams p;
-  if (j.contains("enabled")) {
-    if (!j.at("enabled").is_boolean()) throw Error(origin + ": erosion.enabled must be true or false");
-    p.enabled = j.at("enabled").get<bool>();
-  }
-#define X(f, lo, hi)                                                                                    \
-  if (j.contains(#f)) {                                                                                 \
-    const auto& v = j.at(#f);                                                                           \
-    if (!v.is_number()) throw Error(origin + ": erosion." #f " must be a number");                    \
-    const double d = v.get<double>();                                                                   \
-    using T = decltype(p.f);                                                                            \
-    if (!(d >= lo && d <= hi) || (std::is_integral_v<T> && d != std::floor(d)))                        \
-      throw Error(origin + ": erosion." #f " = " + v.dump() + " is out of range; expected " +          \
-                  (std::is_integral_v<T> ? "an integer in [" : "[") + std::to_string(lo) + ", " +      \
-                  std::to_string(hi) + "]");                                                            \
-    p.f = static_cast<T>(d);                                                                            \
-  }
-  REEFGEN_EROSION_FIELDS(X)
-#undef X
-  return p;
+  return params_from_json<ErosionParams>(j, origin, "docs/EROSION.md", "erosion.");
 }
 
 cv::Mat1f erodibility_map(const cv::Mat1f& resistance, uint64_t seed, const ErosionParams& p) {

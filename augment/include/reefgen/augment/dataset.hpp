@@ -44,6 +44,33 @@ struct DatasetParams {
   procgen::ErosionParams erosion;  // JSON: optional object "erosion"
 };
 
+// The one field list (common/params_json.hpp); dataset_params_from_json adds
+// the rules between fields (scale_min ≤ scale_max, subsidence_min ≤
+// subsidence_max, p_mapgen4 + p_wilbur ≤ 1).
+template <class F>
+void fields(DatasetParams& p, F&& f) {
+  f("count", p.count, Range{1, 1e8});
+  f("size_px", p.size_px, Range{16, 4096});
+  f("levels", p.levels, Range{1, 64});
+  f("val_fraction", p.val_fraction, Range{0, 0.5});
+  f("test_fraction", p.test_fraction, Range{0, 0.5});
+  f("p_affine", p.p_affine, Range{0, 1});
+  f("scale_min", p.scale_min, Range{1e-3, 4});
+  f("scale_max", p.scale_max, Range{1e-3, 4});
+  f("p_translate", p.p_translate, Range{0, 1});
+  f("p_paste", p.p_paste, Range{0, 1});
+  f("paste_scale", p.paste_scale, Range{1e-3, 1});
+  f("max_iou", p.max_iou, Range{0, 1});
+  f("p_mapgen4", p.p_mapgen4, Range{0, 1});
+  f("p_wilbur", p.p_wilbur, Range{0, 1});
+  f("continuous_subsidence", p.continuous_subsidence);
+  f("subsidence_min", p.subsidence_min, Range{0, 1});
+  f("subsidence_max", p.subsidence_max, Range{0, 1});
+  f("whole_islands", p.whole_islands);
+  f("border_px", p.border_px, Range{1, 64});
+  f("p_erosion", p.p_erosion, Range{0, 1});
+  f("erosion", p.erosion);
+}
 void to_json(nlohmann::json& j, const DatasetParams& p);
 // Every key optional; unknown keys and out-of-range values throw Error naming them.
 DatasetParams dataset_params_from_json(const nlohmann::json& j, const std::string& origin);

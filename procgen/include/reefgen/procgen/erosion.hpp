@@ -24,6 +24,8 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
+#include "reefgen/params_json.hpp"
+
 namespace reefgen::procgen {
 
 struct ErosionParams {
@@ -45,6 +47,25 @@ struct ErosionParams {
   double amplify_duration_scale = 1;  // base-grid erosion time as a multiple of duration_yr, [0, 100]
 };
 
+// The one field list (common/params_json.hpp): JSON both ways and the ranges.
+template <class F>
+void fields(ErosionParams& p, F&& f) {
+  f("enabled", p.enabled);
+  f("k_fluvial", p.k_fluvial, Range{0, 1});
+  f("m_area", p.m_area, Range{0.1, 1});
+  f("hard_erodibility", p.hard_erodibility, Range{0, 1});
+  f("diffusivity", p.diffusivity, Range{0, 100});
+  f("duration_yr", p.duration_yr, Range{0, 1e8});
+  f("steps", p.steps, Range{0, 1000});
+  f("base_px", p.base_px, Range{16, 8192});
+  f("refine_steps", p.refine_steps, Range{0, 100});
+  f("refine_duration_yr", p.refine_duration_yr, Range{0, 1e8});
+  f("noise_amplitude", p.noise_amplitude, Range{0, 1});
+  f("flow_exponent", p.flow_exponent, Range{0, 10});
+  f("amplify_roughness", p.amplify_roughness, Range{0, 1});
+  f("amplify_feature_m", p.amplify_feature_m, Range{1, 1e5});
+  f("amplify_duration_scale", p.amplify_duration_scale, Range{0, 100});
+}
 void to_json(nlohmann::json& j, const ErosionParams& p);
 // Every key optional; unknown keys and out-of-range values throw reefgen::Error naming `origin`.
 ErosionParams erosion_params_from_json(const nlohmann::json& j, const std::string& origin);
