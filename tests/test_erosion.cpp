@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "reefgen/io.hpp"
+#include "reefgen/constants.hpp"
 #include "reefgen/procgen/erosion.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
@@ -89,11 +90,11 @@ TEST(Erosion, ImplicitStepMatchesTheClosedForm) {
 
 TEST(Erosion, CarvesValleysKeepsTheSeaAndDrains) {
   const cv::Mat1f h = cone(128, 400.f, 8.f);
-  const double mpp = 6000.0 / 128;
+  const double mpp = kCanvasWorldSizeM / 128;
   const RealismStats before = realism_stats(h, mpp);
   ErosionParams p;
   cv::Mat1f rho(128, 128, 0.3f);
-  const cv::Mat1f e = erode_island(h, rho, 6000.0, 7, p);
+  const cv::Mat1f e = erode_island(h, rho, kCanvasWorldSizeM, 7, p);
   const RealismStats after = realism_stats(e, mpp);
   EXPECT_LT(before.valleys, 0.1);     // a cone sheds water radially
   EXPECT_GT(after.valleys, 0.2);      // a drainage network
@@ -107,10 +108,10 @@ TEST(Erosion, CarvesValleysKeepsTheSeaAndDrains) {
       ASSERT_LE(e(y, x), h(y, x) + 1.f);  // erosion removes; deposits only fill pits
     }
   // Hard rock erodes less.
-  const cv::Mat1f hard = erode_island(h, cv::Mat1f(128, 128, 1.f), 6000.0, 7, p);
+  const cv::Mat1f hard = erode_island(h, cv::Mat1f(128, 128, 1.f), kCanvasWorldSizeM, 7, p);
   EXPECT_GT(cv::sum(hard)[0], cv::sum(e)[0]);
   p.enabled = false;
-  EXPECT_EQ(cv::norm(erode_island(h, rho, 6000.0, 7, p), h, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(erode_island(h, rho, kCanvasWorldSizeM, 7, p), h, cv::NORM_INF), 0.0);
 }
 
 // amplify_heights (infer --size N): a smooth 128² answer (a cone, as an
@@ -127,9 +128,9 @@ TEST(Erosion, AmplifyCarvesValleysIntoASmoothAnswer) {
   for (int y = 0; y < 257; ++y)
     for (int x = 0; x < 257; ++x)
       if (h_up(y, x) > 0) label(y, x) = 0;  // island
-  const double mpp = 6000.0 / 257;
+  const double mpp = kCanvasWorldSizeM / 257;
   ErosionParams p;
-  const cv::Mat1f a = amplify_heights(h, label, 6000.0, 3, p);
+  const cv::Mat1f a = amplify_heights(h, label, kCanvasWorldSizeM, 3, p);
   ASSERT_EQ(a.size(), cv::Size(257, 257));
   const RealismStats st = realism_stats(a, mpp);
   EXPECT_GT(st.valleys, 0.2);
@@ -141,7 +142,7 @@ TEST(Erosion, AmplifyCarvesValleysIntoASmoothAnswer) {
   // measured by `bench realism`, docs/REALISM.md).
   ErosionParams smooth = p;
   smooth.amplify_roughness = 0;
-  EXPECT_GT(cv::norm(amplify_heights(h, label, 6000.0, 3, smooth), a, cv::NORM_INF), 1.0);
+  EXPECT_GT(cv::norm(amplify_heights(h, label, kCanvasWorldSizeM, 3, smooth), a, cv::NORM_INF), 1.0);
   // The sea is the answer's (bicubic); land stays land but for a few coastal cells.
   // Sea more than 4 px from the answer's land: bicubic of the answer, untouched.
   cv::Mat1b near_land;
@@ -159,9 +160,9 @@ TEST(Erosion, AmplifyCarvesValleysIntoASmoothAnswer) {
   EXPECT_EQ(moved_sea, 0) << moved_sea;
   EXPECT_LT(drowned, land / 20) << drowned << " of " << land << " land cells under the sea";
   // Deterministic per seed; another seed, other valleys.
-  EXPECT_EQ(cv::norm(amplify_heights(h, label, 6000.0, 3, p), a, cv::NORM_INF), 0.0);
-  EXPECT_GT(cv::norm(amplify_heights(h, label, 6000.0, 4, p), a, cv::NORM_INF), 1.0);
-  test::expect_error_naming([&] { amplify_heights(cv::Mat1f(10, 12, 0.f), label, 6000.0, 3, p); }, "square");
+  EXPECT_EQ(cv::norm(amplify_heights(h, label, kCanvasWorldSizeM, 3, p), a, cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(amplify_heights(h, label, kCanvasWorldSizeM, 4, p), a, cv::NORM_INF), 1.0);
+  test::expect_error_naming([&] { amplify_heights(cv::Mat1f(10, 12, 0.f), label, kCanvasWorldSizeM, 3, p); }, "square");
 }
 
 TEST(Erosion, RefinementLevels) {

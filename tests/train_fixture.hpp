@@ -2,6 +2,7 @@
 // What the training tests share: a tiny dataset on disk and tiny settings.
 #include <string>
 
+#include "reefgen/constants.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
@@ -16,7 +17,7 @@ inline fs::path make_dataset(const std::string& name, int n, int n_val) {
   const fs::path d = temp_dir(name);
   fs::create_directories(d / "train");
   fs::create_directories(d / "val");
-  write_json_atomic(d / "dataset.json", {{"params", {{"size_px", 64}}}, {"height_normalisation_m", {-100, 560}}});
+  write_json_atomic(d / "dataset.json", {{"params", {{"size_px", 64}}}, {"height_normalisation_m", {kAbyssFloorM, kHeightCeilingM}}});
   procgen::RenderOptions opt;
   opt.size_px = 64;
   std::string manifest;
