@@ -42,8 +42,9 @@ inline int count_files(const fs::path& d) {
 
 // Sets every field of a params struct that has a field walk to a value that
 // is not its default and lies inside its range (bools flipped, numbers moved
-// 37 % of the way to the far end of the range, nested structs likewise);
-// strings and lists are left alone (their valid values are not generic).
+// 37 % of the way to the far end of the range, strings to another of their
+// OneOf values, nested structs likewise); free strings and lists are left
+// alone (their valid values are not generic).
 template <class P>
 void set_every_field_off_default(P& p) {
   fields(p, [](const char*, auto& v, auto... range) {
@@ -52,12 +53,21 @@ void set_every_field_off_default(P& p) {
       set_every_field_off_default(v);
     } else if constexpr (std::is_same_v<T, bool>) {
       v = !v;
+    } else if constexpr (std::is_same_v<T, std::string> && sizeof...(range) == 1) {
+      const OneOf o = (range, ...);
+      for (const auto& x : o.values)
+        if (x != v) {
+          v = x;
+          break;
+        }
     } else if constexpr (std::is_arithmetic_v<T> && sizeof...(range) == 1) {
       const Range r = (range, ...);
       const double d = double(v), to = (r.hi - d >= d - r.lo) ? r.hi : r.lo;
       double x = d + 0.37 * (to - d);
       if constexpr (std::is_integral_v<T>) x = std::round(x) == d ? d + (to > d ? 1 : -1) : std::round(x);
       v = static_cast<T>(x);
+    } else if constexpr (std::is_arithmetic_v<T>) {  // no range: any other value (seeds)
+      v = static_cast<T>(v + 1);
     }
   });
 }
@@ -66,17 +76,20 @@ void set_every_field_off_default(P& p) {
 // with every field off its default: each field must come back, and each one
 // must really have been moved (so a field that serialisation or parsing
 // dropped cannot hide behind its default).
+// `adjust` may then fix rules between fields (it must not move a field back
+// to its default).
 template <class P, class Parse>
-void expect_params_round_trip(Parse parse) {
+void expect_params_round_trip(Parse parse, const std::function<void(P&)>& adjust = {}) {
   P p;
   set_every_field_off_default(p);
+  if (adjust) adjust(p);
   const nlohmann::json j = params_json(p), d = params_json(P{});
   std::function<void(const nlohmann::json&, const nlohmann::json&, const std::string&)> moved =
       [&](const nlohmann::json& a, const nlohmann::json& b, const std::string& where) {
         for (auto it = a.begin(); it != a.end(); ++it) {
           if (it->is_object()) {
             moved(*it, b.at(it.key()), where + it.key() + ".");
-          } else if (it->is_number() || it->is_boolean()) {
+          } else if (it->is_number() || it->is_boolean() || it->is_string()) {
             EXPECT_NE(*it, b.at(it.key())) << where + it.key() << " left at its default";
           }
         }

@@ -5,7 +5,8 @@
 //
 //   template <class F> void fields(P& p, F&& f) {
 //     f("k_fluvial", p.k_fluvial, Range{0, 1});  // numbers: with their range
-//     f("enabled", p.enabled);                   // bools, strings: no range
+//     f("enabled", p.enabled);                   // bools: no range
+//     f("norm", p.norm, OneOf{{"batch", "none"}});  // enums as strings
 //     f("erosion", p.erosion);                   // a nested params struct
 //   }
 //
@@ -28,9 +29,14 @@
 
 namespace reefgen {
 
-// A closed numeric range [lo, hi].
+// A numeric range: [lo, hi], or open at either end.
 struct Range {
   double lo, hi;
+  bool open_lo = false, open_hi = false;
+};
+// The values a string field (an enum kept readable in JSON) may take.
+struct OneOf {
+  std::vector<std::string> values;
 };
 
 namespace params_detail {
@@ -53,6 +59,38 @@ inline std::string num(double v) {
 // True for a struct that declares a field walk.
 template <class T>
 inline constexpr bool has_fields_v = params_detail::has_fields<T>::value;
+
+// Every field inside its range or list (nested structs too); throws
+// reefgen::Error "ORIGIN: PREFIXkey = value is out of range; expected [lo, hi]
+// (see SEE)" or "...; use a, b or c". For params set by flags as well as files.
+template <class P>
+void check_params(const P& params, const std::string& origin, const std::string& see, const std::string& prefix = "") {
+  P p = params;
+  fields(p, [&](const char* k, const auto& v, auto... constraint) {
+    using T = std::decay_t<decltype(v)>;
+    const std::string where = origin + ": " + prefix + k;
+    if constexpr (has_fields_v<T>) {
+      check_params(v, origin, see, prefix + k + ".");
+    } else if constexpr (sizeof...(constraint) == 1) {
+      const auto c = (constraint, ...);
+      if constexpr (std::is_same_v<decltype(c), const Range>) {
+        const double d = double(v);
+        const bool ok = d == d && (c.open_lo ? d > c.lo : d >= c.lo) && (c.open_hi ? d < c.hi : d <= c.hi);
+        if (!ok)
+          throw Error(where + " = " + params_detail::num(d) + " is out of range; expected " + (c.open_lo ? "(" : "[") +
+                      params_detail::num(c.lo) + ", " + params_detail::num(c.hi) + (c.open_hi ? ")" : "]") + " (see " +
+                      see + ")");
+      } else {
+        if (std::find(c.values.begin(), c.values.end(), v) == c.values.end()) {
+          std::string list;
+          for (size_t i = 0; i < c.values.size(); ++i)
+            list += (i == 0 ? "" : i + 1 == c.values.size() ? " or " : ", ") + c.values[i];
+          throw Error(where + " = '" + v + "'; use " + list);
+        }
+      }
+    }
+  });
+}
 
 template <class P>
 nlohmann::json params_json(const P& params) {
@@ -83,21 +121,15 @@ P params_from_json(const nlohmann::json& j, const std::string& origin, const std
   for (const auto& [k, v] : j.items())
     if (std::find(keys.begin(), keys.end(), k) == keys.end())
       throw Error(origin + ": unknown key \"" + prefix + k + "\" (see " + see + ")");
-  fields(p, [&](const char* k, auto& v, auto... range) {
+  fields(p, [&](const char* k, auto& v, auto...) {
     if (!j.contains(k)) return;
     using T = std::decay_t<decltype(v)>;
-    if constexpr (has_fields_v<T>) {
+    if constexpr (has_fields_v<T>)
       v = params_from_json<T>(j.at(k), origin, see, prefix + k + ".");
-    } else {
+    else
       read_json_value(j.at(k), v, origin + ": " + prefix + k);
-      if constexpr (sizeof...(range) == 1) {
-        const Range r = (range, ...);
-        if (!(double(v) >= r.lo && double(v) <= r.hi))
-          throw Error(origin + ": " + prefix + k + " = " + j.at(k).dump() + " is out of range; expected [" +
-                      params_detail::num(r.lo) + ", " + params_detail::num(r.hi) + "] (see " + see + ")");
-      }
-    }
   });
+  check_params(p, origin, see, prefix);
   return p;
 }
 

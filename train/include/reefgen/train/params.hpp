@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "reefgen/params_json.hpp"
 #include "reefgen/train/pix2pix.hpp"
 
 namespace reefgen::train {
@@ -46,6 +47,40 @@ struct TrainParams {
   std::string precision = "fp32"; // convolutions: fp32 | bf16 (onednn only; fp32 master weights) | auto (bf16 where the CPU has avx512_bf16/AMX)
 };
 
+// The one field list (common/params_json.hpp); validate() adds the rules
+// between fields.
+template <class F>
+void fields(TrainParams& p, F&& f) {
+  f("seed", p.seed);
+  f("ngf", p.ngf, Range{1, 1024});
+  f("ndf", p.ndf, Range{1, 1024});
+  f("depth", p.depth, Range{5, 12});
+  f("d_layers", p.d_layers, Range{1, 8});
+  f("norm", p.norm, OneOf{{"batch", "instance", "none"}});
+  f("upsample", p.upsample, OneOf{{"transpose", "nearest", "bilinear"}});
+  f("dropout", p.dropout, Range{0, 1, false, true});
+  f("lr", p.lr, Range{0, 1, true, false});
+  f("beta1", p.beta1, Range{0, 1, false, true});
+  f("beta2", p.beta2, Range{0, 1, false, true});
+  f("lambda_l1", p.lambda_l1, Range{0, 1e4});
+  f("batch_size", p.batch_size, Range{1, 64});
+  f("epochs", p.epochs, Range{0, 1e4});
+  f("epochs_decay", p.epochs_decay, Range{0, 1e4});
+  f("jitter", p.jitter);
+  f("jitter_scale", p.jitter_scale, Range{1, 2});
+  f("flip", p.flip);
+  f("log_every", p.log_every, Range{1, 1e9});
+  f("val_every", p.val_every, Range{1, 1e9});
+  f("val_samples", p.val_samples, Range{1, 64});
+  f("val_max_pairs", p.val_max_pairs, Range{1, 1e9});
+  f("checkpoint_every", p.checkpoint_every, Range{1, 1e9});
+  f("loader_threads", p.loader_threads, Range{1, 64});
+  f("prefetch", p.prefetch, Range{1, 1024});
+  f("threads", p.threads, Range{0, 1024});
+  f("deterministic", p.deterministic);
+  f("engine", p.engine, OneOf{{"onednn", "torch"}});
+  f("precision", p.precision, OneOf{{"fp32", "bf16", "auto"}});
+}
 void to_json(nlohmann::json& j, const TrainParams& p);
 // Every key optional; unknown keys and out-of-range values throw reefgen::Error naming them and `origin`.
 TrainParams train_params_from_json(const nlohmann::json& j, const std::string& origin);
