@@ -386,7 +386,7 @@ expect_error "batch_size = 2.5 must be a whole number" train --config "$T/trfrac
 expect_error "needs engine = 'onednn'" train --data "$T/e" --out "$T/e/r" --engine torch --precision bf16
 expect_error "not in {fp32,bf16,auto}" train --data "$T/e" --out "$T/e/r" --precision fp16
 echo '{"depth_m": 1e308}' > "$T/m4deep.json"
-expect_error "mapgen4: depth_m must be in (0, 1e4]" terrain mapgen4 --config "$T/m4deep.json" -o "$T/e/x"
+expect_error "m4deep.json: depth_m = 1e+308 is out of range; expected (0, 10000]" terrain mapgen4 --config "$T/m4deep.json" -o "$T/e/x"
 # A 30000² PNG (its header is enough) is refused before anything is decoded.
 "$PY" - "$T/huge.png" <<'PY'
 import struct, sys, zlib

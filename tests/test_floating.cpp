@@ -396,3 +396,10 @@ TEST(Floating, ShrinkPaintingAndTopOfHeightField) {
   h(0, 0) = 2e5f;
   expect_error_naming([&] { top_of_height_field(h, "km.exr"); }, "100 km");
 }
+
+TEST(Floating, ParamsRoundTripEveryField) {
+  test::expect_params_round_trip<FloatingParams>(
+      [](const nlohmann::json& j) { return floating_params_from_json(j, "f.json"); });
+  expect_error_naming([] { floating_params_from_json(nlohmann::json{{"rim_m", 0}}, "f.json"); },
+                      "f.json: rim_m = 0 is out of range; expected [0.001, 10000]");
+}

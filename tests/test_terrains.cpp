@@ -4,6 +4,7 @@
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/islands/terrains.hpp"
+#include "test_util.hpp"
 
 using namespace reefgen;
 using namespace reefgen::procgen;
@@ -127,4 +128,15 @@ TEST(TerrainParams, EveryShippedConfigMakesAnIsland) {
     ++n;
   }
   EXPECT_GE(n, 6);
+}
+
+// The terrains' configs: every field off its default comes back (the one
+// params mechanism, common/params_json.hpp).
+TEST(Terrains, ParamsRoundTripEveryField) {
+  reefgen::test::expect_params_round_trip<WilburParams>(
+      [](const nlohmann::json& j) { return params_from_json<WilburParams>(j, "w.json", "configs/terrains/"); });
+  reefgen::test::expect_params_round_trip<Mapgen4Params>(
+      [](const nlohmann::json& j) { return params_from_json<Mapgen4Params>(j, "m.json", "configs/terrains/"); });
+  reefgen::test::expect_error_naming([] { params_from_json<Mapgen4Params>(nlohmann::json{{"falloff", "round"}}, "m.json", "x"); },
+                      "m.json: falloff = 'round'; use chebyshev or euclidean");
 }

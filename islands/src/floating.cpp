@@ -18,27 +18,7 @@ namespace reefgen::islands {
 using procgen::GradientNoise2;
 using procgen::NoiseTile;
 
-#define REEFGEN_FLOATING_FIELDS(X)                                                                            \
-  X(alpha_top) X(beta_top) X(alpha_bottom) X(beta_bottom) X(depth_stretch) X(metres_per_px) X(feature_m)    \
-  X(feature_px) X(octaves) X(simplify_px) X(smooth_px) X(rim_m) X(min_area_px) X(top_colours) X(bottom_colours)           \
-  X(background_colours)
-
-template <class F>
-static void fields(FloatingParams& p, F&& f) {
-#define X(n) f(#n, p.n);
-  REEFGEN_FLOATING_FIELDS(X)
-#undef X
-}
-
 namespace {
-
-void check_range(const char* name, double v, double lo, double hi, bool open_lo = false) {
-  if (!(open_lo ? v > lo : v >= lo) || !(v <= hi)) {
-    char b[160];
-    std::snprintf(b, sizeof b, "floating: %s = %.6g is outside %s%g, %g]", name, v, open_lo ? "(" : "[", lo, hi);
-    throw Error(b);
-  }
-}
 
 cv::Vec3i parse_colour(const std::string& s) {  // "#rrggbb" → (r, g, b)
   auto hex = [&](size_t k) {
@@ -65,19 +45,7 @@ cv::Vec3f linear_rgb(const std::string& hex) {
 }  // namespace
 
 void validate(const FloatingParams& p) {
-  check_range("alpha_top", p.alpha_top, 0, 100);
-  check_range("beta_top", p.beta_top, -10, 10);
-  check_range("alpha_bottom", p.alpha_bottom, 0, 100);
-  check_range("beta_bottom", p.beta_bottom, -10, 10);
-  check_range("depth_stretch", p.depth_stretch, 1e-3, 100);  // below, vertices merge in float32
-  check_range("metres_per_px", p.metres_per_px, 1e-3, 1e4);
-  check_range("feature_m", p.feature_m, 0, 1e4);
-  check_range("feature_px", p.feature_px, 1, 1e4);
-  check_range("octaves", p.octaves, 1, 10);
-  check_range("simplify_px", p.simplify_px, 0, 16);
-  check_range("smooth_px", p.smooth_px, 0, 64);
-  check_range("rim_m", p.rim_m, 1e-3, 1e4);
-  check_range("min_area_px", p.min_area_px, 1, 1e8);
+  check_params(p, "floating", "configs/floating/default.json");
   if (p.top_colours.empty()) throw Error("floating: top_colours is empty (give at least one #rrggbb)");
   for (const auto* list : {&p.top_colours, &p.bottom_colours, &p.background_colours})
     for (const auto& c : *list) parse_colour(c);

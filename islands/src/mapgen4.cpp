@@ -55,17 +55,10 @@ std::vector<cv::Point2d> poisson_disk(double radius, uint64_t seed) {
 }
 
 cv::Mat1f mapgen4_height(const Mapgen4Params& p, uint64_t seed) {
-  if (p.size_px < 16 || p.size_px > 4096) throw Error("mapgen4: size must be in [16, 4096]");
-  if (!(p.spacing >= 0.01 && p.spacing <= 0.5)) throw Error("mapgen4: spacing must be in [0.01, 0.5]");
-  if (!(p.mountain_spacing >= p.spacing && p.mountain_spacing <= 2))
-    throw Error("mapgen4: mountain_spacing must be in [spacing, 2]");
-  if (!(p.k_fbm >= 0 && p.k_fbm <= 4 && p.k_d >= 0 && p.k_d <= 4)) throw Error("mapgen4: k_fbm, k_d must be in [0, 4]");
-  if (!(p.frequency > 0 && p.frequency <= 64)) throw Error("mapgen4: frequency must be in (0, 64]");
-  if (!(p.peak_m > 0 && p.peak_m <= 1e4)) throw Error("mapgen4: peak_m must be in (0, 1e4]");
-  if (!(p.depth_m > 0 && p.depth_m <= 1e4)) throw Error("mapgen4: depth_m must be in (0, 1e4]");
-  if (!(p.peak_m > 0 && p.depth_m > 0)) throw Error("mapgen4: peak_m and depth_m must be > 0");
-  if (p.falloff != "chebyshev" && p.falloff != "euclidean")
-    throw Error("mapgen4: falloff \"" + p.falloff + "\" must be chebyshev or euclidean");
+  check_params(p, "mapgen4", "configs/terrains/mapgen4.json");
+  if (!(p.mountain_spacing >= p.spacing))
+    throw Error("mapgen4: mountain_spacing = " + std::to_string(p.mountain_spacing) + " is below spacing = " +
+                std::to_string(p.spacing));
   const bool round_falloff = p.falloff == "euclidean";
 
   std::vector<cv::Point2d> pts = poisson_disk(p.spacing, seed);

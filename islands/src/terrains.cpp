@@ -17,12 +17,7 @@ using procgen::NoiseTile;
 using procgen::Sketch;
 
 cv::Mat1f wilbur_height(const WilburParams& p, uint64_t seed) {
-  if (p.size_px < 16 || p.size_px > 4096) throw Error("wilbur: size must be in [16, 4096]");
-  if (p.octaves < 1 || p.octaves > 10) throw Error("wilbur: octaves must be in [1, 10]");
-  if (!(p.frequency > 0 && p.frequency <= 64)) throw Error("wilbur: frequency must be in (0, 64]");
-  if (!(p.exponent > 0 && p.exponent <= 10)) throw Error("wilbur: exponent must be in (0, 10]");
-  if (!(p.peak_m > 0 && p.peak_m <= 1e4)) throw Error("wilbur: peak_m must be in (0, 1e4]");
-  if (!(p.depth_m > 0 && p.depth_m <= 1e4)) throw Error("wilbur: depth_m must be in (0, 1e4]");
+  check_params(p, "wilbur", "configs/terrains/wilbur.json");
   const int W = p.size_px;
   const GradientNoise2 noise(derive_seed(seed, 0, "wilbur"));
   Rng rng(derive_seed(seed, 1, "wilbur-offset"));
@@ -80,42 +75,29 @@ cv::Mat1f named_terrain(const std::string& kind, int size_px, uint64_t seed) {
   throw Error("terrain '" + kind + "': use mapgen4 or wilbur");
 }
 
-#define REEFGEN_WILBUR_FIELDS(X) X(size_px) X(octaves) X(frequency) X(exponent) X(peak_m) X(depth_m)
-#define REEFGEN_MAPGEN4_FIELDS(X) \
-  X(size_px) X(spacing) X(mountain_spacing) X(k_fbm) X(k_d) X(frequency) X(peak_m) X(depth_m) X(falloff)
-
-// Field walks for params_json.hpp.
-template <class F>
-static void fields(WilburParams& p, F&& f) {
-#define X(n) f(#n, p.n);
-  REEFGEN_WILBUR_FIELDS(X)
-#undef X
-}
-template <class F>
-static void fields(Mapgen4Params& p, F&& f) {
-#define X(n) f(#n, p.n);
-  REEFGEN_MAPGEN4_FIELDS(X)
-#undef X
-}
-
 nlohmann::json to_json(const WilburParams& p) { return params_json(p); }
 nlohmann::json to_json(const Mapgen4Params& p) { return params_json(p); }
 
 cv::Mat1f configured_terrain(const std::string& kind, const nlohmann::json& j, const std::string& origin, int size_px,
                              uint64_t seed) {
-  try {
-    if (kind == "wilbur") {
-      auto p = params_from_json<WilburParams>(j, origin, "configs/terrains/");
-      if (size_px > 0) p.size_px = size_px;
-      return wilbur_height(p, seed);
+  // Parse errors name the file and key; the rest (a --size override, rules
+  // between fields) gets the file's name in front.
+  auto named = [&](auto&& run) {
+    try {
+      return run();
+    } catch (const Error& e) {
+      throw Error(origin + ": " + e.what());
     }
-    if (kind == "mapgen4") {
-      auto p = params_from_json<Mapgen4Params>(j, origin, "configs/terrains/");
-      if (size_px > 0) p.size_px = size_px;
-      return mapgen4_height(p, seed);
-    }
-  } catch (const Error& e) {
-    throw Error(origin + ": " + e.what());
+  };
+  if (kind == "wilbur") {
+    auto p = params_from_json<WilburParams>(j, origin, "configs/terrains/");
+    if (size_px > 0) p.size_px = size_px;
+    return named([&] { return wilbur_height(p, seed); });
+  }
+  if (kind == "mapgen4") {
+    auto p = params_from_json<Mapgen4Params>(j, origin, "configs/terrains/");
+    if (size_px > 0) p.size_px = size_px;
+    return named([&] { return mapgen4_height(p, seed); });
   }
   throw Error("terrain '" + kind + "': use mapgen4 or wilbur");
 }

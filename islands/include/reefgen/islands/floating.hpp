@@ -24,6 +24,7 @@
 #include <opencv2/core.hpp>
 
 #include "reefgen/mesh.hpp"
+#include "reefgen/params_json.hpp"
 
 namespace reefgen::islands {
 
@@ -47,6 +48,25 @@ struct FloatingParams {
   std::vector<std::string> bottom_colours = {"#8b5a2b"};                 // brown rock
   std::vector<std::string> background_colours = {"#87ceeb", "#000000"};  // sky, black
 };
+template <class F>
+void fields(FloatingParams& p, F&& f) {  // the one field list (common/params_json.hpp)
+  f("alpha_top", p.alpha_top, Range{0, 100});
+  f("beta_top", p.beta_top, Range{-10, 10});
+  f("alpha_bottom", p.alpha_bottom, Range{0, 100});
+  f("beta_bottom", p.beta_bottom, Range{-10, 10});
+  f("depth_stretch", p.depth_stretch, Range{1e-3, 100});  // below, vertices merge in float32
+  f("metres_per_px", p.metres_per_px, Range{1e-3, 1e4});
+  f("feature_m", p.feature_m, Range{0, 1e4});
+  f("feature_px", p.feature_px, Range{1, 1e4});
+  f("octaves", p.octaves, Range{1, 10});
+  f("simplify_px", p.simplify_px, Range{0, 16});
+  f("smooth_px", p.smooth_px, Range{0, 64});
+  f("rim_m", p.rim_m, Range{1e-3, 1e4});
+  f("min_area_px", p.min_area_px, Range{1, 1e8});
+  f("top_colours", p.top_colours);
+  f("bottom_colours", p.bottom_colours);
+  f("background_colours", p.background_colours);
+}
 // Throws reefgen::Error naming the field and its range.
 void validate(const FloatingParams& p);
 nlohmann::json to_json(const FloatingParams& p);

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
+#include "reefgen/params_json.hpp"
 #include "reefgen/procgen/sketch.hpp"
 
 namespace reefgen::islands {
@@ -25,6 +26,15 @@ struct WilburParams {
   double peak_m = 500.0;   // height of s = 1, (0, 1e4]
   double depth_m = 100.0;  // ocean floor depth, (0, 1e4]
 };
+template <class F>
+void fields(WilburParams& p, F&& f) {  // the one field list (common/params_json.hpp)
+  f("size_px", p.size_px, Range{16, 4096});
+  f("octaves", p.octaves, Range{1, 10});
+  f("frequency", p.frequency, Range{0, 64, true});
+  f("exponent", p.exponent, Range{0, 10, true});
+  f("peak_m", p.peak_m, Range{0, 1e4, true});
+  f("depth_m", p.depth_m, Range{0, 1e4, true});
+}
 cv::Mat1f wilbur_height(const WilburParams& p, uint64_t seed);
 
 // Bands that turn any height field into a five-region label sketch.
@@ -61,6 +71,18 @@ struct Mapgen4Params {
   double depth_m = 100.0;         // ocean floor depth, (0, 1e4]
   std::string falloff = "chebyshev";  // distance d of the falloff: "chebyshev" (square coasts) or "euclidean" (round)
 };
+template <class F>
+void fields(Mapgen4Params& p, F&& f) {  // mountain_spacing ≥ spacing is checked beside it
+  f("size_px", p.size_px, Range{16, 4096});
+  f("spacing", p.spacing, Range{0.01, 0.5});
+  f("mountain_spacing", p.mountain_spacing, Range{0.01, 2});
+  f("k_fbm", p.k_fbm, Range{0, 4});
+  f("k_d", p.k_d, Range{0, 4});
+  f("frequency", p.frequency, Range{0, 64, true});
+  f("peak_m", p.peak_m, Range{0, 1e4, true});
+  f("depth_m", p.depth_m, Range{0, 1e4, true});
+  f("falloff", p.falloff, OneOf{{"chebyshev", "euclidean"}});
+}
 cv::Mat1f mapgen4_height(const Mapgen4Params& p, uint64_t seed);
 
 // Bridson's Poisson-disk sampling in [-1, 1]² (minimum distance `radius`,
