@@ -145,7 +145,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
               io.precision = infer::precision_from_string(a->precision);
               io.engine = infer::engine_from_string(a->engine);
               infer::resolve(io, gen);
-            } catch (const std::invalid_argument& e) {
+            } catch (const Error& e) {
               throw Error("--precision/--engine: " + std::string(e.what()));
             }
             io.seed = a->seed;

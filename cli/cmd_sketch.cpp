@@ -79,30 +79,26 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
               const bool terrain = f->from == "mapgen4" || f->from == "wilbur";
               if (!f->config.empty() && !terrain)
                 throw Error("--config " + f->config + ": applies to --from mapgen4 or wilbur only");
-              try {
-                if (terrain && !f->config.empty()) {
-                  s = islands::height_to_sketch(islands::configured_terrain(f->from, read_json(f->config), f->config,
-                                                                            sub->count("--size") ? f->size : 0, f->seed),
-                                                f->subsidence, f->bands);
-                } else if (terrain) {
-                  s = islands::height_to_sketch(islands::named_terrain(f->from, f->size, f->seed), f->subsidence, f->bands);
-                } else if (f->from == "noise") {
-                  procgen::SketchParams sp;
-                  sp.size_px = f->size;
-                  sp.subsidence = f->subsidence;
-                  s = procgen::random_sketch(sp, f->seed);
-                } else {
-                  const fs::path exr(f->from);
-                  if (exr.extension() != ".exr")
-                    throw Error("--from " + f->from + ": use mapgen4, wilbur, noise, or a height field .exr");
-                  refuse_output_over_input({exr}, {fs::path(f->out)});
-                  const cv::Mat1f h = read_exr_height(exr);
-                  if (cv::checkRange(h, true) == false)
-                    throw Error(exr.string() + ": the height field holds NaN or infinite values; fix or regenerate it");
-                  s = islands::height_to_sketch(h, f->subsidence, f->bands);
-                }
-              } catch (const std::invalid_argument& e) {
-                throw Error(std::string(e.what()));
+              if (terrain && !f->config.empty()) {
+                s = islands::height_to_sketch(islands::configured_terrain(f->from, read_json(f->config), f->config,
+                                                                          sub->count("--size") ? f->size : 0, f->seed),
+                                              f->subsidence, f->bands);
+              } else if (terrain) {
+                s = islands::height_to_sketch(islands::named_terrain(f->from, f->size, f->seed), f->subsidence, f->bands);
+              } else if (f->from == "noise") {
+                procgen::SketchParams sp;
+                sp.size_px = f->size;
+                sp.subsidence = f->subsidence;
+                s = procgen::random_sketch(sp, f->seed);
+              } else {
+                const fs::path exr(f->from);
+                if (exr.extension() != ".exr")
+                  throw Error("--from " + f->from + ": use mapgen4, wilbur, noise, or a height field .exr");
+                refuse_output_over_input({exr}, {fs::path(f->out)});
+                const cv::Mat1f h = read_exr_height(exr);
+                if (cv::checkRange(h, true) == false)
+                  throw Error(exr.string() + ": the height field holds NaN or infinite values; fix or regenerate it");
+                s = islands::height_to_sketch(h, f->subsidence, f->bands);
               }
               const fs::path path(f->out);
               require_png_name(path);
@@ -112,11 +108,7 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
               return 0;
             }
             if (a->count < 1) throw Error("--count must be ≥ 1");
-            try {
-              (void)procgen::random_sketch(procgen::SketchParams{a->p}, a->seed);  // validate before writing
-            } catch (const std::invalid_argument& e) {
-              throw Error(std::string(e.what()));
-            }
+            (void)procgen::random_sketch(procgen::SketchParams{a->p}, a->seed);  // validate before writing
             const bool many = a->count > 1;
             if (!many) require_png_name(a->out);
             if (many) ensure_writable_dir(a->out);

@@ -2,7 +2,7 @@
 #include "reefgen/procgen/erosion.hpp"
 
 
-#include <stdexcept>
+
 
 #include <opencv2/imgproc.hpp>
 
@@ -14,7 +14,7 @@ Precision precision_from_string(const std::string& s) {
   if (s == "auto") return Precision::Auto;
   if (s == "fp32") return Precision::Fp32;
   if (s == "bf16") return Precision::Bf16;
-  throw std::invalid_argument("precision '" + s + "': use auto, fp32 or bf16");
+  throw Error("precision '" + s + "': use auto, fp32 or bf16");
 }
 
 const char* to_string(Precision p) {
@@ -33,14 +33,14 @@ Engine engine_from_string(const std::string& s) {
   if (s == "auto") return Engine::Auto;
   if (s == "onednn") return Engine::OneDnn;
   if (s == "torch") return Engine::Torch;
-  throw std::invalid_argument("engine '" + s + "': use auto, onednn or torch");
+  throw Error("engine '" + s + "': use auto, onednn or torch");
 }
 
 const char* to_string(Engine e) { return e == Engine::Auto ? "auto" : e == Engine::OneDnn ? "onednn" : "torch"; }
 
 Engine resolve_engine(const InferOptions& o) {
   if (o.engine == Engine::OneDnn && o.stochastic)
-    throw std::invalid_argument("the onednn engine has no dropout: --stochastic needs --engine torch or auto");
+    throw Error("the onednn engine has no dropout: --stochastic needs --engine torch or auto");
   if (o.engine != Engine::Auto) return o.engine;
   return o.stochastic ? Engine::Torch : Engine::OneDnn;
 }
@@ -52,7 +52,7 @@ Precision resolve(const InferOptions& o, const model::GeneratorFile& g) {
   const bool resize = g.g->options().upsample != model::Upsample::Transpose;
   if (e == Engine::Torch && !resize) {
     if (o.precision == Precision::Bf16)
-      throw std::invalid_argument("bf16 on the torch engine needs a resize-convolution generator (upsample nearest or "
+      throw Error("bf16 on the torch engine needs a resize-convolution generator (upsample nearest or "
                                   "bilinear); use --engine onednn, or --precision fp32 or auto");
     return Precision::Fp32;
   }

@@ -1,7 +1,7 @@
 #include "reefgen/procgen/sketch.hpp"
 
 #include <cmath>
-#include <stdexcept>
+#include "reefgen/io.hpp"
 #include <vector>
 
 #include "reefgen/labels.hpp"
@@ -11,13 +11,13 @@
 namespace reefgen::procgen {
 
 Sketch random_sketch(const SketchParams& p, uint64_t seed) {
-  if (p.size_px < 16 || p.size_px > 4096) throw std::invalid_argument("sketch: size must be in [16, 4096]");
-  if (p.islands < 1 || p.islands > 16) throw std::invalid_argument("sketch: islands must be in [1, 16]");
+  if (p.size_px < 16 || p.size_px > 4096) throw Error("sketch: size must be in [16, 4096]");
+  if (p.islands < 1 || p.islands > 16) throw Error("sketch: islands must be in [1, 16]");
   if (!(p.subsidence == -1 || (p.subsidence >= 0 && p.subsidence <= 1)))
-    throw std::invalid_argument("sketch: subsidence must be in [0, 1] (or -1 for random)");
-  if (!(p.radius > 0 && p.radius <= 1)) throw std::invalid_argument("sketch: radius must be in (0, 1]");
-  if (!(p.roughness >= 0 && p.roughness <= 1)) throw std::invalid_argument("sketch: roughness must be in [0, 1]");
-  if (!(p.frequency > 0 && p.frequency <= 32)) throw std::invalid_argument("sketch: frequency must be in (0, 32]");
+    throw Error("sketch: subsidence must be in [0, 1] (or -1 for random)");
+  if (!(p.radius > 0 && p.radius <= 1)) throw Error("sketch: radius must be in (0, 1]");
+  if (!(p.roughness >= 0 && p.roughness <= 1)) throw Error("sketch: roughness must be in [0, 1]");
+  if (!(p.frequency > 0 && p.frequency <= 32)) throw Error("sketch: frequency must be in (0, 32]");
 
   Rng rng(derive_seed(seed, 0, "sketch"));
   struct Island {

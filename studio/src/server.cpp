@@ -566,7 +566,7 @@ StudioServer::StudioServer(StudioOptions options) : impl_(std::make_unique<Impl>
   try {
     m.io.precision = infer::precision_from_string(m.o.precision);
     infer::resolve(m.io, m.gen);
-  } catch (const std::invalid_argument& e) {
+  } catch (const Error& e) {
     throw Error(std::string("--precision: ") + e.what());
   }
   if (m.o.max_side < 64 || m.o.max_side > 4096) throw Error("studio: max_side must be in 64..4096");

@@ -47,7 +47,7 @@ struct InferOptions {
 };
 
 // The engine and precision these options run with this generator on this
-// CPU. Throws std::invalid_argument for bf16 with the torch engine on a
+// CPU. Throws reefgen::Error for bf16 with the torch engine on a
 // transposed-convolution generator (LibTorch's bf16 refuses its 1×1 layer)
 // and for the onednn engine in stochastic mode.
 Engine resolve_engine(const InferOptions& o);

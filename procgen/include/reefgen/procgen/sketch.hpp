@@ -24,7 +24,7 @@ struct Sketch {
   cv::Mat1f subsidence;  // λ per pixel (the island's; abyss takes the nearest island's)
 };
 
-// Pure in (params, seed). Throws std::invalid_argument for out-of-range params.
+// Pure in (params, seed). Throws reefgen::Error for out-of-range params.
 Sketch random_sketch(const SketchParams& p, uint64_t seed);
 
 }  // namespace reefgen::procgen
