@@ -6,6 +6,7 @@
 #include <numeric>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/io.hpp"
@@ -108,6 +109,75 @@ void write_eval_files(const std::filesystem::path& dir, const json& report, cons
   }
   write_text_atomic(dir / "eval.md", md);
   if (!worst_sheet.empty()) write_png(dir / "worst.png", worst_sheet);
+}
+
+namespace {
+double share(int64_t a, int64_t b) { return b ? double(a) / double(b) : std::nan(""); }
+json num(double v) { return std::isfinite(v) ? json(std::round(v * 1e4) / 1e4) : json(nullptr); }
+}  // namespace
+
+SketchesResult evaluate_sketches(model::GeneratorFile& gen, const std::vector<std::filesystem::path>& files,
+                                 double young_max, bool quiet) {
+  if (!(young_max >= 0 && young_max <= 1)) throw Error("--young-max must be in [0, 1]");
+  if (files.empty()) throw Error("eval-sketches: no sketches");
+  SketchesResult out;
+  out.per_sketch = json::array();
+  SketchChecks total;
+  std::vector<double> crests, boards;
+  std::vector<cv::Mat> tiles;
+  Progress progress("eval-sketches", files.size(), quiet);
+  for (size_t i = 0; i < files.size(); ++i) {
+    const DecodedSketch s = read_sketch(files[i]);
+    const cv::Mat1f pred = infer_heights(gen, {s}, {})[0];
+    const SketchChecks c = sketch_checks(pred, s, young_max);
+    total.land_px += c.land_px;
+    total.land_above_0 += c.land_above_0;
+    total.abyss_px += c.abyss_px;
+    total.abyss_below_0 += c.abyss_below_0;
+    total.abyss_below_20 += c.abyss_below_20;
+    if (std::isfinite(c.reef_crest_m)) crests.push_back(c.reef_crest_m);
+    boards.push_back(c.checkerboard_m);
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(pred, &lo, &hi);
+    out.per_sketch.push_back({{"sketch", files[i].filename().string()},
+                              {"young_land_above_0", num(share(c.land_above_0, c.land_px))},
+                              {"young_abyss_below_0", num(share(c.abyss_below_0, c.abyss_px))},
+                              {"young_abyss_below_minus20", num(share(c.abyss_below_20, c.abyss_px))},
+                              {"reef_crest_m", num(c.reef_crest_m)},
+                              {"checkerboard_m", num(c.checkerboard_m)},
+                              {"min_m", num(lo)},
+                              {"max_m", num(hi)}});
+    cv::Mat3b shown = encode_labels(s.label, s.subsidence);
+    cv::Mat tile;
+    cv::Mat3b prev = render_preview(pred);
+    if (prev.size() != shown.size()) cv::resize(prev, prev, shown.size());
+    cv::hconcat(std::vector<cv::Mat>{shown, prev}, tile);
+    cv::resize(tile, tile, cv::Size(512, 256), 0, 0, cv::INTER_AREA);
+    tiles.push_back(tile);
+    progress.tick(i + 1);
+  }
+  auto median = [](std::vector<double> v) {
+    if (v.empty()) return std::nan("");
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  const double board_mean = std::accumulate(boards.begin(), boards.end(), 0.0) / double(boards.size());
+  out.overall = {{"young_land_above_0", num(share(total.land_above_0, total.land_px))},
+                 {"young_abyss_below_0", num(share(total.abyss_below_0, total.abyss_px))},
+                 {"young_abyss_below_minus20", num(share(total.abyss_below_20, total.abyss_px))},
+                 {"reef_crest_m_median", num(median(crests))},
+                 {"checkerboard_m_mean", num(board_mean)},
+                 {"checkerboard_m_max", num(*std::max_element(boards.begin(), boards.end()))}};
+  // Two sketch|result tiles per row.
+  std::vector<cv::Mat> rows;
+  for (size_t i = 0; i < tiles.size(); i += 2) {
+    cv::Mat right = i + 1 < tiles.size() ? tiles[i + 1] : cv::Mat(tiles[i].size(), tiles[i].type(), cv::Scalar::all(0));
+    cv::Mat row;
+    cv::hconcat(std::vector<cv::Mat>{tiles[i], right}, row);
+    rows.push_back(row);
+  }
+  cv::vconcat(rows, out.grid);
+  return out;
 }
 
 }  // namespace reefgen::infer

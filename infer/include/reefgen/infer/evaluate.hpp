@@ -41,6 +41,18 @@ struct EvalResult {
 // One sketch per forward (batch statistics must not mix pairs).
 EvalResult evaluate(model::GeneratorFile& g, const std::vector<EvalPair>& pairs, const EvalOptions& o);
 
+// Painted sketches, which have no ground truth (docs/MODEL.md): per sketch
+// and overall, young land above the sea, young abyss deep, the reef crest,
+// the checkerboard amplitude (sketch_checks); and a grid of sketch | result
+// tiles, two per row, to look at.
+struct SketchesResult {
+  nlohmann::json overall;    // shares, reef_crest_m_median, checkerboard_m_mean / _max
+  nlohmann::json per_sketch; // one object per file
+  cv::Mat grid;
+};
+SketchesResult evaluate_sketches(model::GeneratorFile& g, const std::vector<std::filesystem::path>& files,
+                                 double young_max, bool quiet);
+
 // OUT/eval.json (the report), OUT/eval.md (a table per perturbation and per
 // region) and OUT/worst.png, each written atomically.
 void write_eval_files(const std::filesystem::path& dir, const nlohmann::json& report, const cv::Mat& worst_sheet);
