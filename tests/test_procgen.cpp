@@ -11,6 +11,7 @@
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/noise.hpp"
 #include "reefgen/procgen/random_spec.hpp"
+#include "test_util.hpp"
 
 using namespace reefgen;
 using namespace reefgen::procgen;
@@ -284,6 +285,27 @@ TEST(Spec, JsonRoundTrip) {
   const nlohmann::json j = s;
   const IslandSpec back = spec_from_json(j, "test");
   EXPECT_EQ(nlohmann::json(back).dump(), j.dump());
+}
+
+// The spec's sub-objects through the spec reader itself: every field off its
+// default comes back (a random spec keeps them at their defaults).
+TEST(Spec, SubObjectsRoundTripEveryField) {
+  auto through_spec = [](const char* key) {
+    return [key](const nlohmann::json& j) { return spec_from_json(nlohmann::json{{key, j}}, "t.json"); };
+  };
+  test::expect_params_round_trip<HeightMapping>([&](const nlohmann::json& j) { return through_spec("heights")(j).heights; });
+  test::expect_params_round_trip<CoralParams>([&](const nlohmann::json& j) { return through_spec("coral")(j).coral; },
+                                              [](CoralParams& c) {  // keep back_end ≤ crest_begin ≤ crest_end
+                                                c.crest_begin = 0.9;
+                                                c.crest_end = 0.95;
+                                              });
+  test::expect_params_round_trip<DetailNoise>([&](const nlohmann::json& j) { return through_spec("noise")(j).noise; });
+  try {
+    spec_from_json(nlohmann::json{{"heights", {{"floor_m", 5}}}}, "t.json");
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "t.json: heights.floor_m = 5 is out of range; expected [-11000, -1] (see docs/SPEC.md)");
+  }
 }
 
 TEST(Spec, BadValuesNameTheField) {

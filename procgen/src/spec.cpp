@@ -104,20 +104,13 @@ void validate(const IslandSpec& s) {
   }
   if (s.wind_substeps < 1 || s.wind_substeps > 100) throw Error("wind_substeps = " + std::to_string(s.wind_substeps) + " is out of range; expected [1, 100]");
   check_range("subsidence", s.subsidence, 0, 1);
-  check_range("heights.floor_m", s.heights.floor_m, -11000, -1);
-  check_range("heights.sea_level", s.heights.sea_level, 1e-3, 1 - 1e-3);
-  check_range("heights.peak_m", s.heights.peak_m, 1, 9000);
+  check_params(s.heights, "", "docs/SPEC.md", "heights.");
   const auto& c = s.coral;
-  check_range("coral.back_m", c.back_m, -11000, 9000);
-  check_range("coral.crest_m", c.crest_m, -11000, 9000);
-  check_range("coral.abyss_m", c.abyss_m, -11000, 9000);
-  check_range("coral.back_end", c.back_end, 0, 1);
+  check_params(c, "", "docs/SPEC.md", "coral.");
   check_range("coral.crest_begin", c.crest_begin, c.back_end, 1);
   check_range("coral.crest_end", c.crest_end, c.crest_begin, 1);
   check_range("smax_k", s.smax_k, 0.01, 100);
-  check_range("noise.amplitude", s.noise.amplitude, 0, 0.5);
-  check_range("noise.feature", s.noise.feature, 0.005, 1);
-  if (s.noise.octaves < 1 || s.noise.octaves > 4) throw Error("noise.octaves = " + std::to_string(s.noise.octaves) + " is out of range; expected [1, 4]");
+  check_params(s.noise, "", "docs/SPEC.md", "noise.");
   check_range("world_size_m", s.world_size_m, 10, 1e6);
 }
 
@@ -138,13 +131,10 @@ void to_json(json& j, const IslandSpec& s) {
            {"wind", wind},
            {"wind_substeps", s.wind_substeps},
            {"subsidence", s.subsidence},
-           {"heights", {{"floor_m", s.heights.floor_m}, {"sea_level", s.heights.sea_level}, {"peak_m", s.heights.peak_m}}},
-           {"coral",
-            {{"enabled", s.coral.enabled}, {"back_m", s.coral.back_m}, {"crest_m", s.coral.crest_m},
-             {"abyss_m", s.coral.abyss_m}, {"back_end", s.coral.back_end}, {"crest_begin", s.coral.crest_begin},
-             {"crest_end", s.coral.crest_end}}},
+           {"heights", params_json(s.heights)},
+           {"coral", params_json(s.coral)},
            {"smax_k", s.smax_k},
-           {"noise", {{"amplitude", s.noise.amplitude}, {"feature", s.noise.feature}, {"octaves", s.noise.octaves}, {"seed", s.noise.seed}}},
+           {"noise", params_json(s.noise)},
            {"world_size_m", s.world_size_m}};
   to_json(j["erosion"], s.erosion);
 }
@@ -194,33 +184,10 @@ void from_json(const json& j, IslandSpec& s) {
     s.wind_substeps = int(d);
   }
   f.get("subsidence", s.subsidence);
-  if (const json* h = f.find("heights")) {
-    Fields fh(*h, "spec.heights");
-    fh.get("floor_m", s.heights.floor_m);
-    fh.get("sea_level", s.heights.sea_level);
-    fh.get("peak_m", s.heights.peak_m);
-    fh.finish();
-  }
-  if (const json* c = f.find("coral")) {
-    Fields fc(*c, "spec.coral");
-    fc.get("enabled", s.coral.enabled);
-    fc.get("back_m", s.coral.back_m);
-    fc.get("crest_m", s.coral.crest_m);
-    fc.get("abyss_m", s.coral.abyss_m);
-    fc.get("back_end", s.coral.back_end);
-    fc.get("crest_begin", s.coral.crest_begin);
-    fc.get("crest_end", s.coral.crest_end);
-    fc.finish();
-  }
+  if (const json* h = f.find("heights")) s.heights = params_from_json<HeightMapping>(*h, "", "docs/SPEC.md", "heights.");
+  if (const json* c = f.find("coral")) s.coral = params_from_json<CoralParams>(*c, "", "docs/SPEC.md", "coral.");
   f.get("smax_k", s.smax_k);
-  if (const json* n = f.find("noise")) {
-    Fields fn(*n, "spec.noise");
-    fn.get("amplitude", s.noise.amplitude);
-    fn.get("feature", s.noise.feature);
-    fn.get("octaves", s.noise.octaves);
-    fn.get("seed", s.noise.seed);
-    fn.finish();
-  }
+  if (const json* n = f.find("noise")) s.noise = params_from_json<DetailNoise>(*n, "", "docs/SPEC.md", "noise.");
   if (const json* e = f.find("erosion")) s.erosion = erosion_params_from_json(*e, "spec");
   f.get("world_size_m", s.world_size_m);
   f.finish();

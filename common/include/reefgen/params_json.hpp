@@ -49,6 +49,10 @@ struct has_fields : std::false_type {};
 template <class T>
 struct has_fields<T, std::void_t<decltype(fields(std::declval<T&>(), AnyField{}))>> : std::true_type {};
 
+// "ORIGIN: " in front of a message, or nothing for a caller that adds the
+// file's name itself.
+inline std::string at(const std::string& origin) { return origin.empty() ? std::string() : origin + ": "; }
+
 inline std::string num(double v) {
   std::ostringstream s;
   s << v;
@@ -68,7 +72,7 @@ void check_params(const P& params, const std::string& origin, const std::string&
   P p = params;
   fields(p, [&](const char* k, const auto& v, auto... constraint) {
     using T = std::decay_t<decltype(v)>;
-    const std::string where = origin + ": " + prefix + k;
+    const std::string where = params_detail::at(origin) + prefix + k;
     if constexpr (has_fields_v<T>) {
       check_params(v, origin, see, prefix + k + ".");
     } else if constexpr (sizeof...(constraint) == 1) {
@@ -108,26 +112,27 @@ nlohmann::json params_json(const P& params) {
 
 // Strict parse: the struct's keys only (and `ignored`, e.g. "description"),
 // each typed as its field, numbers inside their range; every key optional
-// (defaults stay). Errors name `origin`, prefix + the key, and `see`.
+// (defaults stay). Errors name `origin` (none when empty), prefix + the key,
+// and `see`.
 template <class P>
 P params_from_json(const nlohmann::json& j, const std::string& origin, const std::string& see,
                    const std::string& prefix = "", const std::vector<std::string>& ignored = {}) {
   if (!j.is_object())
-    throw Error(origin + ": " + (prefix.empty() ? std::string("params") : prefix.substr(0, prefix.size() - 1)) +
+    throw Error(params_detail::at(origin) + (prefix.empty() ? std::string("params") : prefix.substr(0, prefix.size() - 1)) +
                 " must be a JSON object (see " + see + ")");
   P p;
   std::vector<std::string> keys = ignored;
   fields(p, [&](const char* k, const auto&, auto...) { keys.emplace_back(k); });
   for (const auto& [k, v] : j.items())
     if (std::find(keys.begin(), keys.end(), k) == keys.end())
-      throw Error(origin + ": unknown key \"" + prefix + k + "\" (see " + see + ")");
+      throw Error(params_detail::at(origin) + "unknown key \"" + prefix + k + "\" (see " + see + ")");
   fields(p, [&](const char* k, auto& v, auto...) {
     if (!j.contains(k)) return;
     using T = std::decay_t<decltype(v)>;
     if constexpr (has_fields_v<T>)
       v = params_from_json<T>(j.at(k), origin, see, prefix + k + ".");
     else
-      read_json_value(j.at(k), v, origin + ": " + prefix + k);
+      read_json_value(j.at(k), v, params_detail::at(origin) + prefix + k);
   });
   check_params(p, origin, see, prefix);
   return p;

@@ -33,6 +33,12 @@ struct HeightMapping {
   double sea_level = 0.4;   // normalised profile value mapped to 0 m, (0, 1)
   double peak_m = 500;      // m, M(1), [1, 9000]
 };
+template <class F>
+void fields(HeightMapping& p, F&& f) {  // the one field list (common/params_json.hpp)
+  f("floor_m", p.floor_m, Range{-11000, -1});
+  f("sea_level", p.sea_level, Range{1e-3, 1 - 1e-3});
+  f("peak_m", p.peak_m, Range{1, 9000});
+}
 
 // Coral height field over x = x̃ − 3 (Eqs. 6-8).
 struct CoralParams {
@@ -44,6 +50,16 @@ struct CoralParams {
   double crest_begin = 0.75; // x, [back_end, crest_end]
   double crest_end = 0.8;    // x, [crest_begin, 1]
 };
+template <class F>
+void fields(CoralParams& p, F&& f) {  // back_end ≤ crest_begin ≤ crest_end is checked by validate()
+  f("enabled", p.enabled);
+  f("back_m", p.back_m, Range{-11000, 9000});
+  f("crest_m", p.crest_m, Range{-11000, 9000});
+  f("abyss_m", p.abyss_m, Range{-11000, 9000});
+  f("back_end", p.back_end, Range{0, 1});
+  f("crest_begin", p.crest_begin, Range{0, 1});
+  f("crest_end", p.crest_end, Range{0, 1});
+}
 
 // Multiplicative surface noise on the volcano heights (signed metres, so the
 // 0 m coastline of the profile is kept exactly where the outlines put it).
@@ -53,6 +69,13 @@ struct DetailNoise {
   int octaves = 3;          // fBm octaves, [1, 4]
   uint64_t seed = 0;        // noise seed (random islands derive it from the global seed)
 };
+template <class F>
+void fields(DetailNoise& p, F&& f) {
+  f("amplitude", p.amplitude, Range{0, 0.5});
+  f("feature", p.feature, Range{0.005, 1});
+  f("octaves", p.octaves, Range{1, 4});
+  f("seed", p.seed);
+}
 
 struct IslandSpec {
   std::string description;                        // free text, shown by `reefgen presets`
