@@ -6,7 +6,7 @@
 
 #include "app.hpp"
 #include "reefgen/constants.hpp"
-#include "reefgen/infer/export.hpp"
+#include "reefgen/heightfile.hpp"
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/model/shipped.hpp"
@@ -173,7 +173,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                 const double mpp = a->world_size_m / h.cols;
                 double hmin, hmax;
                 cv::minMaxLoc(h, &hmin, &hmax);
-                infer::HeightFiles hf;
+                HeightFiles hf;
                 hf.png16 = a->png16;
                 hf.r16 = a->r16;
                 hf.preview = a->preview;
@@ -197,7 +197,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                     {"metres_per_px", mpp},
                     {"height_range_m", {hmin, hmax}},
                     {"model_range_m", {gen.range.lo_m, gen.range.hi_m}}};
-                side.update(infer::stage_height_files(staged, prefix, h, mpp, hf));
+                side.update(stage_height_files(staged, prefix, h, mpp, hf));
                 if (a->r16)  // printed once the files are in place
                   r16_notes.push_back(prefix.string() + ".r16: " + side["r16"]["import_note"].get<std::string>());
                 const fs::path js = prefix.string() + ".json";

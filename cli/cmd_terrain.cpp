@@ -5,7 +5,7 @@
 
 #include "app.hpp"
 #include "reefgen/constants.hpp"
-#include "reefgen/infer/export.hpp"
+#include "reefgen/heightfile.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/islands/terrains.hpp"
 
@@ -43,13 +43,13 @@ Command add_terrain_command(CLI::App& app, const GlobalOptions&) {
             const fs::path prefix = output_names(a->out).prefix;  // refuses "-o dir/" (hidden .height.exr)
             if (prefix.has_parent_path()) ensure_writable_dir(prefix.parent_path());
             StagedOutputs staged;  // all or nothing: a failure keeps an earlier result as it was
-            infer::HeightFiles hf;
+            HeightFiles hf;
             hf.preview = a->preview;
             hf.mesh = a->mesh;
             // reefgen's canvas convention (docs/DESIGN.md §2: 6 km across), so that
             // `reefgen floating --height` and previews know the scale.
             hf.exr_attributes = {{"reefgen:generator", a->kind}, {"reefgen:seed", std::to_string(a->seed)}};
-            infer::stage_height_files(staged, prefix, h, kCanvasWorldSizeM / h.cols, hf);
+            stage_height_files(staged, prefix, h, kCanvasWorldSizeM / h.cols, hf);
             staged.commit();
             std::printf("%s.height.exr\n", prefix.c_str());
             return 0;

@@ -16,7 +16,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "reefgen/constants.hpp"
-#include "reefgen/infer/export.hpp"
+#include "reefgen/heightfile.hpp"
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
@@ -512,12 +512,12 @@ struct StudioServer::Impl {
       } else if (format == "spec") {
         staged.write(path, [&](const fs::path& t) { write_json_atomic(t, spec_json); });
       } else {
-        infer::HeightFiles hf;
+        HeightFiles hf;
         hf.exr = format == "exr";
         hf.png16 = format == "png16";
         hf.r16 = format == "r16";
         if (format == "glb" || format == "obj") hf.mesh = format;
-        const json side = infer::stage_height_files(staged, o.out_dir / name, exported, export_mpp, hf);
+        const json side = stage_height_files(staged, o.out_dir / name, exported, export_mpp, hf);
         if (side.contains(format)) {  // png16, r16: the range and each engine's numbers beside the file
           staged.write(o.out_dir / (name + ".import.json"),
                        [&](const fs::path& t) { write_json_atomic(t, side[format]["import"]); });

@@ -12,7 +12,7 @@
 #include "reefgen/io.hpp"
 #include "reefgen/mesh.hpp"
 
-namespace reefgen::infer {
+namespace reefgen {
 
 // 16-bit greyscale PNG, linear: v = round(65535·(h − lo)/(hi − lo)).
 void write_png16(const std::filesystem::path& path, const cv::Mat1f& height_m, double lo_m, double hi_m);
@@ -68,4 +68,4 @@ struct HeightFiles {
 nlohmann::json stage_height_files(StagedOutputs& staged, const std::filesystem::path& prefix,
                                   const cv::Mat1f& height_m, double metres_per_px, const HeightFiles& f);
 
-}  // namespace reefgen::infer
+}  // namespace reefgen

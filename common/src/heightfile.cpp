@@ -1,4 +1,4 @@
-#include "reefgen/infer/export.hpp"
+#include "reefgen/heightfile.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -13,7 +13,7 @@
 #include "reefgen/preview.hpp"
 #include "reefgen/version.hpp"
 
-namespace reefgen::infer {
+namespace reefgen {
 
 namespace {
 
@@ -205,4 +205,4 @@ nlohmann::json stage_height_files(StagedOutputs& staged, const std::filesystem::
   return side;
 }
 
-}  // namespace reefgen::infer
+}  // namespace reefgen
