@@ -287,6 +287,24 @@ TEST(Spec, JsonRoundTrip) {
   EXPECT_EQ(nlohmann::json(back).dump(), j.dump());
 }
 
+// The whole spec through its reader with every field off its default
+// (nested params too); the lists, whose valid values are not generic, are set
+// by hand.
+TEST(Spec, EveryFieldRoundTrips) {
+  test::expect_params_round_trip<IslandSpec>([](const nlohmann::json& j) { return spec_from_json(j, "t.json"); },
+                                             [](IslandSpec& s) {
+                                               s.description = "every field";
+                                               s.outlines = {std::vector<double>{0.2, 0.25, 0.22}, {0.3}, {0.5, 0.52},
+                                                             {0.7}, {0.99, 0.95, 0.97, 0.96}};
+                                               s.profile = {1, 0.5, 0.2, 0};
+                                               s.resistance = {0.9, 0.1};
+                                               s.wind = {WindStroke{{{-0.5, 0.1}, {0.2, 0.3}, {0.6, -0.2}}, 0.3, 0.15},
+                                                         WindStroke{{{0, -1}, {0, 1}}, 0.05, 0.4}};
+                                               s.coral.crest_begin = 0.9;  // back_end ≤ crest_begin ≤ crest_end
+                                               s.coral.crest_end = 0.95;
+                                             });
+}
+
 // The spec's sub-objects through the spec reader itself: every field off its
 // default comes back (a random spec keeps them at their defaults).
 TEST(Spec, SubObjectsRoundTripEveryField) {
@@ -327,5 +345,11 @@ TEST(Spec, BadValuesNameTheField) {
   expect_error(R"({"wind": [{"points": [[0, 0], [1, 1]], "width": 0}]})", "wind[0].width");
   expect_error(R"({"heights": {"peak_m": -5}})", "heights.peak_m");
   expect_error(R"({"smax_k": "big"})", "smax_k");
+  expect_error(R"({"wind_substeps": 1e30})", "wind_substeps = 1e+30 is out of range; expected [1, 100]");
+  expect_error(R"({"profile": [0.5, 1.5]})", "profile[1] = 1.5 is out of range");
+  expect_error(R"({"wind": {"points": []}})", "wind must be an array");
+  expect_error(R"({"wind": [{"points": [[0, 0], [1, 1]], "widht": 1}]})", "unknown key \"wind[0].widht\"");
+  expect_error(R"({"wind": [{"points": [[0, 0], [9, 1]]}]})", "wind[0].points[1] x = 9");
+  expect_error(R"({"erosion": {"k_fluvial": 5}})", "erosion.k_fluvial");
   expect_error(R"([1, 2])", "must be a JSON object");
 }

@@ -1,11 +1,10 @@
 #include "reefgen/procgen/spec.hpp"
 
 #include <cmath>
-#include <set>
+#include <algorithm>
 #include <sstream>
 
 #include "reefgen/io.hpp"
-#include "reefgen/json_read.hpp"
 
 namespace reefgen::procgen {
 
@@ -34,164 +33,72 @@ void check_range(const std::string& name, double v, double lo, double hi) {
     throw Error(name + " = " + fmt(v) + " is out of range; expected [" + fmt(lo) + ", " + fmt(hi) + "]");
 }
 
-// Reads a JSON object field by field, remembering which keys were used, so
-// that leftovers (typos) can be reported.
-class Fields {
- public:
-  Fields(const json& j, std::string path) : j_(j), path_(std::move(path)) {
-    if (!j.is_object()) throw Error(path_ + " must be a JSON object");
-  }
-  template <class T>
-  void get(const char* key, T& out) {
-    used_.insert(key);
-    auto it = j_.find(key);
-    if (it == j_.end()) return;
-    try {
-      read_json_value(*it, out, path_ + "." + key);
-    } catch (const json::exception&) {
-      throw Error(path_ + "." + key + " has the wrong type (" + it->type_name() + ")");
-    }
-  }
-  const json* find(const char* key) {
-    used_.insert(key);
-    auto it = j_.find(key);
-    return it == j_.end() ? nullptr : &*it;
-  }
-  std::string at(const char* key) const { return path_ + "." + key; }
-  void finish() const {
-    for (auto it = j_.begin(); it != j_.end(); ++it)
-      if (!used_.count(it.key())) throw Error(path_ + ": unknown key \"" + it.key() + "\" (see docs/SPEC.md)");
-  }
-
- private:
-  const json& j_;
-  std::string path_;
-  std::set<std::string> used_;
-};
-
-Vec2 vec2_from_json(const json& j, const std::string& path) {
-  if (!j.is_array() || j.size() != 2 || !j[0].is_number() || !j[1].is_number())
-    throw Error(path + " must be a point [x, y]");
-  return {j[0].get<double>(), j[1].get<double>()};
-}
-
 }  // namespace
 
-void validate(const IslandSpec& s) {
+nlohmann::json points_to_json(const std::vector<Vec2>& points) {
+  json a = json::array();
+  for (const auto& p : points) a.push_back({p.x, p.y});
+  return a;
+}
+
+void points_from_json(const json& j, std::vector<Vec2>& points, const std::string& where) {
+  if (!j.is_array()) throw Error(where + " must be an array of [x, y]");
+  points.clear();
+  for (size_t k = 0; k < j.size(); ++k) {
+    const json& e = j[k];
+    if (!e.is_array() || e.size() != 2 || !e[0].is_number() || !e[1].is_number())
+      throw Error(where + "[" + std::to_string(k) + "] must be a point [x, y]");
+    points.push_back({e[0].get<double>(), e[1].get<double>()});
+  }
+}
+
+void check_points(const std::vector<Vec2>& points, const std::string& where) {
+  if (points.size() < 2 || points.size() > 1024) throw Error(where + " needs 2..1024 points, got " + std::to_string(points.size()));
+  for (size_t k = 0; k < points.size(); ++k) {
+    check_range(where + "[" + std::to_string(k) + "] x", points[k].x, -4, 4);
+    check_range(where + "[" + std::to_string(k) + "] y", points[k].y, -4, 4);
+  }
+}
+
+nlohmann::json outlines_to_json(const Outlines& o) {
+  json a = json::array();
+  for (const auto& r : o) a.push_back(r.size() == 1 ? json(r[0]) : json(r));
+  return a;
+}
+
+void outlines_from_json(const json& j, Outlines& o, const std::string& where) {
+  if (!j.is_array() || j.size() != kNumOutlines)
+    throw Error(where + " must be an array of 5 outlines (island, beach, lagoon, reef, abyss)");
   for (int i = 0; i < kNumOutlines; ++i) {
-    const std::string name = "outlines[" + std::to_string(i) + "]";
-    if (s.outlines[i].empty()) throw Error(name + " is empty; give one radius (circle) or several");
-    if (s.outlines[i].size() > 4096) throw Error(name + " has more than 4096 radii");
-    for (double r : s.outlines[i]) check_range(name + " radius", r, 1e-3, 3.0);
+    const json& e = j[size_t(i)];
+    if (e.is_number()) o[size_t(i)] = {e.get<double>()};
+    else if (e.is_array() && std::all_of(e.begin(), e.end(), [](const json& v) { return v.is_number(); }))
+      o[size_t(i)] = e.get<std::vector<double>>();
+    else throw Error(where + "[" + std::to_string(i) + "] must be a radius or an array of radii");
   }
-  check_range("min_gap", s.min_gap, 0.001, 0.2);
-  for (const auto* c : {&s.profile, &s.resistance}) {
-    const std::string name = c == &s.profile ? "profile" : "resistance";
-    if (c->size() < 2 || c->size() > 4096) throw Error(name + " needs 2..4096 samples, got " + std::to_string(c->size()));
-    for (double v : *c) check_range(name + " sample", v, 0.0, 1.0);
+}
+
+void check_outlines(const Outlines& o, const std::string& where) {
+  for (int i = 0; i < kNumOutlines; ++i) {
+    const std::string name = where + "[" + std::to_string(i) + "]";
+    const auto& r = o[size_t(i)];
+    if (r.empty()) throw Error(name + " is empty; give one radius (circle) or several");
+    if (r.size() > 4096) throw Error(name + " has more than 4096 radii");
+    for (double v : r) check_range(name + " radius", v, 1e-3, 3.0);
   }
-  if (s.wind.size() > 64) throw Error("wind has " + std::to_string(s.wind.size()) + " strokes; at most 64");
-  for (size_t i = 0; i < s.wind.size(); ++i) {
-    const std::string name = "wind[" + std::to_string(i) + "]";
-    const auto& w = s.wind[i];
-    if (w.points.size() < 2 || w.points.size() > 1024) throw Error(name + ".points needs 2..1024 points");
-    for (const auto& p : w.points) {
-      check_range(name + ".points x", p.x, -4, 4);
-      check_range(name + ".points y", p.y, -4, 4);
-    }
-    check_range(name + ".strength", w.strength, 0, 2);
-    check_range(name + ".width", w.width, 0.005, 2);
-  }
-  if (s.wind_substeps < 1 || s.wind_substeps > 100) throw Error("wind_substeps = " + std::to_string(s.wind_substeps) + " is out of range; expected [1, 100]");
-  check_range("subsidence", s.subsidence, 0, 1);
-  check_params(s.heights, "", "docs/SPEC.md", "heights.");
+}
+
+void validate(const IslandSpec& s) {
+  check_params(s, "", "docs/SPEC.md");
+  // Rules between fields, which the walk's per-field ranges cannot say.
   const auto& c = s.coral;
-  check_params(c, "", "docs/SPEC.md", "coral.");
   check_range("coral.crest_begin", c.crest_begin, c.back_end, 1);
   check_range("coral.crest_end", c.crest_end, c.crest_begin, 1);
-  check_range("smax_k", s.smax_k, 0.01, 100);
-  check_params(s.noise, "", "docs/SPEC.md", "noise.");
-  check_range("world_size_m", s.world_size_m, 10, 1e6);
 }
 
-void to_json(json& j, const IslandSpec& s) {
-  json outlines = json::array();
-  for (const auto& o : s.outlines) outlines.push_back(o.size() == 1 ? json(o[0]) : json(o));
-  json wind = json::array();
-  for (const auto& w : s.wind) {
-    json pts = json::array();
-    for (const auto& p : w.points) pts.push_back({p.x, p.y});
-    wind.push_back({{"points", pts}, {"strength", w.strength}, {"width", w.width}});
-  }
-  j = json{{"description", s.description},
-           {"outlines", outlines},
-           {"min_gap", s.min_gap},
-           {"profile", s.profile},
-           {"resistance", s.resistance},
-           {"wind", wind},
-           {"wind_substeps", s.wind_substeps},
-           {"subsidence", s.subsidence},
-           {"heights", params_json(s.heights)},
-           {"coral", params_json(s.coral)},
-           {"smax_k", s.smax_k},
-           {"noise", params_json(s.noise)},
-           {"world_size_m", s.world_size_m}};
-  to_json(j["erosion"], s.erosion);
-}
+void to_json(json& j, const IslandSpec& s) { j = params_json(s); }
 
-void from_json(const json& j, IslandSpec& s) {
-  Fields f(j, "spec");
-  f.get("description", s.description);
-  if (const json* o = f.find("outlines")) {
-    if (!o->is_array() || o->size() != kNumOutlines)
-      throw Error("spec.outlines must be an array of 5 outlines (island, beach, lagoon, reef, abyss)");
-    for (int i = 0; i < kNumOutlines; ++i) {
-      const json& e = (*o)[i];
-      const std::string path = "spec.outlines[" + std::to_string(i) + "]";
-      if (e.is_number()) s.outlines[i] = {e.get<double>()};
-      else if (e.is_array() && std::all_of(e.begin(), e.end(), [](const json& v) { return v.is_number(); }))
-        s.outlines[i] = e.get<std::vector<double>>();
-      else throw Error(path + " must be a radius or an array of radii");
-    }
-  }
-  f.get("min_gap", s.min_gap);
-  f.get("profile", s.profile);
-  f.get("resistance", s.resistance);
-  if (const json* w = f.find("wind")) {
-    if (!w->is_array()) throw Error("spec.wind must be an array of strokes");
-    s.wind.clear();
-    for (size_t i = 0; i < w->size(); ++i) {
-      const std::string path = "spec.wind[" + std::to_string(i) + "]";
-      Fields fw((*w)[i], path);
-      WindStroke st;
-      if (const json* pts = fw.find("points")) {
-        if (!pts->is_array()) throw Error(path + ".points must be an array of [x, y]");
-        for (size_t k = 0; k < pts->size(); ++k)
-          st.points.push_back(vec2_from_json((*pts)[k], path + ".points[" + std::to_string(k) + "]"));
-      }
-      fw.get("strength", st.strength);
-      fw.get("width", st.width);
-      fw.finish();
-      s.wind.push_back(std::move(st));
-    }
-  }
-  // Read as a number first: 1e30 is refused against [1, 100], not int's range.
-  if (const json* w = f.find("wind_substeps")) {
-    double d = 0;
-    read_json_value(*w, d, "spec.wind_substeps");
-    check_range("spec.wind_substeps", d, 1, 100);
-    if (d != std::floor(d)) throw Error("spec.wind_substeps = " + fmt(d) + " must be a whole number in [1, 100]");
-    s.wind_substeps = int(d);
-  }
-  f.get("subsidence", s.subsidence);
-  if (const json* h = f.find("heights")) s.heights = params_from_json<HeightMapping>(*h, "", "docs/SPEC.md", "heights.");
-  if (const json* c = f.find("coral")) s.coral = params_from_json<CoralParams>(*c, "", "docs/SPEC.md", "coral.");
-  f.get("smax_k", s.smax_k);
-  if (const json* n = f.find("noise")) s.noise = params_from_json<DetailNoise>(*n, "", "docs/SPEC.md", "noise.");
-  if (const json* e = f.find("erosion")) s.erosion = erosion_params_from_json(*e, "spec");
-  f.get("world_size_m", s.world_size_m);
-  f.finish();
-}
+void from_json(const json& j, IslandSpec& s) { s = params_from_json<IslandSpec>(j, "", "docs/SPEC.md"); }
 
 IslandSpec spec_from_json(const json& j, const std::string& origin) {
   IslandSpec s;

@@ -11,6 +11,7 @@
 
 #include "reefgen/constants.hpp"
 #include "reefgen/procgen/curves.hpp"
+#include "reefgen/params_json.hpp"
 #include "reefgen/procgen/erosion.hpp"
 
 namespace reefgen::procgen {
@@ -21,11 +22,22 @@ inline constexpr int kNumOutlines = 5;  // outer borders of island, beach, lagoo
 std::vector<double> default_profile();
 std::vector<double> default_resistance();
 
+// Points as [x, y] in JSON, 2..1024 of them, each coordinate in [-4, 4].
+nlohmann::json points_to_json(const std::vector<Vec2>& points);
+void points_from_json(const nlohmann::json& j, std::vector<Vec2>& points, const std::string& where);
+void check_points(const std::vector<Vec2>& points, const std::string& where);
+
 struct WindStroke {
-  std::vector<Vec2> points;  // canvas units in [-1,1]² (+y up), ≥ 2 control points of an open Catmull-Rom curve
+  std::vector<Vec2> points;  // canvas units in [-4,4]² (+y up), 2..1024 control points of an open Catmull-Rom curve
   double strength = 0.2;     // canvas units, peak displacement S, [0, 2]
   double width = 0.2;        // canvas units, Gaussian σ, [0.005, 2]
 };
+template <class F>
+void fields(WindStroke& w, F&& f) {  // the one field list (common/params_json.hpp)
+  f("points", w.points, Custom<std::vector<Vec2>>{points_to_json, points_from_json, check_points});
+  f("strength", w.strength, Range{0, 2});
+  f("width", w.width, Range{0.005, 2});
+}
 
 // Monotone piecewise-linear map M from the normalised profile space to metres.
 struct HeightMapping {
@@ -77,11 +89,18 @@ void fields(DetailNoise& p, F&& f) {
   f("seed", p.seed);
 }
 
+// Control radii of R_1..R_5 (outer borders of regions 0..4), canvas units,
+// evenly spaced in θ from +x counter-clockwise; 1 value = circle. Each in
+// [1e-3, 3], 1..4096 per outline. JSON: an array of 5, each a radius or an
+// array of radii.
+using Outlines = std::array<std::vector<double>, kNumOutlines>;
+nlohmann::json outlines_to_json(const Outlines& o);
+void outlines_from_json(const nlohmann::json& j, Outlines& o, const std::string& where);
+void check_outlines(const Outlines& o, const std::string& where);
+
 struct IslandSpec {
   std::string description;                        // free text, shown by `reefgen presets`
-  // Control radii of R_1..R_5 (outer borders of regions 0..4), canvas units,
-  // evenly spaced in θ from +x counter-clockwise; 1 value = circle. Each in (0, 3].
-  std::array<std::vector<double>, kNumOutlines> outlines{
+  Outlines outlines{
       std::vector<double>{0.3}, std::vector<double>{0.38}, std::vector<double>{0.55},
       std::vector<double>{0.68}, std::vector<double>{0.98}};
   double min_gap = 0.02;                          // canvas units, δ: R_{i+1} ≥ R_i + δ, [0.001, 0.2]
@@ -97,13 +116,31 @@ struct IslandSpec {
   ErosionParams erosion;                           // fluvial erosion of the land before coral growth (docs/EROSION.md)
   double world_size_m = kCanvasWorldSizeM;        // m, width of the [-1,1] canvas, [10, 1e6]
 };
+// The one field list (common/params_json.hpp); the rules between fields
+// (coral's back_end ≤ crest_begin ≤ crest_end) are validate()'s.
+template <class F>
+void fields(IslandSpec& s, F&& f) {
+  f("description", s.description);
+  f("outlines", s.outlines, Custom<Outlines>{outlines_to_json, outlines_from_json, check_outlines});
+  f("min_gap", s.min_gap, Range{0.001, 0.2});
+  f("profile", s.profile, Range{0, 1}, Count{2, 4096});
+  f("resistance", s.resistance, Range{0, 1}, Count{2, 4096});
+  f("wind", s.wind, Count{0, 64});
+  f("wind_substeps", s.wind_substeps, Range{1, 100});
+  f("subsidence", s.subsidence, Range{0, 1});
+  f("heights", s.heights);
+  f("coral", s.coral);
+  f("smax_k", s.smax_k, Range{0.01, 100});
+  f("noise", s.noise);
+  f("erosion", s.erosion);
+  f("world_size_m", s.world_size_m, Range{10, 1e6});
+}
 
 // Throws reefgen::Error naming the first invalid field and its valid range.
 void validate(const IslandSpec& spec);
 
-// JSON: every field optional (defaults above); unknown keys are rejected so a
-// typo does not silently fall back to a default. An outline may be a number
-// (circle) or an array of radii.
+// JSON (the field walk): every field optional (defaults above); unknown keys
+// are rejected so a typo does not silently fall back to a default.
 void to_json(nlohmann::json& j, const IslandSpec& s);
 void from_json(const nlohmann::json& j, IslandSpec& s);
 // Parses and validates; errors name `origin` (a file name) and the field.
