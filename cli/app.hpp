@@ -18,6 +18,7 @@
 #include <CLI/CLI.hpp>
 
 #include "reefgen/io.hpp"
+#include "reefgen/stats.hpp"
 #include "reefgen/parallel.hpp"
 
 namespace reefgen {
@@ -79,12 +80,8 @@ inline OutputNames output_names(const std::string& o) {
   return {p, std::filesystem::path(o + ".height.exr")};
 }
 
-// Benchmarks: the median (timings on a shared machine are noisy) and the
-// wall time of one call.
-inline double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0 : v[v.size() / 2];
-}
+// Benchmarks: the wall time of one call (timings on a shared machine are
+// noisy: report median(), reefgen/stats.hpp, of several).
 template <class F>
 double seconds_of(F&& f) {
   const auto t0 = std::chrono::steady_clock::now();

@@ -75,53 +75,22 @@ int run_single(const GenerateArgs& a, const GlobalOptions&) {
 }
 
 int run_random(const GenerateArgs& a, const GlobalOptions& g) {
-  if (a.random < 1 || a.random > 10'000'000) throw Error("--random must be in 1..10000000");
-  if (a.levels < 1 || a.levels > 64) throw Error("--levels must be in 1..64");
   const fs::path dir = a.out_dir;
   ensure_writable_dir(dir);
-  const auto levels = subsidence_levels(a.levels);
-  const size_t total = static_cast<size_t>(a.random) * levels.size();
-  Progress progress("generate", total, g.quiet);
-  std::atomic<size_t> skipped{0};
-  RenderOptions opt;
-  opt.size_px = a.size;
-  opt.warp_grid = a.warp_grid;
-  parallel_for(
-      total, a.threads,
-      [&](size_t t) {
-        const size_t index = t / levels.size(), level = t % levels.size();
-        char name[64];
-        std::snprintf(name, sizeof name, "island_%06zu_l%zu", index, level);
-        const fs::path prefix = dir / name;
-        fs::path sidecar = prefix;
-        sidecar += ".json";
-        // The sidecar is written last: if it is there, this island is complete
-        // (a rerun after an interruption resumes here) unless it is foreign.
-        if (fs::exists(sidecar)) {
-          const auto j = read_json(sidecar);
-          const auto& p = j.value("provenance", nlohmann::json::object());
-          if (!(p.value("seed", ~0ull) == a.seed && p.value("index", ~0ull) == index &&
-                j.value("size_px", 0) == a.size && j.value("subsidence", -1.0) == levels[level]))
-            throw Error(sidecar.string() + " was made with other settings; use an empty --out folder");
-          bool complete = true;
-          const nlohmann::json files = j.value("files", nlohmann::json::object());
-          for (const auto& file : files)
-            complete = complete && file.is_string() && fs::exists(dir / file.get<std::string>());
-          if (complete) {
-            ++skipped;
-            return;
-          }
-        }
-        IslandSpec spec = random_spec(a.seed, index);
-        spec.subsidence = levels[level];
-        const IslandFields f = generate(spec, opt);
-        write_island(prefix, f, spec,
-                     {{"mode", "random"}, {"seed", a.seed}, {"index", index}, {"level", level}, {"warp_grid", opt.warp_grid}},
-                     a.preview);
-      },
-      [&](size_t done) { progress.tick(done); });
+  RandomIslands r;
+  r.count = a.random;
+  r.levels = a.levels;
+  r.seed = a.seed;
+  r.render.size_px = a.size;
+  r.render.warp_grid = a.warp_grid;
+  r.preview = a.preview;
+  r.threads = a.threads;
+  if (a.levels < 1 || a.levels > 64) throw Error("--levels must be in 1..64");
+  Progress progress("generate", size_t(a.random) * size_t(a.levels), g.quiet);
+  const RandomIslandsResult res = write_random_islands(dir, r, [&](size_t done) { progress.tick(done); });
   if (!g.quiet)
-    std::fprintf(stderr, "wrote %zu islands (%zu already there) to %s\n", total - skipped, size_t(skipped), dir.c_str());
+    std::fprintf(stderr, "wrote %zu islands (%zu already there) to %s\n", res.total - res.skipped, res.skipped,
+                 dir.c_str());
   std::printf("%s\n", dir.c_str());
   return 0;
 }

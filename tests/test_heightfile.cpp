@@ -1,5 +1,5 @@
 // The height-field files terrain tools import (common/heightfile.hpp: PNG16,
-// R16, grid meshes, the staged writer and its sidecar) and SHA-256, read back
+// R16, grid meshes, the staged writer and its sidecar), SHA-256 and the median, read back
 // without LibTorch: this binary links only reefgen_common.
 #include <cstring>
 #include <fstream>
@@ -10,6 +10,7 @@
 
 #include "reefgen/heightfile.hpp"
 #include "reefgen/sha256.hpp"
+#include "reefgen/stats.hpp"
 #include "test_util.hpp"
 
 using namespace reefgen;
@@ -23,11 +24,6 @@ cv::Mat1f bumpy(int W) {
   for (int r = 0; r < W; ++r)
     for (int c = 0; c < W; ++c) h(r, c) = float(400 * std::exp(-((r - 20.0) * (r - 20.0) + (c - 30.0) * (c - 30.0)) / 200.0) - 90 + 0.5 * c);
   return h;
-}
-
-std::string bytes_of(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(f), {}};
 }
 
 uint32_t u32_at(const std::string& b, size_t off) {
@@ -45,7 +41,7 @@ TEST(Export, Png16AndR16RoundTrip) {
   const cv::Mat1f back = read_png16(d / "h.png", -100, 560);
   EXPECT_LE(cv::norm(back, h, cv::NORM_INF), 660.0 / 65535 / 2 + 1e-4);  // half a quantisation step
   write_r16(d / "h.r16", h, -100, 560);
-  const std::string raw = bytes_of(d / "h.r16");
+  const std::string raw = test::file_bytes(d / "h.r16");
   ASSERT_EQ(raw.size(), 64u * 64u * 2u);
   // Little-endian, row 0 first, same values as the PNG.
   const cv::Mat png = cv::imread((d / "h.png").string(), cv::IMREAD_UNCHANGED);
@@ -176,7 +172,7 @@ TEST(Export, GlbReadsBack) {
   const fs::path d = temp_dir("glb");
   const cv::Mat1f h = bumpy(16);
   write_glb(d / "m.glb", h, {10.0, 1.0});
-  const std::string b = bytes_of(d / "m.glb");
+  const std::string b = test::file_bytes(d / "m.glb");
   ASSERT_GE(b.size(), 20u);
   EXPECT_EQ(b.substr(0, 4), "glTF");
   EXPECT_EQ(u32_at(b, 4), 2u);
@@ -232,3 +228,9 @@ TEST(Sha256, KnownVectors) {  // FIPS 180-4 examples
   EXPECT_EQ(million.hex(), "cdc76e5c9914fb9281a1c7e284d73e67f1809a48a497200e046d39ccc7112cd0");
 }
 
+
+TEST(Stats, MedianOfOddEvenAndEmpty) {
+  EXPECT_EQ(median({3, 1, 2}), 2.0);
+  EXPECT_EQ(median({0.31, 0, 0.286, 0.5}), (0.286 + 0.31) / 2);  // the two middle values' mean
+  EXPECT_TRUE(std::isnan(median({})));
+}

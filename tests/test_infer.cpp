@@ -26,11 +26,6 @@ cv::Mat1f bumpy(int W) {
   return h;
 }
 
-std::string bytes_of(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(f), {}};
-}
-
 // A tiny random generator saved and loaded as `reefgen train` exports it.
 model::GeneratorFile tiny_generator(const fs::path& dir, bool batch_norm = true) {
   torch::manual_seed(9);
@@ -179,7 +174,7 @@ TEST(GeneratorFile, Float16StorageAndChecksum) {
   const auto ha = infer_heights(a, {sketch(3, 64)}, {})[0], hb = infer_heights(b, {sketch(3, 64)}, {})[0];
   EXPECT_LT(cv::norm(ha, hb, cv::NORM_INF), 1.0);  // metres, over a 660 m range
   // Flipped bytes in the weights: refused, naming the file.
-  const std::string bytes = bytes_of(dir / "g16.pt");
+  const std::string bytes = test::file_bytes(dir / "g16.pt");
   int refused = 0;
   for (double at : {0.3, 0.5, 0.7}) {
     std::string bad = bytes;

@@ -10,6 +10,7 @@
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/noise.hpp"
+#include "reefgen/procgen/output.hpp"
 #include "reefgen/procgen/random_spec.hpp"
 #include "test_util.hpp"
 
@@ -352,4 +353,33 @@ TEST(Spec, BadValuesNameTheField) {
   expect_error(R"({"wind": [{"points": [[0, 0], [9, 1]]}]})", "wind[0].points[1] x = 9");
   expect_error(R"({"erosion": {"k_fluvial": 5}})", "erosion.k_fluvial");
   expect_error(R"([1, 2])", "must be a JSON object");
+}
+
+// generate --random's library half: the same files whatever the threads, a
+// rerun skips what is complete, a folder of other settings is refused.
+TEST(RandomIslands, SameFilesWhateverTheThreadsAndResumable) {
+  const fs::path a = test::temp_dir("rand1"), b = test::temp_dir("rand2");
+  RandomIslands r;
+  r.count = 2;
+  r.levels = 2;
+  r.seed = 4;
+  r.render.size_px = 32;
+  r.threads = 1;
+  size_t last = 0;
+  const RandomIslandsResult one = write_random_islands(a, r, [&](size_t done) { last = done; });
+  EXPECT_EQ(one.total, 4u);
+  EXPECT_EQ(one.skipped, 0u);
+  EXPECT_EQ(last, 4u);
+  r.threads = 2;
+  write_random_islands(b, r);
+  for (const char* f : {"island_000000_l0.height.exr", "island_000001_l1.height.exr", "island_000001_l1.label.png"})
+    EXPECT_EQ(test::file_bytes(a / f), test::file_bytes(b / f)) << f;
+  EXPECT_EQ(write_random_islands(a, r).skipped, 4u);
+  fs::remove(a / "island_000001_l0.label.png");  // an interrupted island is redone
+  EXPECT_EQ(write_random_islands(a, r).skipped, 3u);
+  EXPECT_TRUE(fs::exists(a / "island_000001_l0.label.png"));
+  r.seed = 5;
+  test::expect_error_naming([&] { write_random_islands(a, r); }, "other settings");
+  fs::remove_all(a);
+  fs::remove_all(b);
 }

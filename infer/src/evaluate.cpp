@@ -10,6 +10,7 @@
 
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/io.hpp"
+#include "reefgen/stats.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/parallel.hpp"
 #include "reefgen/preview.hpp"
@@ -156,11 +157,6 @@ SketchesResult evaluate_sketches(model::GeneratorFile& gen, const std::vector<st
     tiles.push_back(tile);
     progress.tick(i + 1);
   }
-  auto median = [](std::vector<double> v) {
-    if (v.empty()) return std::nan("");
-    std::sort(v.begin(), v.end());
-    return v[v.size() / 2];
-  };
   const double board_mean = std::accumulate(boards.begin(), boards.end(), 0.0) / double(boards.size());
   out.overall = {{"young_land_above_0", num(share(total.land_above_0, total.land_px))},
                  {"young_abyss_below_0", num(share(total.abyss_below_0, total.abyss_px))},

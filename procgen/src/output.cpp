@@ -1,8 +1,13 @@
 #include "reefgen/procgen/output.hpp"
 
+#include <atomic>
+#include <cstdio>
+
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
+#include "reefgen/parallel.hpp"
 #include "reefgen/preview.hpp"
+#include "reefgen/procgen/random_spec.hpp"
 #include "reefgen/version.hpp"
 
 namespace reefgen::procgen {
@@ -59,6 +64,55 @@ WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFiel
   staged.commit();
   out.files = staged.finals();
   return out;
+}
+
+RandomIslandsResult write_random_islands(const std::filesystem::path& dir, const RandomIslands& r,
+                                         const std::function<void(size_t)>& progress) {
+  namespace fs = std::filesystem;
+  if (r.count < 1 || r.count > 10'000'000) throw Error("random islands: count must be in 1..10000000");
+  if (r.levels < 1 || r.levels > 64) throw Error("random islands: levels must be in 1..64");
+  const auto levels = subsidence_levels(r.levels);
+  RandomIslandsResult res;
+  res.total = static_cast<size_t>(r.count) * levels.size();
+  std::atomic<size_t> skipped{0};
+  parallel_for(
+      res.total, r.threads,
+      [&](size_t t) {
+        const size_t index = t / levels.size(), level = t % levels.size();
+        char name[64];
+        std::snprintf(name, sizeof name, "island_%06zu_l%zu", index, level);
+        const fs::path prefix = dir / name;
+        fs::path sidecar = prefix;
+        sidecar += ".json";
+        // The sidecar is written last: if it is there, this island is complete
+        // (a rerun after an interruption resumes here) unless it is foreign.
+        if (fs::exists(sidecar)) {
+          const auto j = read_json(sidecar);
+          const auto& p = j.value("provenance", nlohmann::json::object());
+          if (!(p.value("seed", ~0ull) == r.seed && p.value("index", ~0ull) == index &&
+                j.value("size_px", 0) == r.render.size_px && j.value("subsidence", -1.0) == levels[level]))
+            throw Error(sidecar.string() + " was made with other settings; use an empty --out folder");
+          bool complete = true;
+          const nlohmann::json files = j.value("files", nlohmann::json::object());
+          for (const auto& file : files)
+            complete = complete && file.is_string() && fs::exists(dir / file.get<std::string>());
+          if (complete) {
+            ++skipped;
+            return;
+          }
+        }
+        IslandSpec spec = random_spec(r.seed, index);
+        spec.subsidence = levels[level];
+        const IslandFields f = generate(spec, r.render);
+        write_island(prefix, f, spec,
+                     {{"mode", "random"}, {"seed", r.seed}, {"index", index}, {"level", level}, {"warp_grid", r.render.warp_grid}},
+                     r.preview);
+      },
+      [&](size_t done) {
+        if (progress) progress(done);
+      });
+  res.skipped = skipped;
+  return res;
 }
 
 }  // namespace reefgen::procgen

@@ -4,7 +4,9 @@
 //   PREFIX.label.png   8-bit RGB HSV labels
 //   PREFIX.preview.png hypsometric, hill-shaded preview (optional)
 //   PREFIX.json        sidecar, written last: its presence marks a complete island
+#include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -23,5 +25,24 @@ struct WrittenIsland {
 WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFields& fields, const IslandSpec& spec,
                            const nlohmann::json& provenance, bool preview,
                            const std::filesystem::path& height_path = {});
+
+// The paper's data generation (`generate --random`): `count` random specs,
+// each at `levels` subsidence levels, written as DIR/island_IIIIII_lL.*.
+struct RandomIslands {
+  int count = 1;             // random specs, [1, 1e7]
+  int levels = 4;            // subsidence levels per spec, evenly spaced on [0, 1], [1, 64]
+  uint64_t seed = 0;         // random_spec(seed, index)
+  RenderOptions render;      // size and warp grid of every island
+  bool preview = false;      // also PREFIX.preview.png
+  int threads = 1;           // workers, [1, 256]; the files are the same whatever the count
+};
+struct RandomIslandsResult {
+  size_t total = 0, skipped = 0;  // islands asked for; already complete in DIR (a resumed run)
+};
+// Resumable: an island whose sidecar and files are all there is skipped; a
+// sidecar made with other settings (seed, index, size, level) throws
+// reefgen::Error naming it. progress(done) is called as islands finish.
+RandomIslandsResult write_random_islands(const std::filesystem::path& dir, const RandomIslands& r,
+                                         const std::function<void(size_t)>& progress = {});
 
 }  // namespace reefgen::procgen
