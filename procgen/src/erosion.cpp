@@ -362,7 +362,53 @@ namespace {
 // to height (fBm, one feature per amplify_feature_m) gives the drainage
 // somewhere to start, as the render's noise does for the generator; the
 // coast (h → 0) does not move.
+// A painted island comes back from the model with round contours: a cone
+// whose plan curvature is divergent (+1/r) everywhere, so water spreads and
+// erosion carves few valleys. Real volcanic flanks are lobed (lava flows,
+// landslide scars), as the generator's irregular outlines are. Each flank
+// contour is pushed up or down the slope by a noise of one feature per
+// amplify_lobe_spacing_m (h'(x) = h(x − d(x)·∇h/|∇h|), |d| ≤ amplify_lobe_m),
+// faded in over the lowest 20 % of the island so the coast stays where the
+// sketch put it; the concave bends then gather the water the base-grid
+// erosion turns into valleys (docs/EROSION.md).
+void lobe_contours(cv::Mat1f& h, double world_size_m, uint64_t seed, const ErosionParams& p) {
+  if (p.amplify_lobe_m <= 0) return;
+  const int S = h.cols;
+  const double cell_m = world_size_m / S;
+  double hmax = 0;
+  cv::minMaxLoc(h, nullptr, &hmax);
+  if (hmax <= 1) return;
+  cv::Mat1f sm;
+  const double sig = std::max(1.0, 0.25 * p.amplify_lobe_spacing_m / cell_m);
+  cv::GaussianBlur(h, sm, cv::Size(0, 0), sig, sig, cv::BORDER_REPLICATE);
+  cv::Mat1f gx, gy;
+  cv::Sobel(sm, gx, CV_32F, 1, 0, 3, 1.0 / 8);
+  cv::Sobel(sm, gy, CV_32F, 0, 1, 3, 1.0 / 8);
+  const NoiseTile& tile = NoiseTile::get(2);
+  Rng rng(seed, 0, "amplify-lobes");
+  const float u0 = float(rng.uniform(0, NoiseTile::kSize)), v0 = float(rng.uniform(0, NoiseTile::kSize));
+  const float tpc = float(NoiseTile::kBaseCell * cell_m / p.amplify_lobe_spacing_m);
+  const float amp_px = float(p.amplify_lobe_m / cell_m), h_full = float(0.2 * hmax);
+  cv::Mat1f mx(S, S), my(S, S);
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x) {
+      const float t = std::clamp(h(y, x) / h_full, 0.f, 1.f), w = t * t * (3 - 2 * t);
+      const float g = std::hypot(gx(y, x), gy(y, x));
+      // 1/|∇h|, faded in below a 2 % slope (summits, plains: no direction)
+      const float k = std::min(1.f, g * float(1.0 / (0.02 * cell_m))) / std::max(g, 1e-6f);
+      const float d = w * amp_px * tile.sample(x * tpc + u0, y * tpc + v0);
+      mx(y, x) = float(x) - d * gx(y, x) * k;
+      my(y, x) = float(y) - d * gy(y, x) * k;
+    }
+  cv::Mat1f out;
+  cv::remap(h, out, mx, my, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x)
+      if (h(y, x) > 0) h(y, x) = std::max(0.1f, out(y, x));
+}
+
 void roughen_land(cv::Mat1f& h, double world_size_m, uint64_t seed, const ErosionParams& p) {
+  lobe_contours(h, world_size_m, seed, p);
   if (p.amplify_roughness <= 0) return;
   const int S = h.cols;
   const NoiseTile& tile = NoiseTile::get(3);
