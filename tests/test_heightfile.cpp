@@ -15,16 +15,10 @@
 
 using namespace reefgen;
 using test::expect_error_naming;
+using test::bumpy;
 using test::temp_dir;
 
 namespace {
-
-cv::Mat1f bumpy(int W) {
-  cv::Mat1f h(W, W);
-  for (int r = 0; r < W; ++r)
-    for (int c = 0; c < W; ++c) h(r, c) = float(400 * std::exp(-((r - 20.0) * (r - 20.0) + (c - 30.0) * (c - 30.0)) / 200.0) - 90 + 0.5 * c);
-  return h;
-}
 
 uint32_t u32_at(const std::string& b, size_t off) {
   uint32_t v = 0;

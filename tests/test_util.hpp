@@ -11,6 +11,7 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <opencv2/core.hpp>
 
 #include "reefgen/io.hpp"
 #include "reefgen/params_json.hpp"
@@ -34,6 +35,15 @@ void expect_error_naming(F&& f, const std::string& needle) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
   }
+}
+
+// A W×W test height field in metres: a 400 m bump at (row 20, column 30) on a
+// sea floor at −90 m rising 0.5 m per column (land, sea and slopes in one).
+inline cv::Mat1f bumpy(int W) {
+  cv::Mat1f h(W, W);
+  for (int r = 0; r < W; ++r)
+    for (int c = 0; c < W; ++c) h(r, c) = float(400 * std::exp(-((r - 20.0) * (r - 20.0) + (c - 30.0) * (c - 30.0)) / 200.0) - 90 + 0.5 * c);
+  return h;
 }
 
 // A file's bytes ("" when it cannot be read).
