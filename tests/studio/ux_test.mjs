@@ -33,7 +33,12 @@ async function open(width = 1400, height = 900) {
 }
 const updates = (page) => page.evaluate(() => window.__reefgen.updates);
 async function nextUpdate(page, n, timeout = 20000) {
-  await page.waitForFunction((k) => window.__reefgen.updates > k, n, { timeout });
+  try {
+    await page.waitForFunction((k) => window.__reefgen.updates > k, n, { timeout });
+  } catch (e) {  // say which wait: a bare playwright timeout names none
+    const now = await page.evaluate(() => window.__reefgen.updates).catch(() => '?');
+    throw new Error(`no view after update ${n} within ${timeout} ms (updates now ${now})`);
+  }
 }
 // The painting's pixels, summed per channel (cheap fingerprint) and at a point.
 const canvasSums = (page) => page.evaluate(() => {
@@ -225,8 +230,11 @@ await check('side-by-side-at-1024x700', async () => {
 // scripts/bench-studio.sh, not in a test).
 await check('quick-strokes-one-inference-behind', async () => {
   const page = await open();
+  // Count before the change: read after it, a quick 1024² answer already
+  // counted would leave the wait for one more that never comes.
+  const n = await updates(page);
   await page.selectOption('#canvas-size', '1024');
-  await nextUpdate(page, await updates(page), 30000);
+  await nextUpdate(page, n, 30000);
   let open_ = 0, maxOpen = 0;
   page.on('request', (r) => { if (r.url().includes('/api/infer')) maxOpen = Math.max(maxOpen, ++open_); });
   const done = (r) => { if (r.url().includes('/api/infer')) open_ -= 1; };
