@@ -1,15 +1,9 @@
 // reefgen floating: a closed floating-island mesh from a painting or a height field.
 #include <cstdio>
 
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include "app.hpp"
-#include "reefgen/constants.hpp"
 #include "reefgen/io.hpp"
-#include "reefgen/mesh.hpp"
 #include "reefgen/islands/floating.hpp"
-#include "reefgen/version.hpp"
 
 namespace reefgen {
 
@@ -61,25 +55,6 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
               for (const auto& [name, text] : presets) std::printf("%s\n", name.c_str());
               return 0;
             }
-            if (a->painting.empty() && a->height.empty())
-              throw Error("floating: give --painting FILE or --height H.exr (see reefgen floating --help)");
-            if (a->out.empty()) throw Error("floating: give -o FILE.glb or -o FILE.obj");
-            for (const auto& o : a->out) {
-              const std::string ext = fs::path(o).extension().string();
-              if (ext != ".glb" && ext != ".obj") throw Error("-o " + o + ": the mesh file must end in .glb or .obj");
-            }
-            {  // no output may be an input (the painting, the height field, the config)
-              std::vector<fs::path> ins, outs(a->out.begin(), a->out.end());
-              for (const auto& i : {a->painting, a->height, a->config})
-                if (!i.empty()) ins.push_back(i);
-              if (!a->preview.empty()) outs.push_back(a->preview);
-              outs.push_back(fs::path(a->out.front()).replace_extension(".json"));
-              refuse_output_over_input(ins, outs);
-              for (size_t i = 0; i < outs.size(); ++i)
-                for (size_t k = i + 1; k < outs.size(); ++k)
-                  if (fs::path(outs[i]).lexically_normal() == fs::path(outs[k]).lexically_normal())
-                    throw Error(outs[i].string() + ": named twice as an output; give each output its own name");
-            }
             if (!a->preset.empty() && !a->config.empty()) throw Error("floating: use --preset or --config, not both");
             // Params: a preset, a file, or defaults (terrain-top for a height field alone).
             std::string preset = a->preset;
@@ -98,90 +73,23 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
             }
             if (sub->count("--depth-stretch")) p.depth_stretch = a->depth_stretch;
             if (sub->count("--simplify")) p.simplify_px = a->simplify_px;
-
-            // The top silhouette and the features H₀.
-            cv::Mat1b labels;
-            cv::Mat3f top_rgb;  // painted top colours (snow stays white on the mesh)
-            cv::Mat1f h0;
-            cv::Mat1f terrain;
-            if (!a->height.empty()) {
-              ExrAttributes attrs;
-              terrain = read_exr_height(a->height, &attrs);
-              if (a->painting.empty()) {  // the terrain is the canvas: its pixel size, or reefgen's 6 km across
-                const double mpp = exr_metres_per_px(attrs);  // else reefgen's 6 km canvas
-                p.metres_per_px = mpp > 0 ? mpp : kCanvasWorldSizeM / terrain.cols;
-              }
-              islands::check_floating_heights(terrain, a->height);
-            }
-            if (sub->count("--metres-per-px")) p.metres_per_px = a->metres_per_px;
-            islands::validate(p);
-            if (!a->painting.empty()) {
-              if (!fs::is_regular_file(a->painting)) throw Error(a->painting + ": no such file (check the path)");
-              const cv::Mat img = islands::shrink_painting(read_image(a->painting, cv::IMREAD_UNCHANGED), a->max_size, p);
-              labels = islands::segment_painting(img, p, a->painting, &top_rgb);
-              if (terrain.empty()) {
-                h0 = islands::floating_features(labels.size(), p, a->seed);
-              } else {  // the terrain's land relief under the painted outline
-                cv::resize(cv::max(terrain, 0.f), h0, labels.size(), 0, 0, cv::INTER_LINEAR);
-              }
-            } else {
-              islands::HeightTop top = islands::top_of_height_field(terrain, a->height);
-              labels = top.labels;
-              h0 = top.h0_m;
-            }
-            const std::string source = a->painting.empty() ? a->height : a->painting;
-            islands::FloatingIsland isl;
-            try {
-              isl = islands::floating_island(labels, h0, p, top_rgb);
-            } catch (const Error& e) {
-              throw Error(source + ": " + e.what());
-            }
-            // Check what we are about to hand to Blender: refuse rather than write a broken mesh.
-            const MeshReport rep = inspect_mesh(isl.mesh);
-            if (!rep.closed_manifold())
-              throw Error(source + ": internal error: the mesh is not closed (" + std::to_string(rep.open_edges) +
-                          " open edges, " + std::to_string(rep.degenerate) + " degenerate triangles); please report it");
-            const double iou = islands::mask_iou(islands::mesh_silhouette(isl.mesh, labels.size(), p.metres_per_px),
-                                                 labels == islands::kPaintTop);
-
-            // Staged, renamed into place together: a failure (an output that
-            // is a folder, a full disk) leaves earlier files as they were.
-            StagedOutputs staged;
-            for (const auto& o : a->out) {
-              const fs::path path(o);
-              ensure_writable_dir(path.has_parent_path() ? path.parent_path() : fs::path("."));
-              staged.write(path, [&](const fs::path& t) {
-                if (path.extension() == ".obj")
-                  write_obj(t, isl.mesh, "reefgen floating island: metres, +Y up, closed 2-manifold");
-                else
-                  write_glb(t, isl.mesh, "floating-island");
-              });
-            }
-            if (!a->preview.empty()) {
-              const fs::path path(a->preview);
-              ensure_writable_dir(path.has_parent_path() ? path.parent_path() : fs::path("."));
-              staged.write(path, [&](const fs::path& t) { write_png(t, islands::render_mesh(isl.mesh, 768)); });
-            }
-            const nlohmann::json side = {
-                {"reefgen_version", kVersion},
-                {"source", fs::absolute(source).string()},
-                {"features", terrain.empty() ? "noise" : fs::absolute(a->height).string()},
-                {"seed", a->seed},
-                {"preset", preset},
-                {"params", islands::to_json(p)},
-                {"mesh", {{"files", a->out}, {"units", "metres"}, {"up", "+Y"},
-                          {"vertices", isl.mesh.positions.size()}, {"triangles", isl.mesh.triangles.size()},
-                          {"shells", isl.islands}, {"closed_2_manifold", true}, {"volume_m3", rep.volume_m3}}},
-                {"top_max_m", isl.top_max_m},
-                {"depth_m", isl.depth_m},
-                {"silhouette_iou", iou}};
-            const fs::path js = fs::path(a->out.front()).replace_extension(".json");
-            staged.write(js, [&](const fs::path& t) { write_json_atomic(t, side); });  // last
-            staged.commit();
+            islands::FloatingJob job;
+            job.painting = a->painting;
+            job.height_exr = a->height;
+            job.seed = a->seed;
+            job.max_size_px = a->max_size;
+            if (sub->count("--metres-per-px")) job.metres_per_px = a->metres_per_px;
+            job.meshes = a->out;
+            job.preview_png = a->preview;
+            job.preset = preset;
+            job.config = a->config;
+            const nlohmann::json side = islands::make_floating(job, p);
             std::printf("%s\n", side.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
             if (!g.quiet)
-              std::fprintf(stderr, "floating: %d shell(s), %zu triangles, top %.1f m, depth %.1f m, silhouette IoU %.3f\n",
-                           isl.islands, isl.mesh.triangles.size(), isl.top_max_m, isl.depth_m, iou);
+              std::fprintf(stderr, "floating: %d shell(s), %d triangles, top %.1f m, depth %.1f m, silhouette IoU %.3f\n",
+                           side["mesh"]["shells"].get<int>(), side["mesh"]["triangles"].get<int>(),
+                           side["top_max_m"].get<double>(), side["depth_m"].get<double>(),
+                           side["silhouette_iou"].get<double>());
             return 0;
           }};
 }

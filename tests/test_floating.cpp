@@ -6,6 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "reefgen/io.hpp"
 #include "reefgen/mesh.hpp"
 #include "reefgen/islands/floating.hpp"
 #include "test_util.hpp"
@@ -402,4 +403,44 @@ TEST(Floating, ParamsRoundTripEveryField) {
       [](const nlohmann::json& j) { return floating_params_from_json(j, "f.json"); });
   expect_error_naming([] { floating_params_from_json(nlohmann::json{{"rim_m", 0}}, "f.json"); },
                       "f.json: rim_m = 0 is out of range; expected [0.001, 10000]");
+}
+
+// The whole command as a library call: files in, meshes + preview + sidecar
+// out, all or nothing, never over an input.
+TEST(Floating, MakeFloatingWritesEverythingOrNothing) {
+  const fs::path d = temp_dir("make_floating");
+  write_png(d / "paint.png", painting(96, 20));
+  FloatingJob job;
+  job.painting = (d / "paint.png").string();
+  job.seed = 3;
+  job.meshes = {(d / "out/a.glb").string(), (d / "out/a.obj").string()};
+  job.preview_png = (d / "out/a.preview.png").string();
+  const nlohmann::json side = make_floating(job, FloatingParams{});
+  for (const char* f : {"a.glb", "a.obj", "a.preview.png", "a.json"}) EXPECT_TRUE(fs::is_regular_file(d / "out" / f)) << f;
+  EXPECT_EQ(side, read_json(d / "out/a.json"));
+  EXPECT_TRUE(side["mesh"]["closed_2_manifold"].get<bool>());
+  EXPECT_GE(side["silhouette_iou"].get<double>(), 0.9);
+  expect_closed(read_glb(d / "out/a.glb"));
+  const std::string glb = test::file_bytes(d / "out/a.glb");
+
+  // The same job with another seed, but the .obj is a folder: nothing written,
+  // the first run's files as they were.
+  fs::remove(d / "out/a.obj");
+  fs::create_directories(d / "out/a.obj");
+  job.seed = 4;
+  EXPECT_THROW(make_floating(job, FloatingParams{}), std::exception);
+  EXPECT_EQ(test::file_bytes(d / "out/a.glb"), glb);
+  EXPECT_EQ(read_json(d / "out/a.json"), side);
+
+  // An output over an input, a name given twice, a metres_per_px out of range.
+  job.meshes = {(d / "out/b.glb").string()};
+  job.preview_png = job.painting;
+  expect_error_naming([&] { make_floating(job, FloatingParams{}); }, "also an input");
+  job.preview_png = (d / "out/b.json").string();
+  expect_error_naming([&] { make_floating(job, FloatingParams{}); }, "named twice");
+  job.preview_png.clear();
+  job.metres_per_px = -1;
+  expect_error_naming([&] { make_floating(job, FloatingParams{}); }, "metres_per_px");
+  EXPECT_FALSE(fs::exists(d / "out/b.glb"));
+  fs::remove_all(d);
 }

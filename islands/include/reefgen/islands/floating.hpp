@@ -17,6 +17,7 @@
 //   the bottom kept at least rim_m under the top; a middle strip joins the two rims.
 // Units: metres, +Y up, x = column, z = row, centred on the canvas.
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -128,5 +129,25 @@ double mask_iou(const cv::Mat1b& a, const cv::Mat1b& b);
 
 // A shaded oblique view of the mesh (BGR), for previews and docs.
 cv::Mat3b render_mesh(const Mesh& m, int width_px, double yaw_deg = 30, double pitch_deg = 25);
+
+// One `reefgen floating` run: where the top comes from and which files to write.
+struct FloatingJob {
+  std::string painting;            // painting file: its top colours are the top ("" = none)
+  std::string height_exr;          // height field EXR (metres): its land is the top, or the
+                                   // features under the painting ("" = noise features)
+  uint64_t seed = 1;               // noise features' seed
+  int max_size_px = 0;             // painting shrunk to this long side, px; 0 = as painted
+  std::optional<double> metres_per_px;  // overrides the params and the EXR's own pixel size, m
+  std::vector<std::string> meshes;  // .glb / .obj files; the .json sidecar goes beside the first
+  std::string preview_png;         // shaded oblique view, "" = none
+  std::string preset;              // recorded in the sidecar
+  std::string config;              // params file p came from ("" = none): refused as an output
+};
+// Builds the island, refuses a mesh that is not closed, and writes the meshes,
+// the preview and the sidecar all or nothing (nothing is touched on failure; an
+// output that is an input, or one named twice, is refused first). With a
+// height field alone, the pixel size is the EXR's own or reefgen's 6 km canvas.
+// Returns the sidecar. Throws reefgen::Error naming the file at fault.
+nlohmann::json make_floating(const FloatingJob& job, FloatingParams p);
 
 }  // namespace reefgen::islands
