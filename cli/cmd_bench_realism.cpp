@@ -55,7 +55,7 @@ nlohmann::json summary(const std::vector<RealismStats>& s, const std::vector<dou
 std::function<int()> add_bench_realism_command(CLI::App* bench, const GlobalOptions& g, CLI::App** sub_out) {
   struct Args {
     int specs = 50, size = 1025;
-    uint64_t seed = 1;
+    uint64_t seed = 1, painted_seed = 0;
     double subsidence = 0;
     std::string model, painted = "tests/data/painted", erosion;
   };
@@ -64,7 +64,8 @@ std::function<int()> add_bench_realism_command(CLI::App* bench, const GlobalOpti
       "realism", "Realism bars (docs/REALISM.md): medians over random specs and painted sketches at --size\n\n"
                  "Examples:\n"
                  "  reefgen bench realism                          # 50 specs + tests/data/painted at 1025²\n"
-                 "  reefgen bench realism --specs 8 --size 513 --painted ''\n");
+                 "  reefgen bench realism --specs 8 --size 513 --painted ''\n"
+                 "  reefgen bench realism --specs 0 --painted-seed 3  # the painted set, another amplification noise\n");
   *sub_out = sub;
   sub->add_option("--specs", a->specs, "Random specs (0 = none)")->capture_default_str()->check(CLI::Range(0, 10000));
   sub->add_option("--size", a->size, "Side of each island, pixels")->capture_default_str()->check(CLI::Range(64, 8192));
@@ -76,6 +77,11 @@ std::function<int()> add_bench_realism_command(CLI::App* bench, const GlobalOpti
   sub->add_option("-m,--model", a->model, "Generator for the painted sketches (default: the shipped model)");
   sub->add_option("--painted", a->painted, "Folder of painted sketches ('' = none)")->capture_default_str();
   sub->add_option("--erosion", a->erosion, "JSON of the painted sketches' amplification params (as infer --erosion)");
+  sub->add_option("--painted-seed", a->painted_seed,
+                  "Seed of the painted sketches' amplification noise (as infer --seed): the spread over a few "
+                  "seeds is the figure's noise")
+      ->capture_default_str()
+      ->check(seed_value());
   return [a, &g]() -> int {
     nlohmann::json out = {{"bench", "realism"}, {"size", a->size}, {"cpu", cpu_model()}};
     if (a->specs > 0) {
@@ -104,6 +110,7 @@ std::function<int()> add_bench_realism_command(CLI::App* bench, const GlobalOpti
       model::GeneratorFile gen = model::load_generator(model_path);
       infer::InferOptions io;
       io.size_px = a->size;
+      io.seed = a->painted_seed;
       if (!a->erosion.empty()) io.erosion = procgen::erosion_params_from_json(read_json(a->erosion), a->erosion);
       std::vector<RealismStats> stats;
       std::vector<double> ms;
@@ -121,6 +128,7 @@ std::function<int()> add_bench_realism_command(CLI::App* bench, const GlobalOpti
       }
       out["painted"] = summary(stats, ms);
       out["painted"]["model"] = model_path.string();
+      out["painted"]["seed"] = a->painted_seed;
       out["painted"]["per_sketch"] = per;
     }
     std::printf("%s\n", out.dump(1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());

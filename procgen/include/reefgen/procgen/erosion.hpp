@@ -45,6 +45,7 @@ struct ErosionParams {
   double amplify_roughness = 0.35;    // relief added to the land before eroding, share of the height, [0, 1]
   double amplify_feature_m = 140;     // spacing of that relief's features, m, [1, 1e5]
   double amplify_duration_scale = 1;  // base-grid erosion time as a multiple of duration_yr, [0, 100]
+  int amplify_steps = 3;              // implicit steps of that erosion (few: the lobes' valleys are not captured), [0, 1000]
   double amplify_lobe_m = 300;        // flank contours pushed up or down the slope by up to this, m, [0, 2000]
   double amplify_lobe_spacing_m = 400;  // spacing of those lobes along a contour, m, [1, 1e5]
 };
@@ -67,6 +68,7 @@ void fields(ErosionParams& p, F&& f) {
   f("amplify_roughness", p.amplify_roughness, Range{0, 1});
   f("amplify_feature_m", p.amplify_feature_m, Range{1, 1e5});
   f("amplify_duration_scale", p.amplify_duration_scale, Range{0, 100});
+  f("amplify_steps", p.amplify_steps, Range{0, 1000});
   f("amplify_lobe_m", p.amplify_lobe_m, Range{0, 2000});
   f("amplify_lobe_spacing_m", p.amplify_lobe_spacing_m, Range{1, 1e5});
 }
