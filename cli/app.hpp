@@ -59,27 +59,6 @@ std::function<int()> add_bench_realism_command(CLI::App* bench, const GlobalOpti
 std::atomic<bool>& stop_requested();
 void install_stop_handlers();
 
-// `-o PREFIX` writes PREFIX.height.exr and its siblings PREFIX.json, ...;
-// `-o NAME.exr` (or NAME.height.exr) writes exactly that height file and its
-// siblings under NAME (NAME.json, NAME.label.png, ...).
-struct OutputNames {
-  std::filesystem::path prefix, height;
-};
-inline OutputNames output_names(const std::string& o) {
-  std::filesystem::path p(o);
-  // "-o out/" would write hidden files out/.height.exr, out/.json, ...
-  if (p.filename().empty() || p.filename() == "." || p.filename() == "..")
-    throw Error("-o " + o + ": a folder, not a file prefix; give a name in it, e.g. -o " +
-                (p.filename().empty() ? o : o + "/") + "island");
-  if (p.extension() == ".exr") {
-    std::filesystem::path stem = p;
-    stem.replace_extension();
-    if (stem.extension() == ".height") stem.replace_extension();
-    return {stem, p};
-  }
-  return {p, std::filesystem::path(o + ".height.exr")};
-}
-
 // Benchmarks: the wall time of one call (timings on a shared machine are
 // noisy: report median(), reefgen/stats.hpp, of several).
 template <class F>
@@ -121,23 +100,6 @@ inline CLI::Validator seed_value() {
         return {};
       },
       "UINT64");
-}
-
-// An image file a sketch can be read from, by extension (case-insensitive).
-inline bool is_image(const std::filesystem::path& p) {
-  std::string e = p.extension().string();
-  for (auto& ch : e) ch = char(std::tolower(static_cast<unsigned char>(ch)));
-  return e == ".png" || e == ".jpg" || e == ".jpeg" || e == ".tif" || e == ".tiff" || e == ".bmp" || e == ".webp";
-}
-
-// The sketch images directly inside a folder, in name order (the order of
-// results and reports).
-inline std::vector<std::filesystem::path> images_in(const std::filesystem::path& dir) {
-  std::vector<std::filesystem::path> files;
-  for (const auto& e : std::filesystem::directory_iterator(dir))
-    if (e.is_regular_file() && is_image(e.path())) files.push_back(e.path());
-  std::sort(files.begin(), files.end());
-  return files;
 }
 
 }  // namespace reefgen

@@ -1,23 +1,17 @@
 // reefgen infer: painted sketches -> height fields in the formats terrain
 // tools import (docs/INFERENCE.md). Thin: inputs -> infer library -> files.
 #include <cstdio>
-#include <map>
 #include <optional>
 
 #include "app.hpp"
 #include "reefgen/constants.hpp"
-#include "reefgen/heightfile.hpp"
 #include "reefgen/infer/infer.hpp"
+#include "reefgen/infer/run.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/model/shipped.hpp"
 #include "reefgen/train/fused_adam.hpp"
-#include "reefgen/version.hpp"
 
 namespace reefgen {
-
-namespace {
-
-}  // namespace
 
 Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
   auto* sub = app.add_subcommand(
@@ -79,66 +73,17 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
   return {sub, [a, &g]() -> int {
             torch::set_num_threads(a->threads.value_or(default_threads()));
             train::keep_freed_memory();
-            // Inputs: files and the images inside folders, in name order.
-            std::vector<fs::path> inputs;
-            bool from_folder = false;  // a folder of sketches: -o is a folder even for one sketch (docs/INFERENCE.md)
-            for (const auto& s : a->inputs) {
-              const fs::path p(s);
-              if (fs::is_directory(p)) {
-                from_folder = true;
-                const std::vector<fs::path> in_dir = images_in(p);
-                if (in_dir.empty()) throw Error(p.string() + ": no images (.png, .jpg, ...) in this folder");
-                inputs.insert(inputs.end(), in_dir.begin(), in_dir.end());
-              } else if (fs::exists(p)) {
-                inputs.push_back(p);
-              } else {
-                throw Error(p.string() + ": no such sketch file or folder");
-              }
-            }
-            const bool many = inputs.size() > 1 || from_folder || fs::is_directory(a->out);
-            std::string mesh_format = a->mesh;
-            fs::path mesh_path;
-            if (!a->mesh.empty() && a->mesh != "obj" && a->mesh != "glb") {
-              const std::string ext = fs::path(a->mesh).extension().string();
-              if (ext != ".obj" && ext != ".glb") throw Error("--mesh " + a->mesh + ": use obj, glb, or a path ending in .obj or .glb");
-              if (many) throw Error("--mesh " + a->mesh + ": a path only works with one sketch; use --mesh obj|glb");
-              mesh_path = a->mesh;
-              mesh_format = ext.substr(1);
-            }
-            if (!(a->exaggeration > 0 && a->exaggeration <= 100)) throw Error("--exaggeration must be in (0, 100]");
-            if (!(a->world_size_m > 0)) throw Error("--world-size must be > 0");
-            a->model = model::resolve_model_path(a->model).string();
-            model::GeneratorFile gen = model::load_generator(a->model);
-            if (a->stochastic && (gen.g->options().depth < 6 || gen.g->options().dropout == 0))
-              throw Error("--stochastic: " + a->model + " has no dropout layers (depth " +
-                          std::to_string(gen.g->options().depth) + ", dropout " + std::to_string(gen.g->options().dropout) +
-                          "), so outputs cannot vary; drop --stochastic");
-            const OutputNames single = many ? OutputNames{} : output_names(a->out);  // -o PREFIX or -o NAME.exr (one sketch)
-            const fs::path out_dir = many ? fs::path(a->out) : single.prefix.parent_path();
-            {
-              // Every file this run may write, checked before any is written:
-              // no output may be an input, no two sketches may share a result name.
-              std::vector<fs::path> outs;
-              std::map<std::string, fs::path> stems;
-              for (const auto& in : inputs) {
-                const fs::path prefix = many ? out_dir / in.stem() : single.prefix;
-                if (!many) outs.push_back(single.height);
-                if (many) {
-                  const auto [it, fresh] = stems.emplace(in.stem().string(), in);
-                  if (!fresh)
-                    throw Error(in.string() + " and " + it->second.string() + " would both write " + prefix.string() +
-                                ".*; rename one of them or infer them into different -o folders");
-                }
-                for (const char* ext : {".height.exr", ".height.png", ".r16", ".preview.png", ".json", ".obj", ".glb"})
-                  outs.push_back(prefix.string() + ext);
-              }
-              if (!mesh_path.empty()) outs.push_back(mesh_path);
-              refuse_output_over_input(inputs, outs);
-            }
-            ensure_writable_dir(out_dir.empty() ? fs::path(".") : out_dir);
-            std::vector<std::string> r16_notes;
-            Progress progress("infer", inputs.size(), g.quiet);
-            infer::InferOptions io;
+            infer::InferJob job;
+            job.inputs = infer::sketch_inputs(a->inputs);
+            job.out = a->out;
+            job.mesh = a->mesh;
+            job.files.png16 = a->png16;
+            job.files.r16 = a->r16;
+            job.files.preview = a->preview;
+            job.files.exaggeration = a->exaggeration;
+            job.model_path = model::resolve_model_path(a->model).string();
+            model::GeneratorFile gen = model::load_generator(job.model_path);
+            infer::InferOptions& io = job.options;
             io.stochastic = a->stochastic;
             io.running_stats = a->running_stats;
             try {
@@ -152,64 +97,11 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
             io.size_px = a->size;
             io.world_size_m = a->world_size_m;
             if (!a->erosion.empty()) io.erosion = procgen::erosion_params_from_json(read_json(a->erosion), a->erosion);
-            // Chunks of 32 sketches: memory stays bounded for folders of any
-            // size. Every output is staged and renamed into place at the end:
-            // a failure anywhere (a bad sketch after the first chunk, a mesh
-            // path in a missing folder) leaves the files of an earlier run
-            // exactly as they were and writes nothing.
-            constexpr size_t kChunk = 32;
-            std::vector<cv::Mat1f> heights;
-            StagedOutputs staged;
-            std::vector<fs::path> results;
-            {
-              for (size_t i = 0; i < inputs.size(); ++i) {
-                if (i % kChunk == 0) {
-                  std::vector<DecodedSketch> sketches;
-                  for (size_t k = i; k < std::min(inputs.size(), i + kChunk); ++k) sketches.push_back(read_sketch(inputs[k]));
-                  heights = infer::infer_heights(gen, sketches, io);
-                }
-                const fs::path prefix = many ? out_dir / inputs[i].stem() : single.prefix;
-                const cv::Mat1f& h = heights[i % kChunk];
-                const double mpp = a->world_size_m / h.cols;
-                double hmin, hmax;
-                cv::minMaxLoc(h, &hmin, &hmax);
-                HeightFiles hf;
-                hf.png16 = a->png16;
-                hf.r16 = a->r16;
-                hf.preview = a->preview;
-                hf.mesh = mesh_format;
-                hf.mesh_path = mesh_path;
-                hf.exaggeration = a->exaggeration;
-                const fs::path exr = many ? fs::path(prefix.string() + ".height.exr") : single.height;
-                hf.exr_path = exr;
-                // The model's range is kept in the sidecar for reference; the
-                // 16-bit files span the field's own (stage_height_files).
-                nlohmann::json side = {
-                    {"reefgen_version", kVersion},
-                    {"sketch", fs::absolute(inputs[i]).string()},
-                    {"model", {{"path", fs::absolute(a->model).string()}, {"train_step", gen.train_step},
-                               {"ngf", gen.g->options().ngf}, {"reefgen_version", gen.reefgen_version}}},
-                    {"mode", {{"stochastic", a->stochastic}, {"seed", a->seed},
-                              {"batchnorm", a->running_stats ? "running statistics" : "batch statistics"},
-                              {"precision", infer::to_string(infer::resolve(io, gen))},
-                              {"engine", infer::to_string(infer::resolve_engine(io))}}},
-                    {"size_px", {h.cols, h.rows}},
-                    {"metres_per_px", mpp},
-                    {"height_range_m", {hmin, hmax}},
-                    {"model_range_m", {gen.range.lo_m, gen.range.hi_m}}};
-                side.update(stage_height_files(staged, prefix, h, mpp, hf));
-                if (a->r16)  // printed once the files are in place
-                  r16_notes.push_back(prefix.string() + ".r16: " + side["r16"]["import_note"].get<std::string>());
-                const fs::path js = prefix.string() + ".json";
-                staged.write(js, [&](const fs::path& t) { write_json_atomic(t, side); });  // last of its sketch
-                results.push_back(exr);
-                progress.tick(i + 1);
-              }
-            }
-            staged.commit();
+            Progress progress("infer", job.inputs.files.size(), g.quiet);
+            const infer::InferResult r = infer::infer_files(gen, job, [&](size_t k) { progress.tick(k); });
             if (!g.quiet)
-              for (const auto& n : r16_notes) std::fprintf(stderr, "%s", n.c_str());
-            for (const auto& r : results) std::printf("%s\n", r.c_str());
+              for (const auto& n : r.r16_notes) std::fprintf(stderr, "%s", n.c_str());
+            for (const auto& h : r.heights) std::printf("%s\n", h.c_str());
             return 0;
           }};
 }

@@ -9,6 +9,8 @@
 
 #include "reefgen/infer/eval.hpp"
 #include "reefgen/infer/infer.hpp"
+#include "reefgen/infer/run.hpp"
+#include "reefgen/io.hpp"
 #include "reefgen/procgen/sketch.hpp"
 #include "test_util.hpp"
 
@@ -83,6 +85,57 @@ TEST(Infer, SizesRangeDeterminismAndBatchIndependence) {
   EXPECT_EQ(cv::norm(s4, infer_heights(g, {two[1], two[0]}, o)[1], cv::NORM_INF), 0.0) << "position in a folder matters";
   o.seed = 5;
   EXPECT_GT(cv::norm(s4, infer_heights(g, {two[0]}, o)[0], cv::NORM_INF), 0.0);
+  fs::remove_all(d);
+}
+
+// The command as a library call: a folder of sketches to height files and
+// sidecars, the EXR equal to infer_heights, all or nothing, never over an input.
+TEST(Infer, InferFilesWritesEverySketchOrNothing) {
+  const fs::path d = temp_dir("infer_files");
+  auto g = tiny_generator(d);
+  fs::create_directories(d / "in");
+  write_png(d / "in/a.png", encode_labels(procgen::random_sketch({}, 1).label, procgen::random_sketch({}, 1).subsidence));
+  write_png(d / "in/b.png", encode_labels(procgen::random_sketch({}, 2).label, procgen::random_sketch({}, 2).subsidence));
+  InferJob job;
+  job.inputs = sketch_inputs({(d / "in").string()});
+  ASSERT_EQ(job.inputs.files.size(), 2u);
+  EXPECT_TRUE(job.inputs.from_folder);
+  job.out = (d / "out").string();
+  job.files.png16 = true;
+  job.model_path = (d / "g.pt").string();
+  job.options.size_px = 64;
+  size_t ticks = 0;
+  const InferResult r = infer_files(g, job, [&](size_t k) { ticks = k; });
+  ASSERT_EQ(r.heights.size(), 2u);
+  EXPECT_EQ(ticks, 2u);
+  EXPECT_EQ(r.heights[1], d / "out/b.height.exr");
+  const cv::Mat1f want = infer_heights(g, {read_sketch(d / "in/b.png")}, job.options)[0];
+  EXPECT_EQ(cv::norm(read_exr_height(r.heights[1]), want, cv::NORM_INF), 0.0);
+  const nlohmann::json side = read_json(d / "out/b.json");
+  EXPECT_EQ(side["size_px"][0], 64);
+  EXPECT_EQ(side["mode"]["engine"], "onednn");
+  EXPECT_TRUE(fs::is_regular_file(d / "out/a.height.png"));
+  const std::string before = test::file_bytes(d / "out/a.height.exr");
+
+  // A corrupt second sketch: nothing of this run lands, a.* stay as they were.
+  write_text_atomic(d / "in/b.png", "not a png");
+  job.options.size_px = 32;
+  EXPECT_THROW(infer_files(g, job), Error);
+  EXPECT_EQ(test::file_bytes(d / "out/a.height.exr"), before);
+  // Two sketches with one stem, a mesh path for several, output over input.
+  fs::create_directories(d / "in2");
+  fs::copy_file(d / "in/a.png", d / "in2/a.png");
+  job.inputs = sketch_inputs({(d / "in").string(), (d / "in2").string()});
+  expect_error_naming([&] { infer_files(g, job); }, "would both write");
+  job.inputs = sketch_inputs({(d / "in2").string()});
+  job.mesh = (d / "m.glb").string();
+  expect_error_naming([&] { infer_files(g, job); }, "a path only works with one sketch");
+  job.mesh.clear();
+  fs::copy_file(d / "in/a.png", d / "in2/x.preview.png");  // -o in2/x would write its preview over it
+  job.inputs = sketch_inputs({(d / "in2/x.preview.png").string()});
+  job.out = (d / "in2/x").string();
+  expect_error_naming([&] { infer_files(g, job); }, "also an input");
+  expect_error_naming([&] { sketch_inputs({(d / "nope").string()}); }, "no such sketch file or folder");
   fs::remove_all(d);
 }
 

@@ -2,6 +2,8 @@
 // File I/O with the project's conventions: every write goes to a temporary
 // file in the destination folder and is renamed into place, so a crash, a
 // full disk or a kill never leaves a half-written file under the final name.
+#include <algorithm>
+#include <cctype>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -139,5 +141,43 @@ void refuse_output_over_input(const std::vector<fs::path>& inputs, const std::ve
 
 // A stable checksum for manifests: FNV-1a 64 of the file's bytes, as hex.
 std::string file_checksum(const fs::path& path);
+
+// `-o PREFIX` writes PREFIX.height.exr and its siblings PREFIX.json, ...;
+// `-o NAME.exr` (or NAME.height.exr) writes exactly that height file and its
+// siblings under NAME (NAME.json, NAME.label.png, ...).
+struct OutputNames {
+  fs::path prefix, height;
+};
+inline OutputNames output_names(const std::string& o) {
+  fs::path p(o);
+  // "-o out/" would write hidden files out/.height.exr, out/.json, ...
+  if (p.filename().empty() || p.filename() == "." || p.filename() == "..")
+    throw Error("-o " + o + ": a folder, not a file prefix; give a name in it, e.g. -o " +
+                (p.filename().empty() ? o : o + "/") + "island");
+  if (p.extension() == ".exr") {
+    fs::path stem = p;
+    stem.replace_extension();
+    if (stem.extension() == ".height") stem.replace_extension();
+    return {stem, p};
+  }
+  return {p, fs::path(o + ".height.exr")};
+}
+
+// An image file a sketch can be read from, by extension (case-insensitive).
+inline bool is_image(const fs::path& p) {
+  std::string e = p.extension().string();
+  for (auto& ch : e) ch = char(std::tolower(static_cast<unsigned char>(ch)));
+  return e == ".png" || e == ".jpg" || e == ".jpeg" || e == ".tif" || e == ".tiff" || e == ".bmp" || e == ".webp";
+}
+
+// The sketch images directly inside a folder, in name order (the order of
+// results and reports).
+inline std::vector<fs::path> images_in(const fs::path& dir) {
+  std::vector<fs::path> files;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.is_regular_file() && is_image(e.path())) files.push_back(e.path());
+  std::sort(files.begin(), files.end());
+  return files;
+}
 
 }  // namespace reefgen

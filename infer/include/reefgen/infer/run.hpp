@@ -1,0 +1,45 @@
+#pragma once
+// One `reefgen infer` run: sketch files in, height files and sidecars out
+// (docs/INFERENCE.md). The CLI parses flags and loads the generator; this
+// checks every output name, infers in bounded chunks and writes all or nothing.
+#include <cstddef>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "reefgen/heightfile.hpp"
+#include "reefgen/infer/infer.hpp"
+#include "reefgen/io.hpp"
+
+namespace reefgen::infer {
+
+// The sketches named by files and folders (a folder's images in name order).
+// Throws reefgen::Error for a missing path or a folder without images.
+struct SketchInputs {
+  std::vector<fs::path> files;
+  bool from_folder = false;  // a folder was named: -o is a folder even for one sketch
+};
+SketchInputs sketch_inputs(const std::vector<std::string>& paths);
+
+struct InferJob {
+  SketchInputs inputs;
+  std::string out;         // one sketch: PREFIX or NAME.exr; several (or a folder given): a folder
+  std::string mesh;        // "", "obj", "glb", or a path ending in .obj/.glb (one sketch only)
+  HeightFiles files;       // png16 / r16 / preview / exaggeration (mesh and paths are set here)
+  std::string model_path;  // recorded in the sidecars
+  InferOptions options;
+};
+struct InferResult {
+  std::vector<fs::path> heights;       // the EXR of each sketch, in input order
+  std::vector<std::string> r16_notes;  // R16 import notes (with --r16), one per sketch
+};
+// Refuses, before writing anything: an output that is an input, two sketches
+// with one result name, a mesh path for several sketches, a model without
+// dropout for a stochastic run. Infers 32 sketches at a time (memory bounded
+// for any folder) and renames every file into place at the end, so a failure
+// anywhere leaves an earlier run's files as they were. `done(k)` is called
+// after each sketch.
+InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
+                        const std::function<void(size_t)>& done = {});
+
+}  // namespace reefgen::infer

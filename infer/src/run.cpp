@@ -1,0 +1,120 @@
+#include "reefgen/infer/run.hpp"
+
+#include <map>
+
+#include <opencv2/core.hpp>
+
+#include "reefgen/version.hpp"
+
+namespace reefgen::infer {
+
+SketchInputs sketch_inputs(const std::vector<std::string>& paths) {
+  SketchInputs in;
+  for (const auto& s : paths) {
+    const fs::path p(s);
+    if (fs::is_directory(p)) {
+      in.from_folder = true;
+      const std::vector<fs::path> in_dir = images_in(p);
+      if (in_dir.empty()) throw Error(p.string() + ": no images (.png, .jpg, ...) in this folder");
+      in.files.insert(in.files.end(), in_dir.begin(), in_dir.end());
+    } else if (fs::exists(p)) {
+      in.files.push_back(p);
+    } else {
+      throw Error(p.string() + ": no such sketch file or folder");
+    }
+  }
+  return in;
+}
+
+InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
+                        const std::function<void(size_t)>& done) {
+  const std::vector<fs::path>& inputs = job.inputs.files;
+  if (inputs.empty()) throw Error("infer: no sketches given");
+  const bool many = inputs.size() > 1 || job.inputs.from_folder || fs::is_directory(job.out);
+  HeightFiles hf = job.files;
+  hf.mesh = job.mesh;
+  if (!job.mesh.empty() && job.mesh != "obj" && job.mesh != "glb") {
+    const std::string ext = fs::path(job.mesh).extension().string();
+    if (ext != ".obj" && ext != ".glb") throw Error("--mesh " + job.mesh + ": use obj, glb, or a path ending in .obj or .glb");
+    if (many) throw Error("--mesh " + job.mesh + ": a path only works with one sketch; use --mesh obj|glb");
+    hf.mesh_path = job.mesh;
+    hf.mesh = ext.substr(1);
+  }
+  if (!(hf.exaggeration > 0 && hf.exaggeration <= 100)) throw Error("--exaggeration must be in (0, 100]");
+  const InferOptions& io = job.options;
+  if (!(io.world_size_m > 0)) throw Error("--world-size must be > 0");
+  if (io.stochastic && (gen.g->options().depth < 6 || gen.g->options().dropout == 0))
+    throw Error("--stochastic: " + job.model_path + " has no dropout layers (depth " +
+                std::to_string(gen.g->options().depth) + ", dropout " + std::to_string(gen.g->options().dropout) +
+                "), so outputs cannot vary; drop --stochastic");
+  const OutputNames single = many ? OutputNames{} : output_names(job.out);  // -o PREFIX or -o NAME.exr (one sketch)
+  const fs::path out_dir = many ? fs::path(job.out) : single.prefix.parent_path();
+  auto prefix_of = [&](const fs::path& in) { return many ? out_dir / in.stem() : single.prefix; };
+  {
+    // Every file this run may write, checked before any is written: no
+    // output may be an input, no two sketches may share a result name.
+    std::vector<fs::path> outs;
+    std::map<std::string, fs::path> stems;
+    for (const auto& in : inputs) {
+      const fs::path prefix = prefix_of(in);
+      if (many) {
+        const auto [it, fresh] = stems.emplace(in.stem().string(), in);
+        if (!fresh)
+          throw Error(in.string() + " and " + it->second.string() + " would both write " + prefix.string() +
+                      ".*; rename one of them or infer them into different -o folders");
+      } else {
+        outs.push_back(single.height);
+      }
+      for (const char* ext : {".height.exr", ".height.png", ".r16", ".preview.png", ".json", ".obj", ".glb"})
+        outs.push_back(prefix.string() + ext);
+    }
+    if (!hf.mesh_path.empty()) outs.push_back(hf.mesh_path);
+    refuse_output_over_input(inputs, outs);
+  }
+  ensure_writable_dir(out_dir.empty() ? fs::path(".") : out_dir);
+
+  // The mode every sidecar records (resolve throws for impossible pairs).
+  const nlohmann::json mode = {{"stochastic", io.stochastic}, {"seed", io.seed},
+                               {"batchnorm", io.running_stats ? "running statistics" : "batch statistics"},
+                               {"precision", to_string(resolve(io, gen))},
+                               {"engine", to_string(resolve_engine(io))}};
+  constexpr size_t kChunk = 32;
+  std::vector<cv::Mat1f> heights;
+  StagedOutputs staged;
+  InferResult r;
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    if (i % kChunk == 0) {
+      std::vector<DecodedSketch> sketches;
+      for (size_t k = i; k < std::min(inputs.size(), i + kChunk); ++k) sketches.push_back(read_sketch(inputs[k]));
+      heights = infer_heights(gen, sketches, io);
+    }
+    const fs::path prefix = prefix_of(inputs[i]);
+    const cv::Mat1f& h = heights[i % kChunk];
+    const double mpp = io.world_size_m / h.cols;
+    double hmin, hmax;
+    cv::minMaxLoc(h, &hmin, &hmax);
+    const fs::path exr = many ? fs::path(prefix.string() + ".height.exr") : single.height;
+    hf.exr_path = exr;
+    // The model's range is kept for reference; the 16-bit files span the
+    // field's own (stage_height_files).
+    nlohmann::json side = {
+        {"reefgen_version", kVersion},
+        {"sketch", fs::absolute(inputs[i]).string()},
+        {"model", {{"path", fs::absolute(job.model_path).string()}, {"train_step", gen.train_step},
+                   {"ngf", gen.g->options().ngf}, {"reefgen_version", gen.reefgen_version}}},
+        {"mode", mode},
+        {"size_px", {h.cols, h.rows}},
+        {"metres_per_px", mpp},
+        {"height_range_m", {hmin, hmax}},
+        {"model_range_m", {gen.range.lo_m, gen.range.hi_m}}};
+    side.update(stage_height_files(staged, prefix, h, mpp, hf));
+    if (hf.r16) r.r16_notes.push_back(prefix.string() + ".r16: " + side["r16"]["import_note"].get<std::string>());
+    staged.write(prefix.string() + ".json", [&](const fs::path& t) { write_json_atomic(t, side); });  // last of its sketch
+    r.heights.push_back(exr);
+    if (done) done(i + 1);
+  }
+  staged.commit();
+  return r;
+}
+
+}  // namespace reefgen::infer
