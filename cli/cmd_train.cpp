@@ -128,31 +128,19 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
                             std::to_string(dist.world_size) + " ranks)");
               return launch_ranks(a->nproc, g);
             }
-            nlohmann::json j = nlohmann::json::object();
-            std::string origin = "built-in training defaults";
-            const fs::path run_json = fs::path(a->out) / "run.json";
-            if (!a->config.empty()) {
-              j = read_json(a->config);
-              origin = a->config;
-            } else if (a->resume && fs::exists(run_json)) {
-              j = read_json(run_json).at("config");
-              origin = run_json.string();
-            }
-            if (a->seed) j["seed"] = *a->seed;
-            if (a->threads) j["threads"] = *a->threads;
-            if (a->ngf) j["ngf"] = *a->ngf;
-            if (a->ndf) j["ndf"] = *a->ndf;
-            if (a->depth) j["depth"] = *a->depth;
-            if (a->epochs) j["epochs"] = *a->epochs;
-            if (a->epochs_decay) j["epochs_decay"] = *a->epochs_decay;
-            if (a->engine) j["engine"] = *a->engine;
-            if (a->precision) j["precision"] = *a->precision;
-            if (a->batch_size) j["batch_size"] = *a->batch_size;
-            if (a->log_every) j["log_every"] = *a->log_every;
-            if (a->seed || a->threads || a->ngf || a->ndf || a->depth || a->epochs || a->epochs_decay || a->engine ||
-                a->precision || a->batch_size || a->log_every)
-              origin += " with the command-line flags";
-            const train::TrainParams params = train::train_params_from_json(j, origin);
+            nlohmann::json flags = nlohmann::json::object();  // given flags override the config
+            if (a->seed) flags["seed"] = *a->seed;
+            if (a->threads) flags["threads"] = *a->threads;
+            if (a->ngf) flags["ngf"] = *a->ngf;
+            if (a->ndf) flags["ndf"] = *a->ndf;
+            if (a->depth) flags["depth"] = *a->depth;
+            if (a->epochs) flags["epochs"] = *a->epochs;
+            if (a->epochs_decay) flags["epochs_decay"] = *a->epochs_decay;
+            if (a->engine) flags["engine"] = *a->engine;
+            if (a->precision) flags["precision"] = *a->precision;
+            if (a->batch_size) flags["batch_size"] = *a->batch_size;
+            if (a->log_every) flags["log_every"] = *a->log_every;
+            const train::TrainParams params = train::train_params_for_run(a->config, a->out, a->resume, flags);
 
             install_stop_handlers();
             train::RunOptions run;

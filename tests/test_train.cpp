@@ -84,6 +84,32 @@ TEST(TrainParams, JsonRoundTripAndErrors) {
   expect_error_naming([] { train_params_from_json(json{{"epochs", 0}, {"epochs_decay", 0}}, "cfg.json"); }, "epochs");
 }
 
+// Where a run's params come from: --config, else a resumed run's run.json,
+// else the defaults; flags (overrides) win over each; errors name the source.
+TEST(TrainParams, RunParamsFromConfigRunJsonOrDefaults) {
+  const fs::path d = temp_dir("run_params");
+  const TrainParams defaults;
+  EXPECT_EQ(json(train_params_for_run("", d, false, json::object())), json(defaults));
+  TrainParams saved;
+  saved.ngf = 8;
+  saved.seed = 5;
+  write_json_atomic(d / "run.json", json{{"config", json(saved)}, {"step", 3}});
+  EXPECT_EQ(train_params_for_run("", d, true, json::object()).ngf, 8) << "resume reads run.json";
+  EXPECT_EQ(train_params_for_run("", d, false, json::object()).ngf, defaults.ngf) << "a fresh run ignores it";
+  write_json_atomic(d / "cfg.json", json{{"ngf", 16}, {"lr", 1e-4}});
+  const TrainParams c = train_params_for_run((d / "cfg.json").string(), d, true, json{{"seed", 9}});
+  EXPECT_EQ(c.ngf, 16) << "--config wins over run.json";
+  EXPECT_EQ(c.lr, 1e-4);
+  EXPECT_EQ(c.seed, 9u) << "a flag wins over the config";
+  expect_error_naming([&] { train_params_for_run((d / "cfg.json").string(), d, false, json{{"ngf", -1}}); },
+                      "cfg.json with the command-line flags");
+  write_json_atomic(d / "run.json", json{{"step", 3}});
+  expect_error_naming([&] { train_params_for_run("", d, true, json::object()); }, "run.json: no \"config\"");
+  expect_error_naming([&] { train_params_for_run((d / "missing.json").string(), d, false, json::object()); },
+                      "missing.json");
+  fs::remove_all(d);
+}
+
 TEST(TrainParams, LearningRateConstantThenLinearToZero) {
   TrainParams p;
   p.lr = 2e-4;

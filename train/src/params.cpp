@@ -17,6 +17,27 @@ TrainParams train_params_from_json(const json& j, const std::string& origin) {
   return p;
 }
 
+TrainParams train_params_for_run(const std::string& config_path, const fs::path& run_dir, bool resume,
+                                 const json& overrides) {
+  json j = json::object();
+  std::string origin = "built-in training defaults";
+  const fs::path run_json = run_dir / "run.json";
+  if (!config_path.empty()) {
+    j = read_json(config_path);
+    origin = config_path;
+  } else if (resume && fs::exists(run_json)) {
+    const json saved = read_json(run_json);
+    if (!saved.contains("config") || !saved["config"].is_object())
+      throw Error(run_json.string() + ": no \"config\" object; give --config FILE to resume this run");
+    j = saved["config"];
+    origin = run_json.string();
+  }
+  if (!overrides.is_object()) throw Error("training overrides must be a JSON object");
+  for (const auto& [k, v] : overrides.items()) j[k] = v;
+  if (!overrides.empty()) origin += " with the command-line flags";
+  return train_params_from_json(j, origin);
+}
+
 void validate(const TrainParams& p, const std::string& origin) {
   check_params(p, origin, "docs/TRAINING.md");
   if (p.epochs + p.epochs_decay <= 0) throw Error(origin + ": epochs + epochs_decay must be > 0");

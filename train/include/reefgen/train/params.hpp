@@ -86,6 +86,13 @@ void to_json(nlohmann::json& j, const TrainParams& p);
 TrainParams train_params_from_json(const nlohmann::json& j, const std::string& origin);
 void validate(const TrainParams& p, const std::string& origin);
 
+// The params of a run, as `reefgen train` resolves them: the config file if
+// given; else, when resuming, the config saved in RUN/run.json; else the
+// built-in defaults. `overrides` (keys of TrainParams, e.g. from flags) win
+// over all of them. Errors name where the values came from.
+TrainParams train_params_for_run(const std::string& config_path, const fs::path& run_dir, bool resume,
+                                 const nlohmann::json& overrides);
+
 Pix2PixOptions pix2pix_options(const TrainParams& p);
 // "auto" decided on this CPU: "bf16" with avx512_bf16 or AMX-bf16 (and the oneDNN engine), else "fp32".
 std::string resolved_precision(const TrainParams& p);
