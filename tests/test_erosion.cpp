@@ -200,6 +200,31 @@ TEST(Erosion, GoldenValues) {
   for (const auto& g : golden) EXPECT_NEAR(f.height_m(g.y, g.x), g.h, 1e-3) << "pixel " << g.y << "," << g.x;
 }
 
+// The finer levels' knobs (docs/EROSION.md): less diffusion and more detail
+// leave more relief below the base grid's scale; no detail leaves less; the
+// defaults (1, 1) are what the goldens hold.
+TEST(Erosion, RefineKnobsSetTheFineRelief) {
+  auto fine_rms = [](double diffusivity_scale, double detail_scale) {
+    auto s = random_spec(5, 3);
+    s.erosion.refine_diffusivity_scale = diffusivity_scale;
+    s.erosion.refine_detail_scale = detail_scale;
+    RenderOptions o;
+    o.size_px = 512;  // base 256, one finer level
+    const cv::Mat1f h = generate(s, o).height_m;
+    cv::Mat1f smooth;
+    cv::GaussianBlur(h, smooth, cv::Size(0, 0), 3);
+    double sum = 0;
+    int n = 0;
+    for (int y = 0; y < h.rows; ++y)
+      for (int x = 0; x < h.cols; ++x)
+        if (h(y, x) > 5) sum += double(h(y, x) - smooth(y, x)) * (h(y, x) - smooth(y, x)), ++n;
+    return std::sqrt(sum / std::max(n, 1));
+  };
+  const double dflt = fine_rms(1, 1), rough = fine_rms(0.3, 2), none = fine_rms(1, 0);
+  EXPECT_GT(rough, 1.1 * dflt) << "default " << dflt << ", rough " << rough << ", no detail " << none;
+  EXPECT_LT(none, dflt);
+}
+
 TEST(Erosion, SameBytesWhateverTheThreads) {
   auto s = random_spec(77, 2);
   RenderOptions o;

@@ -284,6 +284,9 @@ cv::Mat1f refine_heights(const cv::Mat1f& coarse_m, const cv::Mat1f& land_m, con
   const auto levels = refinement_levels(coarse_m.cols, N);
   cv::Mat1f cur = coarse_m.clone();
   double duration = p.refine_duration_yr;
+  ErosionParams fine = p;
+  fine.diffusivity *= p.refine_diffusivity_scale;
+  const float detail_scale = float(p.refine_detail_scale);
   for (size_t li = 1; li < levels.size(); ++li) {
     const int L = levels[li];
     cv::Mat1f up = resized(cur, L, cv::INTER_CUBIC);
@@ -292,9 +295,9 @@ cv::Mat1f refine_heights(const cv::Mat1f& coarse_m, const cv::Mat1f& land_m, con
     cv::Mat1f next = land_L.clone();
     for (int y = 0; y < L; ++y)
       for (int x = 0; x < L; ++x)
-        if (land_L(y, x) > 0) next(y, x) = std::max(up(y, x) + (d.empty() ? 0.f : d(y, x)), 0.f);
+        if (land_L(y, x) > 0) next(y, x) = std::max(up(y, x) + (d.empty() ? 0.f : detail_scale * d(y, x)), 0.f);
     erode_level(next, erodibility_map(resized(resistance, L, cv::INTER_AREA), seed, p), world_size_m / L,
-                p.refine_steps, duration, p, Routing::kStack);
+                p.refine_steps, duration, fine, Routing::kStack);
     duration *= 0.5;
     cur = std::move(next);
   }
