@@ -200,14 +200,16 @@ TEST(Erosion, GoldenValues) {
   for (const auto& g : golden) EXPECT_NEAR(f.height_m(g.y, g.x), g.h, 1e-3) << "pixel " << g.y << "," << g.x;
 }
 
-// The finer levels' knobs (docs/EROSION.md): less diffusion and more detail
-// leave more relief below the base grid's scale; no detail leaves less; the
-// defaults (1, 1) are what the goldens hold.
+// The finer levels' knobs (docs/EROSION.md): the defaults (diffusion ×0.3,
+// detail ×2, random receivers) leave more relief below the base grid's scale
+// than the smooth levels before them (×1, ×1, steepest receivers); no detail
+// leaves less.
 TEST(Erosion, RefineKnobsSetTheFineRelief) {
-  auto fine_rms = [](double diffusivity_scale, double detail_scale) {
+  auto fine_rms = [](double diffusivity_scale, double detail_scale, bool random_receivers) {
     auto s = random_spec(5, 3);
     s.erosion.refine_diffusivity_scale = diffusivity_scale;
     s.erosion.refine_detail_scale = detail_scale;
+    s.erosion.refine_random_receivers = random_receivers;
     RenderOptions o;
     o.size_px = 512;  // base 256, one finer level
     const cv::Mat1f h = generate(s, o).height_m;
@@ -220,8 +222,10 @@ TEST(Erosion, RefineKnobsSetTheFineRelief) {
         if (h(y, x) > 5) sum += double(h(y, x) - smooth(y, x)) * (h(y, x) - smooth(y, x)), ++n;
     return std::sqrt(sum / std::max(n, 1));
   };
-  const double dflt = fine_rms(1, 1), rough = fine_rms(0.3, 2), none = fine_rms(1, 0);
-  EXPECT_GT(rough, 1.1 * dflt) << "default " << dflt << ", rough " << rough << ", no detail " << none;
+  const ErosionParams d;
+  const double dflt = fine_rms(d.refine_diffusivity_scale, d.refine_detail_scale, d.refine_random_receivers);
+  const double smooth = fine_rms(1, 1, false), none = fine_rms(d.refine_diffusivity_scale, 0, true);
+  EXPECT_GT(dflt, 1.1 * smooth) << "default " << dflt << ", smooth levels " << smooth << ", no detail " << none;
   EXPECT_LT(none, dflt);
 }
 

@@ -53,9 +53,12 @@ namespace {
 // then the donor tree walked from every outlet (and every local minimum,
 // which is its own receiver), so each cell comes after its receiver. Used on
 // the refinement levels, whose surface the base level has already drained.
-void stack_route(const std::vector<float>& zv, const float* z, const uint8_t* rl, int W, int H, float inv_dx,
+// salt = 0: each cell drains to its steepest lower neighbour (D8). salt ≠ 0:
+// to a lower neighbour drawn with probability ∝ slope² from a hash of (cell,
+// salt), the same whatever the threads: on a smooth slope D8 draws straight
+// gullies along the 8 grid directions, random receivers let them wander.
+void stack_route(uint64_t salt, const float* z, const uint8_t* rl, int W, int H, float inv_dx,
                  float inv_diag, std::vector<int>& recv, std::vector<float>& inv_l, std::vector<int>& order) {
-  (void)zv;
   static constexpr int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1}, kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
   const float inv_len[8] = {inv_dx, inv_dx, inv_dx, inv_dx, inv_diag, inv_diag, inv_diag, inv_diag};
   const int n = W * H;
@@ -64,14 +67,27 @@ void stack_route(const std::vector<float>& zv, const float* z, const uint8_t* rl
     recv[i] = i;
     if (rl[i] != kActive) continue;
     const int x = i % W, y = i / W;
-    float best_s = 0.f;
+    float best_s = 0.f, w[8], sum = 0.f;
     for (int k = 0; k < 8; ++k) {
+      w[k] = 0.f;
       const int nx = x + kDx[k], ny = y + kDy[k];
       if (nx < 0 || ny < 0 || nx >= W || ny >= H) continue;
       const int j = ny * W + nx;
       if (rl[j] == kIgnore) continue;
       const float sl = (z[i] - z[j]) * inv_len[k];
+      if (sl > 0.f) sum += (w[k] = sl * sl);
       if (sl > best_s) best_s = sl, recv[i] = j, inv_l[i] = inv_len[k];
+    }
+    if (salt != 0 && sum > 0.f) {
+      const float u = float(mix64(salt ^ mix64(uint64_t(i))) >> 40) * (1.f / 16777216.f) * sum;
+      float c = 0.f;
+      for (int k = 0; k < 8; ++k) {
+        if (w[k] <= 0.f) continue;
+        c += w[k];
+        recv[i] = (y + kDy[k]) * W + x + kDx[k];
+        inv_l[i] = inv_len[k];
+        if (u < c) break;
+      }
     }
     if (recv[i] != i) ++ndon[recv[i] + 1];
   }
@@ -159,7 +175,8 @@ void erode_level(cv::Mat1f& h, const cv::Mat1f& K, double dx, int steps, double 
   std::vector<int> stack_order;
   for (int s = 0; s < steps; ++s) {
     if (routing == Routing::kStack) {
-      stack_route({}, zp, rl, W, H, inv_dx, inv_diag, recv, inv_l, stack_order);
+      const uint64_t salt = p.refine_random_receivers ? mix64(uint64_t(W) * 0x10001ull + uint64_t(H) + uint64_t(s)) | 1 : 0;
+      stack_route(salt, zp, rl, W, H, inv_dx, inv_diag, recv, inv_l, stack_order);
       for (const int i : stack_order) area[i] = cell_area;
       for (size_t k = stack_order.size(); k-- > 0;) {
         const int i = stack_order[k];

@@ -39,8 +39,9 @@ struct ErosionParams {
   int base_px = 256;                  // cells across the canvas of the base grid, [16, 8192]
   int refine_steps = 3;               // implicit steps at each finer level, [0, 100]
   double refine_duration_yr = 1.5e4;  // time at the first finer level (halved at each next one), yr, [0, 1e8]
-  double refine_diffusivity_scale = 1;  // hillslope diffusivity at the finer levels, multiple of diffusivity, [0, 1]
-  double refine_detail_scale = 1;     // amplitude of the detail added at each finer level, multiple of the default, [0, 10]
+  double refine_diffusivity_scale = 0.3;  // hillslope diffusivity at the finer levels, multiple of diffusivity, [0, 1]
+  double refine_detail_scale = 2;     // amplitude of the detail added at each finer level, multiple of the default, [0, 10]
+  bool refine_random_receivers = true;   // finer levels drain to a lower neighbour drawn ∝ slope², not the steepest (no grid-aligned rills)
   double noise_amplitude = 0.25;      // relative low-frequency modulation of the resistance, [0, 1]
   double flow_exponent = 1.0;         // multiple-flow-direction share ∝ slope^p (Quinn et al.: 1; large = one direction), [0, 10]
   // Amplification of a model answer only (amplify_heights; the generator ignores them):
@@ -67,6 +68,7 @@ void fields(ErosionParams& p, F&& f) {
   f("refine_duration_yr", p.refine_duration_yr, Range{0, 1e8});
   f("refine_diffusivity_scale", p.refine_diffusivity_scale, Range{0, 1});
   f("refine_detail_scale", p.refine_detail_scale, Range{0, 10});
+  f("refine_random_receivers", p.refine_random_receivers);
   f("noise_amplitude", p.noise_amplitude, Range{0, 1});
   f("flow_exponent", p.flow_exponent, Range{0, 10});
   f("amplify_roughness", p.amplify_roughness, Range{0, 1});
