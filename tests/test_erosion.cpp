@@ -165,6 +165,114 @@ TEST(Erosion, AmplifyCarvesValleysIntoASmoothAnswer) {
   test::expect_error_naming([&] { amplify_heights(cv::Mat1f(10, 12, 0.f), label, kCanvasWorldSizeM, 3, p); }, "square");
 }
 
+namespace {
+
+// Only the step under test: no roughening, no erosion, the answer's own size.
+ErosionParams shaping_only() {
+  ErosionParams p;
+  p.amplify_roughness = 0;
+  p.amplify_steps = 0;
+  p.amplify_duration_scale = 0;
+  p.amplify_lobe_m = 0;
+  p.amplify_plain_smooth_m = 0;
+  return p;
+}
+
+// Radius (cells, from the canvas centre) where the field first drops below
+// `level_m` along direction θ, for 180 directions.
+std::vector<double> contour_radii(const cv::Mat1f& h, float level_m) {
+  std::vector<double> r;
+  const double c = (h.cols - 1) / 2.0;
+  for (int i = 0; i < 180; ++i) {
+    const double th = 2 * M_PI * i / 180;
+    double rr = 0;
+    while (rr < c && h(int(std::lround(c + rr * std::sin(th))), int(std::lround(c + rr * std::cos(th)))) >= level_m)
+      rr += 0.25;
+    r.push_back(rr);
+  }
+  return r;
+}
+
+double correlation(const std::vector<double>& a, const std::vector<double>& b) {
+  double ma = 0, mb = 0;
+  for (size_t i = 0; i < a.size(); ++i) ma += a[i] / a.size(), mb += b[i] / b.size();
+  double sab = 0, saa = 0, sbb = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    sab += (a[i] - ma) * (b[i] - mb);
+    saa += (a[i] - ma) * (a[i] - ma);
+    sbb += (b[i] - mb) * (b[i] - mb);
+  }
+  return sab / std::sqrt(saa * sbb);
+}
+
+}  // namespace
+
+// The lobes read their noise where each flow line reaches the foot of the
+// flank, so on a cone every contour is pushed by the same amount along one
+// radius: spurs and re-entrants run up the slope (docs/EROSION.md). A 2D
+// noise pushes each contour on its own.
+TEST(Erosion, LobesAlongFlowLinesRunUpTheSlope) {
+  const cv::Mat1f h = cone(256, 400.f);
+  const cv::Mat1b label(256, 256, uint8_t(0));
+  ErosionParams p = shaping_only();
+  p.amplify_lobe_m = 300;
+  auto lobe_correlation = [&](bool along_flow) {
+    p.amplify_lobe_along_flow = along_flow;
+    const cv::Mat1f a = amplify_heights(h, label, kCanvasWorldSizeM, 5, p);
+    // the contours at 45 % and 75 % of the peak (above the 20 % fade-in)
+    return correlation(contour_radii(a, 180.f), contour_radii(a, 300.f));
+  };
+  const double flow = lobe_correlation(true), plain2d = lobe_correlation(false);
+  EXPECT_GT(flow, 0.6) << "2D noise: " << plain2d;
+  EXPECT_GT(flow, plain2d + 0.2) << flow << " vs " << plain2d;
+}
+
+// A painted sketch's even beach and lagoon bands come back from the model
+// with concentric ridges on the low plain; amplify_plain_smooth_m takes them
+// off the plain's land (and leaves the mountain, the coast and the sea).
+TEST(Erosion, PlainSmoothingTakesTheRingsOffTheBeachPlain) {
+  const int W = 256;
+  cv::Mat1f h(W, W);
+  cv::Mat1b label(W, W);
+  for (int y = 0; y < W; ++y)
+    for (int x = 0; x < W; ++x) {
+      const float u = (x + 0.5f) / W * 2 - 1, v = (y + 0.5f) / W * 2 - 1, r = std::sqrt(u * u + v * v);
+      // mountain to r = 0.3, then a plain from 30 m down to the coast at 0.7
+      // with a 10 m ring ridge at r = 0.5 (~170 m wide at half height, as the
+  // rings of the painted set's answers)
+      const float plain = 30.f * (0.7f - r) / 0.4f + 10.f * std::exp(-std::pow((r - 0.5f) / 0.035f, 2.f));
+      h(y, x) = r < 0.3f ? 30.f + 300.f * (0.3f - r) / 0.3f : (r < 0.7f ? plain : -50.f);
+      label(y, x) = r < 0.3f ? 0 : (r < 0.7f ? 1 : 4);
+    }
+  // The ring's height above the plain's ramp along a radius, from the
+  // mountain's foot to the coast.
+  auto ring_m = [&](const cv::Mat1f& a) {
+    float ring = 0;
+    for (int x = W / 2 + int(0.35 * W / 2); x < W / 2 + int(0.65 * W / 2); ++x) {
+      const float r = (x + 0.5f) / W * 2 - 1;
+      ring = std::max(ring, a(W / 2, x) - 30.f * (0.7f - r) / 0.4f);
+    }
+    return ring;
+  };
+  ErosionParams p = shaping_only();
+  const cv::Mat1f kept = amplify_heights(h, label, kCanvasWorldSizeM, 1, p);
+  p.amplify_plain_smooth_m = 150;
+  const cv::Mat1f smoothed = amplify_heights(h, label, kCanvasWorldSizeM, 1, p);
+  EXPECT_GT(ring_m(kept), 9.0);                        // the ring is there without the smoothing
+  EXPECT_LT(ring_m(smoothed), 0.5 * ring_m(kept));     // and at most half as high with it
+  int moved_mountain = 0, moved_sea = 0, coast_moved = 0;
+  for (int y = 0; y < W; ++y)
+    for (int x = 0; x < W; ++x) {
+      const float u = (x + 0.5f) / W * 2 - 1, v = (y + 0.5f) / W * 2 - 1, r = std::sqrt(u * u + v * v);
+      if (r < 0.2f) moved_mountain += std::abs(smoothed(y, x) - h(y, x)) > 1e-3f;
+      if (h(y, x) <= 0) moved_sea += smoothed(y, x) != kept(y, x);
+      coast_moved += (h(y, x) > 0) != (smoothed(y, x) > 0);
+    }
+  EXPECT_EQ(moved_mountain, 0);
+  EXPECT_EQ(moved_sea, 0);
+  EXPECT_EQ(coast_moved, 0);
+}
+
 TEST(Erosion, RefinementLevels) {
   EXPECT_EQ(refinement_levels(256, 256), (std::vector<int>{256}));
   EXPECT_EQ(refinement_levels(256, 1025), (std::vector<int>{256, 512, 1025}));

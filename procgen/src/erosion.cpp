@@ -388,9 +388,9 @@ namespace {
 // landslide scars), as the generator's irregular outlines are. Each flank
 // contour is pushed up or down the slope by a noise of one feature per
 // amplify_lobe_spacing_m (h'(x) = h(x − d(x)·∇h/|∇h|), |d| ≤ amplify_lobe_m),
-// faded in over the lowest 20 % of the island so the coast stays where the
-// sketch put it; the concave bends then gather the water the base-grid
-// erosion turns into valleys (docs/EROSION.md).
+// faded in over the lowest 20 % of each island (of its own peak) so the
+// coast stays where the sketch put it; the concave bends then gather the
+// water the base-grid erosion turns into valleys (docs/EROSION.md).
 void lobe_contours(cv::Mat1f& h, double world_size_m, uint64_t seed, const ErosionParams& p) {
   if (p.amplify_lobe_m <= 0) return;
   const int S = h.cols;
@@ -408,15 +408,49 @@ void lobe_contours(cv::Mat1f& h, double world_size_m, uint64_t seed, const Erosi
   Rng rng(seed, 0, "amplify-lobes");
   const float u0 = float(rng.uniform(0, NoiseTile::kSize)), v0 = float(rng.uniform(0, NoiseTile::kSize));
   const float tpc = float(NoiseTile::kBaseCell * cell_m / p.amplify_lobe_spacing_m);
-  const float amp_px = float(p.amplify_lobe_m / cell_m), h_full = float(0.2 * hmax);
+  const float amp_px = float(p.amplify_lobe_m / cell_m);
+  // Each island is lobed from 20 % of its own peak: a low, older island
+  // beside a young volcano has a flank of its own (with the canvas's peak it
+  // would stay a smooth dome).
+  cv::Mat1i island;
+  const int islands = cv::connectedComponents(cv::Mat1b(h > 0), island, 8, CV_32S);
+  std::vector<float> peak(size_t(islands), 0.f);
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x) peak[size_t(island(y, x))] = std::max(peak[size_t(island(y, x))], h(y, x));
+  auto foot_m = [&](int y, int x) { return std::max(0.2f * peak[size_t(island(y, x))], 1e-3f); };
+  // The noise is read where each cell's flow line (steepest descent on the
+  // smoothed heights) reaches the foot of the flank (foot_m), so every cell of
+  // one flow line gets the same push: the contours above it shift together
+  // and the lobes run continuously up the slope as spurs and re-entrants (a
+  // 2D noise bends each contour on its own, and its bends do not line up
+  // into valleys). Flow lines converge uphill, so the lobes narrow towards
+  // the summit, as real valley heads do.
+  cv::Mat1f noise_u(S, S), noise_v(S, S);
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x) {
+      float px = float(x), py = float(y);
+      if (p.amplify_lobe_along_flow && h(y, x) > 0) {
+        const float h_foot = foot_m(y, x);
+        for (int step = 0; step < 2 * S; ++step) {
+          const int ix = std::clamp(int(px + 0.5f), 0, S - 1), iy = std::clamp(int(py + 0.5f), 0, S - 1);
+          if (sm(iy, ix) <= h_foot) break;
+          const float gxx = gx(iy, ix), gyy = gy(iy, ix), g = std::hypot(gxx, gyy);
+          if (g < 1e-6f) break;
+          px -= gxx / g;
+          py -= gyy / g;
+        }
+      }
+      noise_u(y, x) = px;
+      noise_v(y, x) = py;
+    }
   cv::Mat1f mx(S, S), my(S, S);
   for (int y = 0; y < S; ++y)
     for (int x = 0; x < S; ++x) {
-      const float t = std::clamp(h(y, x) / h_full, 0.f, 1.f), w = t * t * (3 - 2 * t);
+      const float t = std::clamp(h(y, x) / foot_m(y, x), 0.f, 1.f), w = t * t * (3 - 2 * t);
       const float g = std::hypot(gx(y, x), gy(y, x));
       // 1/|∇h|, faded in below a 2 % slope (summits, plains: no direction)
       const float k = std::min(1.f, g * float(1.0 / (0.02 * cell_m))) / std::max(g, 1e-6f);
-      const float d = w * amp_px * tile.sample(x * tpc + u0, y * tpc + v0);
+      const float d = w * amp_px * tile.sample(noise_u(y, x) * tpc + u0, noise_v(y, x) * tpc + v0);
       mx(y, x) = float(x) - d * gx(y, x) * k;
       my(y, x) = float(y) - d * gy(y, x) * k;
     }
@@ -441,6 +475,38 @@ void roughen_land(cv::Mat1f& h, double world_size_m, uint64_t seed, const Erosio
       if (h(y, x) > 0)
         h(y, x) = std::max(0.1f, h(y, x) * (1.f + a * tile.sample(x * texels_per_cell + u0, y * texels_per_cell + v0)));
 }
+// The model answers a painted sketch whose beach and lagoon bands have even
+// widths with concentric ridges and moats on the low plain (about 10 m high,
+// a few hundred metres apart, following the painted band edges): rings no
+// rendered island has, which the erosion keeps (a moat is filled flat, a
+// ridge is eroded from both sides). On the land of the beach, lagoon and reef
+// regions the answer is replaced by its land-only Gaussian mean (normalised
+// convolution, so the sea does not pull the plain down), faded out towards
+// the coast (h < 5 m) so the coastline stays where the model put it; the
+// roughening and the erosion then give the plain its relief, as the render
+// and the erosion do for the generator (docs/EROSION.md).
+void smooth_plains(cv::Mat1f& h, const cv::Mat1b& label, double sigma_px) {
+  if (sigma_px <= 0) return;
+  const int S = h.cols;
+  cv::Mat1f land(S, S), hl(S, S), plain(S, S);
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x) {
+      land(y, x) = h(y, x) > 0 ? 1.f : 0.f;
+      hl(y, x) = h(y, x) > 0 ? h(y, x) : 0.f;
+      plain(y, x) = (label(y, x) >= 1 && label(y, x) <= 3) ? 1.f : 0.f;
+    }
+  cv::Mat1f bl, bh;
+  cv::GaussianBlur(land, bl, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REPLICATE);
+  cv::GaussianBlur(hl, bh, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REPLICATE);
+  cv::GaussianBlur(plain, plain, cv::Size(0, 0), 0.5 * sigma_px, 0.5 * sigma_px, cv::BORDER_REPLICATE);
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x) {
+      if (h(y, x) <= 0 || bl(y, x) < 1e-3f) continue;
+      const float smooth = bh(y, x) / bl(y, x);
+      const float t = std::clamp(h(y, x) / 5.f, 0.f, 1.f) * plain(y, x);
+      h(y, x) = std::max(0.1f, h(y, x) + t * (smooth - h(y, x)));
+    }
+}
 }  // namespace
 
 cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, double world_size_m, uint64_t seed,
@@ -452,6 +518,7 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
   cv::Mat1b label_s;
   cv::resize(label, label_s, cv::Size(S, S), 0, 0, cv::INTER_NEAREST);
   if (p.enabled) {
+    smooth_plains(coarse, label_s, p.amplify_plain_smooth_m / (world_size_m / S));
     roughen_land(coarse, world_size_m, seed, p);
     // Few steps (amplify_steps, not the generator's `steps`): measured, 8 steps
     // give the painted set 0.298 valleys, 3 give 0.306 (docs/EROSION.md). The

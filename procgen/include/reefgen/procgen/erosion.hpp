@@ -47,10 +47,12 @@ struct ErosionParams {
   // Amplification of a model answer only (amplify_heights; the generator ignores them):
   double amplify_roughness = 0.35;    // relief added to the land before eroding, share of the height, [0, 1]
   double amplify_feature_m = 140;     // spacing of that relief's features, m, [1, 1e5]
-  double amplify_duration_scale = 1;  // base-grid erosion time as a multiple of duration_yr, [0, 100]
+  double amplify_duration_scale = 0.5;  // base-grid erosion time as a multiple of duration_yr, [0, 100]
   int amplify_steps = 3;              // implicit steps of that erosion (few: the lobes' valleys are not captured), [0, 1000]
   double amplify_lobe_m = 300;        // flank contours pushed up or down the slope by up to this, m, [0, 2000]
   double amplify_lobe_spacing_m = 400;  // spacing of those lobes along a contour, m, [1, 1e5]
+  bool amplify_lobe_along_flow = true;  // one push per flow line (spurs and re-entrants from the low flank up), not a 2D noise
+  double amplify_plain_smooth_m = 150;  // Gaussian σ that takes the model's rings off the beach/lagoon plain's land, m, [0, 2000] (0 = off)
 };
 
 // The one field list (common/params_json.hpp): JSON both ways and the ranges.
@@ -77,6 +79,8 @@ void fields(ErosionParams& p, F&& f) {
   f("amplify_steps", p.amplify_steps, Range{0, 1000});
   f("amplify_lobe_m", p.amplify_lobe_m, Range{0, 2000});
   f("amplify_lobe_spacing_m", p.amplify_lobe_spacing_m, Range{1, 1e5});
+  f("amplify_lobe_along_flow", p.amplify_lobe_along_flow);
+  f("amplify_plain_smooth_m", p.amplify_plain_smooth_m, Range{0, 2000});
 }
 void to_json(nlohmann::json& j, const ErosionParams& p);
 // Every key optional; unknown keys and out-of-range values throw reefgen::Error naming `origin`.
