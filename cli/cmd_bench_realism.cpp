@@ -1,23 +1,18 @@
-// reefgen bench realism: issue 20's realism bars, measured the way
-// docs/REALISM.md defines them — N random specs generated at --size, and the
-// painted sketches of tests/data/painted answered by `infer --size`; medians
-// of pits, terraces and valleys with the bars, and the time per island. One
-// JSON object on stdout (CPU model included: figures depend on it).
-#include <algorithm>
+// reefgen bench realism: the realism bars measured the way docs/REALISM.md
+// defines them (infer::realism_bench) — N random specs generated at --size,
+// and the painted sketches of tests/data/painted answered by `infer --size`.
+// One JSON object on stdout, the CPU model included: figures depend on it.
 #include <cstdio>
 #include <fstream>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 
 #include "app.hpp"
-#include "reefgen/infer/infer.hpp"
+#include "reefgen/infer/realism_bench.hpp"
 #include "reefgen/io.hpp"
-#include "reefgen/labels.hpp"
 #include "reefgen/model/generator_file.hpp"
 #include "reefgen/model/shipped.hpp"
-#include "reefgen/procgen/generator.hpp"
-#include "reefgen/procgen/random_spec.hpp"
-#include "reefgen/terrain.hpp"
 
 namespace reefgen {
 
@@ -29,25 +24,6 @@ std::string cpu_model() {
   while (std::getline(in, line))
     if (line.rfind("model name", 0) == 0) return line.substr(line.find(':') + 2);
   return "unknown";
-}
-
-// Medians of a set's statistics and whether they meet the bars
-// (pits ≤ 1 %, terraces ≤ 3 %, valleys ≥ 0.30).
-nlohmann::json summary(const std::vector<RealismStats>& s, const std::vector<double>& ms) {
-  std::vector<double> pits, terraces, valleys;
-  for (const auto& r : s) {
-    pits.push_back(r.pits);
-    terraces.push_back(r.terraces);
-    valleys.push_back(r.valleys);
-  }
-  const double p = median(pits), t = median(terraces), v = median(valleys);
-  return {{"count", s.size()},
-          {"median_pits", p},
-          {"median_terraces", t},
-          {"median_valleys", v},
-          {"min_valleys", valleys.empty() ? 0.0 : *std::min_element(valleys.begin(), valleys.end())},
-          {"median_ms", median(ms)},
-          {"bars_met", p <= 0.01 && t <= 0.03 && v >= 0.30}};
 }
 
 }  // namespace
@@ -83,54 +59,27 @@ std::function<int()> add_bench_realism_command(CLI::App* bench, const GlobalOpti
       ->capture_default_str()
       ->check(seed_value());
   return [a, &g]() -> int {
-    nlohmann::json out = {{"bench", "realism"}, {"size", a->size}, {"cpu", cpu_model()}};
-    if (a->specs > 0) {
-      std::vector<RealismStats> stats;
-      std::vector<double> ms;
-      procgen::RenderOptions ro;
-      ro.size_px = a->size;
-      Progress progress("realism specs", size_t(a->specs), g.quiet);
-      for (int i = 0; i < a->specs; ++i) {
-        procgen::IslandSpec spec = procgen::random_spec(a->seed, uint64_t(i));
-        spec.subsidence = a->subsidence;
-        procgen::IslandFields f;
-        ms.push_back(1e3 * seconds_of([&] { f = procgen::generate(spec, ro); }));
-        stats.push_back(realism_stats(f.height_m, spec.world_size_m / a->size));
-        progress.tick(size_t(i + 1));
-      }
-      out["specs"] = summary(stats, ms);
-      out["specs"]["seed"] = a->seed;
-      out["specs"]["subsidence"] = a->subsidence;
-    }
+    infer::RealismBenchOptions o;
+    o.specs = a->specs;
+    o.size_px = a->size;
+    o.spec_seed = a->seed;
+    o.subsidence = a->subsidence;
+    o.infer.seed = a->painted_seed;
+    o.quiet = g.quiet;
+    std::vector<fs::path> files;
+    std::optional<model::GeneratorFile> gen;
+    fs::path model_path;
     if (!a->painted.empty()) {
       if (!fs::is_directory(a->painted)) throw Error(a->painted + ": no such folder of painted sketches (or --painted '')");
-      const std::vector<fs::path> files = images_in(a->painted);
+      files = images_in(a->painted);
       if (files.empty()) throw Error(a->painted + ": no sketch images in it");
-      const fs::path model_path = model::resolve_model_path(a->model);
-      model::GeneratorFile gen = model::load_generator(model_path);
-      infer::InferOptions io;
-      io.size_px = a->size;
-      io.seed = a->painted_seed;
-      if (!a->erosion.empty()) io.erosion = procgen::erosion_params_from_json(read_json(a->erosion), a->erosion);
-      std::vector<RealismStats> stats;
-      std::vector<double> ms;
-      nlohmann::json per = nlohmann::json::object();
-      Progress progress("realism painted", files.size(), g.quiet);
-      for (size_t i = 0; i < files.size(); ++i) {
-        const DecodedSketch s = read_sketch(files[i]);
-        cv::Mat1f h;
-        ms.push_back(1e3 * seconds_of([&] { h = infer::infer_heights(gen, {s}, io)[0]; }));
-        stats.push_back(realism_stats(h, io.world_size_m / a->size));
-        per[files[i].filename().string()] = {{"pits", stats.back().pits},
-                                             {"terraces", stats.back().terraces},
-                                             {"valleys", stats.back().valleys}};
-        progress.tick(i + 1);
-      }
-      out["painted"] = summary(stats, ms);
-      out["painted"]["model"] = model_path.string();
-      out["painted"]["seed"] = a->painted_seed;
-      out["painted"]["per_sketch"] = per;
+      model_path = model::resolve_model_path(a->model);
+      gen = model::load_generator(model_path);
+      if (!a->erosion.empty()) o.infer.erosion = procgen::erosion_params_from_json(read_json(a->erosion), a->erosion);
     }
+    nlohmann::json out = {{"bench", "realism"}, {"size", a->size}, {"cpu", cpu_model()}};
+    out.update(infer::realism_bench(o, gen ? &*gen : nullptr, files));
+    if (gen) out["painted"]["model"] = model_path.string();
     std::printf("%s\n", out.dump(1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
     return 0;
   };

@@ -9,7 +9,11 @@
 
 #include "reefgen/infer/eval.hpp"
 #include "reefgen/infer/infer.hpp"
+#include "reefgen/infer/realism_bench.hpp"
 #include "reefgen/infer/run.hpp"
+#include "reefgen/procgen/generator.hpp"
+#include "reefgen/procgen/random_spec.hpp"
+#include "reefgen/terrain.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/procgen/sketch.hpp"
 #include "test_util.hpp"
@@ -136,6 +140,49 @@ TEST(Infer, InferFilesWritesEverySketchOrNothing) {
   job.out = (d / "in2/x").string();
   expect_error_naming([&] { infer_files(g, job); }, "also an input");
   expect_error_naming([&] { sketch_inputs({(d / "nope").string()}); }, "no such sketch file or folder");
+  fs::remove_all(d);
+}
+
+// bench realism as a library call: its figures are the realism statistics
+// of what `generate` and `infer --size` give, medians of an even count are
+// the mean of the middle two, and the bars follow the medians.
+TEST(Infer, RealismBenchMeasuresWhatGenerateAndInferGive) {
+  const fs::path d = temp_dir("realism_bench");
+  auto g = tiny_generator(d);
+  fs::create_directories(d / "painted");
+  for (int i : {1, 2}) {
+    const procgen::Sketch s = procgen::random_sketch({}, uint64_t(i));
+    write_png(d / ("painted/" + std::to_string(i) + ".png"), encode_labels(s.label, s.subsidence));
+  }
+  RealismBenchOptions o;
+  o.specs = 2;
+  o.size_px = 96;
+  o.spec_seed = 3;
+  o.quiet = true;
+  const std::vector<fs::path> files = {d / "painted/1.png", d / "painted/2.png"};
+  const nlohmann::json r = realism_bench(o, &g, files);
+  std::vector<double> valleys;
+  for (int i = 0; i < 2; ++i) {
+    procgen::RenderOptions ro;
+    ro.size_px = 96;
+    const procgen::IslandSpec spec = procgen::random_spec(3, uint64_t(i));
+    valleys.push_back(realism_stats(procgen::generate(spec, ro).height_m, spec.world_size_m / 96).valleys);
+  }
+  EXPECT_EQ(r["specs"]["count"], 2);
+  EXPECT_DOUBLE_EQ(r["specs"]["median_valleys"].get<double>(), 0.5 * (valleys[0] + valleys[1]));
+  EXPECT_DOUBLE_EQ(r["specs"]["min_valleys"].get<double>(), std::min(valleys[0], valleys[1]));
+  InferOptions io;
+  io.size_px = 96;
+  const RealismStats s2 = realism_stats(infer_heights(g, {read_sketch(files[1])}, io)[0], io.world_size_m / 96);
+  EXPECT_DOUBLE_EQ(r["painted"]["per_sketch"]["2.png"]["valleys"].get<double>(), s2.valleys);
+  EXPECT_DOUBLE_EQ(r["painted"]["per_sketch"]["2.png"]["pits"].get<double>(), s2.pits);
+  const double pm = r["painted"]["median_pits"], tm = r["painted"]["median_terraces"], vm = r["painted"]["median_valleys"];
+  EXPECT_EQ(r["painted"]["bars_met"].get<bool>(), pm <= 0.01 && tm <= 0.03 && vm >= 0.30);
+  // No painted sketches: no "painted" object, and no generator needed.
+  EXPECT_FALSE(realism_bench(o, nullptr, {}).contains("painted"));
+  expect_error_naming([&] { realism_bench(o, nullptr, files); }, "need a generator");
+  o.size_px = 32;
+  expect_error_naming([&] { realism_bench(o, &g, files); }, "size must be in 64..8192");
   fs::remove_all(d);
 }
 

@@ -1,0 +1,33 @@
+#pragma once
+// `reefgen bench realism` as a library: the realism statistics
+// (docs/REALISM.md) of random specs generated at size_px and of painted
+// sketches answered by `infer --size size_px`, their medians and whether they
+// meet the realism bars (pits ≤ 1 %, terraces ≤ 3 %, valleys ≥ 0.30), and the
+// time per island.
+#include <cstdint>
+#include <filesystem>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "reefgen/infer/infer.hpp"
+#include "reefgen/model/generator_file.hpp"
+
+namespace reefgen::infer {
+
+struct RealismBenchOptions {
+  int specs = 50;                 // random specs generated directly (0 = none), [0, 10000]
+  int size_px = 1025;             // side of every island, [64, 8192]
+  uint64_t spec_seed = 1;         // seed of the random specs
+  double subsidence = 0;          // λ of every random spec, [0, 1] (0: young islands, the most flank to judge)
+  InferOptions infer;             // the painted sketches' inference (its size_px is set to size_px)
+  bool quiet = false;             // no progress lines on stderr
+};
+
+// {"specs": {...}} when o.specs > 0 and {"painted": {..., "per_sketch": {...}}}
+// when `painted` is not empty (then `g` must be given): count, median_pits,
+// median_terraces, median_valleys, min_valleys, median_ms, bars_met.
+nlohmann::json realism_bench(const RealismBenchOptions& o, model::GeneratorFile* g,
+                             const std::vector<std::filesystem::path>& painted);
+
+}  // namespace reefgen::infer
