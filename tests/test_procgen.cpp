@@ -156,6 +156,33 @@ TEST(Noise, RangesAndDeterminism) {
   for (int i = 0; i < 1000; ++i) EXPECT_LE(std::fabs(p(i / 1000.0)), 1.0);
 }
 
+// The magnified look-up (a texel wider than a pixel, islands above ~400²):
+// Catmull-Rom passes through the texels, wraps like the bilinear one, and has
+// no kink on a texel edge, where the bilinear slope jumps (the creases a
+// hill-shade of a 4097² island showed).
+TEST(Noise, CubicTileLookUpIsSmoothAcrossTexelEdges) {
+  const auto& t = NoiseTile::get(3);
+  for (int i = 0; i < 20; ++i) {
+    const float u = float(17 * i + 3), v = float(29 * i + 5);
+    EXPECT_NEAR(t.sample_cubic(u, v), t.sample(u, v), 1e-5f);  // the texel itself
+  }
+  EXPECT_FLOAT_EQ(t.sample_cubic(5.25f, 9.5f), t.sample_cubic(5.25f + NoiseTile::kSize, 9.5f - NoiseTile::kSize));
+  // One-sided slopes either side of texel edges u = k (v between texels).
+  const float e = 1e-3f;
+  float cubic_jump = 0, bilinear_jump = 0;
+  for (int k = 1; k < 200; k += 7) {
+    const float u = float(k), v = 40.37f;
+    auto jump = [&](auto f) {
+      const float left = (f(u, v) - f(u - e, v)) / e, right = (f(u + e, v) - f(u, v)) / e;
+      return std::fabs(right - left);
+    };
+    cubic_jump = std::max(cubic_jump, jump([&](float a, float b) { return t.sample_cubic(a, b); }));
+    bilinear_jump = std::max(bilinear_jump, jump([&](float a, float b) { return t.sample(a, b); }));
+  }
+  EXPECT_GT(bilinear_jump, 0.05f);
+  EXPECT_LT(cubic_jump, 0.02f) << "bilinear: " << bilinear_jump;
+}
+
 TEST(Warp, NoStrokesIsIdentity) {
   IslandSpec s;  // default outlines, no wind
   s.noise.amplitude = 0;

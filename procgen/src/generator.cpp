@@ -316,6 +316,12 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
   const float u0 = float(noise_rng.uniform(0, NoiseTile::kSize)), v0 = float(noise_rng.uniform(0, NoiseTile::kSize));
   const int orient = static_cast<int>(noise_rng.uniform_int(0, 7));
   const float texels = float(NoiseTile::kBaseCell / spec.noise.feature);
+  // Magnified (a texel wider than a pixel, e.g. above ~400² at the default
+  // feature), the tile is read bicubically: bilinear kinks would draw a grid
+  // of creases (docs/EROSION.md). At 256² (1.6 texels per pixel) the look-up
+  // stays bilinear, so the training data does not change.
+  const bool magnified = texels * 2.f / float(W) < 1.f;
+  auto detail = [&](float u, float v) { return magnified ? tile->sample_cubic(u, v) : tile->sample(u, v); };
   const float amp = float(spec.noise.amplitude);
   const SmoothMaxTable smax_table(spec.smax_k);
 
@@ -367,7 +373,7 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
         if (noisy) {
           const float qa = (orient & 1) ? sy : sx, qb = (orient & 1) ? sx : sy;
           const float u = ((orient & 2) ? -qa : qa) * texels + u0, v = ((orient & 4) ? -qb : qb) * texels + v0;
-          hs *= 1.f + amp * tile->sample(u, v);
+          hs *= 1.f + amp * detail(u, v);
         }
         h = hs;
         coral_m(y, x) = coral[j] + f * (coral[j + 1] - coral[j]);
@@ -378,7 +384,7 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
         float hs = hsub[j] + f * (hsub[j + 1] - hsub[j]);
         const float qa = (orient & 1) ? sy : sx, qb = (orient & 1) ? sx : sy;
         const float u = ((orient & 2) ? -qa : qa) * texels + u0, v = ((orient & 4) ? -qb : qb) * texels + v0;
-        hs *= 1.f + amp * tile->sample(u, v);
+        hs *= 1.f + amp * detail(u, v);
         if (spec.coral.enabled) {
           h = smax_table(hs, coral[j] + f * (coral[j + 1] - coral[j]));
         } else {
