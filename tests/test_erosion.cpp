@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <set>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -36,6 +37,59 @@ cv::Mat1f cone(int W, float peak, float noise = 0.f, uint64_t seed = 1) {
 }
 
 }  // namespace
+
+// A coastal plain behind a thin rim (the generator's coasts): a shallow
+// depression with relief of its own. Filling it leaves a dead-flat floor;
+// breaching cuts the rim and keeps the relief. A deep pit is filled to
+// breach_m below its spill, then breached.
+TEST(Flood, DrainPitsBreachesShallowDepressionsAndFillsDeepOnes) {
+  const int W = 24;
+  cv::Mat1f plain(W, W, -10.f);
+  for (int y = 1; y < W - 1; ++y)
+    for (int x = 1; x < W - 1; ++x)
+      plain(y, x) = 3.f + 0.3f * float((x * 7 + y * 3) % 5) + 0.02f * float(y);  // bumpy plain, 3–4.7 m
+  for (int y = 1; y < W - 1; ++y) plain(y, 1) = plain(y, W - 2) = 6.f;  // the rim, 6 m, all round
+  for (int x = 1; x < W - 1; ++x) plain(1, x) = plain(W - 2, x) = 6.f;
+  plain(12, 12) = 1.5f;  // a deep pit in the middle: 4.5 m below the spill
+  // How many of these cells sit in depressions deeper than 0.5 m, and how
+  // many distinct heights the plain keeps (a flat floor has one).
+  auto in_pits = [](const cv::Mat1f& h) {
+    const FloodRoute r = flood_route(h, sea_and_edge_roles(h));
+    int n = 0;
+    for (int y = 0; y < h.rows; ++y)
+      for (int x = 0; x < h.cols; ++x) n += h(y, x) > 0 && r.filled(y, x) - h(y, x) > 0.5f + 1e-4f;
+    return n;
+  };
+  auto plain_levels = [&](const cv::Mat1f& h) {
+    std::set<float> v;
+    for (int y = 3; y < W - 3; ++y)
+      for (int x = 3; x < W - 3; ++x) v.insert(h(y, x));
+    return v.size();
+  };
+  ASSERT_GT(in_pits(plain), 300);
+  cv::Mat1f filled = plain.clone(), breached = plain.clone();
+  const int64_t n_fill = drain_pits(filled, 0.5f, 0.f);
+  const int64_t n_breach = drain_pits(breached, 0.5f, 3.f);
+  EXPECT_EQ(in_pits(filled), 0);
+  EXPECT_EQ(in_pits(breached), 0);
+  EXPECT_LE(plain_levels(filled), 6u);     // a floor at 5.5 m, and the cells above it
+  EXPECT_GE(plain_levels(breached), 30u);  // the plain's own bumps
+  EXPECT_LT(n_breach * 4, n_fill) << n_breach << " cells cut, " << n_fill << " filled";
+  // The deep pit: filled to 3 m below the spill (6 − 3), then drained.
+  EXPECT_NEAR(breached(12, 12), 3.f, 1e-5f);
+  // Nothing leaves the land or moves the sea; only the rim and the pit rise or fall.
+  for (int y = 0; y < W; ++y)
+    for (int x = 0; x < W; ++x) {
+      if (plain(y, x) <= 0) {
+        EXPECT_EQ(breached(y, x), plain(y, x));
+      } else {
+        EXPECT_GT(breached(y, x), 0.f);
+      }
+      if (breached(y, x) > plain(y, x)) {
+        EXPECT_TRUE(y == 12 && x == 12) << y << "," << x;
+      }
+    }
+}
 
 TEST(Flood, FillsAClosedDepressionToItsSpillPoint) {
   // A 5×5 bowl: rim 10 m with one notch at 4 m, floor 1 m, sea around it.

@@ -344,22 +344,60 @@ cv::Mat1f erode_island(const cv::Mat1f& h_N, const cv::Mat1f& rho_N, double worl
     return cv::Mat1f(d + fractal_detail(L, up, world_size_m, seed));
   };
   cv::Mat1f out = refine_heights(base, h_N, rho_N, world_size_m, seed, p, detail);
-  drain_pits(out);
+  drain_pits(out, 0.5f, float(p.pit_breach_m));
   return out;
 }
 
-int64_t drain_pits(cv::Mat1f& h, float max_depth_m) {
+int64_t drain_pits(cv::Mat1f& h, float max_depth_m, float breach_m) {
   if (!h.isContinuous()) h = h.clone();
   const FloodRoute fr = flood_route(h, sea_and_edge_roles(h));
-  int64_t changed = 0;
-  for (int y = 0; y < h.rows; ++y)
-    for (int x = 0; x < h.cols; ++x) {
-      const float floor = fr.filled(y, x) - max_depth_m;
-      if (h(y, x) > 0 && h(y, x) < floor) {
-        h(y, x) = floor;
-        ++changed;
-      }
+  const int n = h.rows * h.cols;
+  float* z = h.ptr<float>();
+  const float* spill = fr.filled.ptr<float>();
+  // Filled: a closed depression deeper than breach_m is raised to breach_m
+  // below its spill level (a lake floor); what is left, at most breach_m, is
+  // breached below.
+  const float lake_floor_m = std::max(max_depth_m, breach_m);
+  std::vector<uint8_t> moved(size_t(n), 0);
+  std::vector<int> pits;
+  for (int i = 0; i < n; ++i) {
+    if (!(z[i] > 0 && z[i] < spill[i] - max_depth_m)) continue;
+    if (z[i] < spill[i] - lake_floor_m) {
+      z[i] = spill[i] - lake_floor_m;
+      moved[size_t(i)] = 1;
     }
+    pits.push_back(i);
+  }
+  if (breach_m > max_depth_m) {
+    // Breached (Lindsay 2016): a shallow depression keeps its own relief and
+    // its outflow path is cut down instead. Filling it would leave a dead-flat
+    // floor; behind a coast's thin rim these floors were a ring of flats
+    // around every island (docs/EROSION.md). From the lowest depression cell
+    // up, the flood's route to the outlet (through the spill point) is made
+    // non-ascending by lowering the cells above the level carried along it.
+    // A walk stops on a cell an earlier, lower walk already made drain: from
+    // there on the path is non-ascending below that cell.
+    std::sort(pits.begin(), pits.end(), [&](int a, int b) { return z[a] < z[b] || (z[a] == z[b] && a < b); });
+    std::vector<uint8_t> drains(size_t(n), 0);
+    for (const int i : pits) {
+      float level = z[i];
+      for (int j = fr.receiver[size_t(i)]; j != i;) {
+        if (drains[size_t(j)] && z[j] <= level) break;
+        if (z[j] > level) {
+          z[j] = level;
+          moved[size_t(j)] = 1;
+        }
+        level = z[j];
+        drains[size_t(j)] = 1;
+        const int next = fr.receiver[size_t(j)];
+        if (next == j) break;  // an outlet: the sea or the canvas edge
+        j = next;
+      }
+      drains[size_t(i)] = 1;
+    }
+  }
+  int64_t changed = 0;
+  for (const uint8_t m : moved) changed += m;
   return changed;
 }
 
@@ -530,13 +568,13 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
   cv::Mat1f land = resized(coarse, N, cv::INTER_CUBIC);
   if (N <= S || !p.enabled) {
     if (N < S) cv::resize(coarse, land, cv::Size(N, N), 0, 0, cv::INTER_AREA);
-    drain_pits(land);
+    drain_pits(land, 0.5f, float(p.pit_breach_m));
     return land;
   }
   auto detail = [&](int L, const cv::Mat1f& up) { return fractal_detail(L, up, world_size_m, seed); };
   cv::Mat1f out = refine_heights(coarse, land, resized(resistance_of_labels(label), N, cv::INTER_LINEAR),
                                  world_size_m, seed, p, detail);
-  drain_pits(out);
+  drain_pits(out, 0.5f, float(p.pit_breach_m));
   return out;
 }
 

@@ -44,6 +44,7 @@ struct ErosionParams {
   bool refine_random_receivers = true;   // finer levels drain to a lower neighbour drawn ∝ slope², not the steepest (no grid-aligned rills)
   double noise_amplitude = 0.25;      // relative low-frequency modulation of the resistance, [0, 1]
   double flow_exponent = 1.0;         // multiple-flow-direction share ∝ slope^p (Quinn et al.: 1; large = one direction), [0, 10]
+  double pit_breach_m = 5;            // closed depressions left at the end: breached up to this depth, filled below it (0: filled flat), m, [0, 100]
   // Amplification of a model answer only (amplify_heights; the generator ignores them):
   double amplify_roughness = 0.35;    // relief added to the land before eroding, share of the height, [0, 1]
   double amplify_feature_m = 140;     // spacing of that relief's features, m, [1, 1e5]
@@ -73,6 +74,7 @@ void fields(ErosionParams& p, F&& f) {
   f("refine_random_receivers", p.refine_random_receivers);
   f("noise_amplitude", p.noise_amplitude, Range{0, 1});
   f("flow_exponent", p.flow_exponent, Range{0, 10});
+  f("pit_breach_m", p.pit_breach_m, Range{0, 100});
   f("amplify_roughness", p.amplify_roughness, Range{0, 1});
   f("amplify_feature_m", p.amplify_feature_m, Range{1, 1e5});
   f("amplify_duration_scale", p.amplify_duration_scale, Range{0, 100});
@@ -120,10 +122,13 @@ cv::Mat1f refine_heights(const cv::Mat1f& coarse_m, const cv::Mat1f& land_m, con
 cv::Mat1f erode_island(const cv::Mat1f& height_m, const cv::Mat1f& resistance, double world_size_m, uint64_t seed,
                        const ErosionParams& p);
 
-// Fills the closed depressions of the land that are deeper than `max_depth_m`
-// up to their spill level plus a tiny downstream gradient, so water drains
-// (the remaining pits of an eroded or predicted field). Returns cells changed.
-int64_t drain_pits(cv::Mat1f& height_m, float max_depth_m = 0.5f);
+// Drains the closed depressions of the land that are deeper than
+// `max_depth_m` (the remaining pits of an eroded or predicted field): one
+// deeper than `breach_m` is first raised to breach_m below its spill level,
+// then its outflow path is cut down (breached) so that water leaves it; with
+// breach_m ≤ max_depth_m they are only filled, to max_depth_m below the spill
+// (flat floors). Returns the cells changed.
+int64_t drain_pits(cv::Mat1f& height_m, float max_depth_m = 0.5f, float breach_m = 0.f);
 
 }  // namespace reefgen::procgen
 
