@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <set>
+#include <queue>
+#include <deque>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -89,6 +91,71 @@ TEST(Flood, DrainPitsBreachesShallowDepressionsAndFillsDeepOnes) {
         EXPECT_TRUE(y == 12 && x == 12) << y << "," << x;
       }
     }
+}
+
+// flood_route's queue (a radix heap) against the textbook Priority-Flood
+// with a binary heap on the same (height, index) order: the same pop order,
+// receivers and filled surface on rough fields with many depressions (the
+// drainage sums, and so every eroded island, depend on that order).
+TEST(Flood, RouteEqualsABinaryHeapPriorityFlood) {
+  for (uint64_t seed : {1u, 2u, 3u}) {
+    const int W = 64;
+    cv::Mat1f h(W, W);
+    cv::RNG rng(seed);
+    for (int y = 0; y < W; ++y)
+      for (int x = 0; x < W; ++x) {
+        const float r = std::hypot(x - 31.5f, y - 31.5f);
+        h(y, x) = (r < 26 ? 60.f * (1 - r / 26) : -20.f) + float(rng.uniform(-8.0, 8.0));
+      }
+    h(10, 10) = h(10, 11);  // ties: equal heights, ordered by index
+    const cv::Mat1b role = sea_and_edge_roles(h);
+    const FloodRoute r = flood_route(h, role);
+    // The reference.
+    const int n = W * W;
+    std::vector<int> order, receiver(n);
+    for (int i = 0; i < n; ++i) receiver[i] = i;
+    cv::Mat1f f = h.clone();
+    std::vector<uint8_t> seen(n, 0);
+    using Node = std::pair<float, int>;
+    std::priority_queue<Node, std::vector<Node>, std::greater<Node>> heap;
+    std::deque<int> pit;
+    const int dx[8] = {1, -1, 0, 0, 1, 1, -1, -1}, dy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
+    for (int i = 0; i < n; ++i) {
+      if (role(i / W, i % W) != kActive) continue;
+      for (int k = 0; k < 8; ++k) {
+        const int x = i % W + dx[k], y = i / W + dy[k];
+        if (x < 0 || y < 0 || x >= W || y >= W || role(y, x) != kOutlet || seen[y * W + x]) continue;
+        seen[y * W + x] = 1;
+        heap.push({f(y, x), y * W + x});
+      }
+    }
+    while (!heap.empty() || !pit.empty()) {
+      int c;
+      if (!pit.empty()) {
+        c = pit.front();
+        pit.pop_front();
+      } else {
+        c = heap.top().second;
+        heap.pop();
+      }
+      if (role(c / W, c % W) == kActive) order.push_back(c);
+      for (int k = 0; k < 8; ++k) {
+        const int x = c % W + dx[k], y = c / W + dy[k], j = y * W + x;
+        if (x < 0 || y < 0 || x >= W || y >= W || seen[j] || role(y, x) != kActive) continue;
+        seen[j] = 1;
+        receiver[j] = c;
+        if (f(y, x) <= f(c / W, c % W)) {
+          f(y, x) = f(c / W, c % W);
+          pit.push_back(j);
+        } else {
+          heap.push({f(y, x), j});
+        }
+      }
+    }
+    EXPECT_EQ(r.order, order) << "seed " << seed;
+    EXPECT_EQ(r.receiver, receiver) << "seed " << seed;
+    EXPECT_EQ(cv::norm(r.filled, f, cv::NORM_INF), 0.0) << "seed " << seed;
+  }
 }
 
 TEST(Flood, FillsAClosedDepressionToItsSpillPoint) {

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <deque>
 #include <queue>
+#include <stdexcept>
 
 #include <opencv2/imgproc.hpp>
 
@@ -30,6 +31,43 @@ inline uint64_t node_key(float h, int i) {
 }
 inline int node_index(uint64_t key) { return int(uint32_t(key)); }
 
+// Priority-Flood's queue is monotone: every key pushed is above the last key
+// popped (a cell enters the heap only when higher than the level it was
+// reached from; lower cells go to the depression queue). A radix heap
+// (Ahuja et al. 1990) is then exact: it pops the smallest key, as a binary
+// heap does, so the pop order (and every drainage sum built on it) is the
+// same, in O(1) per push and O(log C) amortised per pop instead of two
+// O(log n) sift passes. Bucket b > 0 holds keys whose highest bit differing
+// from the last popped key is bit b − 1; bucket 0 holds keys equal to it.
+class RadixHeap {
+ public:
+  bool empty() const { return size_ == 0; }
+  void push(uint64_t key) {
+    if (key < last_) throw std::logic_error("flood_route: a key below the last popped one (the queue must be monotone)");
+    buckets_[bucket(key)].push_back(key);
+    ++size_;
+  }
+  uint64_t pop() {
+    if (buckets_[0].empty()) {
+      int b = 1;
+      while (buckets_[b].empty()) ++b;
+      last_ = *std::min_element(buckets_[b].begin(), buckets_[b].end());
+      for (const uint64_t k : buckets_[b]) buckets_[bucket(k)].push_back(k);
+      buckets_[b].clear();
+    }
+    const uint64_t k = buckets_[0].back();
+    buckets_[0].pop_back();
+    --size_;
+    return k;
+  }
+
+ private:
+  int bucket(uint64_t key) const { return key == last_ ? 0 : 64 - __builtin_clzll(key ^ last_); }
+  std::vector<uint64_t> buckets_[65];
+  uint64_t last_ = 0;
+  size_t size_ = 0;
+};
+
 }  // namespace
 
 FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
@@ -42,7 +80,7 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
   const uint8_t* rl = role.ptr<uint8_t>();
   float* f = out.filled.ptr<float>();
   std::vector<uint8_t> seen(n, 0);
-  std::priority_queue<uint64_t, std::vector<uint64_t>, std::greater<uint64_t>> heap;
+  RadixHeap heap;
   std::deque<int> pit;  // depression cells: reached below the spill level, processed FIFO
   static constexpr int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1}, kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
   // Seeds: outlets next to an active cell (an outlet surrounded by outlets
@@ -67,8 +105,7 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
       c = pit.front();
       pit.pop_front();
     } else {
-      c = node_index(heap.top());
-      heap.pop();
+      c = node_index(heap.pop());
     }
     if (rl[c] == kActive) out.order.push_back(c);  // popped: its receiver was popped before it
     const int cx = c % W, cy = c / W;
