@@ -79,7 +79,7 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
   out.filled = height.clone();
   const uint8_t* rl = role.ptr<uint8_t>();
   float* f = out.filled.ptr<float>();
-  std::vector<uint8_t> seen(n, 0);
+  std::vector<uint8_t> seeded(n, 0);  // outlets already in the heap
   RadixHeap heap;
   std::deque<int> pit;  // depression cells: reached below the spill level, processed FIFO
   static constexpr int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1}, kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
@@ -93,12 +93,19 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
         const int nx = x + kDx[k], ny = y + kDy[k];
         if (nx < 0 || ny < 0 || nx >= W || ny >= H) continue;
         const int j = ny * W + nx;
-        if (rl[j] != kOutlet || seen[j]) continue;
-        seen[j] = 1;
+        if (rl[j] != kOutlet || seeded[j]) continue;
+        seeded[j] = 1;
         heap.push(node_key(f[j], j));
       }
     }
   out.order.reserve(n);
+  // open[j]: an active cell the flood has not reached yet (the one test per
+  // neighbour in the loop below). Interior cells skip the bounds checks: the
+  // same neighbours in the same order, through flat-index offsets.
+  std::vector<uint8_t> open(n);
+  for (int i = 0; i < n; ++i) open[i] = rl[i] == kActive;
+  int offset[8];
+  for (int k = 0; k < 8; ++k) offset[k] = kDy[k] * W + kDx[k];
   while (!heap.empty() || !pit.empty()) {
     int c;
     if (!pit.empty()) {
@@ -109,13 +116,19 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
     }
     if (rl[c] == kActive) out.order.push_back(c);  // popped: its receiver was popped before it
     const int cx = c % W, cy = c / W;
+    const bool interior = cx > 0 && cy > 0 && cx < W - 1 && cy < H - 1;
     const float level = f[c];
     for (int k = 0; k < 8; ++k) {
-      const int nx = cx + kDx[k], ny = cy + kDy[k];
-      if (nx < 0 || ny < 0 || nx >= W || ny >= H) continue;
-      const int j = ny * W + nx;
-      if (seen[j] || rl[j] != kActive) continue;
-      seen[j] = 1;
+      int j;
+      if (interior) {
+        j = c + offset[k];
+      } else {
+        const int nx = cx + kDx[k], ny = cy + kDy[k];
+        if (nx < 0 || ny < 0 || nx >= W || ny >= H) continue;
+        j = ny * W + nx;
+      }
+      if (!open[j]) continue;
+      open[j] = 0;
       out.receiver[j] = c;
       if (f[j] <= level) {
         f[j] = level;  // inside a depression: filled to the spill level
