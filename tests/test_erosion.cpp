@@ -129,15 +129,20 @@ TEST(Flood, RouteEqualsABinaryHeapPriorityFlood) {
         heap.push({f(y, x), y * W + x});
       }
     }
-    while (!heap.empty() || !pit.empty()) {
+    // Depression cells first (FIFO), else the lowest (height, index) in the heap.
+    auto take = [&] {
       int c;
-      if (!pit.empty()) {
-        c = pit.front();
-        pit.pop_front();
-      } else {
+      if (pit.empty()) {
         c = heap.top().second;
         heap.pop();
+        return c;
       }
+      c = pit.front();
+      pit.pop_front();
+      return c;
+    };
+    for (size_t left = heap.size(); left + pit.size() > 0; left = heap.size()) {
+      const int c = take();
       if (role(c / W, c % W) == kActive) order.push_back(c);
       for (int k = 0; k < 8; ++k) {
         const int x = c % W + dx[k], y = c / W + dy[k], j = y * W + x;
@@ -290,13 +295,12 @@ namespace {
 
 // Only the step under test: no roughening, no erosion, the answer's own size.
 ErosionParams shaping_only() {
-  ErosionParams p;
-  p.amplify_roughness = 0;
-  p.amplify_steps = 0;
-  p.amplify_duration_scale = 0;
-  p.amplify_lobe_m = 0;
-  p.amplify_plain_smooth_m = 0;
-  return p;
+  return erosion_params_from_json({{"amplify_roughness", 0},
+                                   {"amplify_steps", 0},
+                                   {"amplify_duration_scale", 0},
+                                   {"amplify_lobe_m", 0},
+                                   {"amplify_plain_smooth_m", 0}},
+                                  "shaping_only");
 }
 
 // Radius (cells, from the canvas centre) where the field first drops below
