@@ -4,7 +4,6 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <deque>
 #include <queue>
 #include <stdexcept>
 
@@ -37,35 +36,47 @@ inline int node_index(uint64_t key) { return int(uint32_t(key)); }
 // (Ahuja et al. 1990) is then exact: it pops the smallest key, as a binary
 // heap does, so the pop order (and every drainage sum built on it) is the
 // same, in O(1) per push and O(log C) amortised per pop instead of two
-// O(log n) sift passes. Bucket b > 0 holds keys whose highest bit differing
-// from the last popped key is bit b − 1; bucket 0 holds keys equal to it.
+// O(log n) sift passes. Bucket b (1..64) holds keys whose highest bit
+// differing from the last popped key is bit b − 1; a bit mask of the
+// non-empty buckets finds the lowest in one instruction. Keys are unique (the
+// cell index is in them), so no key pushed equals the last one popped and
+// bucket 0 of the textbook structure is not needed.
 class RadixHeap {
  public:
-  bool empty() const { return size_ == 0; }
+  bool empty() const { return mask_ == 0; }
   void push(uint64_t key) {
     if (key < last_) throw std::logic_error("flood_route: a key below the last popped one (the queue must be monotone)");
-    buckets_[bucket(key)].push_back(key);
-    ++size_;
+    put(key);
   }
   uint64_t pop() {
-    if (buckets_[0].empty()) {
-      int b = 1;
-      while (buckets_[b].empty()) ++b;
-      last_ = *std::min_element(buckets_[b].begin(), buckets_[b].end());
-      for (const uint64_t k : buckets_[b]) buckets_[bucket(k)].push_back(k);
-      buckets_[b].clear();
+    const int b = __builtin_ctzll(mask_) + 1;
+    std::vector<uint64_t>& v = buckets_[b];
+    mask_ &= ~(1ull << (b - 1));
+    if (v.size() == 1) {
+      last_ = v[0];
+      v.clear();
+      return last_;
     }
-    const uint64_t k = buckets_[0].back();
-    buckets_[0].pop_back();
-    --size_;
-    return k;
+    // The minimum leaves; every other key of the bucket now differs from it
+    // below bit b − 1, so it moves to a lower bucket.
+    const auto lowest = std::min_element(v.begin(), v.end());
+    last_ = *lowest;
+    *lowest = v.back();
+    v.pop_back();
+    for (const uint64_t k : v) put(k);
+    v.clear();
+    return last_;
   }
 
  private:
-  int bucket(uint64_t key) const { return key == last_ ? 0 : 64 - __builtin_clzll(key ^ last_); }
+  void put(uint64_t key) {
+    const uint64_t diff = key ^ last_;
+    const int b = diff == 0 ? 1 : 64 - __builtin_clzll(diff);  // equal: only a repeated key, which sorts anywhere
+    buckets_[b].push_back(key);
+    mask_ |= 1ull << (b - 1);
+  }
   std::vector<uint64_t> buckets_[65];
-  uint64_t last_ = 0;
-  size_t size_ = 0;
+  uint64_t last_ = 0, mask_ = 0;
 };
 
 }  // namespace
@@ -79,10 +90,24 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
   out.filled = height.clone();
   const uint8_t* rl = role.ptr<uint8_t>();
   float* f = out.filled.ptr<float>();
-  std::vector<uint8_t> seeded(n, 0);  // outlets already in the heap
+  // state[i]: kOpen = an active cell the flood has not reached yet (the one
+  // test per neighbour in the loop below), kEdge = on the canvas edge (the
+  // only cells whose neighbours need bounds checks; the others go through
+  // flat-index offsets: the same neighbours in the same order, and no
+  // division to find a cell's column), kSeeded = an outlet already queued.
+  enum : uint8_t { kOpen = 1, kEdge = 2, kSeeded = 4 };
+  std::vector<uint8_t> state(n);
+  for (int i = 0; i < n; ++i) state[i] = rl[i] == kActive ? kOpen : 0;
+  for (int x = 0; x < W; ++x) state[x] |= kEdge, state[(H - 1) * W + x] |= kEdge;
+  for (int y = 0; y < H; ++y) state[y * W] |= kEdge, state[y * W + W - 1] |= kEdge;
   RadixHeap heap;
-  std::deque<int> pit;  // depression cells: reached below the spill level, processed FIFO
+  // Depression cells: reached below the spill level, processed FIFO. Each
+  // cell enters once; the buffer restarts whenever it runs empty.
+  std::vector<int> pit;
+  size_t pit_head = 0;
   static constexpr int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1}, kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
+  int offset[8];
+  for (int k = 0; k < 8; ++k) offset[k] = kDy[k] * W + kDx[k];
   // Seeds: outlets next to an active cell (an outlet surrounded by outlets
   // routes nothing), found from the active side: islands are a minority of
   // the canvas. Pushed in flat-index order of the active cells.
@@ -93,30 +118,23 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
         const int nx = x + kDx[k], ny = y + kDy[k];
         if (nx < 0 || ny < 0 || nx >= W || ny >= H) continue;
         const int j = ny * W + nx;
-        if (rl[j] != kOutlet || seeded[j]) continue;
-        seeded[j] = 1;
+        if (rl[j] != kOutlet || (state[j] & kSeeded)) continue;
+        state[j] |= kSeeded;
         heap.push(node_key(f[j], j));
       }
     }
   out.order.reserve(n);
-  // open[j]: an active cell the flood has not reached yet (the one test per
-  // neighbour in the loop below). Interior cells skip the bounds checks: the
-  // same neighbours in the same order, through flat-index offsets.
-  std::vector<uint8_t> open(n);
-  for (int i = 0; i < n; ++i) open[i] = rl[i] == kActive;
-  int offset[8];
-  for (int k = 0; k < 8; ++k) offset[k] = kDy[k] * W + kDx[k];
-  while (!heap.empty() || !pit.empty()) {
+  while (!heap.empty() || pit_head < pit.size()) {
     int c;
-    if (!pit.empty()) {
-      c = pit.front();
-      pit.pop_front();
+    if (pit_head < pit.size()) {
+      c = pit[pit_head++];
+      if (pit_head == pit.size()) pit.clear(), pit_head = 0;
     } else {
       c = node_index(heap.pop());
     }
     if (rl[c] == kActive) out.order.push_back(c);  // popped: its receiver was popped before it
-    const int cx = c % W, cy = c / W;
-    const bool interior = cx > 0 && cy > 0 && cx < W - 1 && cy < H - 1;
+    const bool interior = !(state[c] & kEdge);
+    const int cx = interior ? 0 : c % W, cy = interior ? 0 : c / W;
     const float level = f[c];
     for (int k = 0; k < 8; ++k) {
       int j;
@@ -127,8 +145,8 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
         if (nx < 0 || ny < 0 || nx >= W || ny >= H) continue;
         j = ny * W + nx;
       }
-      if (!open[j]) continue;
-      open[j] = 0;
+      if (!(state[j] & kOpen)) continue;
+      state[j] &= uint8_t(~kOpen);
       out.receiver[j] = c;
       if (f[j] <= level) {
         f[j] = level;  // inside a depression: filled to the spill level

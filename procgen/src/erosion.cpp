@@ -169,6 +169,8 @@ void erode_level(cv::Mat1f& h, const cv::Mat1f& K, double dx, int steps, double 
   cv::Mat1f blurred;
   static constexpr int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1}, kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
   const float inv_len[8] = {inv_dx, inv_dx, inv_dx, inv_dx, inv_diag, inv_diag, inv_diag, inv_diag};
+  int offset[8];
+  for (int d = 0; d < 8; ++d) offset[d] = kDy[d] * W + kDx[d];
   const float conc = static_cast<float>(p.flow_exponent);
   std::vector<int> recv(static_cast<size_t>(H) * W);
   std::vector<float> inv_l(static_cast<size_t>(H) * W);
@@ -190,45 +192,39 @@ void erode_level(cv::Mat1f& h, const cv::Mat1f& K, double dx, int steps, double 
     const FloodRoute fr = flood_route(z, role);
     const auto& order = fr.order;
     const float* fz = fr.filled.ptr<float>();
+    for (const int i : order) area[i] = cell_area;
+    // One pass from the highest cell down, each cell's eight slopes on the
+    // filled surface computed once for both of its uses. Active cells are
+    // never on the canvas edge (sea_and_edge_roles makes it an outlet), so
+    // every neighbour is at a flat-index offset.
     // Receiver = steepest descent on the filled surface (lower neighbours were
     // taken out of the flood's queues first); in a filled depression, where
     // no neighbour is lower, the flood's own path to the spill point.
-    for (const int i : order) {
-      const int x = i % W, y = i / W;
-      int best = fr.receiver[i];
-      float best_s = 0.f, best_l = (best % W != x && best / W != y) ? inv_diag : inv_dx;
-      for (int k = 0; k < 8; ++k) {
-        const int nx = x + kDx[k], ny = y + kDy[k];
-        if (nx < 0 || ny < 0 || nx >= W || ny >= H) continue;
-        const int j = ny * W + nx;
-        const float sl = (fz[i] - fz[j]) * inv_len[k];
-        if (sl > best_s) best_s = sl, best = j, best_l = inv_len[k];
-      }
-      recv[i] = best;
-      inv_l[i] = best_l;
-      area[i] = cell_area;
-    }
     // Drainage area with multiple flow directions (Quinn et al. 1991: shares
     // ∝ slope^p over the lower neighbours): a single steepest direction draws
     // straight parallel gullies along the 8 grid directions on smooth slopes.
     for (size_t k = order.size(); k-- > 0;) {
-      const int i = order[k], x = i % W, y = i / W;
+      const int i = order[k];
+      int best = fr.receiver[i];
+      const int step = best - i;
+      float best_s = 0.f, best_l = (step == 1 || step == -1 || step == W || step == -W) ? inv_dx : inv_diag;
       float w[8], sum = 0.f;
       for (int d = 0; d < 8; ++d) {
         w[d] = 0.f;
-        const int nx = x + kDx[d], ny = y + kDy[d];
-        if (nx < 0 || ny < 0 || nx >= W || ny >= H) continue;
-        const float sl = (fz[i] - fz[ny * W + nx]) * inv_len[d];
+        const float sl = (fz[i] - fz[i + offset[d]]) * inv_len[d];
+        if (sl > best_s) best_s = sl, best = i + offset[d], best_l = inv_len[d];
         if (sl > 0.f) sum += (w[d] = conc == 1.f ? sl : std::pow(sl, conc));
       }
+      recv[i] = best;
+      inv_l[i] = best_l;
       if (sum <= 0.f) {  // filled depression: all to the flood's path
-        if (rl[recv[i]] == kActive) area[recv[i]] += area[i];
+        if (rl[best] == kActive) area[best] += area[i];
         continue;
       }
       const float a = area[i] / sum;
       for (int d = 0; d < 8; ++d)
         if (w[d] > 0.f) {
-          const int j = (y + kDy[d]) * W + x + kDx[d];
+          const int j = i + offset[d];
           if (rl[j] == kActive) area[j] += a * w[d];
         }
     }
