@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <set>
+#include <type_traits>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
@@ -203,31 +204,40 @@ void erode_level(cv::Mat1f& h, const cv::Mat1f& K, double dx, int steps, double 
     // Drainage area with multiple flow directions (Quinn et al. 1991: shares
     // ∝ slope^p over the lower neighbours): a single steepest direction draws
     // straight parallel gullies along the 8 grid directions on smooth slopes.
-    for (size_t k = order.size(); k-- > 0;) {
-      const int i = order[k];
-      int best = fr.receiver[i];
-      const int step = best - i;
-      float best_s = 0.f, best_l = (step == 1 || step == -1 || step == W || step == -W) ? inv_dx : inv_diag;
-      float w[8], sum = 0.f;
-      for (int d = 0; d < 8; ++d) {
-        w[d] = 0.f;
-        const float sl = (fz[i] - fz[i + offset[d]]) * inv_len[d];
-        if (sl > best_s) best_s = sl, best = i + offset[d], best_l = inv_len[d];
-        if (sl > 0.f) sum += (w[d] = conc == 1.f ? sl : std::pow(sl, conc));
-      }
-      recv[i] = best;
-      inv_l[i] = best_l;
-      if (sum <= 0.f) {  // filled depression: all to the flood's path
-        if (rl[best] == kActive) area[best] += area[i];
-        continue;
-      }
-      const float a = area[i] / sum;
-      for (int d = 0; d < 8; ++d)
-        if (w[d] > 0.f) {
-          const int j = i + offset[d];
-          if (rl[j] == kActive) area[j] += a * w[d];
+    // The exponent's test is taken out of the cell loop (Quinn's p = 1 is the
+    // default: the share is the slope itself).
+    auto route_and_accumulate = [&](auto unit_exponent) {
+      for (size_t k = order.size(); k-- > 0;) {
+        const int i = order[k];
+        float sl[8];
+        for (int d = 0; d < 8; ++d) sl[d] = (fz[i] - fz[i + offset[d]]) * inv_len[d];
+        int best = fr.receiver[i];
+        const int step = best - i;
+        float best_s = 0.f, best_l = (step == 1 || step == -1 || step == W || step == -W) ? inv_dx : inv_diag;
+        for (int d = 0; d < 8; ++d)
+          if (sl[d] > best_s) best_s = sl[d], best = i + offset[d], best_l = inv_len[d];
+        recv[i] = best;
+        inv_l[i] = best_l;
+        // Non-lower neighbours get a zero share; adding +0 leaves the sum's bits as they are.
+        float w[8], sum = 0.f;
+        for (int d = 0; d < 8; ++d) {
+          w[d] = sl[d] > 0.f ? (decltype(unit_exponent)::value ? sl[d] : std::pow(sl[d], conc)) : 0.f;
+          sum += w[d];
         }
-    }
+        if (sum <= 0.f) {  // filled depression: all to the flood's path
+          if (rl[best] == kActive) area[best] += area[i];
+          continue;
+        }
+        const float a = area[i] / sum;
+        for (int d = 0; d < 8; ++d)
+          if (w[d] > 0.f) {
+            const int j = i + offset[d];
+            if (rl[j] == kActive) area[j] += a * w[d];
+          }
+      }
+    };
+    if (conc == 1.f) route_and_accumulate(std::true_type{});
+    else route_and_accumulate(std::false_type{});
     // Implicit stream power (n = 1), receivers first: z_i ← (z_i + F z_r)/(1 + F),
     // F = K dt A^m / L. Where the receiver is higher (a closed depression,
     // routed to its spill point) the same update raises the cell towards it:
