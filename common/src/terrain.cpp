@@ -110,19 +110,26 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
   for (int k = 0; k < 8; ++k) offset[k] = kDy[k] * W + kDx[k];
   // Seeds: outlets next to an active cell (an outlet surrounded by outlets
   // routes nothing), found from the active side: islands are a minority of
-  // the canvas. Pushed in flat-index order of the active cells.
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) {
-      if (rl[y * W + x] != kActive) continue;
-      for (int k = 0; k < 8; ++k) {
+  // the canvas. The order they are pushed in does not matter: keys are unique
+  // and the heap pops the smallest.
+  for (int i = 0; i < n; ++i) {
+    if (rl[i] != kActive) continue;
+    const bool interior = !(state[i] & kEdge);
+    const int x = interior ? 0 : i % W, y = interior ? 0 : i / W;
+    for (int k = 0; k < 8; ++k) {
+      int j;
+      if (interior) {
+        j = i + offset[k];
+      } else {
         const int nx = x + kDx[k], ny = y + kDy[k];
         if (nx < 0 || ny < 0 || nx >= W || ny >= H) continue;
-        const int j = ny * W + nx;
-        if (rl[j] != kOutlet || (state[j] & kSeeded)) continue;
-        state[j] |= kSeeded;
-        heap.push(node_key(f[j], j));
+        j = ny * W + nx;
       }
+      if (rl[j] != kOutlet || (state[j] & kSeeded)) continue;
+      state[j] |= kSeeded;
+      heap.push(node_key(f[j], j));
     }
+  }
   out.order.reserve(n);
   while (!heap.empty() || pit_head < pit.size()) {
     int c;
