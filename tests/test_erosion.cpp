@@ -93,7 +93,7 @@ TEST(Flood, DrainPitsBreachesShallowDepressionsAndFillsDeepOnes) {
     }
 }
 
-// flood_route's queue (a radix heap) against the textbook Priority-Flood
+// flood_route's queue (a radix-sorted list walked by a pointer) against the textbook Priority-Flood
 // with a binary heap on the same (height, index) order: the same pop order,
 // receivers and filled surface on rough fields with many depressions (the
 // drainage sums, and so every eroded island, depend on that order).

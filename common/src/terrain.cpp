@@ -15,69 +15,42 @@ namespace reefgen {
 
 namespace {
 
-// Heap entry: lowest height first, then lowest flat index (a total order, so
-// the pop sequence never depends on the heap's internals), packed into one
-// 64-bit key — the float's bits made order-preserving as unsigned, the index
-// below — so each heap comparison is one integer compare (the heap is ~45 %
-// of a dataset pair's time). −0 is folded onto +0: the two compare equal as
-// floats, and the index must decide between them as before.
-inline uint64_t node_key(float h, int i) {
+// Queue order: lowest height first, then lowest flat index (a total order, so
+// the route is a pure function of the inputs), packed into one 64-bit key —
+// the float's bits made order-preserving as unsigned, the index below. −0 is
+// folded onto +0: the two compare equal as floats, and the index must decide
+// between them.
+inline uint32_t height_key(float h) {
   if (h == 0.0f) h = 0.0f;
   uint32_t u;
   std::memcpy(&u, &h, 4);
-  u = (u & 0x80000000u) ? ~u : (u | 0x80000000u);
-  return uint64_t(u) << 32 | uint32_t(i);
+  return (u & 0x80000000u) ? ~u : (u | 0x80000000u);
 }
+inline uint64_t node_key(float h, int i) { return uint64_t(height_key(h)) << 32 | uint32_t(i); }
 inline int node_index(uint64_t key) { return int(uint32_t(key)); }
 
-// Priority-Flood's queue is monotone: every key pushed is above the last key
-// popped (a cell enters the heap only when higher than the level it was
-// reached from; lower cells go to the depression queue). A radix heap
-// (Ahuja et al. 1990) is then exact: it pops the smallest key, as a binary
-// heap does, so the pop order (and every drainage sum built on it) is the
-// same, in O(1) per push and O(log C) amortised per pop instead of two
-// O(log n) sift passes. Bucket b (1..64) holds keys whose highest bit
-// differing from the last popped key is bit b − 1; a bit mask of the
-// non-empty buckets finds the lowest in one instruction. Keys are unique (the
-// cell index is in them), so no key pushed equals the last one popped and
-// bucket 0 of the textbook structure is not needed.
-class RadixHeap {
- public:
-  bool empty() const { return mask_ == 0; }
-  void push(uint64_t key) {
-    if (key < last_) throw std::logic_error("flood_route: a key below the last popped one (the queue must be monotone)");
-    put(key);
-  }
-  uint64_t pop() {
-    const int b = __builtin_ctzll(mask_) + 1;
-    std::vector<uint64_t>& v = buckets_[b];
-    mask_ &= ~(1ull << (b - 1));
-    if (v.size() == 1) {
-      last_ = v[0];
-      v.clear();
-      return last_;
+// Sorts keys by their upper 32 bits, stably (ties keep their input order):
+// LSD radix sort, three passes of 11, 11 and 10 bits, a pass skipped when all
+// keys share its digit.
+void sort_by_height_key(std::vector<uint64_t>& keys) {
+  std::vector<uint64_t> tmp(keys.size());
+  static constexpr int kShift[3] = {32, 43, 54}, kBuckets = 2048;
+  std::vector<uint32_t> count(3 * kBuckets, 0);
+  for (const uint64_t k : keys)
+    for (int p = 0; p < 3; ++p) ++count[p * kBuckets + ((k >> kShift[p]) & (kBuckets - 1))];
+  for (int p = 0; p < 3; ++p) {
+    uint32_t* c = &count[p * kBuckets];
+    if (!keys.empty() && c[(keys[0] >> kShift[p]) & (kBuckets - 1)] == keys.size()) continue;
+    uint32_t sum = 0;
+    for (int b = 0; b < kBuckets; ++b) {
+      const uint32_t here = c[b];
+      c[b] = sum;
+      sum += here;
     }
-    // The minimum leaves; every other key of the bucket now differs from it
-    // below bit b − 1, so it moves to a lower bucket.
-    const auto lowest = std::min_element(v.begin(), v.end());
-    last_ = *lowest;
-    *lowest = v.back();
-    v.pop_back();
-    for (const uint64_t k : v) put(k);
-    v.clear();
-    return last_;
+    for (const uint64_t k : keys) tmp[c[(k >> kShift[p]) & (kBuckets - 1)]++] = k;
+    keys.swap(tmp);
   }
-
- private:
-  void put(uint64_t key) {
-    const uint64_t diff = key ^ last_;
-    const int b = diff == 0 ? 1 : 64 - __builtin_clzll(diff);  // equal: only a repeated key, which sorts anywhere
-    buckets_[b].push_back(key);
-    mask_ |= 1ull << (b - 1);
-  }
-  std::vector<uint64_t> buckets_[65];
-  uint64_t last_ = 0, mask_ = 0;
-};
+}
 
 }  // namespace
 
@@ -94,13 +67,13 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
   // test per neighbour in the loop below), kEdge = on the canvas edge (the
   // only cells whose neighbours need bounds checks; the others go through
   // flat-index offsets: the same neighbours in the same order, and no
-  // division to find a cell's column), kSeeded = an outlet already queued.
-  enum : uint8_t { kOpen = 1, kEdge = 2, kSeeded = 4 };
+  // division to find a cell's column), kQueued = in the priority queue
+  // (a seed, or a cell reached from below).
+  enum : uint8_t { kOpen = 1, kEdge = 2, kQueued = 4 };
   std::vector<uint8_t> state(n);
   for (int i = 0; i < n; ++i) state[i] = rl[i] == kActive ? kOpen : 0;
   for (int x = 0; x < W; ++x) state[x] |= kEdge, state[(H - 1) * W + x] |= kEdge;
   for (int y = 0; y < H; ++y) state[y * W] |= kEdge, state[y * W + W - 1] |= kEdge;
-  RadixHeap heap;
   // Depression cells: reached below the spill level, processed FIFO. Each
   // cell enters once; the buffer restarts whenever it runs empty.
   std::vector<int> pit;
@@ -110,8 +83,7 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
   for (int k = 0; k < 8; ++k) offset[k] = kDy[k] * W + kDx[k];
   // Seeds: outlets next to an active cell (an outlet surrounded by outlets
   // routes nothing), found from the active side: islands are a minority of
-  // the canvas. The order they are pushed in does not matter: keys are unique
-  // and the heap pops the smallest.
+  // the canvas.
   for (int i = 0; i < n; ++i) {
     if (rl[i] != kActive) continue;
     const bool interior = !(state[i] & kEdge);
@@ -125,21 +97,38 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
         if (nx < 0 || ny < 0 || nx >= W || ny >= H) continue;
         j = ny * W + nx;
       }
-      if (rl[j] != kOutlet || (state[j] & kSeeded)) continue;
-      state[j] |= kSeeded;
-      heap.push(node_key(f[j], j));
+      if (rl[j] == kOutlet) state[j] |= kQueued;
     }
   }
+  // The priority queue without a heap. Its keys are monotone: a cell is
+  // queued only when strictly higher than the level it was reached from, and
+  // that level is never below the last key taken out (lower cells go to the
+  // depression queue). So every cell that will ever be queued can be sorted
+  // up front (the seeds and the active cells), and "take the smallest queued
+  // key" is a pointer walking that sorted list to the next cell that is
+  // queued. A cell the pointer passes unqueued is lower than everything
+  // still to come: if the flood reaches it later, it is a depression cell.
+  // Same pop order as a binary heap (test Flood.RouteEqualsABinaryHeapPriorityFlood),
+  // in O(n): a radix sort and one pass.
+  std::vector<uint64_t> sorted;
+  for (int i = 0; i < n; ++i)
+    if (state[i] & (kOpen | kQueued)) sorted.push_back(node_key(f[i], i));
+  sort_by_height_key(sorted);
+  size_t next = 0;
+  uint64_t last = 0;  // the last key the queue gave
   out.order.reserve(n);
-  while (!heap.empty() || pit_head < pit.size()) {
+  for (;;) {
     int c;
     if (pit_head < pit.size()) {
       c = pit[pit_head++];
       if (pit_head == pit.size()) pit.clear(), pit_head = 0;
     } else {
-      c = node_index(heap.pop());
+      while (next < sorted.size() && !(state[node_index(sorted[next])] & kQueued)) ++next;
+      if (next == sorted.size()) break;
+      last = sorted[next++];
+      c = node_index(last);
     }
-    if (rl[c] == kActive) out.order.push_back(c);  // popped: its receiver was popped before it
+    if (rl[c] == kActive) out.order.push_back(c);  // taken out: its receiver was taken out before it
     const bool interior = !(state[c] & kEdge);
     const int cx = interior ? 0 : c % W, cy = interior ? 0 : c / W;
     const float level = f[c];
@@ -159,7 +148,9 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
         f[j] = level;  // inside a depression: filled to the spill level
         pit.push_back(j);
       } else {
-        heap.push(node_key(f[j], j));
+        // Only a NaN height breaks the monotone order (it compares false).
+        if (node_key(f[j], j) < last) throw std::logic_error("flood_route: a queued key below the last one taken (NaN height?)");
+        state[j] |= kQueued;
       }
     }
   }

@@ -31,9 +31,10 @@ struct FloodRoute {
 };
 
 // Priority-Flood (Barnes et al. 2014) with its plain-queue optimisation:
-// cells below the current spill level are depression cells and skip the heap.
-// Ties in the heap are broken by flat index, so the route is a pure function of
-// the inputs. O(n log n) in the cells that are not in depressions.
+// cells below the current spill level are depression cells and skip the
+// priority queue. Ties are broken by flat index, so the route is a pure
+// function of the inputs. O(n): the priority queue is a radix-sorted list of
+// the cells that can enter it (its keys are monotone; terrain.cpp says why).
 FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role);
 
 // Roles for "water leaves at the sea (h ≤ sea_m) and at the canvas edge":
