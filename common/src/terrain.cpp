@@ -149,7 +149,8 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
         pit.push_back(j);
       } else {
         // Only a NaN height breaks the monotone order (it compares false).
-        if (node_key(f[j], j) < last) throw std::logic_error("flood_route: a queued key below the last one taken (NaN height?)");
+        if (node_key(f[j], j) < last)
+          throw std::logic_error("flood_route: a queued key below the last one taken (NaN height?)");
         state[j] |= kQueued;
       }
     }
