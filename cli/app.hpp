@@ -53,6 +53,8 @@ Command add_realism_command(CLI::App& app, const GlobalOptions& g);
 std::function<int()> add_bench_model_commands(CLI::App* bench);
 // `bench realism` (sets *sub to its subcommand); returns its runner.
 std::function<int()> add_bench_realism_command(CLI::App* bench, const GlobalOptions& g, CLI::App** sub);
+// reefgen bench dataset: pairs/s of dataset build (cmd_bench_dataset.cpp).
+std::function<int()> add_bench_dataset_command(CLI::App* bench, const GlobalOptions& g, CLI::App** sub);
 
 // Ctrl-C (SIGINT) and SIGTERM: long-running commands (train, studio) install
 // this handler and poll the flag to stop cleanly instead of dying mid-write.

@@ -30,6 +30,7 @@ Command add_bench_command(CLI::App& app, const GlobalOptions& g) {
   auto* sub = app.add_subcommand("bench", "Benchmarks (print figures; not tests)\n\nExamples:\n  reefgen bench generate --reps 50\n"
                                         "  reefgen bench train --ngf 64 --reps 5\n  reefgen bench infer --reps 20\n"
                                         "  reefgen bench realism          # issue 20's realism bars at 1025²\n"
+                                        "  reefgen bench dataset          # dataset build pairs/s with erosion\n"
                                         "  bash scripts/bench-model.sh    # against the Python reference, as ratios\n");
   auto* gen = sub->add_subcommand("generate", "ms per island on one thread, islands/s on all cores");
   sub->require_subcommand(1);
@@ -45,8 +46,11 @@ Command add_bench_command(CLI::App& app, const GlobalOptions& g) {
   auto model_bench = add_bench_model_commands(sub);
   CLI::App* realism = nullptr;
   auto realism_bench = add_bench_realism_command(sub, g, &realism);
-  return {sub, [a, &g, gen, model_bench, realism, realism_bench]() -> int {
+  CLI::App* dataset = nullptr;
+  auto dataset_bench = add_bench_dataset_command(sub, g, &dataset);
+  return {sub, [a, &g, gen, model_bench, realism, realism_bench, dataset, dataset_bench]() -> int {
             if (realism->parsed()) return realism_bench();
+            if (dataset->parsed()) return dataset_bench();
             if (!gen->parsed()) return model_bench();
             if (a->reps < 1 || a->islands < 1 || a->threads < 1) throw Error("--reps, --islands and --threads must be ≥ 1");
             RandomSpecParams rp;

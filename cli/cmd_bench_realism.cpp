@@ -3,7 +3,6 @@
 // and the painted sketches of tests/data/painted answered by `infer --size`.
 // One JSON object on stdout, the CPU model included: figures depend on it.
 #include <cstdio>
-#include <fstream>
 #include <optional>
 
 #include <nlohmann/json.hpp>
@@ -13,20 +12,9 @@
 #include "reefgen/io.hpp"
 #include "reefgen/model/generator_file.hpp"
 #include "reefgen/model/shipped.hpp"
+#include "reefgen/parallel.hpp"
 
 namespace reefgen {
-
-namespace {
-
-std::string cpu_model() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(in, line))
-    if (line.rfind("model name", 0) == 0) return line.substr(line.find(':') + 2);
-  return "unknown";
-}
-
-}  // namespace
 
 std::function<int()> add_bench_realism_command(CLI::App* bench, const GlobalOptions& g, CLI::App** sub_out) {
   struct Args {

@@ -414,6 +414,11 @@ expect_error "not in range 1 to 256" presets --threads 0
   && [ -s "$T/i/named.height.exr" ] && [ -s "$T/i/named.preview.png" ] && [ -s "$T/i/named.json" ] && ok || bad "infer -o NAME.height.exr"
 "$BIN" -q floating --painting "$PAINT" --seed 3 -o "$T/f/sw.glb" --preview >/dev/null && [ -s "$T/f/sw.preview.png" ] && ok || bad "floating --preview as a switch"
 
+# 6c. bench dataset prints its figure as JSON and leaves no build folder behind.
+out=$(TMPDIR="$T/bt" bash -c 'mkdir -p "$TMPDIR" && "$0" -q bench dataset --count 6 --reps 2 --threads 1' "$BIN" 2>"$T/err")
+echo "$out" | "$PY" -c 'import json,sys; d=json.load(sys.stdin); assert d["bench"]=="dataset" and len(d["pairs_per_s"])==2 and d["median_pairs_per_s"]>0 and d["p_erosion"]==1' \
+  && [ -z "$(ls -A "$T/bt")" ] && ok || bad "bench dataset: $out $(cat "$T/err") left: $(ls "$T/bt")"
+
 # 7. --version, --help with examples.
 "$BIN" --version | grep -q "reefgen [0-9]" && ok || bad "--version"
 "$BIN" generate --help | grep -q "Examples" && ok || bad "generate --help has no examples"

@@ -20,6 +20,25 @@ inline int default_threads() {
   return n ? static_cast<int>(n) : 1;
 }
 
+// The CPU's model name (Linux /proc/cpuinfo), printed beside every timing:
+// the figures depend on it and the machine changes between sessions.
+inline std::string cpu_model() {
+  std::FILE* f = std::fopen("/proc/cpuinfo", "r");
+  if (!f) return "unknown";
+  char line[512];
+  std::string model = "unknown";
+  while (std::fgets(line, sizeof line, f)) {
+    const std::string s(line);
+    if (s.rfind("model name", 0) != 0) continue;
+    const size_t colon = s.find(':');
+    if (colon != std::string::npos) model = s.substr(s.find_first_not_of(' ', colon + 1));
+    while (!model.empty() && (model.back() == '\n' || model.back() == ' ')) model.pop_back();
+    break;
+  }
+  std::fclose(f);
+  return model;
+}
+
 // Progress on stderr unless quiet: on a terminal a line redrawn in place
 // (5 times a second at most), otherwise (a log, srun, a pipe) a plain line
 // every 10 s, so a long job in a batch log is seen to move. Data goes to
