@@ -14,6 +14,7 @@
 
 #include "reefgen/io.hpp"
 #include "reefgen/constants.hpp"
+#include "reefgen/labels.hpp"
 #include "reefgen/procgen/erosion.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
@@ -299,7 +300,8 @@ ErosionParams shaping_only() {
                                    {"amplify_steps", 0},
                                    {"amplify_duration_scale", 0},
                                    {"amplify_lobe_m", 0},
-                                   {"amplify_plain_smooth_m", 0}},
+                                   {"amplify_plain_smooth_m", 0},
+                                   {"amplify_pond_max_m2", 0}},
                                   "shaping_only");
 }
 
@@ -396,6 +398,76 @@ TEST(Erosion, PlainSmoothingTakesTheRingsOffTheBeachPlain) {
   EXPECT_EQ(moved_mountain, 0);
   EXPECT_EQ(moved_sea, 0);
   EXPECT_EQ(coast_moved, 0);
+}
+
+// Cells of sea (h ≤ 0) that do not reach the canvas edge through other sea.
+int enclosed_sea_cells(const cv::Mat1f& h) {
+  cv::Mat1i comp;
+  const int n = cv::connectedComponents(cv::Mat1b(h <= 0.f), comp, 8, CV_32S);
+  std::vector<uint8_t> open(size_t(n), 0);
+  for (int i = 0; i < h.cols; ++i)
+    open[size_t(comp(0, i))] = open[size_t(comp(h.rows - 1, i))] = open[size_t(comp(i, 0))] =
+        open[size_t(comp(i, h.cols - 1))] = 1;
+  int cells = 0;
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x) cells += h(y, x) <= 0 && !open[size_t(comp(y, x))];
+  return cells;
+}
+
+// The model leaves small ponds of sea inside the land (its lowland speckle
+// dipping below 0 m); amplify_pond_max_m2 raises them to land. A large
+// lagoon closed by an island ring stays sea unless the sketch painted it as
+// island.
+TEST(Erosion, AmplifyRaisesTheModelsPondsButNotAClosedLagoon) {
+  const int W = 256;
+  const double cell_m = kCanvasWorldSizeM / W;
+  auto uv = [&](int y, int x) { return cv::Point2f((x + 0.5f) / W * 2 - 1, (y + 0.5f) / W * 2 - 1); };
+  // A volcano with a pond dug into its lowland (radius 4 cells, 3 m deep)
+  // where the sketch painted lagoon, as the model does.
+  cv::Mat1f volcano(W, W);
+  cv::Mat1b lagoon_paint(W, W);
+  int pond = 0;
+  for (int y = 0; y < W; ++y)
+    for (int x = 0; x < W; ++x) {
+      const cv::Point2f q = uv(y, x);
+      const float r = std::hypot(q.x, q.y);
+      volcano(y, x) = r < 0.7f ? 200.f * (0.7f - r) / 0.7f : -40.f;
+      lagoon_paint(y, x) = r < 0.3f ? kIsland : (r < 0.7f ? kLagoon : kAbyss);
+      if (std::hypot(x - 0.5f * W - 0.6f * W / 2, y - 0.5f * W) < 4) volcano(y, x) = -3.f, ++pond;
+    }
+  ASSERT_GT(pond * cell_m * cell_m, 1e4);  // a real pond, well under the default 0.25 km²
+  ASSERT_EQ(enclosed_sea_cells(volcano), pond);
+  ErosionParams p = shaping_only();
+  EXPECT_EQ(enclosed_sea_cells(amplify_heights(volcano, lagoon_paint, kCanvasWorldSizeM, 1, p)), pond);  // off: kept
+  p.amplify_pond_max_m2 = 2.5e5;
+  const cv::Mat1f filled = amplify_heights(volcano, lagoon_paint, kCanvasWorldSizeM, 1, p);
+  EXPECT_EQ(enclosed_sea_cells(filled), 0);
+  for (int y = 0; y < W; ++y)
+    for (int x = 0; x < W; ++x) {
+      if (volcano(y, x) == -3.f) {
+        // the floor follows its shore (~ 200 · (0.7 − 0.6) / 0.7 ≈ 29 m around it), drained
+        EXPECT_GE(filled(y, x), 0.1f);
+        EXPECT_LE(filled(y, x), 40.f);
+      } else if (volcano(y, x) <= 0) {
+        EXPECT_EQ(filled(y, x), volcano(y, x));  // the open sea does not move
+      }
+    }
+  // An island ring (5 m) around a lagoon of ~7 km²: painted lagoon, it stays
+  // sea; painted island, it is land.
+  cv::Mat1f ring(W, W);
+  cv::Mat1b paint(W, W);
+  for (int y = 0; y < W; ++y)
+    for (int x = 0; x < W; ++x) {
+      const cv::Point2f q = uv(y, x);
+      const float r = std::hypot(q.x, q.y);
+      ring(y, x) = r < 0.5f ? -10.f : (r < 0.7f ? 5.f : -40.f);
+      paint(y, x) = r < 0.5f ? kLagoon : (r < 0.7f ? kBeach : kAbyss);
+    }
+  const int lagoon = enclosed_sea_cells(ring);
+  ASSERT_GT(lagoon * cell_m * cell_m, 5e6);
+  EXPECT_EQ(enclosed_sea_cells(amplify_heights(ring, paint, kCanvasWorldSizeM, 1, p)), lagoon);
+  paint.setTo(kIsland, (ring < 0.f) & (paint == kLagoon));
+  EXPECT_EQ(enclosed_sea_cells(amplify_heights(ring, paint, kCanvasWorldSizeM, 1, p)), 0);
 }
 
 TEST(Erosion, RefinementLevels) {

@@ -54,6 +54,7 @@ struct ErosionParams {
   double amplify_lobe_spacing_m = 400;  // spacing of those lobes along a contour, m, [1, 1e5]
   bool amplify_lobe_along_flow = true;  // one push per flow line (spurs and re-entrants from the low flank up), not a 2D noise
   double amplify_plain_smooth_m = 150;  // Gaussian σ that takes the model's rings off the beach/lagoon plain's land, m, [0, 2000] (0 = off)
+  double amplify_pond_max_m2 = 2.5e5;  // sea enclosed by land up to this area (any size where painted island/beach) is raised to land, m², [0, 1e9] (0 = off)
 };
 
 // The one field list (common/params_json.hpp): JSON both ways and the ranges.
@@ -83,6 +84,7 @@ void fields(ErosionParams& p, F&& f) {
   f("amplify_lobe_spacing_m", p.amplify_lobe_spacing_m, Range{1, 1e5});
   f("amplify_lobe_along_flow", p.amplify_lobe_along_flow);
   f("amplify_plain_smooth_m", p.amplify_plain_smooth_m, Range{0, 2000});
+  f("amplify_pond_max_m2", p.amplify_pond_max_m2, Range{0, 1e9});
 }
 void to_json(nlohmann::json& j, const ErosionParams& p);
 // Every key optional; unknown keys and out-of-range values throw reefgen::Error naming `origin`.
@@ -145,8 +147,10 @@ cv::Mat1f resistance_of_labels(const cv::Mat1b& label);
 // filled by sediment, valleys the model smoothed re-carved), then refined
 // level by level as the generator refines its own islands, with fractal
 // detail noise (amplitude ∝ cell size) standing in for the render's finer
-// detail. Only land moves; the sea is the coarse answer, bicubic. label: the
-// sketch's regions at size×size.
+// detail. Only land moves; the sea is the coarse answer, bicubic, except
+// the small ponds of sea enclosed by land (amplify_pond_max_m2), which
+// become land. label: the sketch's regions at
+// size×size.
 cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, double world_size_m, uint64_t seed,
                           const ErosionParams& p = {});
 
