@@ -4,15 +4,16 @@
 # (hypsometric previews, whole canvas). Top row: the amplification as it was
 # before 2026-11-25's afternoon (lobes from a 2D noise, the whole base-grid
 # erosion time, the model's beach plain kept: {"amplify_lobe_along_flow":
-# false, "amplify_duration_scale": 1, "amplify_plain_smooth_m": 0}); bottom
-# row: the defaults (lobes along flow lines, half the time, the plain's rings
-# smoothed off), docs/EROSION.md. Prints the realism statistics of both.
+# false, "amplify_duration_scale": 1, "amplify_plain_smooth_m": 0,
+# "amplify_pond_max_m2": 0}); bottom row: the defaults (lobes along flow
+# lines, half the time, the plain's rings smoothed off, the model's ponds
+# raised to land), docs/EROSION.md. Prints the realism statistics of both.
 # Needs python3-numpy and python3-opencv.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 R=build/cli/reefgen
 W=$(mktemp -d); trap 'rm -rf "$W"' EXIT
-echo '{"amplify_lobe_along_flow": false, "amplify_duration_scale": 1, "amplify_plain_smooth_m": 0}' > "$W/before.json"
+echo '{"amplify_lobe_along_flow": false, "amplify_duration_scale": 1, "amplify_plain_smooth_m": 0, "amplify_pond_max_m2": 0}' > "$W/before.json"
 names=(07-polygon-aa 03-two-islands 06-long-arc)
 for n in "${names[@]}"; do
   $R -q infer "tests/data/painted/$n.png" --size 1025 --erosion "$W/before.json" -o "$W/before-$n" --preview >/dev/null
@@ -26,8 +27,8 @@ python3 - "$W" "${names[@]}" <<'EOF2'
 import sys, cv2, numpy as np
 w, names = sys.argv[1], sys.argv[2:]
 rows = []
-for tag, title in (("before", "before: 2D lobes, whole erosion time, plain kept"),
-                   ("now", "defaults: lobes along flow lines, half the time, plain smoothed")):
+for tag, title in (("before", "before: 2D lobes, whole erosion time, plain kept, ponds kept"),
+                   ("now", "defaults: lobes along flow lines, half the time, plain smoothed, ponds filled")):
     tiles = []
     for n in names:
         im = cv2.imread(f"{w}/{tag}-{n}.preview.png")
