@@ -301,6 +301,7 @@ ErosionParams shaping_only() {
                                    {"amplify_duration_scale", 0},
                                    {"amplify_lobe_m", 0},
                                    {"amplify_plain_smooth_m", 0},
+                                   {"amplify_low_island_m", 0},
                                    {"amplify_pond_max_m2", 0}},
                                   "shaping_only");
 }
@@ -397,6 +398,51 @@ TEST(Erosion, PlainSmoothingTakesTheRingsOffTheBeachPlain) {
     }
   EXPECT_EQ(moved_mountain, 0);
   EXPECT_EQ(moved_sea, 0);
+  EXPECT_EQ(coast_moved, 0);
+}
+
+// An older, low island comes back from the model as a dome ringed by ridges
+// on its mountain too; amplify_low_island_m smooths them there. A high
+// volcano's mountain is left as the model drew it.
+TEST(Erosion, LowIslandsLoseTheirRingsHighOnesKeepTheirMountain) {
+  const int W = 256;
+  auto island = [&](float peak_m) {
+    cv::Mat1f h(W, W);
+    for (int y = 0; y < W; ++y)
+      for (int x = 0; x < W; ++x) {
+        const float u = (x + 0.5f) / W * 2 - 1, v = (y + 0.5f) / W * 2 - 1, r = std::sqrt(u * u + v * v);
+        // a cone to the coast at r = 0.5 with a 10 m ridge ring at r = 0.3
+        h(y, x) = r < 0.5f ? peak_m * (0.5f - r) / 0.5f + 10.f * std::exp(-std::pow((r - 0.3f) / 0.035f, 2.f)) : -50.f;
+      }
+    return h;
+  };
+  cv::Mat1b label(W, W);
+  const cv::Mat1f low = island(50.f), high = island(400.f);
+  for (int y = 0; y < W; ++y)
+    for (int x = 0; x < W; ++x) label(y, x) = low(y, x) > 0 ? kIsland : kAbyss;
+  auto ring_m = [&](const cv::Mat1f& a, float peak_m) {
+    float ring = 0;
+    for (int x = W / 2 + int(0.2 * W / 2); x < W / 2 + int(0.4 * W / 2); ++x) {
+      const float r = (x + 0.5f) / W * 2 - 1;
+      ring = std::max(ring, a(W / 2, x) - peak_m * (0.5f - r) / 0.5f);
+    }
+    return ring;
+  };
+  ErosionParams p = shaping_only();
+  p.amplify_plain_smooth_m = 150;
+  const cv::Mat1f kept = amplify_heights(low, label, kCanvasWorldSizeM, 1, p);
+  p.amplify_low_island_m = 120;
+  const cv::Mat1f smoothed = amplify_heights(low, label, kCanvasWorldSizeM, 1, p);
+  EXPECT_GT(ring_m(kept, 50.f), 9.0);
+  EXPECT_LT(ring_m(smoothed, 50.f), 0.5 * ring_m(kept, 50.f));
+  const cv::Mat1f volcano = amplify_heights(high, label, kCanvasWorldSizeM, 1, p);
+  int moved = 0, coast_moved = 0;
+  for (int y = 0; y < W; ++y)
+    for (int x = 0; x < W; ++x) {
+      moved += std::abs(volcano(y, x) - high(y, x)) > 1e-3f;
+      coast_moved += (low(y, x) > 0) != (smoothed(y, x) > 0);
+    }
+  EXPECT_EQ(moved, 0);
   EXPECT_EQ(coast_moved, 0);
 }
 

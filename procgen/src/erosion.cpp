@@ -530,15 +530,27 @@ void roughen_land(cv::Mat1f& h, double world_size_m, uint64_t seed, const Erosio
 // the coast (h < 5 m) so the coastline stays where the model put it; the
 // roughening and the erosion then give the plain its relief, as the render
 // and the erosion do for the generator (docs/EROSION.md).
-void smooth_plains(cv::Mat1f& h, const cv::Mat1b& label, double sigma_px) {
+// A low island (an older, subsided one) comes back as a low dome ringed by
+// the same ridges and moats, on its mountain too, where they are as high as
+// the dome's own relief: islands whose own peak is below low_island_m are
+// smoothed over all their land (fully below half of it, fading out up to it).
+void smooth_plains(cv::Mat1f& h, const cv::Mat1b& label, double sigma_px, double low_island_m) {
   if (sigma_px <= 0) return;
   const int S = h.cols;
   cv::Mat1f land(S, S), hl(S, S), plain(S, S);
+  cv::Mat1i island;
+  const int islands = cv::connectedComponents(cv::Mat1b(h > 0), island, 8, CV_32S);
+  std::vector<float> peak(size_t(islands), 0.f);
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x) peak[size_t(island(y, x))] = std::max(peak[size_t(island(y, x))], h(y, x));
   for (int y = 0; y < S; ++y)
     for (int x = 0; x < S; ++x) {
       land(y, x) = h(y, x) > 0 ? 1.f : 0.f;
       hl(y, x) = h(y, x) > 0 ? h(y, x) : 0.f;
-      plain(y, x) = (label(y, x) >= 1 && label(y, x) <= 3) ? 1.f : 0.f;
+      const float low = low_island_m > 0
+                            ? std::clamp(float(2.0 - 2.0 * peak[size_t(island(y, x))] / low_island_m), 0.f, 1.f)
+                            : 0.f;
+      plain(y, x) = (label(y, x) >= 1 && label(y, x) <= 3) ? 1.f : (h(y, x) > 0 ? low : 0.f);
     }
   cv::Mat1f bl, bh;
   cv::GaussianBlur(land, bl, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REPLICATE);
@@ -628,7 +640,7 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
   cv::Mat1b label_s;
   cv::resize(label, label_s, cv::Size(S, S), 0, 0, cv::INTER_NEAREST);
   if (p.enabled) {
-    smooth_plains(coarse, label_s, p.amplify_plain_smooth_m / (world_size_m / S));
+    smooth_plains(coarse, label_s, p.amplify_plain_smooth_m / (world_size_m / S), p.amplify_low_island_m);
     fill_ponds(coarse, label_s, world_size_m / S, p.amplify_pond_max_m2);
     roughen_land(coarse, world_size_m, seed, p);
     // Few steps (amplify_steps, not the generator's `steps`): measured, 8 steps

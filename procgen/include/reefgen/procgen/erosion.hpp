@@ -54,6 +54,7 @@ struct ErosionParams {
   double amplify_lobe_spacing_m = 400;  // spacing of those lobes along a contour, m, [1, 1e5]
   bool amplify_lobe_along_flow = true;  // one push per flow line (spurs and re-entrants from the low flank up), not a 2D noise
   double amplify_plain_smooth_m = 150;  // Gaussian σ that takes the model's rings off the beach/lagoon plain's land, m, [0, 2000] (0 = off)
+  double amplify_low_island_m = 120;  // islands whose own peak is below this get that smoothing on all their land (fully below half), m, [0, 1e4] (0 = off)
   double amplify_pond_max_m2 = 2.5e5;  // sea enclosed by land up to this area (any size where painted island/beach) is raised to land, m², [0, 1e9] (0 = off)
 };
 
@@ -84,6 +85,7 @@ void fields(ErosionParams& p, F&& f) {
   f("amplify_lobe_spacing_m", p.amplify_lobe_spacing_m, Range{1, 1e5});
   f("amplify_lobe_along_flow", p.amplify_lobe_along_flow);
   f("amplify_plain_smooth_m", p.amplify_plain_smooth_m, Range{0, 2000});
+  f("amplify_low_island_m", p.amplify_low_island_m, Range{0, 1e4});
   f("amplify_pond_max_m2", p.amplify_pond_max_m2, Range{0, 1e9});
 }
 void to_json(nlohmann::json& j, const ErosionParams& p);
