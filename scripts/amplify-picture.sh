@@ -5,7 +5,7 @@
 # before 2026-11-25's afternoon (lobes from a 2D noise, the whole base-grid
 # erosion time, the model's beach plain kept: {"amplify_lobe_along_flow":
 # false, "amplify_duration_scale": 1, "amplify_plain_smooth_m": 0,
-# "amplify_pond_max_m2": 0}); bottom row: the defaults (lobes along flow
+# "amplify_low_island_m": 0, "amplify_pond_max_m2": 0}); bottom row: the defaults (lobes along flow
 # lines, half the time, the plain's rings smoothed off, the model's ponds
 # raised to land), docs/EROSION.md. Prints the realism statistics of both.
 # Needs python3-numpy and python3-opencv.
@@ -13,7 +13,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 R=build/cli/reefgen
 W=$(mktemp -d); trap 'rm -rf "$W"' EXIT
-echo '{"amplify_lobe_along_flow": false, "amplify_duration_scale": 1, "amplify_plain_smooth_m": 0, "amplify_pond_max_m2": 0}' > "$W/before.json"
+echo '{"amplify_lobe_along_flow": false, "amplify_duration_scale": 1, "amplify_plain_smooth_m": 0, "amplify_low_island_m": 0, "amplify_pond_max_m2": 0}' > "$W/before.json"
 names=(07-polygon-aa 03-two-islands 06-long-arc)
 for n in "${names[@]}"; do
   $R -q infer "tests/data/painted/$n.png" --size 1025 --erosion "$W/before.json" -o "$W/before-$n" --preview >/dev/null
