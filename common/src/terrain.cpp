@@ -81,25 +81,27 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
   static constexpr int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1}, kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
   int offset[8];
   for (int k = 0; k < 8; ++k) offset[k] = kDy[k] * W + kDx[k];
+  // visit(j) for each of c's neighbours inside the canvas, in kDx/kDy
+  // order: flat-index offsets inside, bounds checks on the edge.
+  auto for_neighbours = [&](int c, auto&& visit) {
+    if (!(state[c] & kEdge)) {
+      for (int k = 0; k < 8; ++k) visit(c + offset[k]);
+      return;
+    }
+    const int cx = c % W, cy = c / W;
+    for (int k = 0; k < 8; ++k) {
+      const int nx = cx + kDx[k], ny = cy + kDy[k];
+      if (nx >= 0 && ny >= 0 && nx < W && ny < H) visit(ny * W + nx);
+    }
+  };
   // Seeds: outlets next to an active cell (an outlet surrounded by outlets
   // routes nothing), found from the active side: islands are a minority of
   // the canvas.
-  for (int i = 0; i < n; ++i) {
-    if (rl[i] != kActive) continue;
-    const bool interior = !(state[i] & kEdge);
-    const int x = interior ? 0 : i % W, y = interior ? 0 : i / W;
-    for (int k = 0; k < 8; ++k) {
-      int j;
-      if (interior) {
-        j = i + offset[k];
-      } else {
-        const int nx = x + kDx[k], ny = y + kDy[k];
-        if (nx < 0 || ny < 0 || nx >= W || ny >= H) continue;
-        j = ny * W + nx;
-      }
-      if (rl[j] == kOutlet) state[j] |= kQueued;
-    }
-  }
+  for (int i = 0; i < n; ++i)
+    if (rl[i] == kActive)
+      for_neighbours(i, [&](int j) {
+        if (rl[j] == kOutlet) state[j] |= kQueued;
+      });
   // The priority queue without a heap. Its keys are monotone: a cell is
   // queued only when strictly higher than the level it was reached from, and
   // that level is never below the last key taken out (lower cells go to the
@@ -129,19 +131,9 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
       c = node_index(last);
     }
     if (rl[c] == kActive) out.order.push_back(c);  // taken out: its receiver was taken out before it
-    const bool interior = !(state[c] & kEdge);
-    const int cx = interior ? 0 : c % W, cy = interior ? 0 : c / W;
     const float level = f[c];
-    for (int k = 0; k < 8; ++k) {
-      int j;
-      if (interior) {
-        j = c + offset[k];
-      } else {
-        const int nx = cx + kDx[k], ny = cy + kDy[k];
-        if (nx < 0 || ny < 0 || nx >= W || ny >= H) continue;
-        j = ny * W + nx;
-      }
-      if (!(state[j] & kOpen)) continue;
+    for_neighbours(c, [&](int j) {
+      if (!(state[j] & kOpen)) return;
       state[j] &= uint8_t(~kOpen);
       out.receiver[j] = c;
       if (f[j] <= level) {
@@ -153,7 +145,7 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
           throw std::logic_error("flood_route: a queued key below the last one taken (NaN height?)");
         state[j] |= kQueued;
       }
-    }
+    });
   }
   return out;
 }
