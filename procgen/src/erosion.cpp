@@ -436,6 +436,15 @@ namespace {
 // faded in over the lowest 20 % of each island (of its own peak) so the
 // coast stays where the sketch put it; the concave bends then gather the
 // water the base-grid erosion turns into valleys (docs/EROSION.md).
+// Each cell's island (8-connected land; 0 = sea) and each island's highest height.
+std::vector<float> island_peaks(const cv::Mat1f& h, cv::Mat1i& island) {
+  const int islands = cv::connectedComponents(cv::Mat1b(h > 0), island, 8, CV_32S);
+  std::vector<float> peak(size_t(islands), 0.f);
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x) peak[size_t(island(y, x))] = std::max(peak[size_t(island(y, x))], h(y, x));
+  return peak;
+}
+
 void lobe_contours(cv::Mat1f& h, double world_size_m, uint64_t seed, const ErosionParams& p) {
   if (p.amplify_lobe_m <= 0) return;
   const int S = h.cols;
@@ -458,10 +467,7 @@ void lobe_contours(cv::Mat1f& h, double world_size_m, uint64_t seed, const Erosi
   // beside a young volcano has a flank of its own (with the canvas's peak it
   // would stay a smooth dome).
   cv::Mat1i island;
-  const int islands = cv::connectedComponents(cv::Mat1b(h > 0), island, 8, CV_32S);
-  std::vector<float> peak(size_t(islands), 0.f);
-  for (int y = 0; y < S; ++y)
-    for (int x = 0; x < S; ++x) peak[size_t(island(y, x))] = std::max(peak[size_t(island(y, x))], h(y, x));
+  const std::vector<float> peak = island_peaks(h, island);
   auto foot_m = [&](int y, int x) { return std::max(0.2f * peak[size_t(island(y, x))], 1e-3f); };
   // The noise is read where each cell's flow line (steepest descent on the
   // smoothed heights) reaches the foot of the flank (foot_m), so every cell of
@@ -539,10 +545,7 @@ void smooth_plains(cv::Mat1f& h, const cv::Mat1b& label, double sigma_px, double
   const int S = h.cols;
   cv::Mat1f land(S, S), hl(S, S), plain(S, S);
   cv::Mat1i island;
-  const int islands = cv::connectedComponents(cv::Mat1b(h > 0), island, 8, CV_32S);
-  std::vector<float> peak(size_t(islands), 0.f);
-  for (int y = 0; y < S; ++y)
-    for (int x = 0; x < S; ++x) peak[size_t(island(y, x))] = std::max(peak[size_t(island(y, x))], h(y, x));
+  const std::vector<float> peak = island_peaks(h, island);
   for (int y = 0; y < S; ++y)
     for (int x = 0; x < S; ++x) {
       land(y, x) = h(y, x) > 0 ? 1.f : 0.f;
