@@ -4,7 +4,9 @@
 #include <cstdio>
 
 #include "app.hpp"
+#include "reefgen/cpu.hpp"
 #include "reefgen/io.hpp"
+#include "reefgen/model/dnnl_conv.hpp"
 #include "reefgen/model/generator_file.hpp"
 #include "reefgen/model/shipped.hpp"
 
@@ -19,7 +21,8 @@ Command add_model_command(CLI::App& app, const GlobalOptions&) {
       "Examples:\n"
       "  reefgen model info                                  # the shipped model: verified, described\n"
       "  reefgen model info runs/try/generator.pt\n"
-      "  reefgen model pack runs/try/generator.pt -o models/reef-256.pt --storage float16\n");
+      "  reefgen model pack runs/try/generator.pt -o models/reef-256.pt --storage float16\n"
+      "  reefgen model cpu                                   # what this CPU runs: class, flags, auto's choice\n");
   sub->require_subcommand(1);
   struct Args {
     std::string in, out, storage = "float16";
@@ -32,7 +35,29 @@ Command add_model_command(CLI::App& app, const GlobalOptions&) {
   pack->add_option("-o,--out,--output", a->out, "Output file (not the input)")->required();
   pack->add_option("--storage", a->storage, "float16 (half the size; computes in float32) or float32")
       ->capture_default_str();
-  return {sub, [a, info, pack]() -> int {
+  auto* cpu = sub->add_subcommand(
+      "cpu", "Print this CPU's class and flags, and what --precision auto and the vector loops choose here (JSON)");
+  return {sub, [a, info, pack, cpu]() -> int {
+            if (cpu->parsed()) {
+              const CpuFeatures& c = cpu_features();
+              const json j = {{"cpu", c.model},
+                              {"class", cpu_class()},
+                              {"summary", cpu_summary()},
+                              {"flags",
+                               {{"avx2", c.avx2},
+                                {"fma", c.fma},
+                                {"avx512f", c.avx512f},
+                                {"avx512bw", c.avx512bw},
+                                {"avx512_bf16", c.avx512_bf16},
+                                {"amx_bf16", c.amx_bf16}}},
+                              {"bf16_hidden", cpu_bf16_hidden()},
+                              {"bf16_convolutions", model::bf16_convolution_available()},
+                              {"native_bf16", model::cpu_has_native_bf16()},
+                              {"auto_precision", model::cpu_has_native_bf16() ? "bf16" : "fp32"},
+                              {"vector_path", to_string(cpu_path())}};
+              std::printf("%s\n", j.dump(1).c_str());
+              return 0;
+            }
             const fs::path in = model::resolve_model_path(a->in);
             model::GeneratorFile f = model::load_generator(in);
             const auto& o = f.g->options();

@@ -18,7 +18,8 @@ steps=${STEPS:-30}
 reps=${REPS:-3}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-echo "cpu: $(lscpu | sed -n 's/^Model name: *//p' | head -1), $(nproc) cores"
+source "$here/scripts/cpu-line.sh"
+cpu_line "$bin"
 # mean s_per_iter and allreduce_s over the log rows after the first (warm-up) window
 stats() { awk -F, 'NR>2 {s+=$8; a+=$9; n++} END {printf "%.4f %.4f\n", s/n, a/n}' "$1/log.csv"; }
 for cfg in "${configs[@]}"; do

@@ -4,5 +4,9 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/build.sh
+# The CPU class decides which checks run (bf16 ones need AVX-512; they are
+# skipped with their reason elsewhere): one line at the top of the log.
+source scripts/cpu-line.sh
+cpu_line build/cli/reefgen
 cd build
 ctest --output-on-failure -j "$(nproc)"

@@ -2,6 +2,7 @@
 // compute what LibTorch's conv2d / conv_transpose2d compute — forward and the
 // three gradients — for every shape the networks use and a few they do not.
 #include <gtest/gtest.h>
+#include "reefgen/cpu.hpp"
 #include <torch/torch.h>
 
 #include <set>
@@ -76,7 +77,8 @@ TEST(DnnlConv, MatchesLibTorchForwardAndGradientsWithin1e4) {
 }
 
 TEST(DnnlConv, Bf16StaysWithinBfloat16Rounding) {
-  if (!cpu_has_native_bf16()) GTEST_SKIP() << "no avx512_bf16/AMX: bf16 training is not offered on this CPU";
+  if (!bf16_convolution_available())
+    GTEST_SKIP() << "no bf16 convolutions on this CPU (" << reefgen::cpu_summary() << "): bf16 needs AVX-512";
   // Packed (16x16 input) and plain (4x4 input: ≤ 64 positions) layers.
   for (const Case& c : {Case{1, 64, 32, 16, 4, 2, 1, true, true}, Case{1, 64, 32, 4, 4, 2, 1, true, true},
                         Case{1, 64, 32, 16, 4, 2, 1, false, true}}) {

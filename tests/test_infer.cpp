@@ -1,6 +1,8 @@
 // Inference, evaluation metrics, random sketches, the shipped model's file.
 #include <algorithm>
+#include <cstdlib>
 #include <fstream>
+#include <optional>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -15,6 +17,8 @@
 #include "reefgen/procgen/random_spec.hpp"
 #include "reefgen/terrain.hpp"
 #include "reefgen/io.hpp"
+#include "reefgen/cpu.hpp"
+#include "reefgen/model/dnnl_conv.hpp"
 #include "reefgen/procgen/sketch.hpp"
 #include "test_util.hpp"
 
@@ -287,6 +291,8 @@ TEST(GeneratorFile, Float16StorageAndChecksum) {
 // bf16 inference (issue 12): heights within 1 m of fp32 on the shipped
 // architecture (bilinear resize-convolution, InstanceNorm) and on pix2pix's.
 TEST(Infer, Bf16WithinOneMetreOfFp32) {
+  if (!model::bf16_convolution_available())
+    GTEST_SKIP() << "no bf16 convolutions on this CPU (" << reefgen::cpu_summary() << "): bf16 needs AVX-512";
   const fs::path dir = temp_dir("bf16");
   model::UNetGenerator g = small_resize_net(5, model::Upsample::Bilinear);
   model::save_generator(dir / "g.pt", g, {-100, 560}, 64, 1);
@@ -314,7 +320,37 @@ TEST(Infer, Bf16WithinOneMetreOfFp32) {
     EXPECT_LT(v.back(), 2.0) << "seed " << seed;
     EXPECT_GT(v.back(), 0.0) << "bf16 path not taken";
   }
-  auto opts = [](Precision p, Engine e, bool stochastic = false) {
+}
+
+namespace {
+InferOptions opts(Precision p, Engine e, bool stochastic = false) {
+  InferOptions o;
+  o.precision = p;
+  o.engine = e;
+  o.stochastic = stochastic;
+  return o;
+}
+
+// Sets an environment variable for one scope (tests run one at a time per process).
+struct ScopedEnv {
+  std::string name;
+  std::optional<std::string> old;
+  ScopedEnv(std::string n, const char* value) : name(std::move(n)) {
+    if (const char* o = std::getenv(name.c_str())) old = o;
+    ::setenv(name.c_str(), value, 1);
+  }
+  ~ScopedEnv() { old ? ::setenv(name.c_str(), old->c_str(), 1) : ::unsetenv(name.c_str()); }
+};
+}  // namespace
+
+// What auto chooses and what is refused, on every CPU (the bf16 branches by
+// what this one can do), and CPUID read right.
+TEST(Infer, PrecisionAndEngineResolution) {
+  const fs::path dir = temp_dir("resolve");
+  model::UNetGenerator g = small_resize_net(5, model::Upsample::Bilinear);
+  model::save_generator(dir / "g.pt", g, {-100, 560}, 64, 1);
+  auto f = model::load_generator(dir / "g.pt");
+  std::cerr << "[ cpu      ] " << reefgen::cpu_summary() << "\n"; [](Precision p, Engine e, bool stochastic = false) {
     InferOptions o;
     o.precision = p;
     o.engine = e;
@@ -334,10 +370,19 @@ TEST(Infer, Bf16WithinOneMetreOfFp32) {
         break;
       }
     if (!flags.empty()) {
-      const bool amx = flags.find(" amx_bf16 ") != std::string::npos;
-      const bool avx = flags.find(" avx512_bf16 ") != std::string::npos;
-      EXPECT_EQ(cpu_has_amx_bf16(), amx) << flags;
-      EXPECT_EQ(cpu_has_native_bf16(), amx || avx) << flags;
+      auto has = [&](const char* flag) { return flags.find(std::string(" ") + flag + " ") != std::string::npos; };
+      const auto& cpu = reefgen::cpu_features();
+      EXPECT_EQ(cpu.amx_bf16, has("amx_bf16")) << flags;
+      EXPECT_EQ(cpu.avx512_bf16, has("avx512_bf16")) << flags;
+      EXPECT_EQ(cpu.avx2, has("avx2")) << flags;
+      EXPECT_EQ(cpu.fma, has("fma")) << flags;
+      EXPECT_EQ(cpu.avx512f, has("avx512f")) << flags;
+      EXPECT_EQ(cpu.avx512bw, has("avx512bw")) << flags;
+      const bool capped = std::getenv("DNNL_MAX_CPU_ISA") || reefgen::cpu_bf16_hidden();
+      if (!capped) {
+        EXPECT_EQ(cpu_has_native_bf16(), has("amx_bf16") || has("avx512_bf16")) << flags;
+        EXPECT_EQ(model::bf16_convolution_available(), has("avx512f") && has("avx512bw")) << flags;
+      }
     }
   }
   EXPECT_THROW(precision_from_string("fp8"), reefgen::Error);
@@ -347,11 +392,45 @@ TEST(Infer, Bf16WithinOneMetreOfFp32) {
   auto t = tiny_generator(dir);
   EXPECT_EQ(resolve(opts(Precision::Auto, Engine::Torch), t), Precision::Fp32);
   EXPECT_THROW(resolve(opts(Precision::Bf16, Engine::Torch), t), reefgen::Error);
-  EXPECT_EQ(resolve(opts(Precision::Bf16, Engine::OneDnn), t), Precision::Bf16);
+  if (model::bf16_convolution_available())
+    EXPECT_EQ(resolve(opts(Precision::Bf16, Engine::OneDnn), t), Precision::Bf16);
+  else
+    EXPECT_THROW(resolve(opts(Precision::Bf16, Engine::OneDnn), t), std::runtime_error);
   // Dropout masks exist only on LibTorch's path.
   EXPECT_EQ(resolve_engine(opts(Precision::Fp32, Engine::Auto)), Engine::OneDnn);
   EXPECT_EQ(resolve_engine(opts(Precision::Fp32, Engine::Auto, true)), Engine::Torch);
   EXPECT_THROW(resolve_engine(opts(Precision::Fp32, Engine::OneDnn, true)), reefgen::Error);
+}
+
+// REEFGEN_NO_BF16 hides the CPU's bf16 on any machine, AVX-512-bf16 ones
+// included: auto picks float32 and an explicit bf16 is refused with one line
+// naming the CPU and the fix, as on an AVX2-only CPU.
+TEST(Infer, HiddenBf16TakesTheFloat32Path) {
+  const fs::path dir = temp_dir("nobf16");
+  model::UNetGenerator g = small_resize_net(5, model::Upsample::Bilinear);
+  model::save_generator(dir / "g.pt", g, {-100, 560}, 64, 1);
+  auto f = model::load_generator(dir / "g.pt");
+  ScopedEnv hide("REEFGEN_NO_BF16", "1");
+  EXPECT_FALSE(cpu_has_native_bf16());
+  EXPECT_FALSE(cpu_has_amx_bf16());
+  EXPECT_FALSE(model::bf16_convolution_available());
+  EXPECT_EQ(resolve(opts(Precision::Auto, Engine::Auto), f), Precision::Fp32);
+  EXPECT_EQ(reefgen::cpu_class().find("bf16"), std::string::npos);
+  try {
+    resolve(opts(Precision::Bf16, Engine::OneDnn), f);
+    ADD_FAILURE() << "explicit bf16 accepted with bf16 hidden";
+  } catch (const std::runtime_error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("cannot build a bf16 convolution on this CPU"), std::string::npos) << m;
+    EXPECT_NE(m.find("--precision fp32 or auto"), std::string::npos) << m;
+    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+  }
+  // The engine itself refuses too (a caller that skips resolve()).
+  EXPECT_THROW(infer_heights(f, {sketch(1, 64)}, opts(Precision::Bf16, Engine::OneDnn)), std::runtime_error);
+  // auto runs, in float32, equal to an explicit fp32 run.
+  const auto a = infer_heights(f, {sketch(2, 64)}, opts(Precision::Auto, Engine::OneDnn))[0];
+  const auto b = infer_heights(f, {sketch(2, 64)}, opts(Precision::Fp32, Engine::OneDnn))[0];
+  EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0);
 }
 
 // The two engines give the same heights (fp32) for both decoder kinds, in

@@ -1,6 +1,5 @@
 #include "reefgen/model/dnnl_conv.hpp"
 
-#include <cpuid.h>
 
 #include <map>
 #include <mutex>
@@ -10,20 +9,39 @@
 
 #include <oneapi/dnnl/dnnl.hpp>
 
+#include "reefgen/cpu.hpp"
+
 namespace reefgen::model {
 
+namespace {
+bool dnnl_isa_has(dnnl::cpu_isa want) {
+  const auto have = static_cast<unsigned>(dnnl::get_effective_cpu_isa());
+  return (have & static_cast<unsigned>(want)) == static_cast<unsigned>(want);
+}
+}  // namespace
+
+// The CPU's own instructions (cpu.hpp), unless hidden by REEFGEN_NO_BF16 or
+// capped below them by DNNL_MAX_CPU_ISA: what oneDNN will really run.
 bool cpu_has_native_bf16() {
-  unsigned a = 0, b = 0, c = 0, d = 0;
-  if (!__get_cpuid_count(7, 0, &a, &b, &c, &d)) return false;
-  const bool amx_bf16 = (d >> 22) & 1u;
-  unsigned a1 = 0, b1 = 0, c1 = 0, d1 = 0;
-  const bool avx512_bf16 = a >= 1 && __get_cpuid_count(7, 1, &a1, &b1, &c1, &d1) && ((a1 >> 5) & 1u);
-  return amx_bf16 || avx512_bf16;
+  const CpuFeatures& f = cpu_features();
+  if (cpu_bf16_hidden()) return false;
+  return (f.amx_bf16 && dnnl_isa_has(dnnl::cpu_isa::avx512_core_amx)) ||
+         (f.avx512_bf16 && dnnl_isa_has(dnnl::cpu_isa::avx512_core_bf16));
 }
 
 bool cpu_has_amx_bf16() {
-  unsigned a = 0, b = 0, c = 0, d = 0;
-  return __get_cpuid_count(7, 0, &a, &b, &c, &d) && ((d >> 22) & 1u);
+  return !cpu_bf16_hidden() && cpu_features().amx_bf16 && dnnl_isa_has(dnnl::cpu_isa::avx512_core_amx);
+}
+
+// oneDNN 2.6 builds bf16 convolutions from avx512_core up (emulating the
+// bf16 instructions where the CPU lacks them), never on AVX2: so bf16 is
+// offered on every AVX-512 CPU and refused with one line below it.
+bool bf16_convolution_available() { return !cpu_bf16_hidden() && dnnl_isa_has(dnnl::cpu_isa::avx512_core); }
+
+void require_bf16_convolution(const std::string& fix) {
+  if (bf16_convolution_available()) return;
+  throw std::runtime_error(std::string("oneDNN cannot build a bf16 convolution on this CPU (") + cpu_summary() +
+                           "; bf16 needs AVX-512): " + fix);
 }
 
 namespace {
@@ -303,6 +321,7 @@ torch::Tensor dnnl_conv2d(const torch::Tensor& x, const torch::Tensor& w, const 
     throw std::invalid_argument("dnnl_conv2d: bias must have one value per output channel");
   if (geo.stride < 1 || geo.padding < 0 || geo.padding >= w.size(2))
     throw std::invalid_argument("dnnl_conv2d: stride must be >= 1 and padding in [0, kernel)");
+  if (precision == ConvPrecision::Bf16) require_bf16_convolution("train with --precision fp32 or auto");
   return DnnlConvFn::apply(x, w.contiguous(), b.defined() ? b : torch::empty({0}), geo.stride, geo.padding, geo.transposed,
                            precision == ConvPrecision::Bf16);
 }

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include <oneapi/dnnl/dnnl.hpp>
+#include "reefgen/model/dnnl_conv.hpp"
 
 namespace reefgen::model {
 namespace {
@@ -451,6 +452,7 @@ FastUNet::FastUNet(UNetGeneratorImpl& g, const FastUNetOptions& options) : impl_
                                 std::to_string(1 << u.depth));
   m.batch_stats = g.is_training();
   m.ct = m.o.precision == FastPrecision::Bf16 ? dt::bf16 : dt::f32;
+  if (m.ct == dt::bf16) require_bf16_convolution("use --precision fp32 or auto");
   torch::NoGradGuard no_grad;
   auto params = g.named_parameters(true);
   auto buffers = g.named_buffers(true);

@@ -1,5 +1,7 @@
 #include "reefgen/train/params.hpp"
 
+#include "reefgen/cpu.hpp"
+
 #include "reefgen/json_read.hpp"
 
 
@@ -43,6 +45,9 @@ void validate(const TrainParams& p, const std::string& origin) {
   if (p.epochs + p.epochs_decay <= 0) throw Error(origin + ": epochs + epochs_decay must be > 0");
   if (p.precision == "bf16" && p.engine != "onednn")
     throw Error(origin + ": precision = 'bf16' needs engine = 'onednn' (LibTorch's bf16 convolutions are no faster here)");
+  if (p.precision == "bf16" && !model::bf16_convolution_available())
+    throw Error(origin + ": precision = 'bf16' but oneDNN cannot build bf16 convolutions on this CPU (" + cpu_summary() +
+                "): use 'fp32' or 'auto'");
 }
 
 std::string resolved_precision(const TrainParams& p) {

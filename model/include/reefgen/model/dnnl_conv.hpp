@@ -37,8 +37,16 @@ struct ConvGeometry {
 torch::Tensor dnnl_conv2d(const torch::Tensor& x, const torch::Tensor& w, const torch::Tensor& b,
                           const ConvGeometry& geometry, ConvPrecision precision = ConvPrecision::Fp32);
 
-bool cpu_has_native_bf16();  // avx512_bf16 or AMX-bf16 (cpuid): where bf16 convolutions pay
+// avx512_bf16 or AMX-bf16 (cpuid), unless REEFGEN_NO_BF16 hides them or
+// DNNL_MAX_CPU_ISA caps oneDNN below them: where bf16 convolutions pay.
+bool cpu_has_native_bf16();
 bool cpu_has_amx_bf16();
+// Whether oneDNN can run bf16 convolutions here at all (any AVX-512 CPU,
+// emulated where it has no bf16 instructions); false under REEFGEN_NO_BF16.
+bool bf16_convolution_available();
+// Throws the one-line "oneDNN cannot build a bf16 convolution on this CPU
+// (<cpu summary>): <fix>" where bf16_convolution_available() is false.
+void require_bf16_convolution(const std::string& fix);
 
 // Packed weight copies currently held (tests; the cache drops a copy when its
 // parameter is freed).
