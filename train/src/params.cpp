@@ -45,12 +45,14 @@ void validate(const TrainParams& p, const std::string& origin) {
   if (p.epochs + p.epochs_decay <= 0) throw Error(origin + ": epochs + epochs_decay must be > 0");
   if (p.precision == "bf16" && p.engine != "onednn")
     throw Error(origin + ": precision = 'bf16' needs engine = 'onednn' (LibTorch's bf16 convolutions are no faster here)");
-  if (p.precision == "bf16" && !model::bf16_convolution_available())
-    throw Error(origin + ": precision = 'bf16' but oneDNN cannot build bf16 convolutions on this CPU (" + cpu_summary() +
-                "): use 'fp32' or 'auto'");
 }
 
 std::string resolved_precision(const TrainParams& p) {
+  // Configs stay valid on every CPU (validate() does not look at it); the
+  // run that would need bf16 convolutions is refused here, before any file.
+  if (p.precision == "bf16" && !model::bf16_convolution_available())
+    throw Error("precision = 'bf16' but oneDNN cannot build bf16 convolutions on this CPU (" + cpu_summary() +
+                "): use --precision fp32 or auto");
   if (p.precision != "auto") return p.precision;
   return p.engine == "onednn" && model::cpu_has_native_bf16() ? "bf16" : "fp32";
 }
