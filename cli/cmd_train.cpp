@@ -18,7 +18,7 @@ namespace reefgen {
 namespace {
 
 // `train --nproc N`: this command line again, without --nproc, as N ranks.
-int launch_ranks(int nproc, const GlobalOptions& g) {
+int launch_ranks(int nproc, int port, const GlobalOptions& g) {
   std::ifstream f("/proc/self/cmdline", std::ios::binary);
   std::vector<std::string> argv;
   for (std::string arg; std::getline(f, arg, '\0');) argv.push_back(arg);
@@ -40,6 +40,7 @@ int launch_ranks(int nproc, const GlobalOptions& g) {
   l.exe = exe;
   l.args = args;
   l.nproc = nproc;
+  l.port = port;
   l.stop = &stop_requested();
   l.on_log = [&](const std::string& s) {
     if (!g.quiet) std::fprintf(stderr, "train: %s\n", s.c_str());
@@ -126,7 +127,11 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
               if (dist.world_size > 1)
                 throw Error("--nproc starts its own ranks; drop it under torchrun/srun (" + dist.source + " says " +
                             std::to_string(dist.world_size) + " ranks)");
-              return launch_ranks(a->nproc, g);
+              const std::string& addr = a->dist.master_addr;
+              if (!addr.empty() && addr != "localhost" && addr.rfind("127.", 0) != 0)
+                throw Error("--master-addr " + addr + ": --nproc runs every rank on this machine over loopback; "
+                            "drop --master-addr (or start the ranks with torchrun/srun)");
+              return launch_ranks(a->nproc, std::max(a->dist.master_port, 0), g);
             }
             nlohmann::json flags = nlohmann::json::object();  // given flags override the config
             if (a->seed) flags["seed"] = *a->seed;
@@ -143,6 +148,7 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
             const train::TrainParams params = train::train_params_for_run(a->config, a->out, a->resume, flags);
 
             install_stop_handlers();
+            train::follow_launcher();
             train::RunOptions run;
             run.data = a->data;
             run.out = a->out;

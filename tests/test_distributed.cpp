@@ -4,6 +4,7 @@
 // - where a rank learns who it is (torchrun, SLURM, flags) and the errors;
 // - whole ranks (reefgen-torch train): 2 ranks x batch b against 1 rank x 2b,
 //   resume across world sizes, a killed rank, a bad environment.
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <fstream>
@@ -398,7 +399,7 @@ struct LongJob {
   TrainParams params;
   std::vector<std::string> args;
   Proc job;
-  pid_t rank1 = -1;
+  pid_t rank0 = -1, rank1 = -1;
 };
 LongJob start_long_job(const std::string& name, const std::vector<std::string>& extra) {
   LongJob j;
@@ -419,6 +420,8 @@ LongJob start_long_job(const std::string& name, const std::vector<std::string>& 
     const std::string err = read_text(j.base / "job.err");
     const size_t at = err.find("rank 1: pid ");
     if (at != std::string::npos) j.rank1 = pid_t(std::stol(err.substr(at + 12)));
+    const size_t at0 = err.find("rank 0: pid ");
+    if (at0 != std::string::npos) j.rank0 = pid_t(std::stol(err.substr(at0 + 12)));
   }
   return j;
 }
@@ -525,4 +528,159 @@ TEST(DataParallel, HungRankTimesOutNamingIt) {
   EXPECT_NE(err.find("rank 0: rank 1 stopped answering"), std::string::npos) << err;
   fs::remove_all(j.base);
   fs::remove_all(j.data);
+}
+
+namespace {
+// A TCP listener on a free loopback port that answers every connection with
+// `greeting` (nothing when empty) and keeps it open: a foreign service.
+struct ForeignService {
+  int fd = -1;
+  uint16_t port = 0;
+  std::thread th;
+  std::atomic<bool> stop{false};
+  explicit ForeignService(std::string greeting) {
+    fd = ::socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    socklen_t len = sizeof a;
+    EXPECT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+    ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
+    port = ntohs(a.sin_port);
+    EXPECT_EQ(::listen(fd, 8), 0);
+    th = std::thread([this, greeting] {
+      std::vector<int> open;
+      while (!stop) {
+        const int c = ::accept(fd, nullptr, nullptr);
+        if (c < 0) {
+          std::this_thread::sleep_for(std::chrono::milliseconds(20));
+          continue;
+        }
+        if (!greeting.empty()) (void)!::send(c, greeting.data(), greeting.size(), MSG_NOSIGNAL);
+        open.push_back(c);
+      }
+      for (int c : open) ::close(c);
+    });
+  }
+  ~ForeignService() {
+    stop = true;
+    th.join();
+    ::close(fd);
+  }
+};
+
+bool process_gone(pid_t pid) {
+  if (::kill(pid, 0) != 0) return true;
+  // Re-parented to an init that has not reaped it yet: a zombie is gone too.
+  std::ifstream st("/proc/" + std::to_string(pid) + "/stat");
+  std::string pid_s, comm, state;
+  st >> pid_s >> comm >> state;
+  return !st || state == "Z";
+}
+}  // namespace
+
+// Issue 36: MASTER_PORT reaching a service that is not a rendezvous store
+// (silent like an HTTP server waiting for a request, an SSH banner, random
+// bytes) is one line naming it, not an abort (status 134) from LibTorch's
+// client trusting the bytes it reads.
+TEST(DataParallel, ForeignServiceOnTheMasterPortIsOneLine) {
+  const fs::path data = make_dataset("dp_foreign_data", 4, 1);
+  const fs::path base = temp_dir("dp_foreign");
+  std::string noise(4096, '\0');
+  uint32_t x = 12345;
+  for (char& c : noise) c = char((x = x * 1664525u + 1013904223u) >> 24);
+  const std::vector<std::pair<std::string, std::string>> services = {
+      {"", "no answer within"}, {"SSH-2.0-OpenSSH_9.2p1 Debian-2\r\n", "SSH-2.0-"}, {noise, "it answered"},
+      {"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n", "HTTP/1.1"}};
+  for (const auto& [greeting, needle] : services) {
+    ForeignService svc(greeting);
+    const fs::path out = base / "run";
+    const auto t0 = std::chrono::steady_clock::now();
+    const int code = run_cli({"train", "--data", data.string(), "--out", out.string(), "--dist-timeout", "300"},
+                             {{"RANK", "1"}, {"WORLD_SIZE", "2"}, {"MASTER_ADDR", "127.0.0.1"},
+                              {"MASTER_PORT", std::to_string(svc.port)}},
+                             base / "err.txt", 60);
+    const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const std::string err = read_text(base / "err.txt");
+    EXPECT_EQ(code, 1) << err;
+    EXPECT_LT(took, 30) << err;
+    EXPECT_NE(err.find("is another service, not a rendezvous store"), std::string::npos) << err;
+    EXPECT_NE(err.find(needle), std::string::npos) << err;
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << "not one line: " << err;
+    EXPECT_FALSE(fs::exists(out));
+  }
+  fs::remove_all(base);
+  fs::remove_all(data);
+}
+
+// Issue 36: a stopped rank (SIGSTOP) ends the job within 60 s even when
+// --dist-timeout lets collectives wait 300 s: the heartbeat watchdog.
+TEST(DataParallel, StoppedRankEndsTheJobWithinTheLivenessDeadline) {
+  const LongJob j = start_long_job("dp_stop", {"--dist-timeout", "300"});
+  ASSERT_GT(j.rank1, 0) << read_text(j.base / "job.err");
+  ASSERT_TRUE(fs::exists(j.base / "run" / "checkpoint.pt")) << read_text(j.base / "job.err");
+  const auto t0 = std::chrono::steady_clock::now();
+  ::kill(j.rank1, SIGSTOP);
+  const int code = wait_for(j.job, 90);
+  const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ::kill(j.rank1, SIGKILL);
+  const std::string err = read_text(j.base / "job.err");
+  EXPECT_NE(code, 0) << err;
+  EXPECT_NE(code, -1) << "the job hung: " << err;
+  EXPECT_LT(took, 60) << err;
+  EXPECT_NE(err.find("rank 0: rank 1 sent no heartbeat"), std::string::npos) << err;
+  fs::remove_all(j.base);
+  fs::remove_all(j.data);
+}
+
+// Issue 36: kill -9 of the --nproc launcher leaves no rank training as an
+// orphan (parent-death signal): each checkpoints and exits.
+TEST(DataParallel, KilledLauncherLeavesNoOrphanRanks) {
+  const LongJob j = start_long_job("dp_orphan", {});
+  ASSERT_GT(j.rank0, 0) << read_text(j.base / "job.err");
+  ASSERT_GT(j.rank1, 0) << read_text(j.base / "job.err");
+  ::kill(j.job.pid, SIGKILL);
+  int status = 0;
+  ::waitpid(j.job.pid, &status, 0);
+  bool gone = false;
+  for (int i = 0; i < 300 && !gone; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    gone = process_gone(j.rank0) && process_gone(j.rank1);
+  }
+  EXPECT_TRUE(gone) << "ranks still running 30 s after their launcher died";
+  if (!gone) ::kill(j.rank0, SIGKILL), ::kill(j.rank1, SIGKILL);
+  // They stopped as on Ctrl-C: the checkpoint is whole.
+  Pix2Pix q(pix2pix_options(j.params));
+  EXPECT_GE(load_checkpoint(j.base / "run" / "checkpoint.pt", q, j.params, nullptr, nullptr, 2), 1);
+  fs::remove_all(j.base);
+  fs::remove_all(j.data);
+}
+
+// Issue 36: `train --nproc 2 --master-port P` hosts its store on P (it used
+// to listen elsewhere while the ranks waited on P for --dist-timeout).
+TEST(DataParallel, NprocHonoursMasterPort) {
+  const fs::path data = make_dataset("dp_port_data", 4, 1);
+  const fs::path base = temp_dir("dp_port");
+  int s = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t len = sizeof a;
+  ASSERT_EQ(::bind(s, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  ::getsockname(s, reinterpret_cast<sockaddr*>(&a), &len);
+  const std::string port = std::to_string(ntohs(a.sin_port));
+  ::close(s);
+  TrainParams p = dp_params();
+  p.batch_size = 1;
+  p.threads = 1;
+  const fs::path cfg = write_config(base, p);
+  const auto t0 = std::chrono::steady_clock::now();
+  const int code = run_cli({"train", "--config", cfg.string(), "--data", data.string(), "--out", (base / "run").string(),
+                            "--nproc", "2", "--master-port", port, "--max-steps", "2", "--dist-timeout", "300"},
+                           {}, base / "err.txt", 120);
+  EXPECT_EQ(code, 0) << read_text(base / "err.txt");
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 60);
+  EXPECT_TRUE(fs::exists(base / "run" / "generator.pt"));
+  fs::remove_all(base);
+  fs::remove_all(data);
 }

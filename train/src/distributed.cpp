@@ -1,12 +1,18 @@
 #include "reefgen/train/distributed.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 #include <csignal>
 #include <cstring>
 #include <thread>
 
+#include <fcntl.h>
+#include <netdb.h>
+#include <poll.h>
 #include <spawn.h>
+#include <sys/prctl.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -36,6 +42,88 @@ int parse_int(const std::string& name, const std::string& v, long lo, long hi, c
 // c10d and Gloo report through glog (socket time-outs, retries) on stderr;
 // every such failure reaches the user as one line from us instead.
 void quiet_c10d_logging() { FLAGS_minloglevel = google::GLOG_FATAL; }
+
+// How long a connected store may take to answer the probe below: a real one
+// answers in microseconds; an HTTP server waits for a request that never comes.
+constexpr int kProbeAnswerMs = 5000;
+// LibTorch 1.13's TCPStore protocol: the one-byte GETNUMKEYS query (its
+// QueryType enum's 7th value), answered by an int64 count of keys.
+constexpr uint8_t kQueryGetNumKeys = 6;
+// A key count no real store reaches; the first 8 bytes of an HTTP answer or
+// an SSH banner read as an int64 are far above it.
+constexpr int64_t kMaxPlausibleKeys = int64_t(1) << 32;
+
+enum class StoreProbe { Store, Foreign, Unreachable };
+
+struct Fd {
+  int fd = -1;
+  ~Fd() {
+    if (fd >= 0) ::close(fd);
+  }
+};
+
+// One non-blocking connect to addr:port within timeout_ms; -1 on failure.
+int connect_within(const addrinfo& ai, int timeout_ms) {
+  const int fd = ::socket(ai.ai_family, ai.ai_socktype | SOCK_NONBLOCK | SOCK_CLOEXEC, ai.ai_protocol);
+  if (fd < 0) return -1;
+  if (::connect(fd, ai.ai_addr, ai.ai_addrlen) == 0) return fd;
+  pollfd p{fd, POLLOUT, 0};
+  int err = 0;
+  socklen_t len = sizeof err;
+  if (errno == EINPROGRESS && ::poll(&p, 1, timeout_ms) == 1 && ::getsockopt(fd, SOL_SOCKET, SO_ERROR, &err, &len) == 0 &&
+      err == 0)
+    return fd;
+  ::close(fd);
+  return -1;
+}
+
+// Is addr:port a c10d rendezvous store? LibTorch's client trusts the length
+// fields of what it reads, so a foreign service there (an HTTP server, an SSH
+// banner, random bytes) makes it allocate without bound and abort the
+// process; asked first, that service is named in one line instead. Connects
+// until deadline (rank 0 may still be starting), then sends one GETNUMKEYS
+// query and wants 8 bytes holding a plausible count within kProbeAnswerMs.
+StoreProbe probe_store(const std::string& addr, int port, std::chrono::steady_clock::time_point deadline,
+                       std::string* seen) {
+  addrinfo hints{};
+  hints.ai_family = AF_UNSPEC;
+  hints.ai_socktype = SOCK_STREAM;
+  addrinfo* res = nullptr;
+  if (::getaddrinfo(addr.c_str(), std::to_string(port).c_str(), &hints, &res) != 0 || !res) return StoreProbe::Unreachable;
+  std::unique_ptr<addrinfo, decltype(&::freeaddrinfo)> hold(res, ::freeaddrinfo);
+  Fd s;
+  while (s.fd < 0) {
+    for (addrinfo* ai = res; ai && s.fd < 0; ai = ai->ai_next) s.fd = connect_within(*ai, 1000);
+    if (s.fd >= 0) break;
+    if (std::chrono::steady_clock::now() >= deadline) return StoreProbe::Unreachable;
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  if (::send(s.fd, &kQueryGetNumKeys, 1, MSG_NOSIGNAL) != 1) return StoreProbe::Foreign;
+  unsigned char buf[8];
+  size_t got = 0;
+  const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(kProbeAnswerMs);
+  while (got < sizeof buf) {
+    const int left = int(std::chrono::duration_cast<std::chrono::milliseconds>(until - std::chrono::steady_clock::now()).count());
+    pollfd p{s.fd, POLLIN, 0};
+    if (left <= 0 || ::poll(&p, 1, left) != 1) {
+      *seen = got ? "a partial answer" : "no answer within " + std::to_string(kProbeAnswerMs / 1000) + " s";
+      return StoreProbe::Foreign;
+    }
+    const ssize_t n = ::recv(s.fd, buf + got, sizeof buf - got, 0);
+    if (n <= 0) {
+      *seen = "the connection closed";
+      return StoreProbe::Foreign;
+    }
+    got += size_t(n);
+  }
+  int64_t keys = 0;
+  std::memcpy(&keys, buf, sizeof keys);  // the store's native byte order (x86-64: little-endian)
+  if (keys >= 0 && keys < kMaxPlausibleKeys) return StoreProbe::Store;
+  std::string printable;
+  for (unsigned char c : buf) printable += (c >= 32 && c < 127) ? char(c) : '.';
+  *seen = "it answered \"" + printable + "...\"";
+  return StoreProbe::Foreign;
+}
 
 std::string ranks_list(const std::vector<int>& r) {
   std::string s;
@@ -79,7 +167,7 @@ DistConfig dist_config_from(const std::function<const char*(const char*)>& geten
     if (get("RANK").empty() || get("WORLD_SIZE").empty())
       throw Error(std::string(get("RANK").empty() ? "WORLD_SIZE" : "RANK") + " is set but " +
                   (get("RANK").empty() ? "RANK" : "WORLD_SIZE") + " is not; set both (torchrun does) or neither");
-    c.source = "torchrun's environment";
+    c.source = get("REEFGEN_LAUNCHER_PID").empty() ? "torchrun's environment" : "train --nproc";
     c.world_size = parse_int("WORLD_SIZE", get("WORLD_SIZE"), 0, 4096, fix_env);
     c.rank = parse_int("RANK", get("RANK"), 0, 4095, fix_env);
     c.local_rank = get("LOCAL_RANK").empty() ? c.rank : parse_int("LOCAL_RANK", get("LOCAL_RANK"), 0, 4095, fix_env);
@@ -128,12 +216,66 @@ DistConfig dist_config_from(const std::function<const char*(const char*)>& geten
 
 // ---------------------------------------------------------------------------
 
+// Liveness, apart from --dist-timeout (which bounds slow collectives): every
+// rank bumps its heartbeat twice a second from its own thread, busy or not,
+// so a counter that has not moved for this long means a stopped (SIGSTOP),
+// hung or dead process. Well under issue 36's bar of 60 s, far above any
+// scheduling hiccup.
+constexpr double kLivenessDeadlineS = 20;
+// The watchdog's store reads: a stopped host answers nothing at all.
+constexpr auto kWatchdogReadTimeout = std::chrono::milliseconds(4000);
+
 struct Comm::Impl {
   c10::intrusive_ptr<c10d::Store> store;  // the job's keys (prefixed)
   c10::intrusive_ptr<c10d::ProcessGroupGloo> pg;
-  std::thread heartbeat;
+  std::thread heartbeat, watchdog;
   std::atomic<bool> stop{false};
   std::string prefix;
+
+  // Watches the other ranks' heartbeats while the main thread may sit in a
+  // collective LibTorch 1.13 cannot cancel: a silent peer (or a store host
+  // that stopped answering) ends this process with one line, so the job ends
+  // within kLivenessDeadlineS whatever --dist-timeout allows collectives.
+  // A rank that leaves normally marks "left/R" first and is not waited for.
+  void watch(const DistConfig& cfg) {
+    using clock = std::chrono::steady_clock;
+    const int n = cfg.world_size;
+    std::vector<int64_t> last(size_t(n), -1);
+    std::vector<clock::time_point> moved(size_t(n), clock::now());
+    auto store_answered = clock::now();
+    c10::intrusive_ptr<c10d::Store> s;
+    auto lost = [&](const std::string& who) {
+      std::fprintf(stderr, "reefgen: error: rank %d: %s; the job is stopped\n", cfg.rank, who.c_str());
+      std::fflush(stderr);
+      std::_Exit(1);
+    };
+    while (!stop) {
+      for (int i = 0; i < 10 && !stop; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      if (stop) break;
+      const auto now = clock::now();
+      try {
+        if (!s) s = client(cfg, false, kWatchdogReadTimeout);
+        for (int r = 0; r < n; ++r) {
+          if (r == cfg.rank) continue;
+          const int64_t hb = s->add("hb/" + std::to_string(r), 0);
+          if (hb != last[size_t(r)]) last[size_t(r)] = hb, moved[size_t(r)] = now;
+          if (std::chrono::duration<double>(now - moved[size_t(r)]).count() > kLivenessDeadlineS &&
+              !s->check({"left/" + std::to_string(r)}) && !stop)
+            lost("rank " + std::to_string(r) + " sent no heartbeat for " + std::to_string(int(kLivenessDeadlineS)) +
+                 " s (stopped, hung or killed)");
+        }
+        store_answered = now;
+      } catch (const std::exception&) {
+        s.reset();
+        std::string seen;
+        // Refused: the host is gone, and the collectives fail on their own.
+        if (probe_store(cfg.master_addr, cfg.master_port, clock::now(), &seen) == StoreProbe::Unreachable) return;
+        if (std::chrono::duration<double>(clock::now() - store_answered).count() > kLivenessDeadlineS && !stop)
+          lost(std::string(cfg.agent_store ? "the launcher's rendezvous store" : "rank 0 (which hosts the rendezvous store)") +
+               " stopped answering for " + std::to_string(int(kLivenessDeadlineS)) + " s (stopped or hung)");
+      }
+    }
+  }
 
   c10::intrusive_ptr<c10d::Store> client(const DistConfig& c, bool server, std::chrono::milliseconds timeout) const {
     c10d::TCPStoreOptions so;
@@ -150,6 +292,11 @@ Comm::Comm(const DistConfig& cfg) : cfg_(cfg), impl_(std::make_unique<Impl>()) {
 Comm::~Comm() {
   if (!impl_) return;
   impl_->stop = true;
+  try {  // not waited for by the others' watchdogs from now on
+    if (impl_->store) impl_->store->set("left/" + std::to_string(cfg_.rank), std::vector<uint8_t>{1});
+  } catch (...) {
+  }
+  if (impl_->watchdog.joinable()) impl_->watchdog.join();
   if (impl_->heartbeat.joinable()) impl_->heartbeat.join();
 }
 
@@ -163,6 +310,17 @@ std::unique_ptr<Comm> Comm::connect(const DistConfig& cfg) {
   // torchrun's agent store serves every attempt; keys of this one live under its prefix.
   m.prefix = (cfg.agent_store ? "/worker/attempt_" + std::to_string(cfg.restart_count) + "/" : std::string()) + "reefgen/";
   const bool host = cfg.rank == 0 && !cfg.agent_store;
+  if (!host) {
+    std::string seen;
+    const auto probe = probe_store(cfg.master_addr, cfg.master_port, std::chrono::steady_clock::now() + timeout, &seen);
+    if (probe == StoreProbe::Foreign)
+      throw Error(me + ": " + where + " (from " + cfg.source + ") is another service, not a rendezvous store (" + seen +
+                  "); set MASTER_PORT (--master-port) to the port rank 0 hosts");
+    if (probe == StoreProbe::Unreachable)
+      throw Error(me + ": cannot reach the rendezvous store at " + where + " within " +
+                  std::to_string(int(cfg.timeout_s)) + " s (from " + cfg.source +
+                  "); start rank 0 first, or fix MASTER_ADDR/MASTER_PORT (--master-addr/--master-port)");
+  }
   try {
     m.store = m.client(cfg, host, timeout);
   } catch (const std::exception& e) {
@@ -214,6 +372,7 @@ std::unique_ptr<Comm> Comm::connect(const DistConfig& cfg) {
     throw Error(me + ": cannot connect to the other ranks (" + model::first_line(e.what()) +
                 "); check that the hosts reach each other (GLOO_SOCKET_IFNAME names the interface)");
   }
+  m.watchdog = std::thread([&m, cfg] { m.watch(cfg); });
   return c;
 }
 
@@ -471,23 +630,40 @@ double Comm::take_collective_seconds() {
   return s;
 }
 
+void follow_launcher() {
+  const char* v = std::getenv("REEFGEN_LAUNCHER_PID");
+  if (!v || !*v) return;
+  const pid_t launcher = pid_t(parse_int("REEFGEN_LAUNCHER_PID", v, 1, 1L << 30, "it is set by `train --nproc`; unset it"));
+  // SIGTERM: the rank stops as on Ctrl-C (checkpoint after the step, exit).
+  ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+  // The launcher may have died before the line above: then it never fires.
+  if (::getppid() != launcher)
+    throw Error("rank " + std::string(std::getenv("RANK") ? std::getenv("RANK") : "?") +
+                ": its `train --nproc` launcher (pid " + v + ") is gone; the job is stopped");
+}
+
 int launch_local_ranks(const LocalLaunch& l) {
   if (l.nproc < 2 || l.nproc > 256) throw Error("--nproc " + std::to_string(l.nproc) + ": must be in [2, 256]");
   quiet_c10d_logging();
+  if (l.port < 0 || l.port > 65535) throw Error("--master-port " + std::to_string(l.port) + ": not a TCP port");
   c10d::TCPStoreOptions so;
-  so.port = 0;  // any free port
+  so.port = uint16_t(l.port);  // 0: any free port
   so.isServer = true;
   so.waitWorkers = false;
   c10::intrusive_ptr<c10d::TCPStore> store;
   try {
     store = c10::make_intrusive<c10d::TCPStore>("127.0.0.1", so);
   } catch (const std::exception& e) {
+    if (l.port)
+      throw Error("--master-port " + std::to_string(l.port) + ": cannot host the rendezvous store on 127.0.0.1:" +
+                  std::to_string(l.port) + " (" + model::first_line(e.what()) + "); choose a free port or drop --master-port");
     throw Error("--nproc: cannot host the rendezvous store on 127.0.0.1 (" + model::first_line(e.what()) + ")");
   }
   const std::string port = std::to_string(store->getPort());
 
   const char* ours[] = {"RANK=", "WORLD_SIZE=", "LOCAL_RANK=", "LOCAL_WORLD_SIZE=", "MASTER_ADDR=", "MASTER_PORT=",
-                        "TORCHELASTIC_USE_AGENT_STORE=", "TORCHELASTIC_RESTART_COUNT=", "SLURM_PROCID=", "SLURM_NTASKS="};
+                        "TORCHELASTIC_USE_AGENT_STORE=", "TORCHELASTIC_RESTART_COUNT=", "SLURM_PROCID=", "SLURM_NTASKS=",
+                        "REEFGEN_LAUNCHER_PID="};
   std::vector<std::string> base_env;
   for (char** e = ::environ; *e; ++e) {
     bool drop = false;
@@ -506,7 +682,8 @@ int launch_local_ranks(const LocalLaunch& l) {
                                   "LOCAL_RANK=" + std::to_string(r), "LOCAL_WORLD_SIZE=" + std::to_string(l.nproc),
                                   std::string("MASTER_ADDR=127.0.0.1"), "MASTER_PORT=" + port,
                                   std::string("TORCHELASTIC_USE_AGENT_STORE=True"),
-                                  std::string("TORCHELASTIC_RESTART_COUNT=0")})
+                                  std::string("TORCHELASTIC_RESTART_COUNT=0"),
+                                  "REEFGEN_LAUNCHER_PID=" + std::to_string(::getpid())})
       env.push_back(kv);
     std::vector<char*> envp, argv;
     for (auto& e : env) envp.push_back(e.data());

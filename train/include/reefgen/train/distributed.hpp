@@ -118,10 +118,17 @@ struct LocalLaunch {
   std::string exe;                 // the program every rank runs
   std::vector<std::string> args;   // its arguments (without argv[0])
   int nproc = 2;                   // ranks, [2, 256]
+  int port = 0;                    // the rendezvous store's TCP port on 127.0.0.1; 0: any free one
   double grace_s = 10;             // after a failure: SIGTERM, then SIGKILL after this long
   const std::atomic<bool>* stop = nullptr;
   std::function<void(const std::string&)> on_log;
 };
+// Each rank gets REEFGEN_LAUNCHER_PID: see follow_launcher().
 int launch_local_ranks(const LocalLaunch& l);
+// In a rank started by launch_local_ranks (REEFGEN_LAUNCHER_PID set): asks
+// the kernel for SIGTERM when the launcher dies (kill -9, SIGHUP), so no rank
+// trains on as an orphan holding the run folder; throws if it is gone
+// already. Does nothing outside such a launch.
+void follow_launcher();
 
 }  // namespace reefgen::train
