@@ -172,5 +172,22 @@ sys.exit(0 if cv2.imwrite(sys.argv[1], np.full(a.shape[:2], np.nan, np.float32))
 EOF
 refuses "NaN" dataset stats dnan
 
+# 19. Issue 36: a FIFO nobody writes to is refused at once (open() used to
+# block forever); a shell's <(...) pipe is still read, once.
+mkfifo fifo1
+fifo_refused() {  # fifo_refused ARGS...: one line naming the FIFO within 20 s
+  timeout 20 "$R" "$@" >/dev/null 2>"$T/err"; local rc=$?
+  [ $rc = 124 ] && { bad "19: hung on a FIFO: $*"; return; }
+  [ $rc != 0 ] && [ $rc -lt 128 ] && grep -q "fifo1" "$T/err" && [ "$(wc -l < "$T/err")" = 1 ] && ok \
+    || bad "19: FIFO not refused in one line: $* -> rc $rc $(cat "$T/err")"
+}
+fifo_refused generate --spec fifo1 -o fifo-out
+fifo_refused infer fifo1 -o fifo-out
+fifo_refused dataset build --config fifo1 --out fifo-ds
+timeout 20 "$R" -q generate --spec <(cat "$ROOT/configs/presets/atoll.json") --size 48 -o piped >/dev/null && [ -s piped.height.exr ] \
+  && ok || bad "19: --spec <(...) no longer read"
+timeout 60 "$R" -q infer <(cat "$ROOT/tests/data/painted/01-young-volcano.png") -o piped-sketch >/dev/null && [ -s piped-sketch.height.exr ] \
+  && ok || bad "19: a sketch from <(...) no longer read"
+
 echo "probe: $pass passed, $fail failed"
 [ $fail = 0 ]

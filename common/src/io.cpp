@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -153,18 +154,34 @@ void write_text_atomic(const fs::path& path, const std::string& text) {
 std::string read_text(const fs::path& path, size_t max_bytes) {
   std::error_code ec;
   if (fs::is_directory(path, ec)) throw Error("cannot read " + path.string() + ": it is a folder, not a file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error("cannot read " + path.string() + ": " + std::strerror(errno));
+  // O_NONBLOCK: opening a FIFO nobody writes to would block forever; opened
+  // this way it returns at once, and a read then sees end-of-file unless a
+  // writer (a shell's <(...), a pipe) holds the other end.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) throw Error("cannot read " + path.string() + ": " + std::strerror(errno));
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat st{};
+  const bool fifo = ::fstat(fd, &st) == 0 && S_ISFIFO(st.st_mode);
+  if (S_ISSOCK(st.st_mode)) throw Error("cannot read " + path.string() + ": it is a socket, not a file");
+  ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
   // Read in blocks up to the bound: /dev/zero or a FIFO has no size to check first.
   std::string out;
   char buf[1 << 16];
-  while (in.read(buf, sizeof buf) || in.gcount() > 0) {
-    out.append(buf, size_t(in.gcount()));
+  for (;;) {
+    const ssize_t n = ::read(fd, buf, sizeof buf);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) throw Error("cannot read " + path.string() + ": " + std::strerror(errno));
+    if (n == 0) break;
+    out.append(buf, size_t(n));
     if (out.size() > max_bytes)
       throw Error("cannot read " + path.string() + ": larger than " + std::to_string(max_bytes >> 20) +
                   " MiB, not a file reefgen reads (check the path)");
   }
-  if (in.bad()) throw Error("cannot read " + path.string() + ": read error");
+  if (fifo && out.empty())
+    throw Error("cannot read " + path.string() + ": a FIFO (named pipe) with nothing written to it; pass a regular file");
   return out;
 }
 

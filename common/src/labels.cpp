@@ -145,14 +145,15 @@ DecodedSketch decode_sketch(const cv::Mat& image, const std::string& name) {
 }
 
 namespace {
+// The most a sketch file may hold (read_image's bound): far above any
+// 8192² PNG, far below what a mistaken path to a disk image would be.
+constexpr size_t kMaxSketchBytes = size_t(256) << 20;
+
 // Width and height from a PNG's IHDR (bytes 16..23), or {0,0} if not a PNG:
 // checked before decoding, so a 30000² file is refused instead of taking 10 GB.
-std::pair<uint32_t, uint32_t> png_size(const std::filesystem::path& path) {
-  unsigned char b[24] = {};
-  FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) return {0, 0};
-  const size_t n = std::fread(b, 1, sizeof b, f);
-  std::fclose(f);
+std::pair<uint32_t, uint32_t> png_size(const std::string& bytes) {
+  const auto* b = reinterpret_cast<const unsigned char*>(bytes.data());
+  const size_t n = bytes.size();
   static const unsigned char sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
   if (n < 24 || std::memcmp(b, sig, 8) != 0) return {0, 0};
   auto be32 = [&](int at) { return uint32_t(b[at]) << 24 | uint32_t(b[at + 1]) << 16 | uint32_t(b[at + 2]) << 8 | b[at + 3]; };
@@ -166,9 +167,11 @@ DecodedSketch read_sketch(const std::filesystem::path& path) {
     return Error("cannot read " + path.string() + ": " + std::to_string(w) + "×" + std::to_string(h) +
                  " pixels; sketches may be at most " + std::to_string(kMaxSketchSide) + " pixels a side (scale it down)");
   };
-  const auto [pw, ph] = png_size(path);
+  // Read once: a pipe (a shell's <(...)) cannot be read twice.
+  const std::string bytes = read_text(path, kMaxSketchBytes);
+  const auto [pw, ph] = png_size(bytes);
   if (pw > uint32_t(kMaxSketchSide) || ph > uint32_t(kMaxSketchSide)) throw too_big(pw, ph);
-  const cv::Mat img = read_image(path, cv::IMREAD_UNCHANGED);
+  const cv::Mat img = decode_image(bytes, path.string(), cv::IMREAD_UNCHANGED);
   if (img.cols > kMaxSketchSide || img.rows > kMaxSketchSide) throw too_big(uint64_t(img.cols), uint64_t(img.rows));
   return decode_sketch(img, path.string());
 }

@@ -25,11 +25,10 @@ void check_indices(const Mesh& m, const std::string& what) {
       if (i >= m.positions.size()) throw Error(what + ": triangle index " + std::to_string(i) + " out of range");
 }
 
-std::string read_bytes(const fs::path& path) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) throw Error(path.string() + ": cannot open (check the path)");
-  return {std::istreambuf_iterator<char>(f), {}};
-}
+// Meshes reefgen writes stay far below this; a FIFO or /dev/zero does not hang.
+constexpr size_t kMaxMeshBytes = size_t(4) << 30;
+
+std::string read_bytes(const fs::path& path) { return read_text(path, kMaxMeshBytes); }
 
 uint32_t u32_at(const std::string& b, size_t off) {
   uint32_t v = 0;
