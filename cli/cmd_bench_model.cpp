@@ -26,6 +26,7 @@ std::function<int()> add_bench_model_commands(CLI::App* bench) {
   struct Args {
     int ngf = 64, size = 256, reps = 5, threads = default_threads(), batch = 8;
     std::string upsample = "transpose", norm = "batch", precision = "fp32", engine = "onednn";
+    bool no_winograd = false;
   };
   auto a = std::make_shared<Args>();
   auto* tr = bench->add_subcommand("train", "seconds per pix2pix training iteration (batch 1), median of --reps");
@@ -37,6 +38,7 @@ std::function<int()> add_bench_model_commands(CLI::App* bench) {
     s->add_option("--threads", a->threads, "LibTorch threads (default: all cores)");
   }
   in->add_option("--batch", a->batch, "Batch size for the throughput figure")->capture_default_str();
+  in->add_flag("--no-winograd", a->no_winograd, "oneDNN's direct kernels for the whole decoder (the reference for Winograd's gain)");
   for (auto* s : {tr, in}) {
     s->add_option("--upsample", a->upsample, "G's decoder: transpose (pix2pix), nearest or bilinear")->capture_default_str();
     s->add_option("--norm", a->norm, "batch (pix2pix) or instance")->capture_default_str();
@@ -105,7 +107,8 @@ std::function<int()> add_bench_model_commands(CLI::App* bench) {
       std::shared_ptr<model::FastUNet> fast;
       if (a->engine == "onednn") {
         fast = std::make_shared<model::FastUNet>(
-            *g, model::FastUNetOptions{n, a->size, bf16 ? model::FastPrecision::Bf16 : model::FastPrecision::Fp32});
+            *g, model::FastUNetOptions{n, a->size, bf16 ? model::FastPrecision::Bf16 : model::FastPrecision::Fp32,
+                                       !a->no_winograd});
         f = [&] { fast->forward(xb); };
       } else {
         const auto xin = xb.to(bf16 ? torch::kBFloat16 : torch::kFloat32);

@@ -11,6 +11,7 @@
 
 #include <oneapi/dnnl/dnnl.hpp>
 #include "reefgen/model/dnnl_conv.hpp"
+#include "winograd_up.hpp"
 
 namespace reefgen::model {
 namespace {
@@ -22,6 +23,9 @@ using bf16_t = uint16_t;  // oneDNN's bfloat16: the high half of a float32
 constexpr double kEps = 1e-5;      // BatchNorm2d / InstanceNorm2d default
 constexpr float kLeaky = 0.2f;     // pix2pix's LeakyReLU slope
 constexpr int64_t kRowGrain = 4;   // rows per parallel task (fixed: results do not depend on it)
+// Smallest decoder input side run through Winograd: below it the GEMMs have
+// too few tiles to beat oneDNN's direct kernels (measured in docs/BENCHMARKS.md).
+constexpr int64_t kWinogradMinSide = 64;
 
 // Hot loops below are compiled for AVX-512, AVX2 and baseline x86-64 and the
 // best one is picked at load time by the CPU's features (the build itself has
@@ -177,6 +181,7 @@ struct FastUNet::Impl {
   dnnl::memory inner;
   std::vector<Conv> down, up_convs_flat;
   std::vector<std::vector<Conv*>> up;  // per level: 4 parity convs or 1 resize conv (k >= 1)
+  std::vector<std::unique_ptr<ParityWinograd>> wino;  // per level: the parity convs as Winograd GEMMs, or null
   std::vector<Norm2> down_norm, up_norm;
   torch::Tensor out_w, out_b;  // output layer: {out,kh,kw,C_in} float32, {out}
 
@@ -507,6 +512,7 @@ FastUNet::FastUNet(UNetGeneratorImpl& g, const FastUNetOptions& options) : impl_
   }
   // Decoder convolutions of levels 1..D-1.
   m.up.resize(size_t(D));
+  m.wino.resize(size_t(D));
   m.up_norm.resize(size_t(D));
   m.up_convs_flat.reserve(size_t(4 * D));
   for (int k = D - 1; k >= 1; --k) {
@@ -526,6 +532,8 @@ FastUNet::FastUNet(UNetGeneratorImpl& g, const FastUNetOptions& options) : impl_
           m.up[size_t(k)].push_back(&m.up_convs_flat.back());
           m.upout[size_t(k)].push_back(dnnl::memory(nhwc(N, out, s, dt::f32), m.eng));
         }
+      if (m.o.winograd && ct == dt::f32 && s >= kWinogradMinSide)
+        m.wino[size_t(k)] = std::make_unique<ParityWinograd>(w, b, N, s, m.eng);
     } else {
       const int64_t in = k == D - 1 ? m.ch(k) : 2 * m.ch(k);
       m.ups[size_t(k)] = dnnl::memory(nhwc(N, in, 2 * s, ct), m.eng);
@@ -590,9 +598,10 @@ torch::Tensor FastUNet::forward(const torch::Tensor& x_) {
     std::vector<float*> planes;
     if (u.upsample == Upsample::Transpose) {
       for (size_t p = 0; p < 4; ++p) {
-        m.up[size_t(k)][p]->run(m.strm, src, m.upout[size_t(k)][p]);
+        if (!m.wino[size_t(k)]) m.up[size_t(k)][p]->run(m.strm, src, m.upout[size_t(k)][p]);
         planes.push_back(static_cast<float*>(m.ptr(m.upout[size_t(k)][p])));
       }
+      if (m.wino[size_t(k)]) m.wino[size_t(k)]->run(static_cast<const float*>(m.ptr(src)), planes.data(), m.strm);
       m.strm.wait();
       Impl::Out c{m.ptr(m.cat[size_t(k - 1)]), bf && k > 1, 2 * out, out, false};
       m.norm_act(m.up_norm[size_t(k)], planes, s, out, kRelu, c, nullptr);

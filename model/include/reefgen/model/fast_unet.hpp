@@ -9,7 +9,8 @@
 // side, into oneDNN convolutions with weights packed once, on channels-last
 // (nhwc) buffers allocated once:
 //   - a 4×4 stride-2 transposed convolution is computed exactly as four 2×2
-//     convolutions, one per output parity (no zero taps, no col2im);
+//     convolutions, one per output parity (no zero taps, no col2im); in
+//     float32 the larger levels run them as Winograd F(2×2, 2×2) GEMMs;
 //   - the decoder's normalisation writes its output, activated and interleaved,
 //     straight into the second half of the next level's concatenation buffer;
 //     the encoder fills the first half in the same pass that activates its own
@@ -36,6 +37,10 @@ struct FastUNetOptions {
   int batch = 1;       // images per forward; [1, 64]
   int size_px = 256;   // input side; a multiple of 2^depth; [32, 4096]
   FastPrecision precision = FastPrecision::Fp32;
+  // float32 transposed decoder levels of side ≥ 16 through Winograd's
+  // F(2×2, 2×2) (winograd_up.hpp): 9/16 of the multiplications, same result
+  // within float rounding. false: oneDNN's direct convolutions (reference).
+  bool winograd = true;
 };
 
 // Why this generator cannot run on the engine in its current mode ("" if it
