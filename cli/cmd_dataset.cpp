@@ -48,9 +48,11 @@ Command add_dataset_command(CLI::App& app, const GlobalOptions& g) {
   auto* stats = sub->add_subcommand("stats", "Counts, region fractions, subsidence histogram, height range, contact sheet");
   stats->add_option("dir", *stats_dir, "Dataset folder")->required();
   stats->add_option("--sheet", *sheet, "Pairs on the contact sheet (DIR/contact_sheet.png)")->capture_default_str();
-  return {sub, [a, merge_dir, build, merge, stats, stats_dir, sheet, &g]() -> int {
+  auto no_verify = std::make_shared<bool>(false);
+  stats->add_flag("--no-verify", *no_verify, "Skip checking the pair files against the manifest's checksums");
+  return {sub, [a, merge_dir, build, merge, stats, stats_dir, sheet, no_verify, &g]() -> int {
             if (stats->parsed()) {
-              const json st = augment::dataset_stats(*stats_dir, *sheet, g.quiet);
+              const json st = augment::dataset_stats(*stats_dir, *sheet, g.quiet, !*no_verify);
               std::printf("%s\n", st.dump(2, ' ', false, json::error_handler_t::replace).c_str());
               return 0;
             }

@@ -29,7 +29,7 @@ Command add_eval_command(CLI::App& app, const GlobalOptions& g) {
   struct Args {
     std::string model, data, split = "test", out;
     int64_t max_pairs = 1000;
-    bool no_perturb = false, running_stats = false;
+    bool no_perturb = false, running_stats = false, no_verify = false;
     double world_size_m = kCanvasWorldSizeM;
     std::optional<int> threads;
   };
@@ -41,6 +41,7 @@ Command add_eval_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("-o,--out,--output", a->out, "Folder for eval.json, eval.md, worst.png (default: print JSON only)");
   sub->add_option("--max-pairs", a->max_pairs, "Use the first N pairs of the split")->capture_default_str();
   sub->add_flag("--no-perturb", a->no_perturb, "Clean sketches only");
+  sub->add_flag("--no-verify", a->no_verify, "Skip checking the dataset's files against its manifest's checksums");
   sub->add_flag("--running-stats", a->running_stats, "BatchNorm running statistics instead of batch statistics");
   sub->add_option("--world-size", a->world_size_m, "Canvas width in metres (slopes)")->capture_default_str()->check(finite_in(1, 1e7));
   sub->add_option("--threads", a->threads, "LibTorch threads (default: all cores)")->check(CLI::Range(1, 256));
@@ -50,7 +51,11 @@ Command add_eval_command(CLI::App& app, const GlobalOptions& g) {
             if (a->max_pairs < 1) throw Error("--max-pairs must be ≥ 1");
             a->model = model::resolve_model_path(a->model).string();
             model::GeneratorFile gen = model::load_generator(a->model);
-            const train::DatasetInfo data = train::open_dataset(a->data);
+            augment::ManifestCheck check;
+            check.verify_checksums = !a->no_verify;
+            check.threads = a->threads.value_or(default_threads());
+            check.quiet = g.quiet;
+            const train::DatasetInfo data = train::open_dataset(a->data, check);
             const auto& pairs = data.split(a->split);
             if (pairs.empty()) throw Error(a->data + ": the " + a->split + " split is empty; try --split val or train");
             if (!a->out.empty()) ensure_writable_dir(a->out);

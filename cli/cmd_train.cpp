@@ -77,6 +77,7 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
     std::optional<int> batch_size, log_every;
     int nproc = 1;
     double bucket_mb = 4;
+    bool no_verify = false;
     train::DistFlags dist;
   };
   auto a = std::make_shared<Args>();
@@ -111,6 +112,8 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--dist-timeout", a->dist.timeout_s,
                   "Seconds before a silent rank fails the job (default 300; also the wait for all ranks to join)")
       ->check(finite_in(0.1, 86400));
+  sub->add_flag("--no-verify", a->no_verify,
+                "Skip checking the dataset's files against its manifest's checksums (paths and indexes are still checked)");
   sub->add_option("--bucket-mb", a->bucket_mb,
                   "Data-parallel: gradients all-reduced in buckets of this many MB as backward produces them")
       ->check(finite_in(1e-6, 1024));
@@ -158,6 +161,7 @@ Command add_train_command(CLI::App& app, const GlobalOptions& g) {
             run.stop = &stop_requested();
             run.dist = dist;
             run.bucket_mb = a->bucket_mb;
+            run.verify_data = !a->no_verify;
             const bool lead = dist.rank == 0;  // the other ranks say nothing but errors
             const bool tty = !g.quiet && lead && ::isatty(2);
             // A line redrawn in place on a terminal; otherwise (a log file, a

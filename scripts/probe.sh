@@ -170,7 +170,8 @@ import sys, cv2, numpy as np
 a = cv2.imread(sys.argv[1], cv2.IMREAD_UNCHANGED)
 sys.exit(0 if cv2.imwrite(sys.argv[1], np.full(a.shape[:2], np.nan, np.float32)) else 1)
 EOF
-refuses "NaN" dataset stats dnan
+refuses "NaN" dataset stats dnan --no-verify
+refuses "its bytes differ" dataset stats dnan
 
 # 19. Issue 36: a FIFO nobody writes to is refused at once (open() used to
 # block forever); a shell's <(...) pipe is still read, once.
@@ -188,6 +189,18 @@ timeout 20 "$R" -q generate --spec <(cat "$ROOT/configs/presets/atoll.json") --s
   && ok || bad "19: --spec <(...) no longer read"
 timeout 60 "$R" -q infer <(cat "$ROOT/tests/data/painted/01-young-volcano.png") -o piped-sketch >/dev/null && [ -s piped-sketch.height.exr ] \
   && ok || bad "19: a sketch from <(...) no longer read"
+
+# 20. Issue 36: datasets are checked before they are trusted.
+cp -r d20 dswap && a=$(ls dswap/train/*.label.png | head -1) && b=$(ls dswap/train/*.label.png | sed -n 2p) && cp "$b" "$a"
+refuses "its bytes differ" train --data dswap --out swaprun --max-steps 1 --ngf 8 --ndf 8
+refuses "its bytes differ" dataset stats dswap
+[ ! -e swaprun ] && ok || bad "20: a refused dataset left a run folder"
+"$R" -q dataset stats dswap --no-verify >/dev/null && ok || bad "20: --no-verify does not read a swapped dataset"
+cp -r d20 descape && sed -i '1s#"label":"[^"]*"#"label":"../../../../etc/passwd"#' descape/manifest.jsonl
+refuses "outside the dataset folder" train --data descape --out escrun --max-steps 1 --no-verify
+refuses "outside the dataset folder" dataset stats descape --no-verify
+cp -r d20 ddup && head -1 d20/manifest.jsonl >> ddup/manifest.jsonl
+refuses "listed again" train --data ddup --out duprun --max-steps 1
 
 echo "probe: $pass passed, $fail failed"
 [ $fail = 0 ]

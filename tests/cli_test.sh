@@ -261,7 +261,9 @@ expect_error "b.png" infer "$T/s/mixed" -m "$M" -o "$T/e"   # a.png's results re
 cp -r "$T/d1" "$T/dnan"
 first=$(sed -n 's/.*"height":"\([^"]*\)".*"split":"train".*/\1/p' "$T/dnan/manifest.jsonl" | head -1)
 OPENCV_IO_ENABLE_OPENEXR=1 "$PY" -c "import cv2,sys,numpy as np; h=cv2.imread(sys.argv[1],cv2.IMREAD_UNCHANGED); h[3,3]=np.nan; cv2.imwrite(sys.argv[1],h)" "$T/dnan/$first"
-expect_error "NaN or infinite" eval -m "$M" --data "$T/dnan" --split train --max-pairs 3
+expect_error "NaN or infinite" eval -m "$M" --data "$T/dnan" --split train --max-pairs 3 --no-verify
+# Verified (the default), the edited pair is named before any inference.
+expect_error "00000003.height.exr: its bytes differ" eval -m "$M" --data "$T/dnan" --split train --max-pairs 3
 cmp -s "$T/ev1/eval.json" "$T/ev2/eval.json" && ok || bad "eval not reproducible"
 for f in eval.json eval.md worst.png; do [ -s "$T/ev1/$f" ] || bad "eval: no $f"; done
 grep -q '"jpeg_q50"' "$T/ev1/eval.json" && ok || bad "eval: no perturbed results"

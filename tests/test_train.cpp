@@ -2,6 +2,8 @@
 // fixed batch, resume = uninterrupted, checkpoint and generator round trips,
 // data loading and jitter alignment, config and file errors.
 #include <fstream>
+#include <functional>
+#include <sstream>
 #include <thread>
 
 #include <sys/wait.h>
@@ -464,6 +466,50 @@ TEST(Data, BadDatasetsNameTheFile) {
   fs::remove_all(d);
 }
 
+// Issue 36: a manifest is not trusted blindly. Paths stay inside the
+// dataset folder and indexes are unique (always checked); the files' bytes
+// match the build's checksums (unless --no-verify).
+TEST(Data, ManifestIsCheckedBeforeTraining) {
+  const fs::path d = make_dataset("checked_data", 3, 1);
+  const std::string good = read_text(d / "manifest.jsonl");
+  augment::ManifestCheck no_sums;
+  no_sums.verify_checksums = false;
+  EXPECT_EQ(open_dataset(d).train.size(), 2u);
+  auto with_line = [&](int k, const std::function<void(json&)>& edit) {
+    std::istringstream in(good);
+    std::string line, out;
+    for (int i = 0; std::getline(in, line); ++i) {
+      json r = json::parse(line);
+      if (i == k) edit(r);
+      out += r.dump() + "\n";
+    }
+    write_text_atomic(d / "manifest.jsonl", out);
+  };
+  // Outside the folder: relative with "..", or absolute; refused even unverified.
+  for (const std::string bad : {"../../../../etc/passwd", "/etc/passwd", "train/../../x.png"}) {
+    with_line(1, [&](json& r) { r["label"] = bad; });
+    expect_error_naming([&] { open_dataset(d, no_sums); }, "outside the dataset folder");
+    expect_error_naming([&] { open_dataset(d); }, "manifest.jsonl:2");
+  }
+  // A line listed twice.
+  write_text_atomic(d / "manifest.jsonl", good + good.substr(0, good.find('\n') + 1));
+  expect_error_naming([&] { open_dataset(d, no_sums); }, "listed again (first at line 1)");
+  // Labels swapped in from another pair: the checksum names the file.
+  write_text_atomic(d / "manifest.jsonl", good);
+  const std::string l0 = read_text(d / "train/00000000.label.png"), l1 = read_text(d / "train/00000001.label.png");
+  write_text_atomic(d / "train/00000000.label.png", l1);
+  expect_error_naming([&] { open_dataset(d); }, "train/00000000.label.png: its bytes differ");
+  EXPECT_EQ(open_dataset(d, no_sums).train.size(), 2u);  // --no-verify: the user's call
+  write_text_atomic(d / "train/00000000.label.png", l0);
+  // A missing pair file.
+  fs::remove(d / "val/00000002.height.exr");
+  expect_error_naming([&] { open_dataset(d); }, "val/00000002.height.exr: missing");
+  // No checksums recorded (an older manifest): verify refuses, --no-verify reads it.
+  with_line(0, [&](json& r) { r.erase("label_fnv64"); });
+  expect_error_naming([&] { open_dataset(d); }, "--no-verify");
+  fs::remove_all(d);
+}
+
 TEST(TrainParams, PaperConfigIsTheDefaults) {
   // configs/train/paper.json is just the serialised defaults (docs/DESIGN.md §5).
   const TrainParams p = train_params_from_json(read_json(REEFGEN_SOURCE_DIR "/configs/train/paper.json"), "paper.json");
@@ -508,4 +554,36 @@ TEST(FusedAdam, MatchesLibTorchAdamAndIgnoresThreadCount) {
     EXPECT_TRUE(torch::equal(f1[i], f2[i])) << "thread count changed the update of tensor " << i;
   }
   torch::set_num_threads(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+// Issue 36: a pair that cannot be read mid-run (here: damaged, --no-verify)
+// stops training with the weights of the last finished step saved first.
+TEST(Train, UnreadablePairMidRunSavesACheckpoint) {
+  const fs::path data = make_dataset("midrun_data", 12, 0);
+  const fs::path base = temp_dir("midrun");
+  write_text_atomic(data / "train/00000011.label.png", "not a png any more");
+  TrainParams p = tiny_params();
+  p.checkpoint_every = 1000;  // no periodic checkpoint: only the failure's
+  p.epochs = 20;
+  RunOptions run = run_in(data, base / "run");
+  run.verify_data = false;
+  std::string message;
+  try {
+    run_training(p, run);
+  } catch (const Error& e) {
+    message = e.what();
+  }
+  ASSERT_NE(message.find("00000011.label.png"), std::string::npos) << message;
+  const size_t at = message.find("checkpoint saved at step ");
+  ASSERT_NE(at, std::string::npos) << message;
+  const int64_t step = std::stoll(message.substr(at + 25));
+  EXPECT_GT(step, 0);
+  Pix2Pix q(pix2pix_options(p));
+  EXPECT_EQ(load_checkpoint(base / "run" / "checkpoint.pt", q, p, nullptr, nullptr, 1), step);
+  // Verified (the default), the damage is found before the first step.
+  RunOptions checked = run_in(data, base / "checked");
+  expect_error_naming([&] { run_training(p, checked); }, "its bytes differ");
+  EXPECT_FALSE(fs::exists(base / "checked" / "checkpoint.pt"));
+  fs::remove_all(base);
+  fs::remove_all(data);
 }

@@ -30,8 +30,11 @@ inline fs::path make_dataset(const std::string& name, int n, int n_val) {
     std::snprintf(stem, sizeof stem, "%s/%08d", split.c_str(), i);
     write_png(d / (std::string(stem) + ".label.png"), encode_labels(f.label, s.subsidence));
     write_exr_height(d / (std::string(stem) + ".height.exr"), f.height_m);
-    manifest += nlohmann::json{{"index", i}, {"split", split}, {"label", std::string(stem) + ".label.png"},
-                     {"height", std::string(stem) + ".height.exr"}}.dump() + "\n";
+    const std::string label = std::string(stem) + ".label.png", height = std::string(stem) + ".height.exr";
+    manifest += nlohmann::json{{"index", i}, {"split", split}, {"label", label}, {"height", height},
+                               {"label_fnv64", file_checksum(d / label)}, {"height_fnv64", file_checksum(d / height)}}
+                    .dump() +
+                "\n";
   }
   write_text_atomic(d / "manifest.jsonl", manifest);
   return d;

@@ -4,6 +4,7 @@
 // Every pair is a pure function of (seed, index), so a build can be resumed,
 // sharded and verified by rebuilding.
 #include "reefgen/augment/build.hpp"
+#include "reefgen/augment/manifest.hpp"
 
 #include <array>
 #include <atomic>
@@ -261,12 +262,15 @@ MergeResult merge_dataset(const fs::path& dir) {
   return {dir / "manifest.jsonl", shards.size(), count};
 }
 
-json dataset_stats(const fs::path& dir, int sheet_pairs, bool quiet) {
+json dataset_stats(const fs::path& dir, int sheet_pairs, bool quiet, bool verify) {
   if (sheet_pairs < 0 || sheet_pairs > 1024) throw Error("--sheet must be in 0..1024");
   const json meta = read_json(dir / "dataset.json");
   const fs::path manifest = dir / "manifest.jsonl";
-  if (!fs::exists(manifest)) throw Error(manifest.string() + ": missing; finish the build (or `dataset merge` its shards)");
-  std::ifstream in(manifest);
+  ManifestCheck check;
+  check.verify_checksums = verify;
+  check.threads = default_threads();
+  check.quiet = quiet;
+  std::vector<ManifestPair> pairs = read_manifest(dir, check);
   std::map<std::string, int64_t> per_split;
   std::array<double, kNumRegions> region_px{};
   std::vector<int64_t> lambda_hist(10, 0);
@@ -274,16 +278,12 @@ json dataset_stats(const fs::path& dir, int sheet_pairs, bool quiet) {
   int64_t n = 0;
   std::vector<cv::Mat> tiles;
   const int tile = 128;
-  std::string line;
   std::vector<json> records;
-  for (size_t no = 1; std::getline(in, line); ++no) {
-    json r = json::parse(line, nullptr, false);
-    if (r.is_discarded() || !r.is_object() || !r.contains("split") || !r["split"].is_string() ||
-        !r.contains("label") || !r["label"].is_string() || !r.contains("height") || !r["height"].is_string() ||
-        !r.contains("subsidence") || !r["subsidence"].is_number())
-      throw Error(manifest.string() + ":" + std::to_string(no) +
-                  ": not a pair record (truncated or edited manifest); rebuild the dataset (it resumes)");
-    records.push_back(std::move(r));
+  for (ManifestPair& p : pairs) {
+    if (!p.record.contains("subsidence") || !p.record["subsidence"].is_number())
+      throw Error(manifest.string() + ":" + std::to_string(p.line) +
+                  ": not a pair record (no subsidence); rebuild the dataset (it resumes)");
+    records.push_back(std::move(p.record));
   }
   const int size_px = meta.contains("params") ? meta["params"].value("size_px", 0) : 0;
   Progress progress("stats", records.size(), quiet);

@@ -5,6 +5,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "reefgen/augment/manifest.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/rng.hpp"
 
@@ -19,7 +20,7 @@ const std::vector<PairRef>& DatasetInfo::split(const std::string& name) const {
   throw Error("unknown split '" + name + "'; use train, val or test");
 }
 
-DatasetInfo open_dataset(const fs::path& dir) {
+DatasetInfo open_dataset(const fs::path& dir, const augment::ManifestCheck& check) {
   DatasetInfo d;
   d.dir = dir;
   const fs::path meta = dir / "dataset.json";
@@ -33,31 +34,13 @@ DatasetInfo open_dataset(const fs::path& dir) {
     throw Error(meta.string() + ": no params.size_px or height_normalisation_m (" + std::string(e.what()) + ")");
   }
   if (!(d.range.hi_m > d.range.lo_m)) throw Error(meta.string() + ": height_normalisation_m must be [lo, hi] with lo < hi");
-  const fs::path manifest = dir / "manifest.jsonl";
-  if (!fs::exists(manifest))
-    throw Error(manifest.string() + ": missing; finish the build (or `reefgen dataset merge` its shards)");
-  std::ifstream in(manifest);
-  std::string line;
-  int64_t n = 0;
-  while (std::getline(in, line)) {
-    ++n;
-    if (line.empty()) continue;
-    // nlohmann's parse and type errors would put "[json.exception...]" in
-    // front of the user: each field is checked here instead.
-    const json r = json::parse(line, nullptr, false);
-    const bool ok = !r.is_discarded() && r.is_object() && r.contains("index") && r["index"].is_number_integer() &&
-                    r.contains("label") && r["label"].is_string() && r.contains("height") && r["height"].is_string() &&
-                    r.contains("split") && r["split"].is_string();
-    if (!ok)
-      throw Error(manifest.string() + ":" + std::to_string(n) +
-                  ": not a pair record (truncated or edited manifest); rebuild the dataset (it resumes)");
-    PairRef p{r["index"].get<int64_t>(), r["label"].get<std::string>(), r["height"].get<std::string>()};
-    const std::string split = r["split"];
-    if (split == "train") d.train.push_back(std::move(p));
-    else if (split == "val") d.val.push_back(std::move(p));
-    else if (split == "test") d.test.push_back(std::move(p));
-    else throw Error(manifest.string() + ":" + std::to_string(n) + ": unknown split '" + split + "'; rebuild the dataset");
+  for (augment::ManifestPair& p : augment::read_manifest(dir, check)) {
+    PairRef r{p.index, std::move(p.label), std::move(p.height)};
+    if (p.split == "train") d.train.push_back(std::move(r));
+    else if (p.split == "val") d.val.push_back(std::move(r));
+    else d.test.push_back(std::move(r));
   }
+  const fs::path manifest = dir / "manifest.jsonl";
   if (d.train.empty()) throw Error(manifest.string() + ": no training pairs");
   return d;
 }

@@ -329,7 +329,11 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
   if (run.dist.world_size > 1) comm = Comm::connect(run.dist);
   const int rank = run.dist.rank, world = run.dist.world_size;
   const bool lead = rank == 0;  // the only rank that touches the run folder
-  const DatasetInfo data = open_dataset(run.data);
+  augment::ManifestCheck check;
+  check.verify_checksums = run.verify_data;
+  check.threads = torch::get_num_threads();
+  check.quiet = !lead || !run.on_log;
+  const DatasetInfo data = open_dataset(run.data, check);
   if (data.size_px % (1 << params.depth))
     throw Error(run.data.string() + ": pairs are " + std::to_string(data.size_px) + " px, not a multiple of 2^depth = " +
                 std::to_string(1 << params.depth) + "; lower depth or build the dataset at another size");
@@ -563,12 +567,25 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
     throw Error("--bucket-mb " + fmt(run.bucket_mb) + ": must be in (0, 1024]");
   p.set_comm(comm.get(), run.bucket_mb);
   Prefetcher loader(make_batch, step, end, params.loader_threads, params.prefetch);
+  // A pair that cannot be read mid-run (deleted, damaged): the weights after
+  // the last finished step are saved first, so --resume loses nothing.
+  int64_t saved_step = -1;
+  auto next_batch_or_checkpoint = [&](Prefetcher& l, int64_t at) {
+    try {
+      return l.next();
+    } catch (const Error& e) {
+      if (lead && at > 0 && saved_step != at) save_checkpoint(ckpt, p, params, at, window, world);
+      throw Error(std::string(e.what()) + (lead && at > 0 ? " [checkpoint saved at step " + std::to_string(at) +
+                                                                "; fix the dataset, then --resume]"
+                                                          : ""));
+    }
+  };
   using clock = std::chrono::steady_clock;
   while (step < end) {
     const auto t0 = clock::now();
     const double lr = lr_at(params, step, steps_constant, steps_decay);
     p.set_lr(lr);
-    auto [label, height] = loader.next();
+    auto [label, height] = next_batch_or_checkpoint(loader, step);
     // Dropout draws from torch's generator, reseeded per step: a resumed run
     // draws exactly what the uninterrupted one would have.
     torch::manual_seed(derive_seed(params.seed, uint64_t(step), "dropout"));
@@ -617,6 +634,7 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
     }
     if (lead && (step % params.checkpoint_every == 0 || step == end || stopping)) {
       save_checkpoint(ckpt, p, params, step, window, world);
+      saved_step = step;
       if (run.on_log) run.on_log("checkpoint at step " + std::to_string(step) + ": " + ckpt.string());
     }
     if (run.on_step) run.on_step({step, total, lr, dt, allreduce_s, l});

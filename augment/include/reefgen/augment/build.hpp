@@ -43,6 +43,7 @@ MergeResult merge_dataset(const std::filesystem::path& dir);
 // Pairs per split, region pixel fractions, subsidence histogram, height
 // range; writes DIR/stats.json and DIR/contact_sheet.png (sheet_pairs pairs,
 // [0, 1024]) and returns the stats.
-nlohmann::json dataset_stats(const std::filesystem::path& dir, int sheet_pairs, bool quiet);
+// verify: the files against the manifest's checksums first (read_manifest).
+nlohmann::json dataset_stats(const std::filesystem::path& dir, int sheet_pairs, bool quiet, bool verify = true);
 
 }  // namespace reefgen::augment

@@ -1,4 +1,5 @@
 #pragma once
+#include "reefgen/augment/manifest.hpp"
 // Reads datasets written by `reefgen dataset build` (docs/DATASET.md) and
 // turns pairs into network tensors, with pix2pix's jitter applied identically
 // to label and height. Sample k of a run is a pure function of (seed, k), so
@@ -34,9 +35,11 @@ struct DatasetInfo {
   const std::vector<PairRef>& split(const std::string& name) const;
 };
 
-// Reads DIR/dataset.json and DIR/manifest.jsonl; throws reefgen::Error naming
-// the file and the fix (missing, unmerged shards, bad lines).
-DatasetInfo open_dataset(const std::filesystem::path& dir);
+// Reads DIR/dataset.json and DIR/manifest.jsonl, checked as
+// augment::read_manifest says (paths inside DIR, indexes unique, and unless
+// check.verify_checksums is off every file's checksum); throws reefgen::Error
+// naming the file and the fix (missing, unmerged shards, bad lines).
+DatasetInfo open_dataset(const std::filesystem::path& dir, const augment::ManifestCheck& check = {});
 
 struct JitterOptions {
   bool on = false;

@@ -49,6 +49,9 @@ struct RunOptions {
   // soon as backward has produced it (PyTorch DDP's bucket_cap_mb). Changes
   // the speed only, (0, 1024]; 4 beat 1 and 25 on 2 cores (docs/BENCHMARKS.md).
   double bucket_mb = 4;
+  // The dataset's files against the manifest's checksums before the first
+  // step (augment::read_manifest); false: `--no-verify`.
+  bool verify_data = true;
 };
 
 struct RunResult {
