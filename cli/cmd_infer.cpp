@@ -29,7 +29,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
   struct Args {
     std::vector<std::string> inputs;
     std::string model, out, mesh, erosion;
-    bool png16 = false, r16 = false, preview = false, stochastic = false, running_stats = false;
+    bool png16 = false, r16 = false, preview = false, stochastic = false, running_stats = false, raw = false;
     std::string precision = "fp32";  // the same heights on every CPU; bf16/auto are faster (docs/BENCHMARKS.md)
     std::string engine = "auto";
     uint64_t seed = 0;
@@ -67,6 +67,8 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                   "onednn (reefgen's engine), torch (LibTorch's forward, the reference) or auto (onednn; torch "
                   "with --stochastic)")
       ->capture_default_str();
+  sub->add_flag("--raw", a->raw,
+                "The network's bare answer (research): no clean-up at the model's side, no amplification above it");
   sub->add_flag("--running-stats", a->running_stats,
                 "BatchNorm running statistics (eval mode) instead of pix2pix's test-time batch statistics");
   sub->add_option("--threads", a->threads, "LibTorch threads (default: all cores)")->check(CLI::Range(1, 256));
@@ -86,6 +88,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
             infer::InferOptions& io = job.options;
             io.stochastic = a->stochastic;
             io.running_stats = a->running_stats;
+            io.amplify = !a->raw;
             try {
               io.precision = infer::precision_from_string(a->precision);
               io.engine = infer::engine_from_string(a->engine);

@@ -16,6 +16,8 @@
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
 #include "reefgen/terrain.hpp"
+#include "reefgen/model/shipped.hpp"
+#include "reefgen/constants.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/cpu.hpp"
 #include "reefgen/model/dnnl_conv.hpp"
@@ -455,5 +457,78 @@ TEST(Infer, OneDnnEngineEqualsLibTorch) {
         EXPECT_LT(cv::norm(ha[i], hb[i], cv::NORM_INF), 0.01) << "sketch " << i << (running ? " running stats" : "");
       EXPECT_GT(cv::norm(ha[0], ha[1], cv::NORM_INF), 0.1) << "different sketches must give different heights";
     }
+  }
+}
+
+namespace {
+// A plain painted bullseye at the model's side: island (yellow) in the
+// middle, then beach, lagoon, reef rings and the abyss; radii in pixels.
+DecodedSketch bullseye(int side, double subsidence) {
+  DecodedSketch s;
+  s.label = cv::Mat1b(side, side, uint8_t(kAbyss));
+  const cv::Point c(side / 2, side / 2);
+  const int r_reef = side * 28 / 100, r_lagoon = side * 24 / 100, r_beach = side * 19 / 100, r_island = side * 16 / 100;
+  cv::circle(s.label, c, r_reef, kReef, cv::FILLED);
+  cv::circle(s.label, c, r_lagoon, kLagoon, cv::FILLED);
+  cv::circle(s.label, c, r_beach, kBeach, cv::FILLED);
+  cv::circle(s.label, c, r_island, kIsland, cv::FILLED);
+  s.subsidence = cv::Mat1f(side, side, float(subsidence));
+  return s;
+}
+
+// Mean height over rings one pixel wide around the centre, of the field
+// smoothed by a Gaussian of sigma_m: concentric ridges and moats survive
+// the ring average, valleys (a few directions each) do not.
+std::vector<double> radial_profile(const cv::Mat1f& h, double metres_per_px, double sigma_m) {
+  cv::Mat1f s;
+  cv::GaussianBlur(h, s, cv::Size(), sigma_m / metres_per_px);
+  const int n = h.cols / 2;
+  std::vector<double> sum(size_t(n), 0), count(size_t(n), 0);
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x) {
+      const int r = int(std::lround(std::hypot(x - h.cols / 2, y - h.rows / 2)));
+      if (r < n) sum[size_t(r)] += s(y, x), count[size_t(r)] += 1;
+    }
+  for (int r = 0; r < n; ++r) sum[size_t(r)] /= std::max(1.0, count[size_t(r)]);
+  return sum;
+}
+}  // namespace
+
+// Issue 39: the shipped model's default 256² answer to a plain bullseye has
+// one summit inside the island disc, no closed depression on land and no
+// concentric ridge on its flank (the ring-mean profile, smoothed 100 m,
+// descends from the summit to the coast within 2 m). The raw network's
+// answer is measured beside it (not held to the bar: it is what --raw gives).
+TEST(Infer, BullseyeGivesOneSummitNoPitsNoRings) {
+  auto g = model::load_generator(model::resolve_model_path(""));
+  const int S = g.size_px;
+  const double px_m = kCanvasWorldSizeM / S;
+  for (double subsidence : {0.0, 0.3}) {
+    const DecodedSketch s = bullseye(S, subsidence);
+    InferOptions raw_o;
+    raw_o.amplify = false;
+    const cv::Mat1f raw = infer_heights(g, {s}, raw_o)[0];
+    const cv::Mat1f h = infer_heights(g, {s}, {})[0];
+    const RealismStats st = realism_stats(h, px_m), st_raw = realism_stats(raw, px_m);
+    std::cerr << "[ bullseye ] subsidence " << subsidence << ": pits raw " << st_raw.pits << " -> " << st.pits
+              << ", max " << st_raw.max_height_m << " -> " << st.max_height_m << " m\n";
+    EXPECT_EQ(st.pits, 0.0) << "closed depressions on land, subsidence " << subsidence;
+    // The summit: inside the painted island disc.
+    cv::Point top;
+    cv::minMaxLoc(h, nullptr, nullptr, nullptr, &top);
+    EXPECT_LE(std::hypot(top.x - S / 2, top.y - S / 2), S * 16 / 100) << "summit outside the island disc";
+    // The flank: from the profile's peak out to the coast.
+    const std::vector<double> prof = radial_profile(h, px_m, 100.0);
+    const size_t peak = size_t(std::max_element(prof.begin(), prof.end()) - prof.begin());
+    size_t coast = peak;
+    while (coast + 1 < prof.size() && prof[coast] > 0) ++coast;
+    ASSERT_GT(coast, peak + 3) << "no flank to measure";
+    double lowest = prof[peak], worst_rise = 0;
+    for (size_t r = peak; r <= coast; ++r) {
+      worst_rise = std::max(worst_rise, prof[r] - lowest);
+      lowest = std::min(lowest, prof[r]);
+    }
+    EXPECT_LE(worst_rise, 2.0) << "a concentric ridge on the flank, subsidence " << subsidence;
+    std::cerr << "[ bullseye ] flank rise " << worst_rise << " m over r " << peak << ".." << coast << " px\n";
   }
 }

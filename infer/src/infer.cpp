@@ -141,7 +141,10 @@ std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<
   for (size_t i = 0; i < sketches.size(); ++i) {
     cv::Mat1f h = model::tensor_to_height(outs[i], g.range);
     const cv::Size want = o.size_px > 0 ? cv::Size(o.size_px, o.size_px) : sketches[i].label.size();
-    if (want.width == want.height && want.width > h.cols && o.amplify && h.rows == h.cols) {
+    // At every size (the model's own included) the answer is cleaned as the
+    // amplification cleans it: ponds raised, erosion on the answer's grid,
+    // pits breached (issue 39); --raw (amplify off) keeps the network's bits.
+    if (want.width == want.height && o.amplify && h.rows == h.cols) {
       cv::Mat1b label;
       cv::resize(sketches[i].label, label, want, 0, 0, cv::INTER_NEAREST);
       h = procgen::amplify_heights(h, label, o.world_size_m, o.seed, o.erosion);

@@ -42,7 +42,11 @@ struct InferOptions {
   uint64_t seed = 0;           // dropout masks when stochastic; the amplification's detail noise
   int size_px = 0;             // output side, [0, 8192]; 0 = the sketch's own size
   double world_size_m = kCanvasWorldSizeM;  // canvas width in metres (the amplification's erosion works in metres)
-  bool amplify = true;         // above the model's side: erosion + detail (procgen amplify_heights), not a stretch
+  // procgen::amplify_heights at every square size: the model's own side gets
+  // its clean-up (ponds raised, erosion on its grid, pits breached), larger
+  // sides also erosion + detail at each finer level. false (`--raw`): the
+  // network's answer, only resized.
+  bool amplify = true;
   procgen::ErosionParams erosion;  // the amplification's erosion and detail (docs/EROSION.md); defaults = the shipped tuning
 };
 
