@@ -29,7 +29,7 @@ Command add_eval_command(CLI::App& app, const GlobalOptions& g) {
   struct Args {
     std::string model, data, split = "test", out;
     int64_t max_pairs = 1000;
-    bool no_perturb = false, running_stats = false, no_verify = false;
+    bool no_perturb = false, running_stats = false, no_verify = false, raw = false;
     double world_size_m = kCanvasWorldSizeM;
     std::optional<int> threads;
   };
@@ -41,6 +41,7 @@ Command add_eval_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("-o,--out,--output", a->out, "Folder for eval.json, eval.md, worst.png (default: print JSON only)");
   sub->add_option("--max-pairs", a->max_pairs, "Use the first N pairs of the split")->capture_default_str();
   sub->add_flag("--no-perturb", a->no_perturb, "Clean sketches only");
+  sub->add_flag("--raw", a->raw, "Score the network's bare answer (infer --raw), not the cleaned one infer gives");
   sub->add_flag("--no-verify", a->no_verify, "Skip checking the dataset's files against its manifest's checksums");
   sub->add_flag("--running-stats", a->running_stats, "BatchNorm running statistics instead of batch statistics");
   sub->add_option("--world-size", a->world_size_m, "Canvas width in metres (slopes)")->capture_default_str()->check(finite_in(1, 1e7));
@@ -69,6 +70,7 @@ Command add_eval_command(CLI::App& app, const GlobalOptions& g) {
             eo.running_stats = a->running_stats;
             eo.world_size_m = a->world_size_m;
             eo.quiet = g.quiet;
+            eo.raw = a->raw;
             const infer::EvalResult r = infer::evaluate(gen, eval_pairs, eo);
             const json report = {{"reefgen_version", kVersion},
                                  {"model", {{"path", a->model}, {"train_step", gen.train_step}, {"ngf", gen.g->options().ngf}}},

@@ -297,8 +297,8 @@ PY
   # bf16 inference of the shipped model stays within 1 m of fp32 (99th percentile; mean ≤ 0.25 m).
   [ "$HAS_BF16" = 1 ] || skip "bf16 vs fp32 on the shipped model: no bf16 convolutions on this CPU (needs AVX-512)"
   [ "$HAS_BF16" = 1 ] && for s in 01-young-volcano 06-long-arc 12-atoll-dark; do
-    "$BIN" -q infer "$(dirname "$0")/data/painted/$s.png" -o "$T/i/p32-$s" --precision fp32 >/dev/null || bad "infer fp32"
-    "$BIN" -q infer "$(dirname "$0")/data/painted/$s.png" -o "$T/i/pbf-$s" --precision bf16 >/dev/null || bad "infer bf16"
+    "$BIN" -q infer "$(dirname "$0")/data/painted/$s.png" -o "$T/i/p32-$s" --precision fp32 --raw >/dev/null || bad "infer fp32"
+    "$BIN" -q infer "$(dirname "$0")/data/painted/$s.png" -o "$T/i/pbf-$s" --precision bf16 --raw >/dev/null || bad "infer bf16"
     OPENCV_IO_ENABLE_OPENEXR=1 "$PY" - "$T/i/p32-$s.height.exr" "$T/i/pbf-$s.height.exr" <<'PY' && ok || bad "bf16 vs fp32 on $s"
 import sys, cv2, numpy as np
 a, b = (cv2.imread(f, cv2.IMREAD_UNCHANGED) for f in sys.argv[1:3])
@@ -357,10 +357,14 @@ REEFGEN_NO_BF16=1 "$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/nobf" >/dev/nu
   && ok || bad "auto precision with bf16 hidden"
 REEFGEN_NO_BF16=1 expect_error "cannot build a bf16 convolution on this CPU" infer "$T/s/one.png" -m "$M" -o "$T/e/nobf" --precision bf16
 [ ! -e "$T/e/nobf.height.exr" ] && ok || bad "a refused bf16 run wrote a file"
+# --raw: the network's bare answer; the default is cleaned (ponds raised, pits breached) at the model's side too.
+"$BIN" -q infer "$(dirname "$0")/data/painted/01-young-volcano.png" -o "$T/i/raw" --raw >/dev/null \
+  && "$BIN" -q infer "$(dirname "$0")/data/painted/01-young-volcano.png" -o "$T/i/clean" >/dev/null \
+  && ! cmp -s "$T/i/raw.height.exr" "$T/i/clean.height.exr" && ok || bad "--raw gives the same file as the default"
 # At the model's own side: above it the amplification's erosion routes water
 # by strict comparisons, so a 1e-5 m difference can move a channel.
 MS=$("$BIN" -q model info "$M" | "$PY" -c "import json,sys; print(json.load(sys.stdin)['size_px'])")
-"$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/tt" --engine torch --size "$MS" >/dev/null && "$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/to" --engine onednn --size "$MS" >/dev/null \
+"$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/tt" --engine torch --size "$MS" --raw >/dev/null && "$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/to" --engine onednn --size "$MS" --raw >/dev/null \
   && OPENCV_IO_ENABLE_OPENEXR=1 "$PY" - "$T/i/tt.height.exr" "$T/i/to.height.exr" <<'PY' && ok || bad "onednn vs torch engine"
 import sys, cv2, numpy as np
 a, b = (cv2.imread(f, cv2.IMREAD_UNCHANGED) for f in sys.argv[1:3])

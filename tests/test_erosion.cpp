@@ -295,8 +295,11 @@ TEST(Erosion, AmplifyCarvesValleysIntoASmoothAnswer) {
 namespace {
 
 // Only the step under test: no roughening, no erosion, the answer's own size.
+// The shaping of sides above the model's, tested on one grid (at the model's
+// own side only ponds and pits are touched by default).
 ErosionParams shaping_only() {
-  return erosion_params_from_json({{"amplify_roughness", 0},
+  return erosion_params_from_json({{"amplify_erode_at_model_side", true},
+                                   {"amplify_roughness", 0},
                                    {"amplify_steps", 0},
                                    {"amplify_duration_scale", 0},
                                    {"amplify_lobe_m", 0},

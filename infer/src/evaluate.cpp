@@ -44,6 +44,7 @@ EvalResult evaluate(model::GeneratorFile& g, const std::vector<EvalPair>& pairs,
     kinds.insert(kinds.end(), {Perturbation::Blur, Perturbation::Jpeg50, Perturbation::HueJitter, Perturbation::BrushNoise});
   InferOptions io;
   io.running_stats = o.running_stats;
+  io.amplify = !o.raw;
   EvalResult r;
   r.metrics = json::object();
   std::vector<double> clean_mae(n);

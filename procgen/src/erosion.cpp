@@ -642,9 +642,10 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
   cv::Mat1f coarse = coarse_m.clone();
   cv::Mat1b label_s;
   cv::resize(label, label_s, cv::Size(S, S), 0, 0, cv::INTER_NEAREST);
-  if (p.enabled) {
-    smooth_plains(coarse, label_s, p.amplify_plain_smooth_m / (world_size_m / S), p.amplify_low_island_m);
-    fill_ponds(coarse, label_s, world_size_m / S, p.amplify_pond_max_m2);
+  const bool erode = N > S || p.amplify_erode_at_model_side;
+  if (p.enabled && erode) smooth_plains(coarse, label_s, p.amplify_plain_smooth_m / (world_size_m / S), p.amplify_low_island_m);
+  if (p.enabled) fill_ponds(coarse, label_s, world_size_m / S, p.amplify_pond_max_m2);
+  if (p.enabled && erode) {
     roughen_land(coarse, world_size_m, seed, p);
     // Few steps (amplify_steps, not the generator's `steps`): measured, 8 steps
     // give the painted set 0.298 valleys, 3 give 0.306 (docs/EROSION.md). The

@@ -32,6 +32,7 @@ struct EvalOptions {
   bool running_stats = false;  // BatchNorm running statistics instead of batch statistics
   double world_size_m = kCanvasWorldSizeM;  // canvas width, m (slopes), (0, 1e7]
   bool quiet = false;          // no progress on stderr
+  bool raw = false;            // the network's bare answer (InferOptions::amplify off), not what infer gives
 };
 struct EvalResult {
   nlohmann::json metrics;  // {perturbation name: MetricSums::finish()}
