@@ -54,8 +54,9 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                   "1009/2017/4033 for Unreal")
       ->check(CLI::Range(16, 8192));
   sub->add_option("--erosion", a->erosion,
-                  "JSON of the amplification's erosion params above the model's side (docs/EROSION.md; every key "
-                  "optional, e.g. {\"amplify_roughness\": 0.5})");
+                  "FILE: a JSON file of the amplification's erosion params (docs/EROSION.md; every key optional, "
+                  "e.g. {\"amplify_roughness\": 0.5})")
+      ->type_name("FILE");
   sub->add_flag("--preview", a->preview, "Also PREFIX.preview.png: coloured, hill-shaded");
   sub->add_flag("--stochastic", a->stochastic, "Dropout on (pix2pix's noise): a different island per --seed");
   sub->add_option("--seed", a->seed, "Dropout masks for --stochastic")->capture_default_str()->check(seed_value());

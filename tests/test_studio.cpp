@@ -238,7 +238,11 @@ TEST_F(Studio, BadAndOversizeRequestsAreRefused) {
   EXPECT_EQ(g->status, 400) << g->body;
   expect_error(client->Post("/api/generate", "{\"outlines\": [", "application/json"), 400, "not valid JSON");
   expect_error(client->Post("/api/generate", R"({"subsidence": 7})", "application/json"), 400, "subsidence = 7");
-  expect_error(client->Post("/api/generate?size=5000", "{}", "application/json"), 400, "size must be in");
+  expect_error(client->Post("/api/generate?size=5000", "{}", "application/json"), 400, "size must be");
+  // Issue 36: a size past 2^32 wrapped to 32 and was answered.
+  expect_error(client->Post("/api/generate?size=4294967328", "{}", "application/json"), 400, "size must be");
+  expect_error(client->Post("/api/generate?size=128px", "{}", "application/json"), 400, "size must be");
+  expect_error(client->Post("/api/generate?size=-128", "{}", "application/json"), 400, "size must be");
 }
 
 namespace {

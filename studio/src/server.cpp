@@ -266,6 +266,15 @@ struct StudioServer::Impl {
     }
   }
 
+  // ?size=N: digits only, in 32..max_side (atoi wrapped 4294967328 to 32).
+  int size_param(const std::string& v) const {
+    const std::string range = "size must be a whole number of pixels in 32.." + std::to_string(o.max_side);
+    if (v.empty() || v.size() > 6 || v.find_first_not_of("0123456789") != std::string::npos) throw BadRequest(range);
+    const int n = std::stoi(v);
+    if (n < 32 || n > o.max_side) throw BadRequest(range);
+    return n;
+  }
+
   procgen::IslandFields island_of(const json& spec_json, int size, procgen::IslandSpec* spec_out) {
     if (size < 32 || size > o.max_side) throw BadRequest("size must be in 32.." + std::to_string(o.max_side));
     procgen::IslandSpec spec;
@@ -433,7 +442,7 @@ struct StudioServer::Impl {
     svr.Post("/api/generate", guarded([this](const httplib::Request& req, httplib::Response& res) {
       const json spec = json::parse(req.body, nullptr, false);
       if (spec.is_discarded()) throw BadRequest("the body is not valid JSON: send an island spec (docs/SPEC.md)");
-      const int size = req.has_param("size") ? std::atoi(req.get_param_value("size").c_str()) : 256;
+      const int size = req.has_param("size") ? size_param(req.get_param_value("size")) : 256;
       latest_wins(res, [&] {
         const auto t0 = std::chrono::steady_clock::now();
         procgen::IslandSpec sp;
@@ -472,7 +481,10 @@ struct StudioServer::Impl {
           procgen::IslandSpec sp;
           if (body.contains("size") && !body["size"].is_number_integer())
             throw BadRequest("size must be a whole number of pixels in 32.." + std::to_string(o.max_side));
-          const procgen::IslandFields f = island_of(body["spec"], body.value("size", 256), &sp);
+          // Range-checked as int64 before narrowing: 4294967328 must not become 32.
+          const int64_t size = body.contains("size") ? body["size"].get<int64_t>() : 256;
+          if (size < 32 || size > o.max_side) throw BadRequest("size must be in 32.." + std::to_string(o.max_side));
+          const procgen::IslandFields f = island_of(body["spec"], int(size), &sp);
           h = f.height_m;
           label = encode_labels(f.label, sp.subsidence);
           procgen::to_json(spec_json, sp);
