@@ -21,6 +21,7 @@
 #include <opencv2/core/utils/logger.hpp>
 
 #include "app.hpp"
+#include "reefgen/io.hpp"
 #include "reefgen/version.hpp"
 
 namespace reefgen {
@@ -58,6 +59,7 @@ int main(int argc, char** argv) {
   // OpenCV's [WARN] lines are not for users: every problem reaches them as
   // one line from reefgen, naming the file (read_image and friends).
   cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
+  reefgen::remove_temps_on_fatal_signals();
   CLI::App app{"reefgen " + std::string(reefgen::kVersion) +
                " - procedural and learning-based coral reef island terrains\n\n"
                "Examples:\n"

@@ -1,6 +1,9 @@
 // Label encoding/decoding and file I/O: round trips, tolerant decoding of
 // painted sketches, error paths.
 #include <limits>
+#include <csignal>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <gtest/gtest.h>
 
@@ -320,4 +323,42 @@ TEST(Io, JsonTypeErrorsNameTheField) {
                             "train.json: lr = \"fast\" must be a number");
   test::expect_error_naming([&] { read_json_value(nlohmann::json(1), b, "x: flip"); }, "x: flip = 1 must be true or false");
   test::expect_error_naming([&] { read_json_value(nlohmann::json(2.5), s, "x: norm"); }, "x: norm = 2.5 must be a string");
+}
+
+// Issue 36: SIGTERM (or SIGHUP, an unhandled SIGINT) while an output is
+// staged leaves no *.tmp.* file once remove_temps_on_fatal_signals is
+// installed (reefgen's main does); without it the temporary file stays,
+// which is what the test would see if the handler did nothing.
+TEST(Io, FatalSignalsRemoveStagedTemporaryFiles) {
+  for (bool handled : {true, false}) {
+    for (int sig : {SIGTERM, SIGHUP}) {
+      const fs::path dir = fs::temp_directory_path() / ("reefgen_sigtmp_" + std::to_string(::getpid()) + "_" +
+                                                        std::to_string(sig) + (handled ? "h" : "u"));
+      fs::remove_all(dir);
+      fs::create_directories(dir);
+      const pid_t child = ::fork();
+      ASSERT_GE(child, 0);
+      if (child == 0) {
+        if (handled) remove_temps_on_fatal_signals();
+        StagedOutputs out;
+        out.write(dir / "island.height.exr", [&](const fs::path& tmp) {
+          write_text_atomic(dir / "done.txt", "staged");  // committed: must stay
+          std::FILE* f = std::fopen(tmp.c_str(), "wb");
+          std::fputs("half a file", f);
+          std::fclose(f);
+          ::raise(sig);
+        });
+        ::_exit(0);
+      }
+      int status = 0;
+      ::waitpid(child, &status, 0);
+      ASSERT_TRUE(WIFSIGNALED(status)) << "the child was not ended by the signal";
+      EXPECT_EQ(WTERMSIG(status), sig);
+      int temps = 0;
+      for (const auto& e : fs::directory_iterator(dir)) temps += e.path().string().find(".tmp.") != std::string::npos;
+      EXPECT_TRUE(fs::exists(dir / "done.txt"));
+      EXPECT_EQ(temps, handled ? 0 : 1) << "signal " << sig << (handled ? " with" : " without") << " the handler";
+      fs::remove_all(dir);
+    }
+  }
 }

@@ -31,17 +31,54 @@ namespace reefgen {
 
 namespace {
 
+// Temporary files being written, for a fatal signal's handler to unlink
+// (SIGTERM, SIGHUP, an unhandled SIGINT): a fixed table of C strings, each
+// published by its flag, so the handler only calls unlink (async-signal-safe).
+// A slot is freed when its file is committed; when all are taken the oldest
+// is reused (a stale entry only names a file that no longer exists).
+constexpr size_t kLiveTemps = 256;
+constexpr size_t kLiveTempPath = 4096;
+struct LiveTemp {
+  std::atomic<bool> ready{false};
+  char path[kLiveTempPath];
+};
+LiveTemp g_live[kLiveTemps];
+std::atomic<uint64_t> g_live_next{0};
+
+void track_temp(const fs::path& tmp) {
+  const std::string& s = tmp.native();
+  if (s.size() >= kLiveTempPath) return;
+  LiveTemp& t = g_live[g_live_next.fetch_add(1) % kLiveTemps];
+  t.ready = false;
+  std::memcpy(t.path, s.c_str(), s.size() + 1);
+  t.ready = true;
+}
+
+void untrack_temp(const fs::path& tmp) {
+  for (LiveTemp& t : g_live)
+    if (t.ready && tmp.native() == t.path) t.ready = false;
+}
+
+extern "C" void unlink_temps_and_die(int sig) {
+  for (LiveTemp& t : g_live)
+    if (t.ready) ::unlink(t.path);
+  ::signal(sig, SIG_DFL);
+  ::raise(sig);
+}
+
 // Unique temp name beside the destination (same filesystem, so rename is atomic).
 fs::path temp_path_for(const fs::path& path) {
   static std::atomic<uint64_t> counter{0};
   const auto n = counter.fetch_add(1);
   fs::path tmp = path;
   tmp += ".tmp." + std::to_string(::getpid()) + "." + std::to_string(n);
+  track_temp(tmp);
   return tmp;
 }
 
 void commit_temp(const fs::path& tmp, const fs::path& path) {
   std::error_code ec;
+  untrack_temp(tmp);
   fs::rename(tmp, path, ec);
   if (ec) {
     fs::remove(tmp, ec);
@@ -50,6 +87,10 @@ void commit_temp(const fs::path& tmp, const fs::path& path) {
 }
 
 }  // namespace
+
+void remove_temps_on_fatal_signals() {
+  for (int sig : {SIGTERM, SIGHUP, SIGINT}) ::signal(sig, unlink_temps_and_die);
+}
 
 void write_file_atomic(const fs::path& path, const void* data, size_t size) {
   const fs::path tmp = temp_path_for(path);

@@ -134,6 +134,11 @@ class DirLock {
 // NAME.tmp.PID.N (write_file_atomic) and NAME.tmp-PID (LibTorch archives)
 // whose PID is not a live process. Returns how many were removed.
 int remove_stale_temps(const fs::path& dir);
+// SIGTERM, SIGHUP and SIGINT unlink the temporary files this process is
+// writing, then end it as the signal would: a killed `infer` leaves no
+// *.tmp.* behind. Commands with their own graceful stop (train, studio)
+// install theirs afterwards for the signals they handle.
+void remove_temps_on_fatal_signals();
 
 // Throws Error when an output path is one of the inputs (same file by inode,
 // or the same path): a run must never overwrite what it reads.
