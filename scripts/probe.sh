@@ -202,5 +202,10 @@ refuses "outside the dataset folder" dataset stats descape --no-verify
 cp -r d20 ddup && head -1 d20/manifest.jsonl >> ddup/manifest.jsonl
 refuses "listed again" train --data ddup --out duprun --max-steps 1
 
+# 21. Issue 36: a number beyond a double names the file, not the JSON library.
+echo '{"subsidence": 1e400}' > huge.json
+refuses "huge.json: '1e400' is beyond the range" generate --spec huge.json -o huge
+refuses "huge.json: '1e400' is beyond the range" dataset build --config huge.json --out huge-ds
+
 echo "probe: $pass passed, $fail failed"
 [ $fail = 0 ]

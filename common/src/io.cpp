@@ -235,6 +235,16 @@ nlohmann::json read_json(const fs::path& path) {
   } catch (const nlohmann::json::parse_error& e) {
     throw Error(path.string() + ": invalid JSON at byte " + std::to_string(e.byte) +
                 " (fix the syntax; see docs/SPEC.md)");
+  } catch (const nlohmann::json::out_of_range& e) {
+    // 406: a number beyond a double (1e400). The library's text names
+    // neither the file nor where; the number itself is the useful part.
+    const std::string what = e.what();
+    const size_t at = what.find("parsing '");
+    const std::string number = at == std::string::npos ? "a number" : what.substr(at + 8);
+    throw Error(path.string() + ": " + number + " is beyond the range of a number (about 1.8e308); use a finite value");
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(path.string() + ": cannot read it as JSON (" + std::string(e.what()).substr(std::string(e.what()).find(']') + 2) +
+                ")");
   }
 }
 
