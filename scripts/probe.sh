@@ -207,5 +207,14 @@ echo '{"subsidence": 1e400}' > huge.json
 refuses "huge.json: '1e400' is beyond the range" generate --spec huge.json -o huge
 refuses "huge.json: '1e400' is beyond the range" dataset build --config huge.json --out huge-ds
 
+# 22. Issue 36: a resume remakes an island whose file was cut short since
+# (it counted it as done: "wrote 0 islands").
+"$R" -q generate --random 2 --levels 1 --seed 3 --size 64 --out trunc >/dev/null
+cp trunc/island_000000_l0.height.exr whole.exr
+truncate -s 100 trunc/island_000000_l0.height.exr
+"$R" generate --random 2 --levels 1 --seed 3 --size 64 --out trunc 2>"$T/err" >/dev/null
+grep -q "wrote 1 islands (1 already there)" "$T/err" && cmp -s whole.exr trunc/island_000000_l0.height.exr \
+  && ok || bad "22: a truncated island was kept on resume: $(cat "$T/err")"
+
 echo "probe: $pass passed, $fail failed"
 [ $fail = 0 ]

@@ -51,15 +51,28 @@ WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFiel
   // a failure (a folder where the preview goes, a full disk) leaves an earlier
   // island of this name exactly as it was, and no half-written new one.
   StagedOutputs staged;
-  staged.write(height_path, [&](const fs::path& p) { write_exr_height(p, f.height_m, attrs); });
-  staged.write(label_path, [&](const fs::path& p) { write_png(p, encode_labels(f.label, spec.subsidence)); });
+  // Each file's size goes into the sidecar: a resume (write_random_islands)
+  // then tells a complete island from one whose file was truncated since.
+  nlohmann::json bytes = nlohmann::json::object();
+  staged.write(height_path, [&](const fs::path& p) {
+    write_exr_height(p, f.height_m, attrs);
+    bytes["height"] = fs::file_size(p);
+  });
+  staged.write(label_path, [&](const fs::path& p) {
+    write_png(p, encode_labels(f.label, spec.subsidence));
+    bytes["label"] = fs::file_size(p);
+  });
   if (preview) {
     PreviewOptions po;
     po.land_top_m = spec.heights.peak_m;
     po.sea_floor_m = spec.heights.floor_m;
     po.metres_per_px = mpp;
-    staged.write(preview_path, [&](const fs::path& p) { write_png(p, render_preview(f.height_m, po)); });
+    staged.write(preview_path, [&](const fs::path& p) {
+      write_png(p, render_preview(f.height_m, po));
+      bytes["preview"] = fs::file_size(p);
+    });
   }
+  out.sidecar["file_bytes"] = bytes;
   staged.write(json_path, [&](const fs::path& p) { write_json_atomic(p, out.sidecar); });  // last
   staged.commit();
   out.files = staged.finals();
@@ -94,8 +107,15 @@ RandomIslandsResult write_random_islands(const std::filesystem::path& dir, const
             throw Error(sidecar.string() + " was made with other settings; use an empty --out folder");
           bool complete = true;
           const nlohmann::json files = j.value("files", nlohmann::json::object());
-          for (const auto& file : files)
-            complete = complete && file.is_string() && fs::exists(dir / file.get<std::string>());
+          const nlohmann::json bytes = j.value("file_bytes", nlohmann::json::object());
+          for (const auto& [kind, file] : files.items()) {
+            std::error_code ec;
+            const fs::path fp = file.is_string() ? dir / file.get<std::string>() : fs::path();
+            complete = complete && file.is_string() && fs::exists(fp, ec);
+            // A file cut short since (a full disk, a copy interrupted): made again.
+            if (complete && bytes.contains(kind) && bytes[kind].is_number_unsigned())
+              complete = fs::file_size(fp, ec) == bytes[kind].get<uintmax_t>() && !ec;
+          }
           if (complete) {
             ++skipped;
             return;
