@@ -321,6 +321,19 @@ TEST_F(Studio, CrossOriginAndRebindingRequestsAreRefused) {
   EXPECT_EQ(st, 200) << body;
 }
 
+// Issue 36: two different Content-Length headers are a 400 (RFC 7230 §3.3.3).
+TEST_F(Studio, TwoDifferentContentLengthsAreRefused) {
+  const std::string spec = "{}";
+  const std::string head = "POST /api/generate?size=64 HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) +
+                           "\r\nContent-Type: application/json\r\nConnection: close\r\n";
+  auto [st, body] = raw_request(port, head + "Content-Length: 2\r\nContent-Length: 7\r\n\r\n" + spec);
+  EXPECT_EQ(st, 400) << body;
+  EXPECT_NE(body.find("Content-Length"), std::string::npos) << body;
+  // The same value twice is allowed (RFC 7230 lets a recipient merge them).
+  std::tie(st, body) = raw_request(port, head + "Content-Length: 2\r\nContent-Length: 2\r\n\r\n" + spec);
+  EXPECT_EQ(st, 200) << body;
+}
+
 TEST_F(Studio, BodiesOverTheLimitAreRefusedHoweverSent) {
   // Chunked: the HTTP library would read it without bound.
   std::string chunked = "POST /api/infer HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) +

@@ -199,6 +199,11 @@ struct StudioServer::Impl {
     if (!name_ok || p != port)
       return {403, "Host '" + printable(host) + "' is not this studio (" + o.host + ":" + std::to_string(port) +
                        "); open the page at http://127.0.0.1:" + std::to_string(port) + "/"};
+    // RFC 7230 §3.3.3: differing Content-Length values are an error (behind a
+    // proxy, the classic request-smuggling shape).
+    for (size_t i = 1; i < req.get_header_value_count("Content-Length"); ++i)
+      if (req.get_header_value("Content-Length", i) != req.get_header_value("Content-Length", 0))
+        return {400, "two different Content-Length headers; send one"};
     const bool safe = req.method == "GET" || req.method == "HEAD" || req.method == "OPTIONS";
     if (safe) return {0, ""};
     if (req.has_header("Origin") && req.get_header_value("Origin") != "http://" + host)
