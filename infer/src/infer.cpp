@@ -141,9 +141,9 @@ std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<
   for (size_t i = 0; i < sketches.size(); ++i) {
     cv::Mat1f h = model::tensor_to_height(outs[i], g.range);
     const cv::Size want = o.size_px > 0 ? cv::Size(o.size_px, o.size_px) : sketches[i].label.size();
-    // At every size (the model's own included) the answer is cleaned as the
-    // amplification cleans it: ponds raised, erosion on the answer's grid,
-    // pits breached (issue 39); --raw (amplify off) keeps the network's bits.
+    // At every size the answer is cleaned (procgen::amplify_heights): at the
+    // model's own side ponds raised and pits breached (issue 39), above it
+    // also eroded and refined; --raw (amplify off) keeps the network's bits.
     if (want.width == want.height && o.amplify && h.rows == h.cols) {
       cv::Mat1b label;
       cv::resize(sketches[i].label, label, want, 0, 0, cv::INTER_NEAREST);

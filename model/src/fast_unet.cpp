@@ -523,17 +523,19 @@ FastUNet::FastUNet(UNetGeneratorImpl& g, const FastUNetOptions& options) : impl_
       // Transposed weights {in,out,4,4}. Output parity py takes kernel rows
       // {3,1} over input rows {m-1,m} (py = 0) or {2,0} over {m,m+1} (py = 1):
       // a 2×2 convolution padded on top (py = 0) or at the bottom (py = 1).
+      // Levels large enough run all four as Winograd GEMMs instead.
+      if (m.o.winograd && ct == dt::f32 && s >= kWinogradMinSide)
+        m.wino[size_t(k)] = std::make_unique<ParityWinograd>(w, b, N, s, m.eng);
       for (int py = 0; py < 2; ++py)
         for (int px = 0; px < 2; ++px) {
+          m.upout[size_t(k)].push_back(dnnl::memory(nhwc(N, out, s, dt::f32), m.eng));
+          if (m.wino[size_t(k)]) continue;
           const auto iy = torch::tensor(py ? std::vector<int64_t>{2, 0} : std::vector<int64_t>{3, 1});
           const auto ix = torch::tensor(px ? std::vector<int64_t>{2, 0} : std::vector<int64_t>{3, 1});
           const torch::Tensor wp = w.index_select(2, iy).index_select(3, ix).transpose(0, 1).contiguous();
           m.up_convs_flat.push_back(m.make_conv(wp, b, s, ct, 1, {py ? 0 : 1, px ? 0 : 1}, {py, px}));
           m.up[size_t(k)].push_back(&m.up_convs_flat.back());
-          m.upout[size_t(k)].push_back(dnnl::memory(nhwc(N, out, s, dt::f32), m.eng));
         }
-      if (m.o.winograd && ct == dt::f32 && s >= kWinogradMinSide)
-        m.wino[size_t(k)] = std::make_unique<ParityWinograd>(w, b, N, s, m.eng);
     } else {
       const int64_t in = k == D - 1 ? m.ch(k) : 2 * m.ch(k);
       m.ups[size_t(k)] = dnnl::memory(nhwc(N, in, 2 * s, ct), m.eng);
