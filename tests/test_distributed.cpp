@@ -222,6 +222,19 @@ int wait_for(const Proc& p, double timeout_s) {
   }
 }
 
+// A loopback port nobody listens on: bind one, read it, close it.
+std::string unused_loopback_port() {
+  const int s = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t len = sizeof a;
+  EXPECT_EQ(::bind(s, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  ::getsockname(s, reinterpret_cast<sockaddr*>(&a), &len);
+  ::close(s);
+  return std::to_string(ntohs(a.sin_port));
+}
+
 int run_cli(const std::vector<std::string>& args, const Env& env, const fs::path& err, double timeout_s = 120) {
   return wait_for(spawn(args, env, err), timeout_s);
 }
@@ -455,16 +468,7 @@ TEST(DataParallel, KilledRankFailsTheJobNamingIt) {
 TEST(DataParallel, BadEnvironmentWritesNothing) {
   const fs::path data = make_dataset("dp_env_data", 4, 1);
   const fs::path base = temp_dir("dp_env");
-  // A port nobody listens on: bind one, read it, close it.
-  int s = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  socklen_t len = sizeof a;
-  ASSERT_EQ(::bind(s, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
-  ::getsockname(s, reinterpret_cast<sockaddr*>(&a), &len);
-  const std::string closed_port = std::to_string(ntohs(a.sin_port));
-  ::close(s);
+  const std::string closed_port = unused_loopback_port();
   const std::vector<std::pair<Env, std::string>> cases = {
       {{{"RANK", "0"}, {"WORLD_SIZE", "0"}}, "WORLD_SIZE=0"},
       {{{"RANK", "2"}, {"WORLD_SIZE", "2"}}, "RANK=2"},
@@ -661,15 +665,7 @@ TEST(DataParallel, KilledLauncherLeavesNoOrphanRanks) {
 TEST(DataParallel, NprocHonoursMasterPort) {
   const fs::path data = make_dataset("dp_port_data", 4, 1);
   const fs::path base = temp_dir("dp_port");
-  int s = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  socklen_t len = sizeof a;
-  ASSERT_EQ(::bind(s, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
-  ::getsockname(s, reinterpret_cast<sockaddr*>(&a), &len);
-  const std::string port = std::to_string(ntohs(a.sin_port));
-  ::close(s);
+  const std::string port = unused_loopback_port();
   TrainParams p = dp_params();
   p.batch_size = 1;
   p.threads = 1;

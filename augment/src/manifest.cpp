@@ -1,8 +1,6 @@
 #include "reefgen/augment/manifest.hpp"
 
-#include <atomic>
 #include <fstream>
-#include <thread>
 #include <unordered_map>
 
 #include "reefgen/io.hpp"
@@ -51,41 +49,34 @@ ManifestPair parse_line(const fs::path& manifest, const std::string& line, int64
   return p;
 }
 
-// The first failing pair in manifest order, so the message does not depend
-// on the thread count.
+// Every pair checked (parallel_for, common/parallel.hpp); the first failing
+// one in manifest order is reported, so the message does not depend on the
+// thread count.
 void verify_files(const fs::path& dir, const fs::path& manifest, const std::vector<ManifestPair>& pairs,
                   const ManifestCheck& check) {
   std::vector<std::string> problem(pairs.size());
-  std::atomic<size_t> next{0}, done{0}, first_bad{pairs.size()};
   Progress progress("verify", pairs.size(), check.quiet);
-  auto work = [&] {
-    for (size_t i; (i = next++) < pairs.size() && i < first_bad.load();) {
-      const ManifestPair& p = pairs[i];
-      for (const char* kind : {"label", "height"}) {
-        const fs::path f = dir / p.record[kind].get<std::string>();
-        const std::string where = " (" + manifest.filename().string() + ":" + std::to_string(p.line) + ")";
-        std::error_code ec;
-        if (!fs::is_regular_file(f, ec)) {
-          problem[i] = f.string() + ": missing" + where + "; " + kRebuild;
-        } else if (file_checksum(f) != p.record[std::string(kind) + "_fnv64"].get<std::string>()) {
-          problem[i] = f.string() + ": its bytes differ from the checksum the build recorded" + where +
-                       " (changed or swapped after the build); " + kRebuild + ", or pass --no-verify";
-        }
-        if (!problem[i].empty()) {
-          for (size_t b = first_bad.load(); i < b && !first_bad.compare_exchange_weak(b, i);) {
-          }
-          break;
-        }
+  auto check_pair = [&](size_t i) {
+    const ManifestPair& p = pairs[i];
+    const std::string where = " (" + manifest.filename().string() + ":" + std::to_string(p.line) + ")";
+    for (const char* kind : {"label", "height"}) {
+      const fs::path f = dir / p.record[kind].get<std::string>();
+      std::error_code ec;
+      if (!fs::is_regular_file(f, ec)) {
+        problem[i] = f.string() + ": missing" + where + "; " + kRebuild;
+        return;
       }
-      progress.tick(++done);
+      if (file_checksum(f) != p.record[std::string(kind) + "_fnv64"].get<std::string>()) {
+        problem[i] = f.string() + ": its bytes differ from the checksum the build recorded" + where +
+                     " (changed or swapped after the build); " + kRebuild + ", or pass --no-verify";
+        return;
+      }
     }
   };
-  const int threads = std::max(1, std::min(check.threads, 256));
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(work);
-  work();
-  for (auto& t : pool) t.join();
-  if (first_bad.load() < pairs.size()) throw Error(problem[first_bad.load()]);
+  parallel_for(pairs.size(), std::max(1, std::min(check.threads, 256)), check_pair,
+               [&](size_t done) { progress.tick(done); });
+  for (const std::string& why : problem)
+    if (!why.empty()) throw Error(why);
 }
 
 }  // namespace
