@@ -100,7 +100,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
             io.seed = a->seed;
             io.size_px = a->size;
             io.world_size_m = a->world_size_m;
-            if (!a->erosion.empty()) io.erosion = procgen::erosion_params_from_json(read_json(a->erosion), a->erosion);
+            if (!a->erosion.empty()) io.erosion = terrain::erosion_params_from_json(read_json(a->erosion), a->erosion);
             Progress progress("infer", job.inputs.files.size(), g.quiet);
             const infer::InferResult r = infer::infer_files(gen, job, [&](size_t k) { progress.tick(k); });
             if (!g.quiet)

@@ -6,9 +6,12 @@
 
 #include "app.hpp"
 #include "reefgen/io.hpp"
-#include "reefgen/terrain.hpp"
+#include "reefgen/terrain/realism.hpp"
 
 namespace reefgen {
+
+using terrain::realism_stats;
+using terrain::RealismStats;
 
 namespace {
 

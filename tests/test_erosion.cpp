@@ -1,5 +1,6 @@
-// Fluvial erosion (procgen/erosion.hpp), Priority-Flood routing and the
-// realism statistics (common terrain.hpp): docs/EROSION.md, docs/REALISM.md.
+// Fluvial erosion (terrain/erosion.hpp, procgen/erosion.hpp), Priority-Flood
+// routing, the realism statistics (terrain/) and the model answer's
+// amplification (infer/amplify.hpp): docs/EROSION.md, docs/REALISM.md.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -18,11 +19,16 @@
 #include "reefgen/procgen/erosion.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
-#include "reefgen/terrain.hpp"
+#include "reefgen/infer/amplify.hpp"
+#include "reefgen/terrain/flow.hpp"
+#include "reefgen/terrain/pits.hpp"
+#include "reefgen/terrain/realism.hpp"
 #include "test_util.hpp"
 
 using namespace reefgen;
 using namespace reefgen::procgen;
+using namespace reefgen::terrain;
+using namespace reefgen::infer;
 
 namespace {
 

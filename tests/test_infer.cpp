@@ -15,7 +15,7 @@
 #include "reefgen/infer/run.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
-#include "reefgen/terrain.hpp"
+#include "reefgen/terrain/realism.hpp"
 #include "reefgen/model/shipped.hpp"
 #include "reefgen/constants.hpp"
 #include "reefgen/io.hpp"
@@ -26,6 +26,8 @@
 
 using namespace reefgen;
 using namespace reefgen::infer;
+using terrain::realism_stats;
+using terrain::RealismStats;
 using test::expect_error_naming;
 using test::bumpy;
 using test::temp_dir;

@@ -9,13 +9,14 @@
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/generator.hpp"
-#include "reefgen/procgen/noise.hpp"
+#include "reefgen/terrain/noise.hpp"
 #include "reefgen/procgen/output.hpp"
 #include "reefgen/procgen/random_spec.hpp"
 #include "test_util.hpp"
 
 using namespace reefgen;
 using namespace reefgen::procgen;
+using namespace reefgen::terrain;
 
 namespace {
 IslandSpec circles(double r1, double r2, double r3, double r4, double r5) {

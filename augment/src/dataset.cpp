@@ -6,7 +6,7 @@
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/curves.hpp"
-#include "reefgen/procgen/erosion.hpp"
+#include "reefgen/terrain/erosion.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
 #include "reefgen/islands/terrains.hpp"
@@ -73,13 +73,13 @@ bool border_is_abyss(const cv::Mat1b& label, int border_px) {
 namespace {
 // Erosion of a render: the dataset's params (docs/EROSION.md) or none.
 struct ErosionJob {
-  const procgen::ErosionParams* params = nullptr;
+  const terrain::ErosionParams* params = nullptr;
 };
 
 Pair render(procgen::IslandSpec spec, int W, const ErosionJob& e = {}) {
   procgen::RenderOptions o;
   o.size_px = W;
-  spec.erosion = e.params ? *e.params : procgen::ErosionParams{};
+  spec.erosion = e.params ? *e.params : terrain::ErosionParams{};
   spec.erosion.enabled = e.params != nullptr && e.params->enabled;
   auto f = procgen::generate(spec, o);
   return {f.height_m, f.label, cv::Mat1f(W, W, static_cast<float>(spec.subsidence))};

@@ -1,5 +1,5 @@
 #include "reefgen/infer/infer.hpp"
-#include "reefgen/procgen/erosion.hpp"
+#include "reefgen/infer/amplify.hpp"
 
 
 
@@ -141,13 +141,13 @@ std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<
   for (size_t i = 0; i < sketches.size(); ++i) {
     cv::Mat1f h = model::tensor_to_height(outs[i], g.range);
     const cv::Size want = o.size_px > 0 ? cv::Size(o.size_px, o.size_px) : sketches[i].label.size();
-    // At every size the answer is cleaned (procgen::amplify_heights): at the
+    // At every size the answer is cleaned (amplify_heights): at the
     // model's own side ponds raised and pits breached (issue 39), above it
     // also eroded and refined; --raw (amplify off) keeps the network's bits.
     if (want.width == want.height && o.amplify && h.rows == h.cols) {
       cv::Mat1b label;
       cv::resize(sketches[i].label, label, want, 0, 0, cv::INTER_NEAREST);
-      h = procgen::amplify_heights(h, label, o.world_size_m, o.seed, o.erosion);
+      h = amplify_heights(h, label, o.world_size_m, o.seed, o.erosion);
       cv::min(cv::max(h, g.range.lo_m), g.range.hi_m, h);
     } else if (want.width <= h.cols && want.height <= h.rows && h.size() != want) {
       cv::resize(h, h, want, 0, 0, cv::INTER_AREA);

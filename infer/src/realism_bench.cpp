@@ -9,9 +9,12 @@
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
 #include "reefgen/stats.hpp"
-#include "reefgen/terrain.hpp"
+#include "reefgen/terrain/realism.hpp"
 
 namespace reefgen::infer {
+
+using terrain::realism_stats;
+using terrain::RealismStats;
 
 namespace {
 

@@ -10,13 +10,13 @@
 
 #include "reefgen/params_json.hpp"
 #include "reefgen/io.hpp"
-#include "reefgen/procgen/noise.hpp"
+#include "reefgen/terrain/noise.hpp"
 #include "reefgen/rng.hpp"
 
 namespace reefgen::islands {
 
-using procgen::GradientNoise2;
-using procgen::NoiseTile;
+using terrain::GradientNoise2;
+using terrain::NoiseTile;
 
 namespace {
 

@@ -6,14 +6,14 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "reefgen/procgen/noise.hpp"
+#include "reefgen/terrain/noise.hpp"
 #include "reefgen/islands/terrains.hpp"
 #include "reefgen/rng.hpp"
 
 namespace reefgen::islands {
 
-using procgen::GradientNoise2;
-using procgen::NoiseTile;
+using terrain::GradientNoise2;
+using terrain::NoiseTile;
 
 std::vector<cv::Point2d> poisson_disk(double radius, uint64_t seed) {
   Rng rng(derive_seed(seed, 0, "poisson"));

@@ -6,14 +6,14 @@
 
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
-#include "reefgen/procgen/noise.hpp"
+#include "reefgen/terrain/noise.hpp"
 #include "reefgen/rng.hpp"
 #include "reefgen/params_json.hpp"
 
 namespace reefgen::islands {
 
-using procgen::GradientNoise2;
-using procgen::NoiseTile;
+using terrain::GradientNoise2;
+using terrain::NoiseTile;
 using procgen::Sketch;
 
 cv::Mat1f wilbur_height(const WilburParams& p, uint64_t seed) {

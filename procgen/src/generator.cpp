@@ -6,10 +6,13 @@
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/erosion.hpp"
-#include "reefgen/procgen/noise.hpp"
+#include "reefgen/terrain/noise.hpp"
 #include "reefgen/rng.hpp"
 
 namespace reefgen::procgen {
+
+using terrain::GradientNoise2;
+using terrain::NoiseTile;
 
 // ---------------------------------------------------------------- pure pieces
 

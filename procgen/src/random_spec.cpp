@@ -3,10 +3,14 @@
 #include <algorithm>
 #include <cmath>
 
-#include "reefgen/procgen/noise.hpp"
+#include "reefgen/terrain/noise.hpp"
 #include "reefgen/rng.hpp"
 
 namespace reefgen::procgen {
+
+using terrain::GradientNoise2;
+using terrain::NoiseTile;
+using terrain::PeriodicNoise1;
 
 std::vector<double> subsidence_levels(int count) {
   std::vector<double> out;

@@ -5,10 +5,13 @@
 #include <vector>
 
 #include "reefgen/labels.hpp"
-#include "reefgen/procgen/noise.hpp"
+#include "reefgen/terrain/noise.hpp"
 #include "reefgen/rng.hpp"
 
 namespace reefgen::procgen {
+
+using terrain::GradientNoise2;
+using terrain::NoiseTile;
 
 Sketch random_sketch(const SketchParams& p, uint64_t seed) {
   if (p.size_px < 16 || p.size_px > 4096) throw Error("sketch: size must be in [16, 4096]");

@@ -82,8 +82,6 @@ struct BadRequest : Error {
   using Error::Error;
 };
 
-// Export names: a plain file name inside the output folder, nothing else
-// (no '/', no '..', no hidden files).
 // Text from a request, fit for a one-line message: control bytes (a NUL
 // would cut the message short) and non-ASCII shown as \xNN, at most 80 bytes.
 std::string printable(const std::string& s) {
@@ -101,6 +99,8 @@ std::string printable(const std::string& s) {
   return s.size() > 80 ? out + "..." : out;
 }
 
+// Export names: a plain file name inside the output folder, nothing else
+// (no '/', no '..', no hidden files).
 void check_name(const std::string& name) {
   static const std::regex ok("[A-Za-z0-9][A-Za-z0-9_-]{0,63}");
   if (!std::regex_match(name, ok))

@@ -40,7 +40,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   });
   expect_clean([&] { (void)augment::dataset_params_from_json(j, "fuzz.json"); });
   expect_clean([&] { (void)train::train_params_from_json(j, "fuzz.json"); });
-  expect_clean([&] { (void)procgen::erosion_params_from_json(j, "fuzz.json"); });
+  expect_clean([&] { (void)terrain::erosion_params_from_json(j, "fuzz.json"); });
   expect_clean([&] { (void)islands::floating_params_from_json(j, "fuzz.json"); });
   for (const char* kind : {"mapgen4", "wilbur"})  // parsed and run at 16² (the size override keeps it fast)
     expect_clean([&] { (void)islands::configured_terrain(kind, j, "fuzz.json", 16, 1); });

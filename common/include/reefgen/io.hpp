@@ -14,15 +14,11 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
+#include "reefgen/error.hpp"
+
 namespace reefgen {
 
 namespace fs = std::filesystem;
-
-// Thrown for anything a user can fix (bad file, bad value); main prints what()
-// on one line and exits non-zero.
-struct Error : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
 
 // Writes bytes atomically (temp file + fsync-free rename). Throws Error naming
 // the path on failure and removes the temporary file.

@@ -9,7 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "reefgen/augment/augment.hpp"
-#include "reefgen/procgen/erosion.hpp"
+#include "reefgen/terrain/erosion.hpp"
 
 namespace reefgen::augment {
 
@@ -40,8 +40,8 @@ struct DatasetParams {
   // would come back as an island cut by a straight line inside the canvas.
   bool whole_islands = true;
   int border_px = 2;           // [1, 64]
-  double p_erosion = 0;        // probability a curve island is eroded (procgen/erosion.hpp), [0, 1]
-  procgen::ErosionParams erosion;  // JSON: optional object "erosion"
+  double p_erosion = 0;        // probability a curve island is eroded (terrain/erosion.hpp), [0, 1]
+  terrain::ErosionParams erosion;  // JSON: optional object "erosion"
 };
 
 // The one field list (common/params_json.hpp); dataset_params_from_json adds

@@ -10,7 +10,7 @@
 #include "reefgen/labels.hpp"
 #include "reefgen/model/dnnl_conv.hpp"
 #include "reefgen/model/generator_file.hpp"
-#include "reefgen/procgen/erosion.hpp"
+#include "reefgen/terrain/erosion.hpp"
 
 namespace reefgen::infer {
 
@@ -42,12 +42,12 @@ struct InferOptions {
   uint64_t seed = 0;           // dropout masks when stochastic; the amplification's detail noise
   int size_px = 0;             // output side, [0, 8192]; 0 = the sketch's own size
   double world_size_m = kCanvasWorldSizeM;  // canvas width in metres (the amplification's erosion works in metres)
-  // procgen::amplify_heights at every square size: the model's own side gets
+  // amplify_heights at every square size: the model's own side gets
   // its clean-up (ponds raised, erosion on its grid, pits breached), larger
   // sides also erosion + detail at each finer level. false (`--raw`): the
   // network's answer, only resized.
   bool amplify = true;
-  procgen::ErosionParams erosion;  // the amplification's erosion and detail (docs/EROSION.md); defaults = the shipped tuning
+  terrain::ErosionParams erosion;  // the amplification's erosion and detail (docs/EROSION.md); defaults = the shipped tuning
 };
 
 // The engine and precision these options run with this generator on this
@@ -62,7 +62,7 @@ Precision resolve(const InferOptions& o, const model::GeneratorFile& g);
 cv::Mat3b canonical_sketch(const DecodedSketch& sketch, int size_px);
 
 // Heights in metres at o.size_px (default: the sketch's own size). Above the
-// model's side, a square output is amplified (procgen::amplify_heights:
+// model's side, a square output is amplified (amplify_heights:
 // erosion that carves valleys at each finer level, never a bilinear stretch);
 // below it, area-averaged. Always inside the model's range.
 // Each output depends on its own sketch only: batch-statistics mode runs one

@@ -12,7 +12,7 @@
 #include "reefgen/constants.hpp"
 #include "reefgen/procgen/curves.hpp"
 #include "reefgen/params_json.hpp"
-#include "reefgen/procgen/erosion.hpp"
+#include "reefgen/terrain/erosion.hpp"
 
 namespace reefgen::procgen {
 
@@ -113,7 +113,7 @@ struct IslandSpec {
   CoralParams coral;
   double smax_k = 0.5;                             // 1/m, smooth-max sharpness (overshoot ≤ 1/(2k) m), [0.01, 100]
   DetailNoise noise;
-  ErosionParams erosion;                           // fluvial erosion of the land before coral growth (docs/EROSION.md)
+  terrain::ErosionParams erosion;                           // fluvial erosion of the land before coral growth (docs/EROSION.md)
   double world_size_m = kCanvasWorldSizeM;        // m, width of the [-1,1] canvas, [10, 1e6]
 };
 // The one field list (common/params_json.hpp); the rules between fields

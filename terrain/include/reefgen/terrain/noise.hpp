@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <vector>
 
-namespace reefgen::procgen {
+namespace reefgen::terrain {
 
 // 2-D gradient noise (Perlin's improved noise, 12 gradient directions).
 // perlin(): range [-1, 1] (clamped; typical |n| < 0.9), zero at lattice points,
@@ -104,4 +104,4 @@ class PeriodicNoise1 {
   std::vector<std::vector<double>> lattice_;  // one lattice per octave
 };
 
-}  // namespace reefgen::procgen
+}  // namespace reefgen::terrain

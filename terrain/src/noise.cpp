@@ -1,11 +1,11 @@
-#include "reefgen/procgen/noise.hpp"
+#include "reefgen/terrain/noise.hpp"
 
 #include <algorithm>
 #include <cmath>
 
 #include "reefgen/rng.hpp"
 
-namespace reefgen::procgen {
+namespace reefgen::terrain {
 
 GradientNoise2::GradientNoise2(uint64_t seed) {
   std::array<uint8_t, 256> p;
@@ -126,4 +126,4 @@ double PeriodicNoise1::operator()(double t) const {
   return sum / norm;
 }
 
-}  // namespace reefgen::procgen
+}  // namespace reefgen::terrain

@@ -1,4 +1,4 @@
-#include "reefgen/terrain.hpp"
+#include "reefgen/terrain/flow.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -9,9 +9,8 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "reefgen/io.hpp"
 
-namespace reefgen {
+namespace reefgen::terrain {
 
 namespace {
 
@@ -161,78 +160,4 @@ cv::Mat1b sea_and_edge_roles(const cv::Mat1f& height_m, float sea_m) {
   return role;
 }
 
-void plan_curvature(const cv::Mat1f& s, double metres_per_px, cv::Mat1f& curvature, cv::Mat1f& gradient) {
-  const int H = s.rows, W = s.cols;
-  curvature.create(H, W);
-  gradient.create(H, W);
-  const double d = metres_per_px;
-  for (int y = 0; y < H; ++y) {
-    const int ym = std::max(y - 1, 0), yp = std::min(y + 1, H - 1);
-    for (int x = 0; x < W; ++x) {
-      const int xm = std::max(x - 1, 0), xp = std::min(x + 1, W - 1);
-      // Image rows grow downwards; the curvature's sign does not depend on
-      // the y orientation (h_y appears squared or with h_xy, which flips too).
-      const double hx = (s(y, xp) - s(y, xm)) / ((xp - xm) * d);
-      const double hy = (s(yp, x) - s(ym, x)) / ((yp - ym) * d);
-      const double hxx = (s(y, xp) - 2.0 * s(y, x) + s(y, xm)) / (d * d);
-      const double hyy = (s(yp, x) - 2.0 * s(y, x) + s(ym, x)) / (d * d);
-      const double hxy = (s(yp, xp) - s(yp, xm) - s(ym, xp) + s(ym, xm)) / (4.0 * d * d);
-      const double g2 = hx * hx + hy * hy;
-      gradient(y, x) = static_cast<float>(std::sqrt(g2));
-      curvature(y, x) = g2 > 0 ? static_cast<float>(-(hxx * hy * hy - 2.0 * hxy * hx * hy + hyy * hx * hx) /
-                                                    std::pow(g2, 1.5))
-                               : 0.f;
-    }
-  }
-}
-
-RealismStats realism_stats(const cv::Mat1f& h, double metres_per_px) {
-  if (h.empty()) throw Error("realism: the height field is empty");
-  if (!(metres_per_px > 0) || !std::isfinite(metres_per_px))
-    throw Error("realism: metres per pixel must be a positive number");
-  if (!cv::checkRange(h)) throw Error("realism: the height field holds NaN or infinite values");
-  const cv::Mat1f hc = h.isContinuous() ? h : h.clone();
-  const int H = hc.rows, W = hc.cols;
-  RealismStats st;
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x)
-      if (hc(y, x) > 0) {
-        ++st.land_cells;
-        st.max_height_m = std::max(st.max_height_m, double(hc(y, x)));
-      }
-  if (st.land_cells == 0) return st;
-
-  // Pits: filled from the sea and the canvas edge.
-  const FloodRoute fr = flood_route(hc, sea_and_edge_roles(hc));
-  int64_t pits = 0;
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x)
-      if (hc(y, x) > 0 && fr.filled(y, x) - hc(y, x) > 1.f) ++pits;
-  st.pits = double(pits) / double(st.land_cells);
-
-  // Flank, slope on the raw heights; curvature on the σ = 60 m smoothed heights.
-  const double lo = 0.1 * st.max_height_m, hi = 0.9 * st.max_height_m;
-  const double sigma_px = 60.0 / metres_per_px;
-  cv::Mat1f smooth;
-  cv::GaussianBlur(hc, smooth, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REPLICATE);
-  cv::Mat1f curv, grad_s, curv_raw, grad_raw;
-  plan_curvature(smooth, metres_per_px, curv, grad_s);
-  plan_curvature(hc, metres_per_px, curv_raw, grad_raw);
-  const double flat = std::tan(2.0 * M_PI / 180.0);
-  int64_t flats = 0, valleys = 0;
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) {
-      const double v = hc(y, x);
-      if (!(v > 0 && v >= lo && v <= hi)) continue;
-      ++st.flank_cells;
-      if (grad_raw(y, x) < flat) ++flats;
-      if (grad_s(y, x) > 0.02 && curv(y, x) < -1e-3) ++valleys;
-    }
-  if (st.flank_cells > 0) {
-    st.terraces = double(flats) / double(st.flank_cells);
-    st.valleys = double(valleys) / double(st.flank_cells);
-  }
-  return st;
-}
-
-}  // namespace reefgen
+}  // namespace reefgen::terrain

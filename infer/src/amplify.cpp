@@ -1,0 +1,268 @@
+#include "reefgen/infer/amplify.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+#include "reefgen/error.hpp"
+#include "reefgen/labels.hpp"
+#include "reefgen/rng.hpp"
+#include "reefgen/terrain/noise.hpp"
+#include "reefgen/terrain/pits.hpp"
+
+namespace reefgen::infer {
+
+using namespace reefgen::terrain;
+
+namespace {
+// Each cell's island (8-connected land; 0 = sea) and each island's highest height.
+std::vector<float> island_peaks(const cv::Mat1f& h, cv::Mat1i& island) {
+  const int islands = cv::connectedComponents(cv::Mat1b(h > 0), island, 8, CV_32S);
+  std::vector<float> peak(size_t(islands), 0.f);
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x) peak[size_t(island(y, x))] = std::max(peak[size_t(island(y, x))], h(y, x));
+  return peak;
+}
+
+// A painted island comes back from the model with round contours: a cone
+// whose plan curvature is divergent (+1/r) everywhere, so water spreads and
+// erosion carves few valleys. Real volcanic flanks are lobed (lava flows,
+// landslide scars), as the generator's irregular outlines are. Each flank
+// contour is pushed up or down the slope by a noise of one feature per
+// amplify_lobe_spacing_m (h'(x) = h(x − d(x)·∇h/|∇h|), |d| ≤ amplify_lobe_m),
+// faded in over the lowest 20 % of each island (of its own peak) so the
+// coast stays where the sketch put it; the concave bends then gather the
+// water the base-grid erosion turns into valleys (docs/EROSION.md).
+void lobe_contours(cv::Mat1f& h, double world_size_m, uint64_t seed, const ErosionParams& p) {
+  if (p.amplify_lobe_m <= 0) return;
+  const int S = h.cols;
+  const double cell_m = world_size_m / S;
+  double hmax = 0;
+  cv::minMaxLoc(h, nullptr, &hmax);
+  if (hmax <= 1) return;
+  cv::Mat1f sm;
+  const double sig = std::max(1.0, 0.25 * p.amplify_lobe_spacing_m / cell_m);
+  cv::GaussianBlur(h, sm, cv::Size(0, 0), sig, sig, cv::BORDER_REPLICATE);
+  cv::Mat1f gx, gy;
+  cv::Sobel(sm, gx, CV_32F, 1, 0, 3, 1.0 / 8);
+  cv::Sobel(sm, gy, CV_32F, 0, 1, 3, 1.0 / 8);
+  const NoiseTile& tile = NoiseTile::get(2);
+  Rng rng(seed, 0, "amplify-lobes");
+  const float u0 = float(rng.uniform(0, NoiseTile::kSize)), v0 = float(rng.uniform(0, NoiseTile::kSize));
+  const float tpc = float(NoiseTile::kBaseCell * cell_m / p.amplify_lobe_spacing_m);
+  const float amp_px = float(p.amplify_lobe_m / cell_m);
+  // Each island is lobed from 20 % of its own peak: a low, older island
+  // beside a young volcano has a flank of its own (with the canvas's peak it
+  // would stay a smooth dome).
+  cv::Mat1i island;
+  const std::vector<float> peak = island_peaks(h, island);
+  auto foot_m = [&](int y, int x) { return std::max(0.2f * peak[size_t(island(y, x))], 1e-3f); };
+  // The noise is read where each cell's flow line (steepest descent on the
+  // smoothed heights) reaches the foot of the flank (foot_m), so every cell of
+  // one flow line gets the same push: the contours above it shift together
+  // and the lobes run continuously up the slope as spurs and re-entrants (a
+  // 2D noise bends each contour on its own, and its bends do not line up
+  // into valleys). Flow lines converge uphill, so the lobes narrow towards
+  // the summit, as real valley heads do.
+  cv::Mat1f noise_u(S, S), noise_v(S, S);
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x) {
+      float px = float(x), py = float(y);
+      if (p.amplify_lobe_along_flow && h(y, x) > 0) {
+        const float h_foot = foot_m(y, x);
+        for (int step = 0; step < 2 * S; ++step) {
+          const int ix = std::clamp(int(px + 0.5f), 0, S - 1), iy = std::clamp(int(py + 0.5f), 0, S - 1);
+          if (sm(iy, ix) <= h_foot) break;
+          const float gxx = gx(iy, ix), gyy = gy(iy, ix), g = std::hypot(gxx, gyy);
+          if (g < 1e-6f) break;
+          px -= gxx / g;
+          py -= gyy / g;
+        }
+      }
+      noise_u(y, x) = px;
+      noise_v(y, x) = py;
+    }
+  cv::Mat1f mx(S, S), my(S, S);
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x) {
+      const float t = std::clamp(h(y, x) / foot_m(y, x), 0.f, 1.f), w = t * t * (3 - 2 * t);
+      const float g = std::hypot(gx(y, x), gy(y, x));
+      // 1/|∇h|, faded in below a 2 % slope (summits, plains: no direction)
+      const float k = std::min(1.f, g * float(1.0 / (0.02 * cell_m))) / std::max(g, 1e-6f);
+      const float d = w * amp_px * tile.sample(noise_u(y, x) * tpc + u0, noise_v(y, x) * tpc + v0);
+      mx(y, x) = float(x) - d * gx(y, x) * k;
+      my(y, x) = float(y) - d * gy(y, x) * k;
+    }
+  cv::Mat1f out;
+  cv::remap(h, out, mx, my, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x)
+      if (h(y, x) > 0) h(y, x) = std::max(kLandFloorM, out(y, x));
+}
+
+// A model answer is smoother than a rendered island (an L1-trained network
+// predicts the mean of the valleys it cannot place), so a cone would shed
+// water radially and erosion on it carves few valleys. Relief proportional
+// to height (fBm, one feature per amplify_feature_m) gives the drainage
+// somewhere to start, as the render's noise does for the generator; the
+// coast (h → 0) does not move.
+void roughen_land(cv::Mat1f& h, double world_size_m, uint64_t seed, const ErosionParams& p) {
+  lobe_contours(h, world_size_m, seed, p);
+  if (p.amplify_roughness <= 0) return;
+  const int S = h.cols;
+  const NoiseTile& tile = NoiseTile::get(3);
+  Rng rng(seed, 0, "amplify-rough");
+  const float u0 = float(rng.uniform(0, NoiseTile::kSize)), v0 = float(rng.uniform(0, NoiseTile::kSize));
+  const float texels_per_cell = float(NoiseTile::kBaseCell * world_size_m / (S * p.amplify_feature_m));
+  const float a = float(p.amplify_roughness);
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x)
+      if (h(y, x) > 0)
+        h(y, x) = std::max(kLandFloorM, h(y, x) * (1.f + a * tile.sample(x * texels_per_cell + u0, y * texels_per_cell + v0)));
+}
+// The model answers a painted sketch whose beach and lagoon bands have even
+// widths with concentric ridges and moats on the low plain (about 10 m high,
+// a few hundred metres apart, following the painted band edges): rings no
+// rendered island has, which the erosion keeps (a moat is filled flat, a
+// ridge is eroded from both sides). On the land of the beach, lagoon and reef
+// regions the answer is replaced by its land-only Gaussian mean (normalised
+// convolution, so the sea does not pull the plain down), faded out towards
+// the coast (h < 5 m) so the coastline stays where the model put it; the
+// roughening and the erosion then give the plain its relief, as the render
+// and the erosion do for the generator (docs/EROSION.md).
+// A low island (an older, subsided one) comes back as a low dome ringed by
+// the same ridges and moats, on its mountain too, where they are as high as
+// the dome's own relief: islands whose own peak is below low_island_m are
+// smoothed over all their land (fully below half of it, fading out up to it).
+void smooth_plains(cv::Mat1f& h, const cv::Mat1b& label, double sigma_px, double low_island_m) {
+  if (sigma_px <= 0) return;
+  const int S = h.cols;
+  cv::Mat1f land(S, S), hl(S, S), plain(S, S);
+  cv::Mat1i island;
+  const std::vector<float> peak = island_peaks(h, island);
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x) {
+      land(y, x) = h(y, x) > 0 ? 1.f : 0.f;
+      hl(y, x) = h(y, x) > 0 ? h(y, x) : 0.f;
+      const float low = low_island_m > 0
+                            ? std::clamp(float(2.0 - 2.0 * peak[size_t(island(y, x))] / low_island_m), 0.f, 1.f)
+                            : 0.f;
+      plain(y, x) = (label(y, x) >= 1 && label(y, x) <= 3) ? 1.f : (h(y, x) > 0 ? low : 0.f);
+    }
+  cv::Mat1f bl, bh;
+  cv::GaussianBlur(land, bl, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REPLICATE);
+  cv::GaussianBlur(hl, bh, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REPLICATE);
+  cv::GaussianBlur(plain, plain, cv::Size(0, 0), 0.5 * sigma_px, 0.5 * sigma_px, cv::BORDER_REPLICATE);
+  for (int y = 0; y < S; ++y)
+    for (int x = 0; x < S; ++x) {
+      if (h(y, x) <= 0 || bl(y, x) < 1e-3f) continue;
+      const float smooth = bh(y, x) / bl(y, x);
+      const float t = std::clamp(h(y, x) / 5.f, 0.f, 1.f) * plain(y, x);
+      h(y, x) = std::max(kLandFloorM, h(y, x) + t * (smooth - h(y, x)));
+    }
+}
+
+// The model answers the lowland of a painted island with a speckle of small
+// bumps and hollows around 0 m (docs/MODEL.md), and the hollows that dip
+// below the sea become ponds of sea enclosed by land, mostly on the painted
+// lagoon and reef next to the coast: 11 of the 14 painted sketches had some
+// at 1025² (up to 16 ponds, 590 cells = 0.06 km², 9 m deep), where the
+// generator's islands have none (62 ponds of 1–2 cells in 300 training
+// targets). Sea that does not reach the canvas edge through other sea
+// (8-connected) is raised to land when it is at most max_area_m2, or at any
+// size when most of it was painted island or beach; a large lagoon closed by
+// islets stays sea. Filled from its shore inwards, each ring with the mean
+// of the cells filled before it (the floor follows the shore's heights), at
+// least 0.1 m; drain_pits then gives it an outflow. Returns the cells raised.
+int64_t fill_ponds(cv::Mat1f& h, const cv::Mat1b& label, double cell_m, double max_area_m2) {
+  if (max_area_m2 <= 0) return 0;
+  const int H = h.rows, W = h.cols;
+  cv::Mat1i comp;
+  cv::Mat stats, centroids;
+  const int n = cv::connectedComponentsWithStats(cv::Mat1b(h <= 0.f), comp, stats, centroids, 8, CV_32S);
+  std::vector<uint8_t> open_sea(size_t(n), 0);
+  for (int x = 0; x < W; ++x) open_sea[size_t(comp(0, x))] = open_sea[size_t(comp(H - 1, x))] = 1;
+  for (int y = 0; y < H; ++y) open_sea[size_t(comp(y, 0))] = open_sea[size_t(comp(y, W - 1))] = 1;
+  int64_t raised = 0;
+  std::vector<int> ring;
+  std::vector<float> value;
+  for (int c = 1; c < n; ++c) {
+    if (open_sea[size_t(c)]) continue;
+    // Not on the edge, so its box grown by one cell is inside the canvas.
+    const cv::Rect box(stats.at<int>(c, cv::CC_STAT_LEFT) - 1, stats.at<int>(c, cv::CC_STAT_TOP) - 1,
+                       stats.at<int>(c, cv::CC_STAT_WIDTH) + 2, stats.at<int>(c, cv::CC_STAT_HEIGHT) + 2);
+    int painted_land = 0, cells = 0;
+    for (int y = box.y; y < box.y + box.height; ++y)
+      for (int x = box.x; x < box.x + box.width; ++x)
+        if (comp(y, x) == c) ++cells, painted_land += label(y, x) <= kBeach;
+    if (double(cells) * cell_m * cell_m > max_area_m2 && 2 * painted_land < cells) continue;
+    cv::Mat1b known(box.size());
+    for (int y = 0; y < box.height; ++y)
+      for (int x = 0; x < box.width; ++x) known(y, x) = comp(box.y + y, box.x + x) != c;
+    for (int left = cells; left > 0;) {
+      ring.clear();
+      value.clear();
+      for (int y = 1; y < box.height - 1; ++y)
+        for (int x = 1; x < box.width - 1; ++x) {
+          if (known(y, x)) continue;
+          float sum = 0.f;
+          int k = 0;
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx)
+              if (known(y + dy, x + dx)) sum += h(box.y + y + dy, box.x + x + dx), ++k;
+          if (k == 0) continue;
+          ring.push_back(y * box.width + x);
+          value.push_back(std::max(kLandFloorM, sum / float(k)));
+        }
+      for (size_t r = 0; r < ring.size(); ++r) {
+        const int y = ring[r] / box.width, x = ring[r] % box.width;
+        h(box.y + y, box.x + x) = value[r];
+        known(y, x) = 1;
+      }
+      if (ring.empty()) break;  // cannot happen (the pond is connected and bounded by land); never loop on it
+      left -= int(ring.size());
+      raised += int64_t(ring.size());
+    }
+  }
+  return raised;
+}
+}  // namespace
+
+cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, double world_size_m, uint64_t seed,
+                          const ErosionParams& p) {
+  if (coarse_m.empty() || coarse_m.rows != coarse_m.cols || label.rows != label.cols)
+    throw Error("amplify: the height field and the label map must be square");
+  const int S = coarse_m.cols, N = label.cols;
+  cv::Mat1f coarse = coarse_m.clone();
+  cv::Mat1b label_s;
+  cv::resize(label, label_s, cv::Size(S, S), 0, 0, cv::INTER_NEAREST);
+  const bool erode = N > S || p.amplify_erode_at_model_side;
+  if (p.enabled && erode) smooth_plains(coarse, label_s, p.amplify_plain_smooth_m / (world_size_m / S), p.amplify_low_island_m);
+  if (p.enabled) fill_ponds(coarse, label_s, world_size_m / S, p.amplify_pond_max_m2);
+  if (p.enabled && erode) {
+    roughen_land(coarse, world_size_m, seed, p);
+    // Few steps (amplify_steps, not the generator's `steps`): measured, 8 steps
+    // give the painted set 0.298 valleys, 3 give 0.306 (docs/EROSION.md). The
+    // drainage is routed once per step; our reading is that each re-routing
+    // lets the deeper valleys capture the shallow ones the lobes started.
+    erode_level(coarse, erodibility_map(resistance_of_labels(label_s), seed, p), world_size_m / S, p.amplify_steps,
+                p.duration_yr * p.amplify_duration_scale, p);
+  }
+  cv::Mat1f land = resampled(coarse, N, cv::INTER_CUBIC);
+  if (N <= S || !p.enabled) {
+    if (N < S) cv::resize(coarse, land, cv::Size(N, N), 0, 0, cv::INTER_AREA);
+    if (p.enabled) fill_ponds(land, label, world_size_m / N, p.amplify_pond_max_m2);
+    drain_pits(land, kPitDepthM, float(p.pit_breach_m));
+    return land;
+  }
+  auto detail = [&](int L, const cv::Mat1f& up) { return fractal_detail(L, up, world_size_m, seed); };
+  cv::Mat1f out = refine_heights(coarse, land, resampled(resistance_of_labels(label), N, cv::INTER_LINEAR),
+                                 world_size_m, seed, p, detail);
+  fill_ponds(out, label, world_size_m / N, p.amplify_pond_max_m2);
+  drain_pits(out, kPitDepthM, float(p.pit_breach_m));
+  return out;
+}
+
+}  // namespace reefgen::infer

@@ -1,0 +1,154 @@
+#pragma once
+// Fluvial erosion that carves a drainage network (docs/EROSION.md):
+//   ∂h/∂t = −K(ρ) A^m S + D ∇²h   on land (h > 0), base level = sea level
+// the stream-power law solved implicitly along the drainage tree (Braun &
+// Willett 2013: O(n) per step, stable at any time step), water routed out of
+// closed depressions by Priority-Flood (Barnes et al. 2014), hillslope
+// diffusion as its exact Gaussian solution per step. Erodibility comes from
+// the paper's resistance map: hard volcanic core, soft beach and lagoon.
+//
+// Multi-scale: the drainage network is carved on a base grid (base_px cells
+// across the canvas, 256 = the training resolution), then each finer level
+// (×2 up to the output size) adds the detail the coarser level could not hold
+// and runs a few short steps that re-incise the channels at its own cell size.
+// So a 4097² island is the 256² island with finer valleys, not another island,
+// and the same refinement amplifies a 256² model answer (infer --size N).
+//
+// Only land moves: the sea, the lagoon and the reef keep their heights (coral
+// growth is applied after erosion). Deterministic and single-threaded.
+//
+// erode_level is the composition of the pieces of flow.hpp (routing),
+// drainage.hpp (drainage area) and eroders.hpp (stream power, diffusion);
+// pits.hpp drains what is left.
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "reefgen/params_json.hpp"
+
+namespace reefgen::terrain {
+
+struct ErosionParams {
+  bool enabled = true;                // false: the paper's uneroded island
+  double k_fluvial = 1e-6;            // stream-power erodibility K of soft rock (ρ = 0), m^(1−2m)/yr, [0, 1]
+  double m_area = 0.8;                // drainage-area exponent m (slope exponent n = 1), [0.1, 1]
+  double hard_erodibility = 0.15;     // K at ρ = 1 as a share of K at ρ = 0, [0, 1]
+  double diffusivity = 0.005;         // hillslope diffusion D, m²/yr, [0, 100]
+  double duration_yr = 1.5e5;         // time eroded on the base grid, yr, [0, 1e8]
+  int steps = 8;                      // implicit steps on the base grid, [0, 1000]
+  int base_px = 256;                  // cells across the canvas of the base grid, [16, 8192]
+  int refine_steps = 3;               // implicit steps at each finer level, [0, 100]
+  double refine_duration_yr = 1.5e4;  // time at the first finer level (halved at each next one), yr, [0, 1e8]
+  double refine_diffusivity_scale = 0.3;  // hillslope diffusivity at the finer levels, multiple of diffusivity, [0, 1]
+  double refine_detail_scale = 2;     // amplitude of the detail added at each finer level, multiple of the default, [0, 10]
+  bool refine_random_receivers = true;   // finer levels drain to a lower neighbour drawn ∝ slope², not the steepest (no grid-aligned rills)
+  double noise_amplitude = 0.25;      // relative low-frequency modulation of the resistance, [0, 1]
+  double flow_exponent = 1.0;         // multiple-flow-direction share ∝ slope^p (Quinn et al.: 1; large = one direction), [0, 10]
+  double pit_breach_m = 5;            // closed depressions left at the end: breached up to this depth, filled below it (0: filled flat), m, [0, 100]
+  // Amplification of a model answer only (amplify_heights; the generator ignores them):
+  double amplify_roughness = 0.35;    // relief added to the land before eroding, share of the height, [0, 1]
+  double amplify_feature_m = 140;     // spacing of that relief's features, m, [1, 1e5]
+  double amplify_duration_scale = 0.5;  // base-grid erosion time as a multiple of duration_yr, [0, 100]
+  int amplify_steps = 3;              // implicit steps of that erosion (few: the lobes' valleys are not captured), [0, 1000]
+  double amplify_lobe_m = 300;        // flank contours pushed up or down the slope by up to this, m, [0, 2000]
+  double amplify_lobe_spacing_m = 400;  // spacing of those lobes along a contour, m, [1, 1e5]
+  bool amplify_lobe_along_flow = true;  // one push per flow line (spurs and re-entrants from the low flank up), not a 2D noise
+  double amplify_plain_smooth_m = 150;  // Gaussian σ that takes the model's rings off the beach/lagoon plain's land, m, [0, 2000] (0 = off)
+  double amplify_low_island_m = 120;  // islands whose own peak is below this get that smoothing on all their land (fully below half), m, [0, 1e4] (0 = off)
+  double amplify_pond_max_m2 = 2.5e5;  // sea enclosed by land up to this area (any size where painted island/beach) is raised to land, m², [0, 1e9] (0 = off)
+  // At or below the model's own side: the light clean-up (ponds raised, pits
+  // breached) only, or also the plain smoothing, roughening and erosion of
+  // larger sides. Light by default: held-out MAE 3.279 -> 3.275 m, painted
+  // pits 9.4 % -> 0; with erosion 3.55 m, with the smoothing 3.32 m
+  // (docs/EROSION.md, "The model's own side").
+  bool amplify_erode_at_model_side = false;
+};
+
+// The one field list (common/params_json.hpp): JSON both ways and the ranges.
+template <class F>
+void fields(ErosionParams& p, F&& f) {
+  f("enabled", p.enabled);
+  f("k_fluvial", p.k_fluvial, Range{0, 1});
+  f("m_area", p.m_area, Range{0.1, 1});
+  f("hard_erodibility", p.hard_erodibility, Range{0, 1});
+  f("diffusivity", p.diffusivity, Range{0, 100});
+  f("duration_yr", p.duration_yr, Range{0, 1e8});
+  f("steps", p.steps, Range{0, 1000});
+  f("base_px", p.base_px, Range{16, 8192});
+  f("refine_steps", p.refine_steps, Range{0, 100});
+  f("refine_duration_yr", p.refine_duration_yr, Range{0, 1e8});
+  f("refine_diffusivity_scale", p.refine_diffusivity_scale, Range{0, 1});
+  f("refine_detail_scale", p.refine_detail_scale, Range{0, 10});
+  f("refine_random_receivers", p.refine_random_receivers);
+  f("noise_amplitude", p.noise_amplitude, Range{0, 1});
+  f("flow_exponent", p.flow_exponent, Range{0, 10});
+  f("pit_breach_m", p.pit_breach_m, Range{0, 100});
+  f("amplify_roughness", p.amplify_roughness, Range{0, 1});
+  f("amplify_feature_m", p.amplify_feature_m, Range{1, 1e5});
+  f("amplify_duration_scale", p.amplify_duration_scale, Range{0, 100});
+  f("amplify_steps", p.amplify_steps, Range{0, 1000});
+  f("amplify_lobe_m", p.amplify_lobe_m, Range{0, 2000});
+  f("amplify_lobe_spacing_m", p.amplify_lobe_spacing_m, Range{1, 1e5});
+  f("amplify_lobe_along_flow", p.amplify_lobe_along_flow);
+  f("amplify_plain_smooth_m", p.amplify_plain_smooth_m, Range{0, 2000});
+  f("amplify_low_island_m", p.amplify_low_island_m, Range{0, 1e4});
+  f("amplify_pond_max_m2", p.amplify_pond_max_m2, Range{0, 1e9});
+  f("amplify_erode_at_model_side", p.amplify_erode_at_model_side);
+}
+void to_json(nlohmann::json& j, const ErosionParams& p);
+// Every key optional; unknown keys and out-of-range values throw reefgen::Error naming `origin`.
+ErosionParams erosion_params_from_json(const nlohmann::json& j, const std::string& origin);
+
+// One level: `steps` implicit steps sharing `duration_yr` on the land
+// (h > 0, at entry) of height_m, in place. erodibility = K per cell
+// (m^(1−2m)/yr). Land cells on the canvas edge are outlets (held), like the sea.
+// Routing: kFlood = Priority-Flood (closed depressions routed to their spill
+// point) with multiple-flow-direction drainage area, the base level's;
+// kStack = steepest descent and Braun & Willett's O(n) donor stack, single
+// flow direction, for refinement levels whose surface is already drained.
+enum class Routing { kFlood, kStack };
+void erode_level(cv::Mat1f& height_m, const cv::Mat1f& erodibility, double metres_per_px, int steps,
+                 double duration_yr, const ErosionParams& p, Routing routing = Routing::kFlood);
+
+// K per cell from a resistance map ρ ∈ [0, 1] modulated by low-frequency
+// noise drawn from `seed` (about four features across the canvas, so hard
+// and soft bands are not perfect rings).
+cv::Mat1f erodibility_map(const cv::Mat1f& resistance, uint64_t seed, const ErosionParams& p);
+
+// Sizes of the refinement chain: from, 2·from, 4·from, … (each < to), to.
+std::vector<int> refinement_levels(int from, int to);
+
+// Upsamples `coarse_m` (already eroded at its size) level by level to
+// size×size, adding detail(L, upsampled) on land at each level L and eroding
+// there (refine_steps steps). resistance is at the final size (resampled to
+// each level). Cells that are not land in `land_m` (final size) keep land_m's
+// heights; land cells never go below sea level.
+cv::Mat1f refine_heights(const cv::Mat1f& coarse_m, const cv::Mat1f& land_m, const cv::Mat1f& resistance,
+                         double world_size_m, uint64_t seed, const ErosionParams& p,
+                         const std::function<cv::Mat1f(int, const cv::Mat1f&)>& detail);
+
+// Land never goes below this once it is land (m): smoothing, lobes and
+// erosion keep it land (h > 0) so the coastline stays where it was drawn.
+constexpr float kLandFloorM = 0.1f;
+
+// side×side by `interpolation`; a copy when the size is already right.
+cv::Mat1f resampled(const cv::Mat1f& m, int side, int interpolation);
+
+// Detail a refinement level adds on land at side L (`up`: the level's
+// upsampled heights): an fBm tile at 4 cells per feature (3 octaves),
+// ± 0.4 cell sizes in metres (relief that grows with the scale, as in
+// fractal terrain), faded in over the first 5 m above the sea so that
+// coastlines stay where they were. The erosion that follows turns it into
+// the heads of small valleys instead of leaving it as noise.
+cv::Mat1f fractal_detail(int L, const cv::Mat1f& up, double world_size_m, uint64_t seed);
+
+// Resistance ρ per region id (0 island … 4 abyss) where only a label map is
+// known (a painted sketch): hard volcanic core, soft beach and lagoon, like
+// the paper's default resistance curve averaged over each region.
+cv::Mat1f resistance_of_labels(const cv::Mat1b& label);
+
+}  // namespace reefgen::terrain

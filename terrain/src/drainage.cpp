@@ -1,0 +1,68 @@
+#include "reefgen/terrain/drainage.hpp"
+
+#include <cmath>
+#include <type_traits>
+
+namespace reefgen::terrain {
+
+namespace {
+void size_for(const FlowGraph& g, std::vector<float>& area) {
+  if (area.size() != g.receiver.size()) area.assign(g.receiver.size(), 0.f);
+}
+}  // namespace
+
+void accumulate_single(const FlowGraph& g, const cv::Mat1b& role, float cell_area_m2, std::vector<float>& area) {
+  size_for(g, area);
+  const uint8_t* rl = role.ptr<uint8_t>();
+  for (const int i : g.stack) area[i] = cell_area_m2;
+  for (size_t k = g.stack.size(); k-- > 0;) {
+    const int i = g.stack[k], r = g.receiver[i];
+    if (rl[r] == kActive) area[r] += area[i];
+  }
+}
+
+void accumulate_multiple(const FlowGraph& g, const cv::Mat1b& role, float cell_area_m2, double metres_per_px,
+                         float exponent, std::vector<float>& area) {
+  size_for(g, area);
+  const uint8_t* rl = role.ptr<uint8_t>();
+  const float* fz = g.surface.ptr<float>();
+  const int W = g.surface.cols;
+  static constexpr int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1}, kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
+  const float axial = static_cast<float>(1.0 / metres_per_px);
+  const float diagonal = static_cast<float>(1.0 / (metres_per_px * std::sqrt(2.0)));
+  const float inv_len[8] = {axial, axial, axial, axial, diagonal, diagonal, diagonal, diagonal};
+  int offset[8];
+  for (int d = 0; d < 8; ++d) offset[d] = kDy[d] * W + kDx[d];
+  for (const int i : g.stack) area[i] = cell_area_m2;
+  // Stack cells are active, and active cells are never on the canvas edge
+  // (sea_and_edge_roles makes it an outlet): every neighbour is at a flat
+  // offset. The exponent's test is taken out of the cell loop (p = 1, the
+  // default, shares by the slope itself).
+  auto sweep = [&](auto unit_exponent) {
+    for (size_t k = g.stack.size(); k-- > 0;) {
+      const int i = g.stack[k];
+      // Non-lower neighbours get a zero share; adding +0 leaves the sum's bits as they are.
+      float w[8], sum = 0.f;
+      for (int d = 0; d < 8; ++d) {
+        const float sl = (fz[i] - fz[i + offset[d]]) * inv_len[d];
+        w[d] = sl > 0.f ? (decltype(unit_exponent)::value ? sl : std::pow(sl, exponent)) : 0.f;
+        sum += w[d];
+      }
+      if (sum <= 0.f) {
+        const int r = g.receiver[i];
+        if (rl[r] == kActive) area[r] += area[i];
+        continue;
+      }
+      const float a = area[i] / sum;
+      for (int d = 0; d < 8; ++d)
+        if (w[d] > 0.f) {
+          const int j = i + offset[d];
+          if (rl[j] == kActive) area[j] += a * w[d];
+        }
+    }
+  };
+  if (exponent == 1.f) sweep(std::true_type{});
+  else sweep(std::false_type{});
+}
+
+}  // namespace reefgen::terrain

@@ -1,0 +1,215 @@
+#include "reefgen/terrain/erosion.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+#include "reefgen/error.hpp"
+#include "reefgen/rng.hpp"
+#include "reefgen/terrain/drainage.hpp"
+#include "reefgen/terrain/eroders.hpp"
+#include "reefgen/terrain/flow.hpp"
+#include "reefgen/terrain/noise.hpp"
+
+namespace reefgen::terrain {
+
+using nlohmann::json;
+
+void to_json(json& j, const ErosionParams& p) { j = params_json(p); }
+
+ErosionParams erosion_params_from_json(const json& j, const std::string& origin) {
+  return params_from_json<ErosionParams>(j, origin, "docs/EROSION.md", "erosion.");
+}
+
+cv::Mat1f erodibility_map(const cv::Mat1f& resistance, uint64_t seed, const ErosionParams& p) {
+  const int H = resistance.rows, W = resistance.cols;
+  const float amp = static_cast<float>(p.noise_amplitude), hard = static_cast<float>(p.hard_erodibility);
+  // The modulation has about four features across the canvas: evaluated on at
+  // most 128² nodes and interpolated (per-cell fBm was 0.5 s at 4097²).
+  cv::Mat1f mod(H, W, 0.f);
+  if (amp > 0) {
+    const GradientNoise2 noise(seed);
+    const int n = std::min({128, H, W});
+    cv::Mat1f coarse(n, n);
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x)
+        coarse(y, x) = noise.fbm(4.f * (x + 0.5f) / n + 0.37f, 4.f * (y + 0.5f) / n + 0.71f, 2);
+    if (n == W && n == H) mod = coarse;
+    else cv::resize(coarse, mod, cv::Size(W, H), 0, 0, cv::INTER_LINEAR);
+  }
+  cv::Mat1f K(H, W);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const float r = std::clamp(resistance(y, x) * (1.f + amp * mod(y, x)), 0.f, 1.f);
+      K(y, x) = static_cast<float>(p.k_fluvial) * (1.f - r * (1.f - hard));
+    }
+  return K;
+}
+
+namespace {
+
+void check_erosion_inputs(const cv::Mat1f& h, const cv::Mat1f& K, double metres_per_px) {
+  if (h.empty() || h.size() != K.size()) throw Error("erode: height and erodibility must be non-empty and of the same size");
+  if (!(metres_per_px > 0)) throw Error("erode: metres_per_px must be > 0");
+}
+
+// The box around the cells above sea level, grown by one cell (their
+// outlets, or the canvas edge); empty when there is no land.
+cv::Rect land_box(const cv::Mat1f& h) {
+  int x0 = h.cols, y0 = h.rows, x1 = -1, y1 = -1;
+  for (int y = 0; y < h.rows; ++y) {
+    const float* r = h.ptr<float>(y);
+    for (int x = 0; x < h.cols; ++x)
+      if (r[x] > 0) x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+  }
+  if (x1 < 0) return {};
+  return cv::Rect(cv::Point(std::max(0, x0 - 1), std::max(0, y0 - 1)),
+                  cv::Point(std::min(h.cols, x1 + 2), std::min(h.rows, y1 + 2)));
+}
+
+// The box of the active cells; empty when there is none.
+cv::Rect active_box(const cv::Mat1b& role) {
+  int x0 = role.cols, y0 = role.rows, x1 = -1, y1 = -1;
+  for (int y = 0; y < role.rows; ++y)
+    for (int x = 0; x < role.cols; ++x)
+      if (role(y, x) == kActive) x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+  if (x1 < 0) return {};
+  return cv::Rect(cv::Point(x0, y0), cv::Point(x1 + 1, y1 + 1));
+}
+
+// The surface the law sees: the sea is the base level (0 m), whatever its
+// depth, so rivers cut down to the sea, not to the abyss.
+cv::Mat1f base_level_surface(const cv::Mat1f& h, const cv::Mat1b& role) {
+  cv::Mat1f z = h.clone();
+  for (int y = 0; y < z.rows; ++y)
+    for (int x = 0; x < z.cols; ++x)
+      if (role(y, x) != kActive) z(y, x) = std::max(z(y, x), 0.f);
+  return z;
+}
+
+// The stack router's draw for step s on a W×H grid (0: steepest descent).
+uint64_t receiver_salt(const ErosionParams& p, int W, int H, int s) {
+  return p.refine_random_receivers ? mix64(uint64_t(W) * 0x10001ull + uint64_t(H) + uint64_t(s)) | 1 : 0;
+}
+
+}  // namespace
+
+void erode_level(cv::Mat1f& h, const cv::Mat1f& K, double dx, int steps, double duration_yr, const ErosionParams& p,
+                 Routing routing) {
+  check_erosion_inputs(h, K, dx);
+  if (steps <= 0 || !(duration_yr > 0)) return;
+  // Islands cover a minority of the canvas: work on the land's box.
+  const cv::Rect box = land_box(h);
+  if (box.empty()) return;
+  if (box.width < h.cols || box.height < h.rows) {
+    cv::Mat1f sub = h(box).clone();
+    erode_level(sub, K(box).clone(), dx, steps, duration_yr, p, routing);
+    sub.copyTo(h(box));
+    return;
+  }
+  if (!h.isContinuous()) h = h.clone();
+  const cv::Mat1b role = sea_and_edge_roles(h);
+  const cv::Rect land = active_box(role);
+  if (land.empty()) return;
+  cv::Mat1f z = base_level_surface(h, role);
+  const double dt = duration_yr / steps;
+  const float cell_area_m2 = static_cast<float>(dx * dx);
+  const double sigma_px = hillslope_sigma_px(p.diffusivity, dt, dx);
+  const int margin = hillslope_margin_px(sigma_px);
+  const cv::Rect roi = cv::Rect(land.x - margin, land.y - margin, land.width + 2 * margin, land.height + 2 * margin) &
+                       cv::Rect(0, 0, h.cols, h.rows);
+  FlowGraph graph;
+  std::vector<float> area_m2;
+  for (int s = 0; s < steps; ++s) {
+    if (routing == Routing::kStack) {
+      route_stack(z, role, dx, receiver_salt(p, h.cols, h.rows, s), graph);
+      accumulate_single(graph, role, cell_area_m2, area_m2);
+    } else {
+      route_flood(z, role, dx, graph);
+      accumulate_multiple(graph, role, cell_area_m2, dx, static_cast<float>(p.flow_exponent), area_m2);
+    }
+    erode_stream_power(z, K, graph, area_m2, dt, p.m_area);
+    diffuse_hillslope(z, role, roi, sigma_px);
+  }
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x)
+      if (role(y, x) == kActive) h(y, x) = z(y, x);
+}
+
+std::vector<int> refinement_levels(int from, int to) {
+  // Doubling while a doubling leaves at least ×1.25 to go: no level adds a
+  // sliver (1024 → 1025) that only costs time.
+  std::vector<int> v = {std::min(from, to)};
+  while (v.back() * 5 < to * 2) v.push_back(v.back() * 2);
+  if (v.back() != to) v.push_back(to);
+  return v;
+}
+
+cv::Mat1f resampled(const cv::Mat1f& m, int size, int interpolation) {
+  if (m.cols == size && m.rows == size) return m.clone();
+  cv::Mat1f out;
+  cv::resize(m, out, cv::Size(size, size), 0, 0, interpolation);
+  return out;
+}
+
+cv::Mat1f fractal_detail(int L, const cv::Mat1f& up, double world_size_m, uint64_t seed) {
+  const NoiseTile& tile = NoiseTile::get(3);
+  Rng rng(seed, static_cast<uint64_t>(L), "refine-detail");
+  const float u0 = float(rng.uniform(0, NoiseTile::kSize)), v0 = float(rng.uniform(0, NoiseTile::kSize));
+  cv::Mat1f d(L, L, 0.f);
+  const float amp = static_cast<float>(0.4 * world_size_m / L);
+  const float texels_per_cell = float(NoiseTile::kBaseCell) / 4.f;  // a base feature every 4 cells
+  for (int y = 0; y < L; ++y)
+    for (int x = 0; x < L; ++x)
+      if (up(y, x) > 0)
+        d(y, x) = amp * std::min(1.f, up(y, x) / 5.f) * tile.sample(x * texels_per_cell + u0, y * texels_per_cell + v0);
+  return d;
+}
+
+cv::Mat1f refine_heights(const cv::Mat1f& coarse_m, const cv::Mat1f& land_m, const cv::Mat1f& resistance,
+                         double world_size_m, uint64_t seed, const ErosionParams& p,
+                         const std::function<cv::Mat1f(int, const cv::Mat1f&)>& detail) {
+  const int N = land_m.cols;
+  const auto levels = refinement_levels(coarse_m.cols, N);
+  cv::Mat1f cur = coarse_m.clone();
+  double duration = p.refine_duration_yr;
+  ErosionParams fine = p;
+  fine.diffusivity *= p.refine_diffusivity_scale;
+  const float detail_scale = float(p.refine_detail_scale);
+  for (size_t li = 1; li < levels.size(); ++li) {
+    const int L = levels[li];
+    cv::Mat1f up = resampled(cur, L, cv::INTER_CUBIC);
+    const cv::Mat1f land_L = resampled(land_m, L, cv::INTER_AREA);
+    const cv::Mat1f d = detail ? detail(L, up) : cv::Mat1f();
+    cv::Mat1f next = land_L.clone();
+    for (int y = 0; y < L; ++y)
+      for (int x = 0; x < L; ++x)
+        if (land_L(y, x) > 0) next(y, x) = std::max(up(y, x) + (d.empty() ? 0.f : detail_scale * d(y, x)), 0.f);
+    erode_level(next, erodibility_map(resampled(resistance, L, cv::INTER_AREA), seed, p), world_size_m / L,
+                p.refine_steps, duration, fine, Routing::kStack);
+    duration *= 0.5;
+    cur = std::move(next);
+  }
+  cv::Mat1f out = land_m.clone();
+  if (cur.cols != N) cur = resampled(cur, N, cv::INTER_CUBIC);
+  for (int y = 0; y < N; ++y)
+    for (int x = 0; x < N; ++x)
+      if (land_m(y, x) > 0) out(y, x) = std::max(cur(y, x), std::min(land_m(y, x), kLandFloorM));
+  return out;
+}
+
+cv::Mat1f resistance_of_labels(const cv::Mat1b& label) {
+  // Means of the default ρ(x̃) over each region's x̃ range (docs/EROSION.md).
+  static constexpr float kRho[5] = {0.55f, 0.10f, 0.06f, 0.60f, 0.05f};
+  cv::Mat1f rho(label.size());
+  for (int y = 0; y < label.rows; ++y)
+    for (int x = 0; x < label.cols; ++x) rho(y, x) = kRho[std::min<int>(label(y, x), 4)];
+  // Regions blend over ~1 % of the canvas instead of switching at a pixel.
+  const double s = std::max(1.0, 0.01 * label.cols);
+  cv::GaussianBlur(rho, rho, cv::Size(0, 0), s, s, cv::BORDER_REPLICATE);
+  return rho;
+}
+
+}  // namespace reefgen::terrain

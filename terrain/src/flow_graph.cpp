@@ -1,0 +1,113 @@
+#include <cmath>
+#include <vector>
+
+#include "reefgen/rng.hpp"
+#include "reefgen/terrain/flow.hpp"
+
+namespace reefgen::terrain {
+
+namespace {
+
+constexpr int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1}, kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
+
+// 1 / length of each of the 8 steps, 1/m: 4 axial, then 4 diagonal.
+struct StepLengths {
+  float axial, diagonal, inv[8];
+  explicit StepLengths(double metres_per_px)
+      : axial(static_cast<float>(1.0 / metres_per_px)),
+        diagonal(static_cast<float>(1.0 / (metres_per_px * std::sqrt(2.0)))),
+        inv{axial, axial, axial, axial, diagonal, diagonal, diagonal, diagonal} {}
+};
+
+// The donor tree walked breadth-first from each base level (a cell that is
+// its own receiver and drains something): receivers come before donors.
+void stack_from_receivers(const std::vector<int>& recv, std::vector<int>& order) {
+  const int n = static_cast<int>(recv.size());
+  std::vector<int> ndon(n + 1, 0);
+  for (int i = 0; i < n; ++i)
+    if (recv[i] != i) ++ndon[recv[i] + 1];
+  for (int i = 0; i < n; ++i) ndon[i + 1] += ndon[i];
+  std::vector<int> donors(ndon[n]), fill(ndon.begin(), ndon.end() - 1);
+  for (int i = 0; i < n; ++i)
+    if (recv[i] != i) donors[fill[recv[i]]++] = i;
+  order.clear();
+  for (int i = 0; i < n; ++i) {
+    if (recv[i] != i || ndon[i + 1] == ndon[i]) continue;  // not a base level, or drains nothing
+    const size_t start = order.size();
+    for (int k = ndon[i]; k < ndon[i + 1]; ++k) order.push_back(donors[k]);
+    for (size_t head = start; head < order.size(); ++head) {
+      const int c = order[head];
+      for (int k = ndon[c]; k < ndon[c + 1]; ++k) order.push_back(donors[k]);
+    }
+  }
+}
+
+}  // namespace
+
+void route_flood(const cv::Mat1f& height_m, const cv::Mat1b& role, double metres_per_px, FlowGraph& g) {
+  FloodRoute fr = flood_route(height_m, role);
+  const int W = height_m.cols;
+  const StepLengths len(metres_per_px);
+  int offset[8];
+  for (int d = 0; d < 8; ++d) offset[d] = kDy[d] * W + kDx[d];
+  const float* fz = fr.filled.ptr<float>();
+  g.receiver = std::move(fr.receiver);
+  g.inv_length.assign(g.receiver.size(), 0.f);
+  // Lower neighbours were taken out of the flood's queues first, so the
+  // steepest descent on the filled surface is a receiver that comes earlier
+  // in the order; where none is lower, the flood's own receiver stays.
+  for (const int i : fr.order) {
+    int best = g.receiver[i];
+    const int step = best - i;
+    float best_s = 0.f, best_l = (step == 1 || step == -1 || step == W || step == -W) ? len.axial : len.diagonal;
+    for (int d = 0; d < 8; ++d) {
+      const float sl = (fz[i] - fz[i + offset[d]]) * len.inv[d];
+      if (sl > best_s) best_s = sl, best = i + offset[d], best_l = len.inv[d];
+    }
+    g.receiver[i] = best;
+    g.inv_length[i] = best_l;
+  }
+  g.stack = std::move(fr.order);
+  g.surface = fr.filled;
+}
+
+void route_stack(const cv::Mat1f& height_m, const cv::Mat1b& role, double metres_per_px, uint64_t salt,
+                 FlowGraph& g) {
+  const int W = height_m.cols, H = height_m.rows, n = W * H;
+  const float* z = height_m.ptr<float>();
+  const uint8_t* rl = role.ptr<uint8_t>();
+  const StepLengths len(metres_per_px);
+  g.receiver.resize(n);
+  g.inv_length.resize(n);
+  for (int i = 0; i < n; ++i) {
+    g.receiver[i] = i;
+    if (rl[i] != kActive) continue;
+    const int x = i % W, y = i / W;
+    float best_s = 0.f, w[8], sum = 0.f;
+    for (int k = 0; k < 8; ++k) {
+      w[k] = 0.f;
+      const int nx = x + kDx[k], ny = y + kDy[k];
+      if (nx < 0 || ny < 0 || nx >= W || ny >= H) continue;
+      const int j = ny * W + nx;
+      if (rl[j] == kIgnore) continue;
+      const float sl = (z[i] - z[j]) * len.inv[k];
+      if (sl > 0.f) sum += (w[k] = sl * sl);
+      if (sl > best_s) best_s = sl, g.receiver[i] = j, g.inv_length[i] = len.inv[k];
+    }
+    if (salt != 0 && sum > 0.f) {
+      const float u = float(mix64(salt ^ mix64(uint64_t(i))) >> 40) * (1.f / 16777216.f) * sum;
+      float c = 0.f;
+      for (int k = 0; k < 8; ++k) {
+        if (w[k] <= 0.f) continue;
+        c += w[k];
+        g.receiver[i] = (y + kDy[k]) * W + x + kDx[k];
+        g.inv_length[i] = len.inv[k];
+        if (u < c) break;
+      }
+    }
+  }
+  stack_from_receivers(g.receiver, g.stack);
+  g.surface = height_m;
+}
+
+}  // namespace reefgen::terrain

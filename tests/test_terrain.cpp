@@ -1,0 +1,158 @@
+// The pieces of terrain/ one at a time, against values worked out by hand
+// from their equations (docs/EROSION.md): the flow graph, drainage area by
+// one and by several flow directions, the implicit stream-power update and
+// hillslope diffusion.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "reefgen/terrain/drainage.hpp"
+#include "reefgen/terrain/eroders.hpp"
+#include "reefgen/terrain/erosion.hpp"
+#include "reefgen/terrain/flow.hpp"
+
+using namespace reefgen;
+using namespace reefgen::terrain;
+
+namespace {
+
+// A 5×4 plane rising 1 m per row away from row 0; rows 1–2, columns 1–3 are
+// land (active), the edge is an outlet. Cell size 1 m.
+cv::Mat1f plane() {
+  cv::Mat1f h(4, 5);
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 5; ++x) h(y, x) = float(y) + 1.f;
+  return h;
+}
+
+}  // namespace
+
+TEST(FlowGraph, StackPutsEveryReceiverBeforeItsDonors) {
+  const cv::Mat1f h = plane();
+  const cv::Mat1b role = sea_and_edge_roles(h);
+  for (const bool flood : {true, false}) {
+    FlowGraph g;
+    if (flood) {
+      route_flood(h, role, 1.0, g);
+    } else {
+      route_stack(h, role, 1.0, 0, g);
+    }
+    ASSERT_EQ(g.stack.size(), 6u);
+    std::vector<int> pos(20, -1);
+    for (size_t k = 0; k < g.stack.size(); ++k) pos[size_t(g.stack[k])] = int(k);
+    for (const int i : g.stack) {
+      // Steepest descent on a plane tilted in y: straight down the rows.
+      EXPECT_EQ(g.receiver[size_t(i)], i - 5) << "cell " << i;
+      EXPECT_FLOAT_EQ(g.inv_length[size_t(i)], 1.f);
+      const int r = g.receiver[size_t(i)];
+      if (role(r / 5, r % 5) == kActive) {
+        EXPECT_LT(pos[size_t(r)], pos[size_t(i)]);
+      }
+    }
+  }
+}
+
+TEST(Drainage, SingleDirectionSumsTheDonors) {
+  const cv::Mat1f h = plane();
+  const cv::Mat1b role = sea_and_edge_roles(h);
+  FlowGraph g;
+  route_stack(h, role, 1.0, 0, g);
+  std::vector<float> area;
+  accumulate_single(g, role, 4.f, area);
+  for (int x = 1; x <= 3; ++x) {
+    EXPECT_FLOAT_EQ(area[size_t(2 * 5 + x)], 4.f);  // the top row drains only itself
+    EXPECT_FLOAT_EQ(area[size_t(1 * 5 + x)], 8.f);  // itself and the cell above
+  }
+}
+
+TEST(Drainage, MultipleDirectionsShareBySlope) {
+  // Quinn's p = 1 on the plane: a row-2 cell sends 1/(1+√2) of its area
+  // straight down and (1/√2)/(1+√2) down each diagonal (slope s/√2). The
+  // middle cell of row 1 gets all three shares: a + a = 2a; a side cell
+  // gets its own straight share and one diagonal: a(1 + (1 + 1/√2)/(1 + √2)).
+  const cv::Mat1f h = plane();
+  const cv::Mat1b role = sea_and_edge_roles(h);
+  FlowGraph g;
+  route_flood(h, role, 1.0, g);
+  std::vector<float> area;
+  accumulate_multiple(g, role, 1.f, 1.0, 1.f, area);
+  const double r2 = std::sqrt(2.0);
+  EXPECT_NEAR(area[size_t(5 + 2)], 2.0, 1e-6);
+  EXPECT_NEAR(area[size_t(5 + 1)], 1.0 + (1.0 + 1.0 / r2) / (1.0 + r2), 1e-6);
+  EXPECT_NEAR(area[size_t(5 + 3)], area[size_t(5 + 1)], 1e-6);
+  // A large exponent tends to the single steepest direction.
+  accumulate_multiple(g, role, 1.f, 1.0, 40.f, area);
+  EXPECT_NEAR(area[size_t(5 + 2)], 2.0, 1e-5);
+  EXPECT_NEAR(area[size_t(5 + 1)], 2.0, 1e-5);
+}
+
+TEST(Eroders, StreamPowerIsTheImplicitUpdate) {
+  // One land cell (2, 1) draining to the sea at (2, 0), 0 m:
+  // F = K Δt A^m / L = 1e-3 · 10 · 4^0.5 / 1 = 0.02, z ← (102 + 0.02 · 0) / 1.02 = 100.
+  cv::Mat1f h(3, 5, -10.f);
+  h(1, 2) = 102.f;
+  cv::Mat1f z = h.clone();
+  z.setTo(0.f, h <= 0);
+  const cv::Mat1b role = sea_and_edge_roles(h);
+  FlowGraph g;
+  route_stack(z, role, 1.0, 0, g);
+  ASSERT_EQ(g.stack.size(), 1u);
+  const std::vector<float> area(15, 4.f);
+  erode_stream_power(z, cv::Mat1f(3, 5, 1e-3f), g, area, 10.0, 0.5);
+  EXPECT_NEAR(z(1, 2), 100.f, 1e-4f);
+  EXPECT_EQ(z(0, 2), 0.f);  // the base level does not move
+}
+
+TEST(Eroders, DiffusionSpreadsASpikeBy2Dt) {
+  // ∂h/∂t = D∇²h spreads a point of height to a Gaussian of variance 2 D Δt
+  // per axis: D = 2 m²/yr, Δt = 4 yr, 1 m cells → σ² = 16 cells².
+  const double sigma = hillslope_sigma_px(2.0, 4.0, 1.0);
+  EXPECT_NEAR(sigma * sigma, 16.0, 1e-9);
+  cv::Mat1f h(81, 81, 1.f);
+  h(40, 40) = 1001.f;
+  const cv::Mat1b role = sea_and_edge_roles(h);
+  diffuse_hillslope(h, role, cv::Rect(0, 0, 81, 81), sigma);
+  double mass = 0, var = 0;
+  for (int y = 1; y < 80; ++y)
+    for (int x = 1; x < 80; ++x) {
+      const double m = h(y, x) - 1.0;
+      mass += m;
+      var += m * (x - 40) * (x - 40);
+    }
+  EXPECT_NEAR(mass, 1000.0, 1.0);  // mass kept
+  EXPECT_NEAR(var / mass, 16.0, 0.5);
+  EXPECT_EQ(h(0, 0), 1.f);  // an outlet (the canvas edge) is not written
+}
+
+TEST(Erosion, LevelIsGoldenOnACone) {
+  // erode_level = route + accumulate + stream power + diffusion, step after
+  // step. Golden sums pinned when the monolith was split into those pieces
+  // (its outputs were byte-identical before and after; docs/EROSION.md).
+  for (const Routing routing : {Routing::kFlood, Routing::kStack}) {
+    cv::Mat1f h(64, 64);
+    for (int y = 0; y < 64; ++y)
+      for (int x = 0; x < 64; ++x) {
+        const double r = std::hypot(x - 31.5, y - 31.5) / 20.0;
+        h(y, x) = float(r < 1 ? 300 * (1 - r) + 7 * std::sin(x * 0.9) * std::cos(y * 1.3) * (1 - r) : -40);
+      }
+    ErosionParams p;
+    erode_level(h, cv::Mat1f(64, 64, 2e-7f), 50.0, 4, 1e5, p, routing);
+    double land_m = 0, peak_m = 0;
+    for (int y = 0; y < 64; ++y)
+      for (int x = 0; x < 64; ++x)
+        if (h(y, x) > 0) land_m += h(y, x), peak_m = std::max(peak_m, double(h(y, x)));
+    // Uneroded: 125 600 m·cells of land, 300 m peak.
+    if (routing == Routing::kFlood) {
+      EXPECT_NEAR(land_m, 109124.027, 0.05);
+      EXPECT_NEAR(peak_m, 287.4744, 1e-3);
+    } else {
+      EXPECT_NEAR(land_m, 112831.394, 0.05);
+      EXPECT_NEAR(peak_m, 287.4390, 1e-3);
+    }
+  }
+}
