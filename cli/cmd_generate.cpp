@@ -23,6 +23,8 @@ struct GenerateArgs {
   uint64_t seed = 0;
   bool seed_given = false;
   bool preview = false;
+  bool layers = false;
+  std::string layer_rules;  // JSON of terrain::LayerParams
   int threads = default_threads();
   int levels = 4;
   int warp_grid = RenderOptions{}.warp_grid;
@@ -43,6 +45,12 @@ IslandSpec load_spec(const GenerateArgs& a) {
   return spec_from_json(read_json(a.spec_file), a.spec_file);
 }
 
+terrain::LayerParams layer_params(const GenerateArgs& a) {
+  if (a.layer_rules.empty()) return {};
+  if (!a.layers) throw Error("--layer-rules " + a.layer_rules + " needs --layers");
+  return terrain::layer_params_from_json(read_json(a.layer_rules), a.layer_rules);
+}
+
 void check_common(const GenerateArgs& a) {
   if (a.size < 8 || a.size > 8192) throw Error("--size " + std::to_string(a.size) + " is out of range; expected 8..8192");
   if (!std::isnan(a.subsidence) && !(a.subsidence >= 0 && a.subsidence <= 1))
@@ -59,17 +67,20 @@ int run_single(const GenerateArgs& a, const GlobalOptions&) {
   if (!a.spec_file.empty()) {  // the sidecar PREFIX.json must never replace the spec it was made from
     std::vector<fs::path> outs{names.height};
     for (const char* ext : {".label.png", ".preview.png", ".json"}) outs.push_back(prefix.string() + ext);
+    for (const auto& ext : terrain::layer_file_suffixes()) outs.push_back(prefix.string() + ext);
     refuse_output_over_input({a.spec_file}, outs);
   }
   ensure_writable_dir(prefix.parent_path());
   RenderOptions opt;
   opt.size_px = a.size;
   opt.warp_grid = a.warp_grid;
+  opt.keep_uneroded = a.layers;
+  const terrain::LayerParams lp = layer_params(a);
   const IslandFields f = generate(spec, opt);
   nlohmann::json prov = {{"mode", a.preset.empty() ? "spec" : "preset"},
                          {"source", a.preset.empty() ? a.spec_file : a.preset},
                          {"warp_grid", opt.warp_grid}};
-  const auto w = write_island(prefix, f, spec, prov, a.preview, names.height);
+  const auto w = write_island(prefix, f, spec, prov, a.preview, names.height, a.layers ? &lp : nullptr);
   for (const auto& p : w.files) std::printf("%s\n", p.c_str());
   return 0;
 }
@@ -84,6 +95,8 @@ int run_random(const GenerateArgs& a, const GlobalOptions& g) {
   r.render.size_px = a.size;
   r.render.warp_grid = a.warp_grid;
   r.preview = a.preview;
+  r.layers = a.layers;
+  r.layer_params = layer_params(a);
   r.threads = a.threads;
   if (a.levels < 1 || a.levels > 64) throw Error("--levels must be in 1..64");
   Progress progress("generate", size_t(a.random) * size_t(a.levels), g.quiet);
@@ -119,6 +132,10 @@ Command add_generate_command(CLI::App& app, const GlobalOptions& g) {
       ->check(seed_value())
       ->each([a](const std::string&) { a->seed_given = true; });
   sub->add_flag("--preview", a->preview, "Also write PREFIX.preview.png (hill-shaded colours)");
+  sub->add_flag("--layers", a->layers,
+                "Also write the layers (docs/LAYERS.md): PREFIX.flow.png, .slope.png, .wear.png, .deposit.png, "
+                ".normal.png, .splat0.png + .splat1.png (8 material weights), .materials.png");
+  sub->add_option("--layer-rules", a->layer_rules, "JSON file of material rules overriding the defaults (docs/LAYERS.md)");
   sub->add_option("--threads", a->threads, "Worker threads for --random (default: all cores)")->check(CLI::Range(1, 256));
   sub->add_option("--levels", a->levels, "Subsidence levels per random configuration, evenly spaced on [0, 1]")->capture_default_str();
   sub->add_option("--warp-grid", a->warp_grid, "Cells of the wind displacement grid across the canvas")->capture_default_str();

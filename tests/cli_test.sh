@@ -50,6 +50,29 @@ rm "$T/r2/island_000001_l1.json" "$T/r2/island_000002_l0.height.exr"  # an inter
 grep -q "wrote 2 islands (4 already there)" "$T/err" && ok || bad "resume did not skip: $(cat "$T/err")"
 diff -r "$T/r1" "$T/r2" >/dev/null && ok || bad "resumed run differs"
 
+# 2b. Layers (docs/LAYERS.md): every file, weights summing to 255 at every
+# pixel, same bytes whatever the threads (--random), a bad rule refused.
+"$BIN" -q generate --preset young-volcano --size 96 --layers -o "$T/lay/yv" >/dev/null || bad "generate --layers"
+for s in flow slope wear deposit normal splat0 splat1 materials; do [ -s "$T/lay/yv.$s.png" ] || bad "layers: no $s"; done
+"$PY" - "$T/lay/yv" <<'PYEOF' && ok || bad "layers: splat weights or sidecar"
+import cv2, json, sys
+p = sys.argv[1]
+a = cv2.imread(p + ".splat0.png", cv2.IMREAD_UNCHANGED).astype(int)
+b = cv2.imread(p + ".splat1.png", cv2.IMREAD_UNCHANGED).astype(int)
+assert a.shape == (96, 96, 4) and b.shape == (96, 96, 4), (a.shape, b.shape)
+assert ((a.sum(2) + b.sum(2)) == 255).all()
+j = json.load(open(p + ".json"))
+assert [m["name"] for m in j["layers"]["materials"]][:2] == ["deep_sea_floor", "lagoon_sand"]
+assert j["files"]["flow"] == "yv.flow.png" and cv2.imread(p + ".flow.png", cv2.IMREAD_UNCHANGED).dtype.name == "uint16"
+PYEOF
+"$BIN" -q generate --random 2 --levels 1 --seed 3 --size 48 --layers --out "$T/lay1" --threads 1 >/dev/null || bad "random --layers t1"
+"$BIN" -q generate --random 2 --levels 1 --seed 3 --size 48 --layers --out "$T/lay2" --threads 2 >/dev/null || bad "random --layers t2"
+diff -r "$T/lay1" "$T/lay2" >/dev/null && ok || bad "layers: threads 1 vs 2 differ"
+echo '{"cliff_deg": 95}' > "$T/rules.json"
+"$BIN" -q generate --preset atoll --size 48 --layers --layer-rules "$T/rules.json" -o "$T/lay/bad" >/dev/null 2>"$T/err" \
+  && bad "layer rules out of range accepted" || { grep -q "rules.json" "$T/err" && ok || bad "layer rules: $(cat "$T/err")"; }
+[ -e "$T/lay/bad.height.exr" ] && bad "layer rules: files written" || ok
+
 # 3. Errors: one line on stderr, non-zero exit, nothing written.
 expect_error() {  # expect_error NEEDLE ARGS...
   local needle="$1"; shift

@@ -15,6 +15,10 @@
 #include "reefgen/terrain/eroders.hpp"
 #include "reefgen/terrain/erosion.hpp"
 #include "reefgen/terrain/flow.hpp"
+#include "reefgen/terrain/layers.hpp"
+#include "reefgen/error.hpp"
+#include "reefgen/procgen/generator.hpp"
+#include "reefgen/procgen/random_spec.hpp"
 
 using namespace reefgen;
 using namespace reefgen::terrain;
@@ -155,4 +159,95 @@ TEST(Erosion, LevelIsGoldenOnACone) {
       EXPECT_NEAR(peak_m, 287.4390, 1e-3);
     }
   }
+}
+
+// ---- Layers (terrain/layers.hpp, docs/LAYERS.md) ----
+
+namespace {
+reefgen::procgen::IslandFields eroded_island(int W) {
+  procgen::IslandSpec spec = procgen::random_spec(5, 2);
+  spec.subsidence = 0.1;
+  procgen::RenderOptions ro;
+  ro.size_px = W;
+  ro.keep_uneroded = true;
+  return procgen::generate(spec, ro);
+}
+}  // namespace
+
+TEST(Layers, WeightsSumTo255AtEveryPixelAndMassIsKept) {
+  const auto f = eroded_island(160);
+  ASSERT_FALSE(f.uneroded_m.empty());
+  const double dx = 6000.0 / 160;
+  const Layers L = compute_layers(f.height_m, f.uneroded_m, f.label, dx);
+  const auto splat = splat_maps(L);
+  for (int y = 0; y < 160; ++y)
+    for (int x = 0; x < 160; ++x) {
+      int sum = 0;
+      float wsum = 0;
+      for (int m = 0; m < kNumMaterials; ++m) {
+        sum += splat[size_t(m / 4)](y, x)[m % 4];
+        wsum += L.weight[size_t(m)](y, x);
+        ASSERT_GE(L.weight[size_t(m)](y, x), 0.f);
+      }
+      ASSERT_EQ(sum, 255) << y << "," << x;
+      ASSERT_NEAR(wsum, 1.f, 1e-5f);
+    }
+  // The deposit is worn material that settled: never more than was worn.
+  EXPECT_GT(cv::sum(L.wear_m)[0], 0.0);
+  EXPECT_GT(cv::sum(L.deposit_m)[0], 0.0);
+  EXPECT_LE(cv::sum(L.deposit_m)[0], cv::sum(L.wear_m)[0]);
+  // The flow layer is zero at sea and at least one cell's area on land.
+  for (int y = 0; y < 160; ++y)
+    for (int x = 0; x < 160; ++x) {
+      if (f.height_m(y, x) <= 0) {
+        ASSERT_EQ(L.flow_area_m2(y, x), 0.f);
+      } else if (x > 0 && y > 0 && x < 159 && y < 159) {
+        ASSERT_GE(L.flow_area_m2(y, x), float(dx * dx) * 0.999f);
+      }
+    }
+}
+
+TEST(Layers, MaterialsFollowTheirRules) {
+  // West half: a 60° cliff rising from the sea to the east, then a 5° plain;
+  // east of the island the abyss. Regions from the heights.
+  const int W = 200;
+  const double dx = 2.0;
+  cv::Mat1f h(W, W);
+  for (int y = 0; y < W; ++y)
+    for (int x = 0; x < W; ++x) {
+      const double d = x * dx;  // metres from the west edge
+      h(y, x) = float(d < 100 ? -60 + (d - 0) * 0.05 : d < 200 ? -55 + (d - 100) * std::tan(60 * M_PI / 180) : 118 + (d - 200) * 0.087);
+    }
+  const Layers L = compute_layers(h, cv::Mat1f(), cv::Mat1b(), dx);
+  EXPECT_GT(L.weight[kDeepSeaFloor](100, 10), 0.99f);   // 60 m deep
+  EXPECT_GT(L.weight[kRockCliff](100, 90), 0.99f);      // on the 60° face, above the sea
+  EXPECT_GT(L.weight[kVegetation](100, 160), 0.9f);     // the 5° plain, high and dry
+  EXPECT_NEAR(L.slope_deg(100, 90), 60.f, 0.5f);
+  EXPECT_NEAR(L.slope_deg(100, 160), float(std::atan(0.087) * 180 / M_PI), 0.05f);
+  // Normals: the face rises to the east, so it leans west (x < 0), unit length.
+  const cv::Vec3f n = L.normal(100, 90);
+  EXPECT_LT(n[0], -0.8f);
+  EXPECT_NEAR(n[1], 0.f, 1e-5f);
+  EXPECT_NEAR(cv::norm(n), 1.0, 1e-5);
+}
+
+TEST(Layers, NormalsReadNorthUpwards) {
+  // Heights rising towards row 0 (north): the normal leans south (y < 0).
+  cv::Mat1f h(32, 32);
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 32; ++x) h(y, x) = float(100 - 2 * y);
+  const Layers L = compute_layers(h, cv::Mat1f(), cv::Mat1b(), 1.0);
+  EXPECT_LT(L.normal(16, 16)[1], -0.8f);
+  EXPECT_NEAR(L.normal(16, 16)[0], 0.f, 1e-6f);
+}
+
+TEST(Layers, RulesRoundTripAndRefuseBadValues) {
+  LayerParams p;
+  p.cliff_deg = 50;
+  nlohmann::json j;
+  to_json(j, p);
+  EXPECT_EQ(layer_params_from_json(j, "r.json").cliff_deg, 50);
+  EXPECT_THROW(layer_params_from_json({{"cliff_deg", 95}}, "r.json"), reefgen::Error);
+  EXPECT_THROW(layer_params_from_json({{"clif_deg", 30}}, "r.json"), reefgen::Error);
+  EXPECT_THROW(compute_layers(cv::Mat1f(4, 4, NAN), cv::Mat1f(), cv::Mat1b(), 1.0), reefgen::Error);
 }

@@ -327,7 +327,7 @@ void put_chunk(std::string& out, const char type[4], const std::string& data) {
   put_u32be(out, uint32_t(crc32(0, reinterpret_cast<const Bytef*>(out.data() + start), uInt(out.size() - start))));
 }
 
-// 8-bit grey or RGB PNG with the Sub filter on every row and zlib's RLE
+// 8-bit grey, RGB or RGBA PNG with the Sub filter on every row and zlib's RLE
 // strategy. libpng's adaptive filter search was 9 % of a dataset build; label
 // maps are runs of one colour, which Sub turns into runs of zero bytes that
 // RLE compresses as well as the search would.
@@ -338,7 +338,7 @@ std::string encode_png8(const cv::Mat& image, int level) {
   put_u32be(ihdr, uint32_t(W));
   put_u32be(ihdr, uint32_t(H));
   ihdr += char(8);                    // bit depth
-  ihdr += char(ch == 3 ? 2 : 0);      // colour type: RGB or grey
+  ihdr += char(ch == 4 ? 6 : ch == 3 ? 2 : 0);  // colour type: RGBA, RGB or grey
   ihdr += std::string("\0\0\0", 3);  // deflate, adaptive filtering method 0, no interlace
   put_chunk(out, "IHDR", ihdr);
   std::vector<uint8_t> raw(size_t(H) * (size_t(W) * size_t(ch) + 1));
@@ -348,7 +348,7 @@ std::string encode_png8(const cv::Mat& image, int level) {
     *d++ = 1;  // filter type Sub
     for (int x = 0; x < W; ++x)
       for (int c = 0; c < ch; ++c) {
-        const int src = ch == 3 ? 2 - c : 0;  // BGR -> RGB
+        const int src = ch >= 3 ? (c < 3 ? 2 - c : 3) : 0;  // BGR(A) -> RGB(A)
         const uint8_t v = row[x * ch + src];
         const uint8_t left = x > 0 ? row[(x - 1) * ch + src] : 0;
         *d++ = uint8_t(v - left);
@@ -373,7 +373,7 @@ std::string encode_png8(const cv::Mat& image, int level) {
 }  // namespace
 
 void write_png(const fs::path& path, const cv::Mat& image, int level) {
-  if (image.depth() == CV_8U && (image.channels() == 3 || image.channels() == 1)) {
+  if (image.depth() == CV_8U && (image.channels() == 4 || image.channels() == 3 || image.channels() == 1)) {
     const std::string bytes = encode_png8(image, level);
     write_file_atomic(path, bytes.data(), bytes.size());
     return;

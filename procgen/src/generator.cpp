@@ -338,7 +338,7 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
     fx[i] = fy[i] = g - c;
   }
 
-  IslandFields out{cv::Mat1f(W, W), cv::Mat1f(W, W), cv::Mat1b(W, W)};
+  IslandFields out{cv::Mat1f(W, W), cv::Mat1f(W, W), cv::Mat1b(W, W), cv::Mat1f()};
   // With erosion, the volcano (h_sub + detail noise) is eroded on its own and
   // coral grows after it (docs/EROSION.md): the pixel loop keeps the volcano,
   // the coral height and the resistance apart, merged once the land has moved.
@@ -400,12 +400,17 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
     }
   }
   if (eroded) {
+    if (opt.keep_uneroded) out.uneroded_m = out.height_m.clone();
     out.height_m = erode_island(out.height_m, rho_px, spec.world_size_m, spec.noise.seed, spec.erosion);
     if (spec.coral.enabled)
       for (int y = 0; y < W; ++y) {
         float* h = out.height_m.ptr<float>(y);
         const float* c = coral_m.ptr<float>(y);
         for (int x = 0; x < W; ++x) h[x] = smax_table(h[x], c[x]);
+        if (!out.uneroded_m.empty()) {
+          float* u = out.uneroded_m.ptr<float>(y);
+          for (int x = 0; x < W; ++x) u[x] = smax_table(u[x], c[x]);
+        }
       }
   }
   return out;

@@ -13,7 +13,8 @@
 namespace reefgen::procgen {
 
 WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFields& f, const IslandSpec& spec,
-                           const nlohmann::json& provenance, bool preview, const std::filesystem::path& height_given) {
+                           const nlohmann::json& provenance, bool preview, const std::filesystem::path& height_given,
+                           const terrain::LayerParams* layers) {
   const int W = f.height_m.cols;
   double hmin, hmax;
   cv::minMaxLoc(f.height_m, &hmin, &hmax);
@@ -72,6 +73,12 @@ WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFiel
       bytes["preview"] = fs::file_size(p);
     });
   }
+  if (layers) {
+    const terrain::Layers L = terrain::compute_layers(f.height_m, f.uneroded_m, f.label, mpp, *layers);
+    nlohmann::json lj = terrain::stage_layer_files(staged, prefix.string(), L, mpp, *layers);
+    for (const auto& [kind, file] : lj["files"].items()) out.sidecar["files"][kind] = file;
+    out.sidecar["layers"] = std::move(lj);
+  }
   out.sidecar["file_bytes"] = bytes;
   staged.write(json_path, [&](const fs::path& p) { write_json_atomic(p, out.sidecar); });  // last
   staged.commit();
@@ -123,10 +130,12 @@ RandomIslandsResult write_random_islands(const std::filesystem::path& dir, const
         }
         IslandSpec spec = random_spec(r.seed, index);
         spec.subsidence = levels[level];
-        const IslandFields f = generate(spec, r.render);
+        RenderOptions render = r.render;
+        render.keep_uneroded = r.layers;
+        const IslandFields f = generate(spec, render);
         write_island(prefix, f, spec,
                      {{"mode", "random"}, {"seed", r.seed}, {"index", index}, {"level", level}, {"warp_grid", r.render.warp_grid}},
-                     r.preview);
+                     r.preview, {}, r.layers ? &r.layer_params : nullptr);
       },
       [&](size_t done) {
         if (progress) progress(done);

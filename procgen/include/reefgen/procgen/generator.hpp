@@ -16,6 +16,7 @@ struct RenderOptions {
                        // wind field is smooth at this scale (σ ≥ 0.1 ≈ 3 cells) so the
                        // warp is integrated there and interpolated to pixels
   int resistance_grid = 128;  // cells across the canvas of the sampled resistance ρ(x̃), [4, 4096]
+  bool keep_uneroded = false;  // also return the heights before erosion (IslandFields::uneroded_m: wear and deposit layers)
   int wind_grid = 32;  // cells across the canvas at which Φ is evaluated exactly, [4, 1024];
                        // Φ is a sum of Gaussians of σ ≥ 0.1 (1.6 cells), interpolated to
                        // the warp grid. The closest-point search is the costly part.
@@ -25,6 +26,7 @@ struct IslandFields {
   cv::Mat1f height_m;  // W×W, metres, sea level 0, row 0 = top (+y)
   cv::Mat1f xt;        // W×W, parametric distance x̃ ∈ [0,5] after the wind warp
   cv::Mat1b label;     // W×W, region ids 0..4 = min(⌊x̃⌋, 4)
+  cv::Mat1f uneroded_m;  // W×W heights before erosion (coral included) when RenderOptions::keep_uneroded; else empty
 };
 
 IslandFields generate(const IslandSpec& spec, const RenderOptions& opt = {});

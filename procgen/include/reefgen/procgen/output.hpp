@@ -3,6 +3,7 @@
 //   PREFIX.height.exr  float32, channel Y, metres, sea level 0, metadata attributes
 //   PREFIX.label.png   8-bit RGB HSV labels
 //   PREFIX.preview.png hypsometric, hill-shaded preview (optional)
+//   PREFIX.flow.png, .slope.png, … the layers of terrain/layers.hpp (optional)
 //   PREFIX.json        sidecar, written last: its presence marks a complete island
 #include <cstdint>
 #include <filesystem>
@@ -13,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "reefgen/procgen/generator.hpp"
+#include "reefgen/terrain/layers.hpp"
 
 namespace reefgen::procgen {
 
@@ -22,9 +24,12 @@ struct WrittenIsland {
 };
 
 // `height_path` replaces PREFIX.height.exr when given (`-o NAME.exr`).
+// `layers`: also the layer files with these rules (fields.uneroded_m gives
+// wear and deposit; render with keep_uneroded).
 WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFields& fields, const IslandSpec& spec,
                            const nlohmann::json& provenance, bool preview,
-                           const std::filesystem::path& height_path = {});
+                           const std::filesystem::path& height_path = {},
+                           const terrain::LayerParams* layers = nullptr);
 
 // The paper's data generation (`generate --random`): `count` random specs,
 // each at `levels` subsidence levels, written as DIR/island_IIIIII_lL.*.
@@ -34,6 +39,8 @@ struct RandomIslands {
   uint64_t seed = 0;         // random_spec(seed, index)
   RenderOptions render;      // size and warp grid of every island
   bool preview = false;      // also PREFIX.preview.png
+  bool layers = false;       // also the layer files (terrain/layers.hpp) with layer_params
+  terrain::LayerParams layer_params;
   int threads = 1;           // workers, [1, 256]; the files are the same whatever the count
 };
 struct RandomIslandsResult {

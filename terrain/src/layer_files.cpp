@@ -1,0 +1,88 @@
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+#include "reefgen/io.hpp"
+#include "reefgen/terrain/layers.hpp"
+
+namespace reefgen::terrain {
+
+namespace {
+
+// Largest value of a layer, at least `floor` (an all-zero layer still gets a scale).
+double scale_of(const cv::Mat1f& m, double floor) {
+  double hi = 0;
+  cv::minMaxLoc(m, nullptr, &hi);
+  return std::max(hi, floor);
+}
+
+cv::Mat1b to_8bit(const cv::Mat1f& m, double full_scale) {
+  cv::Mat1b out;
+  m.convertTo(out, CV_8U, 255.0 / full_scale);  // rounds and saturates
+  return out;
+}
+
+}  // namespace
+
+std::vector<std::string> layer_file_suffixes() {
+  return {".flow.png", ".slope.png", ".wear.png", ".deposit.png", ".normal.png", ".splat0.png", ".splat1.png",
+          ".materials.png"};
+}
+
+nlohmann::json stage_layer_files(StagedOutputs& staged, const std::string& prefix, const Layers& L, double dx,
+                                 const LayerParams& params) {
+  const int H = L.slope_deg.rows, W = L.slope_deg.cols;
+  const double cell_m2 = dx * dx;
+  // Flow: v = 65535 · log10(A / a) / log10(A_max / a) on land, 0 at sea and
+  // where a cell drains only itself.
+  const double log_max = std::max(1e-6, std::log10(scale_of(L.flow_area_m2, cell_m2) / cell_m2));
+  cv::Mat1w flow(H, W);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const double a = L.flow_area_m2(y, x);
+      flow(y, x) = a > 0 ? cv::saturate_cast<uint16_t>(65535.0 * std::log10(std::max(1.0, a / cell_m2)) / log_max) : 0;
+    }
+  const double wear_scale = scale_of(L.wear_m, 0.01), deposit_scale = scale_of(L.deposit_m, 0.01);
+  cv::Mat3b normal(H, W);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const cv::Vec3f n = L.normal(y, x);
+      auto enc = [](float c) { return cv::saturate_cast<uint8_t>(127.5f * (c + 1.f)); };
+      normal(y, x) = cv::Vec3b(enc(n[2]), enc(n[1]), enc(n[0]));  // BGR in memory = RGB (x, y, z) in the file
+    }
+  const auto splat = splat_maps(L);
+  nlohmann::json files = nlohmann::json::object();
+  auto put = [&](const char* kind, const char* suffix, const std::function<void(const fs::path&)>& writer) {
+    const std::string path = prefix + suffix;
+    staged.write(path, writer);
+    files[kind] = fs::path(path).filename().string();
+  };
+  put("flow", ".flow.png", [&](const fs::path& p) { write_png(p, flow); });
+  put("slope", ".slope.png", [&](const fs::path& p) { write_png(p, to_8bit(L.slope_deg, 90.0)); });
+  put("wear", ".wear.png", [&](const fs::path& p) { write_png(p, to_8bit(L.wear_m, wear_scale)); });
+  put("deposit", ".deposit.png", [&](const fs::path& p) { write_png(p, to_8bit(L.deposit_m, deposit_scale)); });
+  put("normal", ".normal.png", [&](const fs::path& p) { write_png(p, normal); });
+  for (int s = 0; s < 2; ++s) {
+    cv::Mat4b bgra;
+    cv::cvtColor(splat[size_t(s)], bgra, cv::COLOR_RGBA2BGRA);  // the file's R, G, B, A = materials 4s … 4s+3
+    put(s == 0 ? "splat0" : "splat1", s == 0 ? ".splat0.png" : ".splat1.png",
+        [&, bgra](const fs::path& p) { write_png(p, bgra); });
+  }
+  put("materials", ".materials.png", [&](const fs::path& p) { write_png(p, material_colour_map(L)); });
+  nlohmann::json materials = nlohmann::json::array();
+  for (int m = 0; m < kNumMaterials; ++m)
+    materials.push_back({{"name", material_name(m)}, {"file", m < 4 ? "splat0" : "splat1"}, {"channel", std::string(1, "RGBA"[m % 4])}});
+  return {{"files", files},
+          {"flow", {{"encoding", "area_m2 = cell_area_m2 * 10^(value / 65535 * log10_max); 0 = sea"},
+                    {"cell_area_m2", cell_m2}, {"log10_max", log_max}}},
+          {"slope", {{"encoding", "degrees = value * 90 / 255"}}},
+          {"wear", {{"encoding", "metres = value * scale_m / 255"}, {"scale_m", wear_scale}}},
+          {"deposit", {{"encoding", "metres = value * scale_m / 255"}, {"scale_m", deposit_scale}}},
+          {"normal", {{"convention", "OpenGL: R = east, G = north (+Y, up in the image), B = up; value = 127.5 (n + 1)"}}},
+          {"materials", materials},
+          {"material_weights", "8-bit, summing to 255 at every pixel"},
+          {"rules", params}};
+}
+
+}  // namespace reefgen::terrain
