@@ -8,6 +8,7 @@ PKGS=(
   libopencv-dev          # image I/O, resampling, colour conversion
   zlib1g-dev             # our own fast 8-bit PNG encoder (common/src/io.cpp)
   libopenexr-dev         # float height fields (.exr, channel Y)
+  libgdal-dev gdal-bin   # GeoTIFF heights and layers (gis/); gdalinfo, gdaldem, gdal_contour check them in the tests
   nlohmann-json3-dev     # params <-> JSON
   libspdlog-dev          # logging
   libcli11-dev           # reefgen subcommands

@@ -1,4 +1,4 @@
-// Fluvial erosion (terrain/erosion.hpp, procgen/erosion.hpp), Priority-Flood
+// Fluvial erosion (terrain/erosion.hpp), Priority-Flood
 // routing, the realism statistics (terrain/) and the model answer's
 // amplification (infer/amplify.hpp): docs/EROSION.md, docs/REALISM.md.
 #include <gtest/gtest.h>
@@ -16,7 +16,7 @@
 #include "reefgen/io.hpp"
 #include "reefgen/constants.hpp"
 #include "reefgen/labels.hpp"
-#include "reefgen/procgen/erosion.hpp"
+#include "reefgen/terrain/erosion.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
 #include "reefgen/infer/amplify.hpp"

@@ -5,7 +5,7 @@
 
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
-#include "reefgen/procgen/erosion.hpp"
+#include "reefgen/terrain/erosion.hpp"
 #include "reefgen/terrain/noise.hpp"
 #include "reefgen/rng.hpp"
 
@@ -401,7 +401,7 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
   }
   if (eroded) {
     if (opt.keep_uneroded) out.uneroded_m = out.height_m.clone();
-    out.height_m = erode_island(out.height_m, rho_px, spec.world_size_m, spec.noise.seed, spec.erosion);
+    out.height_m = terrain::erode_island(out.height_m, rho_px, spec.world_size_m, spec.noise.seed, spec.erosion);
     if (spec.coral.enabled)
       for (int y = 0; y < W; ++y) {
         float* h = out.height_m.ptr<float>(y);

@@ -11,7 +11,7 @@
 
 #include "reefgen/augment/dataset.hpp"
 #include "reefgen/io.hpp"
-#include "reefgen/procgen/erosion.hpp"
+#include "reefgen/terrain/erosion.hpp"
 #include "reefgen/islands/floating.hpp"
 #include "reefgen/procgen/spec.hpp"
 #include "reefgen/islands/terrains.hpp"

@@ -131,6 +131,15 @@ cv::Mat1f refine_heights(const cv::Mat1f& coarse_m, const cv::Mat1f& land_m, con
                          double world_size_m, uint64_t seed, const ErosionParams& p,
                          const std::function<cv::Mat1f(int, const cv::Mat1f&)>& detail);
 
+// A whole height field eroded at its own size (the generator's islands,
+// `reefgen erode` on a user's heightmap): eroded on the base grid
+// (Priority-Flood routing) and refined back level by level with the field's
+// own finer detail plus fractal detail, then its pits drained. height_m
+// square; resistance ρ ∈ [0, 1] per cell, same size (hard rock erodes at
+// hard_erodibility of soft).
+cv::Mat1f erode_island(const cv::Mat1f& height_m, const cv::Mat1f& resistance, double world_size_m, uint64_t seed,
+                       const ErosionParams& p);
+
 // Land never goes below this once it is land (m): smoothing, lobes and
 // erosion keep it land (h > 0) so the coastline stays where it was drawn.
 constexpr float kLandFloorM = 0.1f;

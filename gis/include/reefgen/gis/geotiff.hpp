@@ -1,0 +1,53 @@
+#pragma once
+// GeoTIFF through GDAL's own library (Debian's libgdal): float32 heights in
+// metres and the float layers, with the pixel size in metres, an optional
+// CRS and origin, and the units said in the file (docs/GIS.md). GIS tools
+// (gdalinfo, gdaldem, gdal_contour, QGIS) read them unscaled. LibTorch-free.
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <string>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+namespace reefgen::gis {
+
+struct GeoReference {
+  // Any CRS GDAL understands ("EPSG:32706", a WKT or PROJ string); empty =
+  // a local metric grid with no CRS.
+  std::string crs;
+  // Map coordinates (CRS units, metres) of the top-left corner of the
+  // top-left pixel; NaN = the canvas centred on (0, 0).
+  double origin_x = NAN, origin_y = NAN;
+};
+
+// Writes `band` (float32, row 0 north) to `path` as a deflate-compressed,
+// tiled GeoTIFF: pixel size metres_per_px, north up, `units` ("metre",
+// "degree", "square metre") as the band's unit type, `description` as the
+// band's description, every `metadata` pair as dataset metadata. No no-data
+// value: every pixel holds a value. Throws reefgen::Error naming the path
+// (and the CRS when GDAL does not know it). The path is written in place:
+// callers stage it (StagedOutputs) for all-or-nothing output.
+void write_geotiff(const std::filesystem::path& path, const cv::Mat1f& band, double metres_per_px,
+                   const GeoReference& geo, const std::string& units, const std::string& description,
+                   const std::map<std::string, std::string>& metadata = {});
+
+struct GeoRaster {
+  cv::Mat1f band;              // the first band, float32
+  double metres_per_px = 0;    // from the geotransform (0 = none in the file)
+  bool square_pixels = true;   // |pixel width| == |pixel height|
+  std::string crs_wkt;         // "" = none
+};
+// Reads a GeoTIFF (any GDAL raster, in fact) band 1 as float32. Refuses a
+// missing file, a folder, a file GDAL cannot open, and bands holding NaN or
+// no-data pixels (one line naming the file and the fix).
+GeoRaster read_geotiff(const std::filesystem::path& path);
+
+// What the sidecar says about a GeoTIFF written with `geo`.
+nlohmann::json geo_json(const GeoReference& geo, int width, int height, double metres_per_px);
+
+// Throws reefgen::Error unless GDAL knows `crs` (checked before any file is written).
+void check_crs(const std::string& crs);
+
+}  // namespace reefgen::gis

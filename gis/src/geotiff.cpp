@@ -1,0 +1,137 @@
+#include "reefgen/gis/geotiff.hpp"
+
+#include <gdal.h>
+#include <cpl_conv.h>
+#include <cpl_error.h>
+#include <cpl_string.h>
+#include <ogr_srs_api.h>
+
+#include <mutex>
+#include <vector>
+
+#include "reefgen/error.hpp"
+
+namespace reefgen::gis {
+
+namespace {
+
+void init_gdal() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    GDALAllRegister();
+    // GDAL's messages become our one-line errors; nothing on stderr by itself.
+    CPLSetErrorHandler(CPLQuietErrorHandler);
+  });
+}
+
+std::string gdal_message() {
+  const char* m = CPLGetLastErrorMsg();
+  return (m && *m) ? m : "GDAL gave no reason";
+}
+
+// The CRS as WKT, or an Error naming it.
+std::string crs_wkt(const std::string& crs) {
+  OGRSpatialReferenceH srs = OSRNewSpatialReference(nullptr);
+  char* wkt = nullptr;
+  const bool ok = OSRSetFromUserInput(srs, crs.c_str()) == OGRERR_NONE && OSRExportToWkt(srs, &wkt) == OGRERR_NONE;
+  std::string out = ok && wkt ? wkt : "";
+  CPLFree(wkt);
+  OSRDestroySpatialReference(srs);
+  if (out.empty()) throw Error("--crs " + crs + ": GDAL does not know this CRS; use e.g. EPSG:32706 (UTM 6S) or a WKT string");
+  return out;
+}
+
+struct Origin {
+  double x, y;
+};
+Origin origin_of(const GeoReference& geo, int width, int height, double mpp) {
+  return {std::isnan(geo.origin_x) ? -0.5 * width * mpp : geo.origin_x,
+          std::isnan(geo.origin_y) ? 0.5 * height * mpp : geo.origin_y};
+}
+
+}  // namespace
+
+void check_crs(const std::string& crs) {
+  init_gdal();
+  if (!crs.empty()) (void)crs_wkt(crs);
+}
+
+nlohmann::json geo_json(const GeoReference& geo, int width, int height, double mpp) {
+  const Origin o = origin_of(geo, width, height, mpp);
+  return {{"crs", geo.crs.empty() ? "none: a local metric grid (metres), the canvas centred on (0, 0); --crs and --origin place it" : geo.crs},
+          {"origin_top_left", {o.x, o.y}},
+          {"pixel_size_m", mpp},
+          {"nodata", "none: every pixel holds a value"},
+          {"north_up", true}};
+}
+
+void write_geotiff(const std::filesystem::path& path, const cv::Mat1f& band, double mpp, const GeoReference& geo,
+                   const std::string& units, const std::string& description,
+                   const std::map<std::string, std::string>& metadata) {
+  init_gdal();
+  const std::string wkt = geo.crs.empty() ? "" : crs_wkt(geo.crs);
+  GDALDriverH drv = GDALGetDriverByName("GTiff");
+  if (!drv) throw Error("cannot write " + path.string() + ": this GDAL has no GTiff driver");
+  char** opts = nullptr;
+  opts = CSLSetNameValue(opts, "COMPRESS", "DEFLATE");
+  opts = CSLSetNameValue(opts, "PREDICTOR", "3");  // floating-point predictor
+  opts = CSLSetNameValue(opts, "TILED", "YES");
+  opts = CSLSetNameValue(opts, "BIGTIFF", "IF_SAFER");
+  CPLErrorReset();
+  GDALDatasetH ds = GDALCreate(drv, path.c_str(), band.cols, band.rows, 1, GDT_Float32, opts);
+  CSLDestroy(opts);
+  if (!ds) throw Error("cannot write " + path.string() + ": " + gdal_message());
+  const Origin o = origin_of(geo, band.cols, band.rows, mpp);
+  double gt[6] = {o.x, mpp, 0, o.y, 0, -mpp};
+  bool ok = GDALSetGeoTransform(ds, gt) == CE_None;
+  if (!wkt.empty()) ok = ok && GDALSetProjection(ds, wkt.c_str()) == CE_None;
+  for (const auto& [k, v] : metadata) ok = ok && GDALSetMetadataItem(ds, k.c_str(), v.c_str(), nullptr) == CE_None;
+  GDALRasterBandH b = GDALGetRasterBand(ds, 1);
+  GDALSetDescription(b, description.c_str());
+  ok = ok && GDALSetRasterUnitType(b, units.c_str()) == CE_None;
+  const cv::Mat1f c = band.isContinuous() ? band : band.clone();
+  ok = ok && GDALRasterIO(b, GF_Write, 0, 0, c.cols, c.rows, const_cast<float*>(c.ptr<float>()), c.cols, c.rows,
+                          GDT_Float32, 0, 0) == CE_None;
+  // Closing flushes: a full disk shows here (GDAL 3.6's GDALClose returns
+  // nothing; the error state says it).
+  CPLErrorReset();
+  GDALClose(ds);
+  ok = ok && CPLGetLastErrorType() < CE_Failure;
+  if (!ok) throw Error("cannot write " + path.string() + ": " + gdal_message());
+}
+
+GeoRaster read_geotiff(const std::filesystem::path& path) {
+  init_gdal();
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) throw Error("cannot read " + path.string() + ": no such file");
+  if (!std::filesystem::is_regular_file(path, ec))
+    throw Error("cannot read " + path.string() + ": not a regular file (a folder, a FIFO or a device)");
+  CPLErrorReset();
+  GDALDatasetH ds = GDALOpen(path.c_str(), GA_ReadOnly);
+  if (!ds) throw Error("cannot read " + path.string() + ": " + gdal_message());
+  GeoRaster r;
+  const int W = GDALGetRasterXSize(ds), H = GDALGetRasterYSize(ds);
+  double gt[6];
+  if (GDALGetGeoTransform(ds, gt) == CE_None && gt[2] == 0 && gt[4] == 0) {
+    r.metres_per_px = std::abs(gt[1]);
+    r.square_pixels = std::abs(std::abs(gt[1]) - std::abs(gt[5])) <= 1e-9 * std::abs(gt[1]);
+  }
+  if (const char* p = GDALGetProjectionRef(ds)) r.crs_wkt = p;
+  GDALRasterBandH b = GDALGetRasterCount(ds) > 0 ? GDALGetRasterBand(ds, 1) : nullptr;
+  if (!b || W <= 0 || H <= 0 || int64_t(W) * H > int64_t(1) << 28) {
+    GDALClose(ds);
+    throw Error("cannot read " + path.string() + ": no band, or larger than 16384² pixels");
+  }
+  r.band.create(H, W);
+  const bool ok = GDALRasterIO(b, GF_Read, 0, 0, W, H, r.band.ptr<float>(), W, H, GDT_Float32, 0, 0) == CE_None;
+  int has_nodata = 0;
+  const double nodata = GDALGetRasterNoDataValue(b, &has_nodata);
+  GDALClose(ds);
+  if (!ok) throw Error("cannot read " + path.string() + ": " + gdal_message());
+  if (!cv::checkRange(r.band)) throw Error(path.string() + ": the band holds NaN or infinite values; fill the holes first (gdal_fillnodata.py)");
+  if (has_nodata && cv::countNonZero(r.band == float(nodata)) > 0)
+    throw Error(path.string() + ": the band has no-data pixels; fill them first (gdal_fillnodata.py)");
+  return r;
+}
+
+}  // namespace reefgen::gis
