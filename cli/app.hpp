@@ -49,6 +49,7 @@ Command add_model_command(CLI::App& app, const GlobalOptions& g);
 Command add_floating_command(CLI::App& app, const GlobalOptions& g);
 Command add_studio_command(CLI::App& app, const GlobalOptions& g);
 Command add_realism_command(CLI::App& app, const GlobalOptions& g);
+Command add_erode_command(CLI::App& app, const GlobalOptions& g);
 // `bench train` and `bench infer` under `bench`; returns their runner.
 std::function<int()> add_bench_model_commands(CLI::App* bench);
 // `bench realism` (sets *sub to its subcommand); returns its runner.

@@ -80,7 +80,7 @@ int run_single(const GenerateArgs& a, const GlobalOptions&) {
   nlohmann::json prov = {{"mode", a.preset.empty() ? "spec" : "preset"},
                          {"source", a.preset.empty() ? a.spec_file : a.preset},
                          {"warp_grid", opt.warp_grid}};
-  const auto w = write_island(prefix, f, spec, prov, a.preview, names.height, a.layers ? &lp : nullptr);
+  const auto w = write_island(prefix, f, spec, prov, a.preview, names.height, a.layers ? &lp : nullptr, a.threads);
   for (const auto& p : w.files) std::printf("%s\n", p.c_str());
   return 0;
 }
@@ -136,7 +136,7 @@ Command add_generate_command(CLI::App& app, const GlobalOptions& g) {
                 "Also write the layers (docs/LAYERS.md): PREFIX.flow.png, .slope.png, .wear.png, .deposit.png, "
                 ".normal.png, .splat0.png + .splat1.png (8 material weights), .materials.png");
   sub->add_option("--layer-rules", a->layer_rules, "JSON file of material rules overriding the defaults (docs/LAYERS.md)");
-  sub->add_option("--threads", a->threads, "Worker threads for --random (default: all cores)")->check(CLI::Range(1, 256));
+  sub->add_option("--threads", a->threads, "Worker threads for --random and --layers (default: all cores)")->check(CLI::Range(1, 256));
   sub->add_option("--levels", a->levels, "Subsidence levels per random configuration, evenly spaced on [0, 1]")->capture_default_str();
   sub->add_option("--warp-grid", a->warp_grid, "Cells of the wind displacement grid across the canvas")->capture_default_str();
   return {sub, [a, &g]() -> int {

@@ -93,7 +93,7 @@ int main(int argc, char** argv) {
   std::vector<reefgen::Command> commands;
   for (auto add : {reefgen::add_generate_command, reefgen::add_presets_command, reefgen::add_dataset_command,
                    reefgen::add_sketch_command, reefgen::add_terrain_command, reefgen::add_floating_command,
-                   reefgen::add_realism_command})
+                   reefgen::add_realism_command, reefgen::add_erode_command})
     commands.push_back(add(app, g));
 #if REEFGEN_TORCH_COMMANDS
   for (auto add : {reefgen::add_train_command, reefgen::add_infer_command, reefgen::add_eval_command,

@@ -1,4 +1,5 @@
 #include "reefgen/io.hpp"
+#include "reefgen/parallel.hpp"
 
 #include <zlib.h>
 
@@ -142,6 +143,26 @@ void StagedOutputs::write(const fs::path& final_path, const std::function<void(c
       what.replace(at, t.size(), f);
     throw Error(what);
   }
+}
+
+void StagedOutputs::write_all(const std::vector<Job>& jobs, int threads) {
+  // Registered one by one (names checked, temporaries named), written together.
+  std::vector<fs::path> tmps;
+  for (const auto& [final_path, writer] : jobs)
+    write(final_path, [&tmps](const fs::path& t) { tmps.push_back(t); });
+  std::vector<std::string> errors(jobs.size());
+  parallel_for(jobs.size(), threads, [&](size_t i) {
+    try {
+      jobs[i].second(tmps[i]);
+    } catch (const std::exception& e) {
+      std::string what = e.what();
+      const std::string t = tmps[i].string(), f = jobs[i].first.string();
+      for (size_t at = what.find(t); at != std::string::npos; at = what.find(t, at + f.size())) what.replace(at, t.size(), f);
+      errors[i] = what.empty() ? "cannot write " + f : what;
+    }
+  });
+  for (const auto& e : errors)
+    if (!e.empty()) throw Error(e);
 }
 
 void StagedOutputs::commit() {

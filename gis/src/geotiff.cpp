@@ -6,10 +6,14 @@
 #include <cpl_string.h>
 #include <ogr_srs_api.h>
 
+#include <cstdio>
 #include <mutex>
 #include <vector>
 
 #include "reefgen/error.hpp"
+#include "reefgen/io.hpp"
+#include "reefgen/terrain/layers.hpp"
+#include "reefgen/version.hpp"
 
 namespace reefgen::gis {
 
@@ -132,6 +136,49 @@ GeoRaster read_geotiff(const std::filesystem::path& path) {
   if (has_nodata && cv::countNonZero(r.band == float(nodata)) > 0)
     throw Error(path.string() + ": the band has no-data pixels; fill them first (gdal_fillnodata.py)");
   return r;
+}
+
+}  // namespace reefgen::gis
+
+namespace reefgen::gis {
+
+std::vector<std::string> geotiff_suffixes() {
+  return {".height.tif", ".flow.tif", ".slope.tif", ".wear.tif", ".deposit.tif"};
+}
+
+void parse_origin(const std::string& text, GeoReference& geo) {
+  double x = NAN, y = NAN;
+  char extra = 0;
+  if (std::sscanf(text.c_str(), "%lf,%lf%c", &x, &y, &extra) != 2 || !std::isfinite(x) || !std::isfinite(y))
+    throw Error("--origin " + text + ": expected X,Y in metres (the top-left corner in the CRS), e.g. 500000,8100000");
+  geo.origin_x = x;
+  geo.origin_y = y;
+}
+
+nlohmann::json stage_geotiff_files(StagedOutputs& staged, const std::string& prefix, const cv::Mat1f& height_m,
+                                   const terrain::Layers* layers, double mpp, const GeoReference& geo, int threads) {
+  check_crs(geo.crs);
+  nlohmann::json files = nlohmann::json::object();
+  const std::map<std::string, std::string> meta = {{"reefgen_version", kVersion}, {"sea_level_m", "0"}};
+  std::vector<StagedOutputs::Job> jobs;
+  auto put = [&](const char* kind, const char* suffix, const cv::Mat1f& band, const char* units, const char* what) {
+    const std::string path = prefix + suffix;
+    jobs.emplace_back(path, [&band, &geo, &meta, mpp, units, what](const std::filesystem::path& t) {
+      write_geotiff(t, band, mpp, geo, units, what, meta);
+    });
+    files[kind] = std::filesystem::path(path).filename().string();
+  };
+  put("height", ".height.tif", height_m, "metre", "height above sea level, metres");
+  if (layers) {
+    put("flow", ".flow.tif", layers->flow_area_m2, "square metre", "drainage area, square metres (0 at sea)");
+    put("slope", ".slope.tif", layers->slope_deg, "degree", "slope, degrees");
+    put("wear", ".wear.tif", layers->wear_m, "metre", "metres removed by erosion");
+    put("deposit", ".deposit.tif", layers->deposit_m, "metre", "metres laid down (filled basins, settled sediment)");
+  }
+  staged.write_all(jobs, threads);
+  nlohmann::json j = geo_json(geo, height_m.cols, height_m.rows, mpp);
+  j["files"] = files;
+  return j;
 }
 
 }  // namespace reefgen::gis

@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <cstdio>
+#include <future>
 
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
@@ -14,7 +15,7 @@ namespace reefgen::procgen {
 
 WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFields& f, const IslandSpec& spec,
                            const nlohmann::json& provenance, bool preview, const std::filesystem::path& height_given,
-                           const terrain::LayerParams* layers) {
+                           const terrain::LayerParams* layers, int threads) {
   const int W = f.height_m.cols;
   double hmin, hmax;
   cv::minMaxLoc(f.height_m, &hmin, &hmax);
@@ -52,6 +53,13 @@ WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFiel
   // a failure (a folder where the preview goes, a full disk) leaves an earlier
   // island of this name exactly as it was, and no half-written new one.
   StagedOutputs staged;
+  // The layers are computed while the height, label and preview files are
+  // encoded (the drainage routing is sequential; the EXR's zip is too).
+  std::future<terrain::Layers> layer_job;
+  if (layers)
+    layer_job = std::async(std::launch::async, [&] {
+      return terrain::compute_layers(f.height_m, f.uneroded_m, f.label, mpp, *layers, threads);
+    });
   // Each file's size goes into the sidecar: a resume (write_random_islands)
   // then tells a complete island from one whose file was truncated since.
   nlohmann::json bytes = nlohmann::json::object();
@@ -74,8 +82,8 @@ WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFiel
     });
   }
   if (layers) {
-    const terrain::Layers L = terrain::compute_layers(f.height_m, f.uneroded_m, f.label, mpp, *layers);
-    nlohmann::json lj = terrain::stage_layer_files(staged, prefix.string(), L, mpp, *layers);
+    const terrain::Layers L = layer_job.get();
+    nlohmann::json lj = terrain::stage_layer_files(staged, prefix.string(), L, mpp, *layers, threads);
     for (const auto& [kind, file] : lj["files"].items()) out.sidecar["files"][kind] = file;
     out.sidecar["layers"] = std::move(lj);
   }

@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <cmath>
+#include <mutex>
 
 #include <opencv2/imgproc.hpp>
 
@@ -31,7 +32,7 @@ std::vector<std::string> layer_file_suffixes() {
 }
 
 nlohmann::json stage_layer_files(StagedOutputs& staged, const std::string& prefix, const Layers& L, double dx,
-                                 const LayerParams& params) {
+                                 const LayerParams& params, int threads) {
   const int H = L.slope_deg.rows, W = L.slope_deg.cols;
   const double cell_m2 = dx * dx;
   // Flow: v = 65535 · log10(A / a) / log10(A_max / a) on land, 0 at sea and
@@ -44,32 +45,38 @@ nlohmann::json stage_layer_files(StagedOutputs& staged, const std::string& prefi
       flow(y, x) = a > 0 ? cv::saturate_cast<uint16_t>(65535.0 * std::log10(std::max(1.0, a / cell_m2)) / log_max) : 0;
     }
   const double wear_scale = scale_of(L.wear_m, 0.01), deposit_scale = scale_of(L.deposit_m, 0.01);
-  cv::Mat3b normal(H, W);
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) {
-      const cv::Vec3f n = L.normal(y, x);
-      auto enc = [](float c) { return cv::saturate_cast<uint8_t>(127.5f * (c + 1.f)); };
-      normal(y, x) = cv::Vec3b(enc(n[2]), enc(n[1]), enc(n[0]));  // BGR in memory = RGB (x, y, z) in the file
-    }
-  const auto splat = splat_maps(L);
+  // Each file is prepared and encoded in its own job: the jobs run together.
+  std::vector<StagedOutputs::Job> jobs;
   nlohmann::json files = nlohmann::json::object();
-  auto put = [&](const char* kind, const char* suffix, const std::function<void(const fs::path&)>& writer) {
-    const std::string path = prefix + suffix;
-    staged.write(path, writer);
-    files[kind] = fs::path(path).filename().string();
+  auto put = [&](const char* kind, const char* suffix, std::function<void(const fs::path&)> writer) {
+    jobs.emplace_back(prefix + suffix, std::move(writer));
+    files[kind] = fs::path(prefix + suffix).filename().string();
   };
   put("flow", ".flow.png", [&](const fs::path& p) { write_png(p, flow); });
   put("slope", ".slope.png", [&](const fs::path& p) { write_png(p, to_8bit(L.slope_deg, 90.0)); });
   put("wear", ".wear.png", [&](const fs::path& p) { write_png(p, to_8bit(L.wear_m, wear_scale)); });
   put("deposit", ".deposit.png", [&](const fs::path& p) { write_png(p, to_8bit(L.deposit_m, deposit_scale)); });
-  put("normal", ".normal.png", [&](const fs::path& p) { write_png(p, normal); });
-  for (int s = 0; s < 2; ++s) {
-    cv::Mat4b bgra;
-    cv::cvtColor(splat[size_t(s)], bgra, cv::COLOR_RGBA2BGRA);  // the file's R, G, B, A = materials 4s … 4s+3
-    put(s == 0 ? "splat0" : "splat1", s == 0 ? ".splat0.png" : ".splat1.png",
-        [&, bgra](const fs::path& p) { write_png(p, bgra); });
-  }
+  put("normal", ".normal.png", [&](const fs::path& p) {
+    cv::Mat3b normal(H, W);
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        const cv::Vec3f n = L.normal(y, x);
+        auto enc = [](float c) { return cv::saturate_cast<uint8_t>(127.5f * (c + 1.f)); };
+        normal(y, x) = cv::Vec3b(enc(n[2]), enc(n[1]), enc(n[0]));  // BGR in memory = RGB (x, y, z) in the file
+      }
+    write_png(p, normal);
+  });
+  std::array<cv::Mat4b, 2> splat;
+  std::once_flag splat_once;
+  for (int s = 0; s < 2; ++s)
+    put(s == 0 ? "splat0" : "splat1", s == 0 ? ".splat0.png" : ".splat1.png", [&, s](const fs::path& p) {
+      std::call_once(splat_once, [&] { splat = splat_maps(L); });
+      cv::Mat4b bgra;
+      cv::cvtColor(splat[size_t(s)], bgra, cv::COLOR_RGBA2BGRA);  // the file's R, G, B, A = materials 4s … 4s+3
+      write_png(p, bgra);
+    });
   put("materials", ".materials.png", [&](const fs::path& p) { write_png(p, material_colour_map(L)); });
+  staged.write_all(jobs, threads);
   nlohmann::json materials = nlohmann::json::array();
   for (int m = 0; m < kNumMaterials; ++m)
     materials.push_back({{"name", material_name(m)}, {"file", m < 4 ? "splat0" : "splat1"}, {"channel", std::string(1, "RGBA"[m % 4])}});

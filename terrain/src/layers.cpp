@@ -7,6 +7,7 @@
 
 #include "reefgen/error.hpp"
 #include "reefgen/labels.hpp"
+#include "reefgen/parallel.hpp"
 #include "reefgen/terrain/drainage.hpp"
 #include "reefgen/terrain/flow.hpp"
 
@@ -15,6 +16,16 @@ namespace reefgen::terrain {
 namespace {
 
 constexpr double kRadToDeg = 180.0 / M_PI;
+
+// row(y) for every y < rows, in bands of rows shared out over `threads`
+// (each pixel written by one thread only: same bytes whatever the count).
+void for_rows(int rows, int threads, const std::function<void(int)>& row) {
+  constexpr int kBand = 32;
+  const size_t bands = size_t((rows + kBand - 1) / kBand);
+  parallel_for(bands, std::max(1, threads), [&](size_t b) {
+    for (int y = int(b) * kBand; y < std::min(rows, int(b + 1) * kBand); ++y) row(y);
+  });
+}
 
 // 0 below a, 1 above b, C¹ in between.
 inline float smoothstep(double a, double b, double x) {
@@ -46,11 +57,11 @@ cv::Mat1f region_share(const cv::Mat1b& region, int id, double sigma_px) {
 
 // Slope (degrees) and unit normals by central differences (one-sided on the
 // canvas edge). Row 0 is north, so the north component reads upwards.
-void slope_and_normals(const cv::Mat1f& h, double dx, cv::Mat1f& slope_deg, cv::Mat3f& normal) {
+void slope_and_normals(const cv::Mat1f& h, double dx, cv::Mat1f& slope_deg, cv::Mat3f& normal, int threads) {
   const int H = h.rows, W = h.cols;
   slope_deg.create(H, W);
   normal.create(H, W);
-  for (int y = 0; y < H; ++y) {
+  for_rows(H, threads, [&](int y) {
     const int yn = std::max(y - 1, 0), ys = std::min(y + 1, H - 1);
     for (int x = 0; x < W; ++x) {
       const int xw = std::max(x - 1, 0), xe = std::min(x + 1, W - 1);
@@ -60,17 +71,31 @@ void slope_and_normals(const cv::Mat1f& h, double dx, cv::Mat1f& slope_deg, cv::
       slope_deg(y, x) = float(std::atan(g) * kRadToDeg);
       normal(y, x) = cv::Vec3f(float(-gx / len), float(-gy / len), float(1 / len));
     }
-  }
+  });
 }
 
-cv::Mat1f drainage_area(const cv::Mat1f& h, double dx, FlowGraph& graph) {
-  const cv::Mat1f hc = h.isContinuous() ? h : h.clone();
+// The box of the land grown by one cell (its outlets), or the whole canvas.
+cv::Rect land_box(const cv::Mat1f& h) {
+  int x0 = h.cols, y0 = h.rows, x1 = -1, y1 = -1;
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x)
+      if (h(y, x) > 0) x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+  if (x1 < 0) return {};
+  return cv::Rect(cv::Point(std::max(0, x0 - 1), std::max(0, y0 - 1)), cv::Point(std::min(h.cols, x1 + 2), std::min(h.rows, y1 + 2)));
+}
+
+// Drainage area on the land's box (islands are a minority of the canvas);
+// `graph` indexes that box, `box` says where it is.
+cv::Mat1f drainage_area(const cv::Mat1f& h, double dx, FlowGraph& graph, cv::Rect& box) {
+  cv::Mat1f out(h.size(), 0.f);
+  box = land_box(h);
+  if (box.empty()) return out;
+  const cv::Mat1f hc = h(box).clone();
   const cv::Mat1b role = sea_and_edge_roles(hc);
   route_flood(hc, role, dx, graph);
   std::vector<float> area;
   accumulate_multiple(graph, role, float(dx * dx), dx, 1.f, area);
-  cv::Mat1f out(h.size(), 0.f);
-  for (const int i : graph.stack) out(i / h.cols, i % h.cols) = area[size_t(i)];
+  for (const int i : graph.stack) out(box.y + i / box.width, box.x + i % box.width) = area[size_t(i)];
   return out;
 }
 
@@ -83,8 +108,11 @@ cv::Mat1f drainage_area(const cv::Mat1f& h, double dx, FlowGraph& graph) {
 // receiver (an angle of repose): it lies at slope feet, in valley floors and
 // on coastal fans, a few metres thick. What reaches the sea is lost; mass
 // is kept (Σ deposit ≤ Σ wear).
-void settle_sediment(const FlowGraph& g, const cv::Mat1f& h, const cv::Mat1f& wear_m, const cv::Mat1f& slope_deg,
-                     double dx, double settle_deg, cv::Mat1f& deposit_m) {
+void settle_sediment(const FlowGraph& g, const cv::Rect& box, const cv::Mat1f& h_full, const cv::Mat1f& wear_full,
+                     const cv::Mat1f& slope_full, double dx, double settle_deg, cv::Mat1f& deposit_full) {
+  if (box.empty()) return;
+  const cv::Mat1f h = h_full(box), wear_m = wear_full(box), slope_deg = slope_full(box);
+  cv::Mat1f deposit_m = deposit_full(box);
   // Settling length on the flat: a flat floor keeps 1 − 1/e of what
   // crosses 300 m of it (a valley fill, not a single-cell heap).
   constexpr double kSettleLengthM = 300;
@@ -139,13 +167,14 @@ cv::Mat1b regions_of_heights(const cv::Mat1f& h, const LayerParams& p) {
 }
 
 Layers compute_layers(const cv::Mat1f& h, const cv::Mat1f& before, const cv::Mat1b& region_in, double dx,
-                      const LayerParams& p) {
+                      const LayerParams& p, int threads) {
   check_inputs(h, before, region_in, dx);
   const int H = h.rows, W = h.cols;
   Layers L;
-  slope_and_normals(h, dx, L.slope_deg, L.normal);
+  slope_and_normals(h, dx, L.slope_deg, L.normal, threads);
   FlowGraph graph;
-  L.flow_area_m2 = drainage_area(h, dx, graph);
+  cv::Rect box;
+  L.flow_area_m2 = drainage_area(h, dx, graph, box);
   L.wear_m = cv::Mat1f(H, W, 0.f);
   L.deposit_m = cv::Mat1f(H, W, 0.f);
   if (!before.empty())
@@ -154,14 +183,14 @@ Layers compute_layers(const cv::Mat1f& h, const cv::Mat1f& before, const cv::Mat
         const float d = h(y, x) - before(y, x);
         (d > 0 ? L.deposit_m : L.wear_m)(y, x) = std::abs(d);
       }
-  settle_sediment(graph, h, L.wear_m, L.slope_deg, dx, p.settle_deg, L.deposit_m);
+  settle_sediment(graph, box, h, L.wear_m, L.slope_deg, dx, p.settle_deg, L.deposit_m);
   const cv::Mat1b region = region_in.empty() ? regions_of_heights(h, p) : region_in;
   const double sigma_px = p.region_blend_m / dx;
   const cv::Mat1f abyss = region_share(region, kAbyss, sigma_px), reef = region_share(region, kReef, sigma_px),
                   beach = region_share(region, kBeach, sigma_px);
   for (auto& w : L.weight) w.create(H, W);
   const double log_river = std::log10(p.river_area_m2);
-  for (int y = 0; y < H; ++y)
+  for_rows(H, threads, [&](int y) {
     for (int x = 0; x < W; ++x) {
       const double v = h(y, x), slope = L.slope_deg(y, x);
       // Water and land share a half-metre band at the coast.
@@ -195,6 +224,7 @@ Layers compute_layers(const cv::Mat1f& h, const cv::Mat1f& before, const cv::Mat
       for (const float e : w) sum += e;
       for (int m = 0; m < kNumMaterials; ++m) L.weight[size_t(m)](y, x) = w[m] / sum;
     }
+  });
   return L;
 }
 

@@ -68,6 +68,11 @@ class StagedOutputs {
   // Runs writer(temp path) for the final path; errors name the final path.
   // Throws Error when the final path is a folder or already staged in this run.
   void write(const fs::path& final_path, const std::function<void(const fs::path&)>& writer);
+  // The same for several files, their writers run on `threads` threads (the
+  // files are independent: same bytes whatever the count). On failure the
+  // error of the first failing file in list order is thrown.
+  using Job = std::pair<fs::path, std::function<void(const fs::path&)>>;
+  void write_all(const std::vector<Job>& jobs, int threads);
   // Renames every staged file into place, in staging order (stage sidecars
   // last). Checks first that no destination has become a folder.
   void commit();

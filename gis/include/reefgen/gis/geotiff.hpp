@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <map>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
@@ -49,5 +50,30 @@ nlohmann::json geo_json(const GeoReference& geo, int width, int height, double m
 
 // Throws reefgen::Error unless GDAL knows `crs` (checked before any file is written).
 void check_crs(const std::string& crs);
+
+}  // namespace reefgen::gis
+
+namespace reefgen {
+class StagedOutputs;
+namespace terrain {
+struct Layers;
+}
+}  // namespace reefgen
+
+namespace reefgen::gis {
+
+// Stages PREFIX.height.tif (metres) and, with `layers`, PREFIX.flow.tif (m²),
+// .slope.tif (degrees), .wear.tif and .deposit.tif (metres), all float32 on
+// the same grid; returns the sidecar's "geotiff" object (files, CRS, origin,
+// pixel size, no-data).
+nlohmann::json stage_geotiff_files(StagedOutputs& staged, const std::string& prefix, const cv::Mat1f& height_m,
+                                   const terrain::Layers* layers, double metres_per_px, const GeoReference& geo,
+                                   int threads = 1);
+
+// The suffixes stage_geotiff_files may write (for output-over-input checks).
+std::vector<std::string> geotiff_suffixes();
+
+// "X,Y" → origin (metres); throws reefgen::Error naming the flag.
+void parse_origin(const std::string& text, GeoReference& geo);
 
 }  // namespace reefgen::gis

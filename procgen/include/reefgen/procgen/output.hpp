@@ -25,11 +25,12 @@ struct WrittenIsland {
 
 // `height_path` replaces PREFIX.height.exr when given (`-o NAME.exr`).
 // `layers`: also the layer files with these rules (fields.uneroded_m gives
-// wear and deposit; render with keep_uneroded).
+// wear and deposit; render with keep_uneroded), computed and encoded on
+// `threads` threads (same bytes whatever the count).
 WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFields& fields, const IslandSpec& spec,
                            const nlohmann::json& provenance, bool preview,
                            const std::filesystem::path& height_path = {},
-                           const terrain::LayerParams* layers = nullptr);
+                           const terrain::LayerParams* layers = nullptr, int threads = 1);
 
 // The paper's data generation (`generate --random`): `count` random specs,
 // each at `levels` subsidence levels, written as DIR/island_IIIIII_lL.*.

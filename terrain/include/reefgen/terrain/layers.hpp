@@ -72,8 +72,9 @@ struct Layers {
 // same field before erosion (same size; empty = no erosion: wear and
 // deposit 0); region: region ids 0..4 (labels.hpp) at the same size, or
 // empty (then read from the heights: regions_of_heights).
+// threads: rows of the per-pixel maps shared out (same bytes whatever the count).
 Layers compute_layers(const cv::Mat1f& height_m, const cv::Mat1f& before_m, const cv::Mat1b& region,
-                      double metres_per_px, const LayerParams& p = {});
+                      double metres_per_px, const LayerParams& p = {}, int threads = 1);
 
 // Regions where only heights are known (a user's heightmap): land is island
 // (beach below beach_top_m), water is lagoon down to 10 m, reef cover from
@@ -105,8 +106,10 @@ namespace reefgen::terrain {
 //   PREFIX.normal.png    RGB8, OpenGL convention (green = north / +Y)
 //   PREFIX.splat0.png, PREFIX.splat1.png  RGBA8, four material weights each, summing to 255
 //   PREFIX.materials.png RGB8 colour map (materials hill-shaded)
+// The files are prepared and encoded on `threads` threads (same bytes
+// whatever the count).
 nlohmann::json stage_layer_files(StagedOutputs& staged, const std::string& prefix, const Layers& layers,
-                                 double metres_per_px, const LayerParams& params);
+                                 double metres_per_px, const LayerParams& params, int threads = 1);
 
 // The suffixes stage_layer_files writes (for output-over-input checks).
 std::vector<std::string> layer_file_suffixes();

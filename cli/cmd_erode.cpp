@@ -1,0 +1,160 @@
+// reefgen erode HEIGHTMAP: the project's erosion (docs/EROSION.md) and the
+// layers (docs/LAYERS.md) for a heightmap the user brings, at its own size.
+#include <cmath>
+#include <cstdio>
+#include <optional>
+
+#include "app.hpp"
+#include "reefgen/gis/geotiff.hpp"
+#include "reefgen/gis/heightmap.hpp"
+#include "reefgen/heightfile.hpp"
+#include "reefgen/io.hpp"
+#include "reefgen/terrain/erosion.hpp"
+#include "reefgen/terrain/layers.hpp"
+#include "reefgen/terrain/realism.hpp"
+#include "reefgen/version.hpp"
+
+namespace reefgen {
+
+namespace {
+
+// Side limits of `reefgen erode`: the erosion's base grid is 256 cells, and
+// 8192² is where one field of floats plus the layers stays under 4 GB.
+constexpr int kMinErodeSide = 16, kMaxErodeSide = 8192;
+
+struct ErodeArgs {
+  std::string input, prefix, range, erosion_file, layer_rules, crs, origin;
+  gis::HeightmapUnits units;
+  double sea_level_m = 0;
+  double resistance = 0.3;
+  uint64_t seed = 1;
+  int threads = default_threads();
+  bool layers = false, geotiff = false, png16 = false, r16 = false, preview = false;
+};
+
+void parse_range(const std::string& text, gis::HeightmapUnits& u) {
+  if (text.empty()) return;
+  char extra = 0;
+  if (std::sscanf(text.c_str(), "%lf:%lf%c", &u.lo_m, &u.hi_m, &extra) != 2 || !std::isfinite(u.lo_m) ||
+      !std::isfinite(u.hi_m) || !(u.hi_m > u.lo_m))
+    throw Error("--range " + text + ": expected LO:HI in metres with HI > LO, e.g. --range -100:600");
+}
+
+void check_square(const cv::Mat1f& h, const std::string& file) {
+  if (h.rows != h.cols)
+    throw Error(file + ": " + std::to_string(h.cols) + "×" + std::to_string(h.rows) +
+                " is not square; crop or pad it to N×N (gdal_translate -srcwin)");
+  if (h.cols < kMinErodeSide || h.cols > kMaxErodeSide)
+    throw Error(file + ": " + std::to_string(h.cols) + "² is outside " + std::to_string(kMinErodeSide) + "²…" +
+                std::to_string(kMaxErodeSide) + "²; resample it (gdalwarp -ts)");
+}
+
+std::vector<fs::path> planned_outputs(const ErodeArgs& a, const OutputNames& names) {
+  std::vector<fs::path> outs{names.height};
+  for (const char* ext : {".height.png", ".r16", ".preview.png", ".json"}) outs.push_back(names.prefix.string() + ext);
+  for (const auto& ext : terrain::layer_file_suffixes()) outs.push_back(names.prefix.string() + ext);
+  for (const auto& ext : gis::geotiff_suffixes()) outs.push_back(names.prefix.string() + ext);
+  (void)a;
+  return outs;
+}
+
+nlohmann::json realism_json(const cv::Mat1f& h, double mpp) {
+  const terrain::RealismStats s = terrain::realism_stats(h, mpp);
+  return {{"pits", s.pits}, {"terraces", s.terraces}, {"valleys", s.valleys}, {"max_height_m", s.max_height_m}};
+}
+
+int run_erode(const ErodeArgs& a0, const GlobalOptions& g) {
+  ErodeArgs a = a0;
+  parse_range(a.range, a.units);
+  const OutputNames names = output_names(a.prefix);
+  refuse_output_over_input({a.input}, planned_outputs(a, names));
+  terrain::ErosionParams ep;
+  if (!a.erosion_file.empty()) ep = terrain::erosion_params_from_json(read_json(a.erosion_file), a.erosion_file);
+  terrain::LayerParams lp;
+  if (!a.layer_rules.empty()) lp = terrain::layer_params_from_json(read_json(a.layer_rules), a.layer_rules);
+  gis::GeoReference geo;
+  geo.crs = a.crs;
+  if (!a.origin.empty()) gis::parse_origin(a.origin, geo);
+  if (a.geotiff) gis::check_crs(geo.crs);
+  gis::Heightmap in = gis::read_heightmap(a.input, a.units);
+  check_square(in.height_m, a.input);
+  ensure_writable_dir(names.prefix.parent_path());
+  const double mpp = in.metres_per_px, world_m = mpp * in.height_m.cols;
+  cv::Mat1f before = in.height_m - float(a.sea_level_m);
+  if (!g.quiet) std::fprintf(stderr, "erode: %s, %d², %.3g m per pixel\n", a.input.c_str(), before.cols, mpp);
+  const cv::Mat1f out = terrain::erode_island(before, cv::Mat1f(before.size(), float(a.resistance)), world_m, a.seed, ep);
+
+  StagedOutputs staged;
+  HeightFiles hf;
+  hf.png16 = a.png16;
+  hf.r16 = a.r16;
+  hf.preview = a.preview;
+  hf.exr_path = names.height;
+  nlohmann::json side = {{"tool", "reefgen"},
+                         {"version", kVersion},
+                         {"kind", "eroded heightmap"},
+                         {"input", {{"path", fs::absolute(a.input).string()}, {"format", in.format},
+                                    {"sea_level_m", a.sea_level_m}}},
+                         {"size_px", out.cols},
+                         {"metres_per_pixel", mpp},
+                         {"erosion", ep},
+                         {"resistance", a.resistance},
+                         {"seed", a.seed},
+                         {"realism_before", realism_json(before, mpp)},
+                         {"realism_after", realism_json(out, mpp)}};
+  side.update(stage_height_files(staged, names.prefix, out, mpp, hf));
+  std::optional<terrain::Layers> L;
+  if (a.layers || a.geotiff) L = terrain::compute_layers(out, before, cv::Mat1b(), mpp, lp, a.threads);
+  if (a.layers) {
+    nlohmann::json lj = terrain::stage_layer_files(staged, names.prefix.string(), *L, mpp, lp, a.threads);
+    for (const auto& [kind, file] : lj["files"].items()) side["files"][kind] = file;
+    side["layers"] = std::move(lj);
+  }
+  if (a.geotiff) side["geotiff"] = gis::stage_geotiff_files(staged, names.prefix.string(), out, &*L, mpp, geo, a.threads);
+  staged.write(names.prefix.string() + ".json", [&](const fs::path& t) { write_json_atomic(t, side); });  // last
+  staged.commit();
+  for (const auto& p : staged.finals()) std::printf("%s\n", p.c_str());
+  return 0;
+}
+
+}  // namespace
+
+Command add_erode_command(CLI::App& app, const GlobalOptions& g) {
+  auto a = std::make_shared<ErodeArgs>();
+  auto* sub = app.add_subcommand(
+      "erode",
+      "Erode a heightmap of yours with reefgen's stream-power erosion, at its own size (docs/EROSION.md)\n\n"
+      "Examples:\n"
+      "  reefgen erode dem.tif -o out/dem --layers --geotiff\n"
+      "  reefgen erode island.height.exr -o out/again --layers\n"
+      "  reefgen erode terrain.png --range -120:900 --world-size 8000 -o out/t --png16\n"
+      "  reefgen erode terrain.r16 --range 0:1024 --metres-per-px 2 --sea-level 40 -o out/t --r16\n");
+  sub->add_option("heightmap", a->input, "Heightmap: .exr (metres), .tif (GeoTIFF), .png (16-bit) or .r16/.raw (16-bit LE, square)")
+      ->required();
+  sub->add_option("-o,--output", a->prefix, "Output prefix: PREFIX.height.exr, .json (and the files asked for); never the input")
+      ->required();
+  sub->add_option("--range", a->range, "LO:HI — the metres of 16-bit 0 and 65535 (PNG16, R16)");
+  sub->add_option("--world-size", a->units.world_size_m, "Width of the map in metres (cell size = this / width)")
+      ->check(finite_in(1e-3, 1e9));
+  sub->add_option("--metres-per-px", a->units.metres_per_px, "Cell size in metres (default: the file's own)")
+      ->check(finite_in(1e-6, 1e6));
+  sub->add_option("--sea-level", a->sea_level_m, "Height of the sea in the input's metres; land above it erodes")
+      ->check(finite_in(-1e5, 1e5))->capture_default_str();
+  sub->add_option("--resistance", a->resistance, "Rock resistance ρ everywhere, 0 (soft) … 1 (hard)")
+      ->check(finite_in(0, 1))->capture_default_str();
+  sub->add_option("--erosion", a->erosion_file, "FILE: JSON of erosion parameters (docs/EROSION.md) overriding the defaults");
+  sub->add_option("--seed", a->seed, "Seed of the fractal detail the refinement adds")->check(seed_value())->capture_default_str();
+  sub->add_flag("--layers", a->layers, "Also write the layers (docs/LAYERS.md)");
+  sub->add_option("--layer-rules", a->layer_rules, "FILE: JSON of material rules (docs/LAYERS.md)");
+  sub->add_flag("--geotiff", a->geotiff, "Also write PREFIX.height.tif (float32 metres) and the float layers as GeoTIFFs (docs/GIS.md)");
+  sub->add_option("--crs", a->crs, "CRS of the GeoTIFFs, e.g. EPSG:32706 (default: a local metric grid, no CRS)");
+  sub->add_option("--origin", a->origin, "X,Y: map coordinates of the top-left corner, metres (default: centred on 0,0)");
+  sub->add_flag("--png16", a->png16, "Also write PREFIX.height.png (16-bit, range in the sidecar)");
+  sub->add_flag("--r16", a->r16, "Also write PREFIX.r16 (16-bit RAW, little-endian)");
+  sub->add_flag("--preview", a->preview, "Also write PREFIX.preview.png (hill-shaded colours)");
+  sub->add_option("--threads", a->threads, "Threads for the layers and files (default: all cores; same bytes whatever the count)")
+      ->check(CLI::Range(1, 256));
+  return {sub, [a, &g] { return run_erode(*a, g); }};
+}
+
+}  // namespace reefgen
