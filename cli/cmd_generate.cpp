@@ -4,6 +4,7 @@
 #include <optional>
 
 #include "app.hpp"
+#include "reefgen/gis/geotiff.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/procgen/output.hpp"
 #include "reefgen/procgen/random_spec.hpp"
@@ -25,6 +26,8 @@ struct GenerateArgs {
   bool preview = false;
   bool layers = false;
   std::string layer_rules;  // JSON of terrain::LayerParams
+  bool geotiff = false;
+  std::string crs, origin;
   int threads = default_threads();
   int levels = 4;
   int warp_grid = RenderOptions{}.warp_grid;
@@ -68,6 +71,7 @@ int run_single(const GenerateArgs& a, const GlobalOptions&) {
     std::vector<fs::path> outs{names.height};
     for (const char* ext : {".label.png", ".preview.png", ".json"}) outs.push_back(prefix.string() + ext);
     for (const auto& ext : terrain::layer_file_suffixes()) outs.push_back(prefix.string() + ext);
+    for (const auto& ext : gis::geotiff_suffixes()) outs.push_back(prefix.string() + ext);
     refuse_output_over_input({a.spec_file}, outs);
   }
   ensure_writable_dir(prefix.parent_path());
@@ -76,11 +80,20 @@ int run_single(const GenerateArgs& a, const GlobalOptions&) {
   opt.warp_grid = a.warp_grid;
   opt.keep_uneroded = a.layers;
   const terrain::LayerParams lp = layer_params(a);
+  gis::GeoReference geo;
+  geo.crs = a.crs;
+  if (!a.origin.empty()) gis::parse_origin(a.origin, geo);
+  if (a.geotiff) gis::check_crs(geo.crs);
   const IslandFields f = generate(spec, opt);
   nlohmann::json prov = {{"mode", a.preset.empty() ? "spec" : "preset"},
                          {"source", a.preset.empty() ? a.spec_file : a.preset},
                          {"warp_grid", opt.warp_grid}};
-  const auto w = write_island(prefix, f, spec, prov, a.preview, names.height, a.layers ? &lp : nullptr, a.threads);
+  ExtraFiles geotiffs;
+  if (a.geotiff)
+    geotiffs = [&](StagedOutputs& staged, nlohmann::json& side, const terrain::Layers* L) {
+      side["geotiff"] = gis::stage_geotiff_files(staged, prefix.string(), f.height_m, L, spec.world_size_m / opt.size_px, geo, a.threads);
+    };
+  const auto w = write_island(prefix, f, spec, prov, a.preview, names.height, a.layers ? &lp : nullptr, a.threads, geotiffs);
   for (const auto& p : w.files) std::printf("%s\n", p.c_str());
   return 0;
 }
@@ -99,6 +112,7 @@ int run_random(const GenerateArgs& a, const GlobalOptions& g) {
   r.layer_params = layer_params(a);
   r.threads = a.threads;
   if (a.levels < 1 || a.levels > 64) throw Error("--levels must be in 1..64");
+  if (a.geotiff) throw Error("--geotiff: one island at a time (--preset or --spec), not --random; or convert with `reefgen erode`");
   Progress progress("generate", size_t(a.random) * size_t(a.levels), g.quiet);
   const RandomIslandsResult res = write_random_islands(dir, r, [&](size_t done) { progress.tick(done); });
   if (!g.quiet)
@@ -136,6 +150,9 @@ Command add_generate_command(CLI::App& app, const GlobalOptions& g) {
                 "Also write the layers (docs/LAYERS.md): PREFIX.flow.png, .slope.png, .wear.png, .deposit.png, "
                 ".normal.png, .splat0.png + .splat1.png (8 material weights), .materials.png");
   sub->add_option("--layer-rules", a->layer_rules, "JSON file of material rules overriding the defaults (docs/LAYERS.md)");
+  sub->add_flag("--geotiff", a->geotiff, "Also write PREFIX.height.tif (float32 metres; with --layers the float layers too) for GIS (docs/GIS.md)");
+  sub->add_option("--crs", a->crs, "CRS of the GeoTIFFs, e.g. EPSG:32706 (default: a local metric grid, no CRS)");
+  sub->add_option("--origin", a->origin, "X,Y: map coordinates of the top-left corner, metres (default: centred on 0,0)");
   sub->add_option("--threads", a->threads, "Worker threads for --random and --layers (default: all cores)")->check(CLI::Range(1, 256));
   sub->add_option("--levels", a->levels, "Subsidence levels per random configuration, evenly spaced on [0, 1]")->capture_default_str();
   sub->add_option("--warp-grid", a->warp_grid, "Cells of the wind displacement grid across the canvas")->capture_default_str();

@@ -76,6 +76,7 @@ int main(int argc, char** argv) {
                "  reefgen eval -m runs/paper/generator.pt --data data/paper --split test\n"
                "  reefgen studio                      # paint in the browser, see it in 3D\n"
                "  reefgen realism out/atoll.height.exr   # pits, terraces, valleys\n"
+               "  reefgen erode dem.tif -o out/dem --layers --geotiff   # your heightmap, eroded\n"
                "  reefgen bench generate\n"};
   app.set_version_flag("--version", std::string("reefgen ") + reefgen::kVersion);
   app.require_subcommand(1);

@@ -73,6 +73,53 @@ echo '{"cliff_deg": 95}' > "$T/rules.json"
   && bad "layer rules out of range accepted" || { grep -q "rules.json" "$T/err" && ok || bad "layer rules: $(cat "$T/err")"; }
 [ -e "$T/lay/bad.height.exr" ] && bad "layer rules: files written" || ok
 
+# 2c. reefgen erode on a heightmap of yours, and the GIS files in GDAL's own
+# tools (docs/GIS.md): pixel size and metres in gdalinfo, gdaldem hillshade
+# and a 0 m contour unscaled, GeoTIFF heights equal to the EXR.
+"$BIN" -q terrain wilbur --seed 5 --size 128 -o "$T/er/w" >/dev/null || bad "terrain wilbur for erode"
+"$BIN" -q erode "$T/er/w.height.exr" -o "$T/er/we" --layers --geotiff --png16 --r16 >/dev/null 2>"$T/err" || bad "erode: $(cat "$T/err")"
+for s in height.exr height.tif flow.tif slope.tif splat0.png json r16 height.png; do [ -s "$T/er/we.$s" ] || bad "erode: no $s"; done
+"$PY" - "$T/er/we" <<'PYEOF' && ok || bad "erode: realism after or sidecar"
+import json, sys
+j = json.load(open(sys.argv[1] + ".json"))
+assert j["realism_after"]["pits"] <= 0.01, j["realism_after"]
+assert j["input"]["format"] == "exr" and abs(j["metres_per_pixel"] - 6000 / 128) < 1e-3, j["metres_per_pixel"]
+assert j["geotiff"]["files"]["height"] == "we.height.tif"
+PYEOF
+if command -v gdalinfo >/dev/null && command -v gdaldem >/dev/null && command -v gdal_contour >/dev/null; then
+  gdalinfo -json -stats "$T/er/we.height.tif" > "$T/er/info.json" 2>"$T/err" || bad "gdalinfo: $(cat "$T/err")"
+  "$PY" - "$T/er" <<'PYEOF' && ok || bad "GeoTIFF: pixel size, units or heights differ from the EXR"
+import cv2, json, sys
+d = sys.argv[1]
+info = json.load(open(d + "/info.json"))
+gt = info["geoTransform"]
+assert abs(gt[1] - 6000 / 128) < 1e-3 and abs(gt[5] + 6000 / 128) < 1e-3, gt
+band = info["bands"][0]
+assert band["unit"] == "metre" and band["type"] == "Float32", band
+exr = cv2.imread(d + "/we.height.exr", cv2.IMREAD_UNCHANGED)
+assert abs(band["minimum"] - exr.min()) < 0.01 and abs(band["maximum"] - exr.max()) < 0.01, (band, exr.min(), exr.max())
+PYEOF
+  gdaldem hillshade -q "$T/er/we.height.tif" "$T/er/hs.tif" 2>"$T/err" || bad "gdaldem: $(cat "$T/err")"
+  # Unscaled metres: the hillshade is not flattened to near-black/near-white (an 800x exaggeration is).
+  gdalinfo -stats "$T/er/hs.tif" 2>/dev/null | grep -q "Mean=1[0-9][0-9]" && ok || bad "hillshade mean not mid-grey: $(gdalinfo -stats "$T/er/hs.tif" | grep Mean)"
+  gdal_contour -q -fl 0 "$T/er/we.height.tif" "$T/er/c0.csv" -f CSV 2>"$T/err" || bad "gdal_contour: $(cat "$T/err")"
+  [ "$(wc -l < "$T/er/c0.csv")" -gt 1 ] && ok || bad "gdal_contour -fl 0 found no coastline"
+else
+  skip "gdal-bin not installed: GeoTIFF client checks (bash scripts/install-deps.sh)"
+fi
+# Errors: PNG16 and R16 without units, a RAW of the wrong length, not square, over its input.
+"$BIN" -q erode "$T/er/we.height.png" -o "$T/er/x" >/dev/null 2>"$T/err" && bad "png16 without --range accepted" || \
+  { grep -q "we.height.png.*--range" "$T/err" && ok || bad "png16 no range: $(cat "$T/err")"; }
+head -c 1001 /dev/zero > "$T/er/odd.r16"
+"$BIN" -q erode "$T/er/odd.r16" --range 0:100 --world-size 1000 -o "$T/er/x" >/dev/null 2>"$T/err" && bad "odd RAW accepted" || \
+  { grep -q "odd.r16: 1001 bytes" "$T/err" && ok || bad "odd RAW: $(cat "$T/err")"; }
+"$BIN" -q erode "$T/er/we.r16" --range -100:400 --world-size 6000 -o "$T/er/r" >/dev/null 2>"$T/err" && ok || bad "erode r16: $(cat "$T/err")"
+"$BIN" -q erode "$T/er/w.height.exr" -o "$T/er/w" >/dev/null 2>"$T/err" && bad "erode over its input accepted" || \
+  { grep -q "w.height.exr" "$T/err" && ok || bad "over input: $(cat "$T/err")"; }
+"$BIN" -q erode "$T/er/w.height.exr" -o "$T/er/c" --geotiff --crs EPSG:999999 >/dev/null 2>"$T/err" && bad "unknown CRS accepted" || \
+  { grep -q "EPSG:999999" "$T/err" && ok || bad "crs: $(cat "$T/err")"; }
+[ -e "$T/er/c.height.exr" ] && bad "unknown CRS: files written" || ok
+
 # 3. Errors: one line on stderr, non-zero exit, nothing written.
 expect_error() {  # expect_error NEEDLE ARGS...
   local needle="$1"; shift

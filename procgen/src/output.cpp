@@ -3,6 +3,7 @@
 #include <atomic>
 #include <cstdio>
 #include <future>
+#include <optional>
 
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
@@ -15,7 +16,7 @@ namespace reefgen::procgen {
 
 WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFields& f, const IslandSpec& spec,
                            const nlohmann::json& provenance, bool preview, const std::filesystem::path& height_given,
-                           const terrain::LayerParams* layers, int threads) {
+                           const terrain::LayerParams* layers, int threads, const ExtraFiles& extra) {
   const int W = f.height_m.cols;
   double hmin, hmax;
   cv::minMaxLoc(f.height_m, &hmin, &hmax);
@@ -81,12 +82,14 @@ WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFiel
       bytes["preview"] = fs::file_size(p);
     });
   }
+  std::optional<terrain::Layers> L;
   if (layers) {
-    const terrain::Layers L = layer_job.get();
-    nlohmann::json lj = terrain::stage_layer_files(staged, prefix.string(), L, mpp, *layers, threads);
+    L = layer_job.get();
+    nlohmann::json lj = terrain::stage_layer_files(staged, prefix.string(), *L, mpp, *layers, threads);
     for (const auto& [kind, file] : lj["files"].items()) out.sidecar["files"][kind] = file;
     out.sidecar["layers"] = std::move(lj);
   }
+  if (extra) extra(staged, out.sidecar, L ? &*L : nullptr);
   out.sidecar["file_bytes"] = bytes;
   staged.write(json_path, [&](const fs::path& p) { write_json_atomic(p, out.sidecar); });  // last
   staged.commit();

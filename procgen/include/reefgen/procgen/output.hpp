@@ -13,6 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "reefgen/io.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/terrain/layers.hpp"
 
@@ -23,6 +24,10 @@ struct WrittenIsland {
   nlohmann::json sidecar;
 };
 
+// More files of the same island staged with it (all or nothing), e.g. the
+// GeoTIFFs: given the staging, the sidecar to extend and the layers (or null).
+using ExtraFiles = std::function<void(StagedOutputs&, nlohmann::json& sidecar, const terrain::Layers* layers)>;
+
 // `height_path` replaces PREFIX.height.exr when given (`-o NAME.exr`).
 // `layers`: also the layer files with these rules (fields.uneroded_m gives
 // wear and deposit; render with keep_uneroded), computed and encoded on
@@ -30,7 +35,8 @@ struct WrittenIsland {
 WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFields& fields, const IslandSpec& spec,
                            const nlohmann::json& provenance, bool preview,
                            const std::filesystem::path& height_path = {},
-                           const terrain::LayerParams* layers = nullptr, int threads = 1);
+                           const terrain::LayerParams* layers = nullptr, int threads = 1,
+                           const ExtraFiles& extra = {});
 
 // The paper's data generation (`generate --random`): `count` random specs,
 // each at `levels` subsidence levels, written as DIR/island_IIIIII_lL.*.

@@ -1,0 +1,70 @@
+// gis/: GeoTIFF through libgdal and the heightmaps `reefgen erode` reads.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "reefgen/gis/geotiff.hpp"
+#include "reefgen/gis/heightmap.hpp"
+#include "reefgen/io.hpp"
+#include "test_util.hpp"
+
+using namespace reefgen;
+using namespace reefgen::gis;
+
+TEST(GeoTiff, RoundTripsHeightsPixelSizeAndCrs) {
+  const auto d = test::temp_dir("gis_rt");
+  cv::Mat1f h(40, 40);
+  for (int y = 0; y < 40; ++y)
+    for (int x = 0; x < 40; ++x) h(y, x) = -120.5f + 3.25f * x + 0.125f * y * y;  // row 0 north
+  GeoReference geo;
+  geo.crs = "EPSG:32706";
+  geo.origin_x = 500000;
+  geo.origin_y = 8100000;
+  write_geotiff(d / "h.tif", h, 7.5, geo, "metre", "height");
+  const GeoRaster r = read_geotiff(d / "h.tif");
+  EXPECT_EQ(cv::norm(r.band, h, cv::NORM_INF), 0.0);  // float32 kept exactly
+  EXPECT_DOUBLE_EQ(r.metres_per_px, 7.5);
+  EXPECT_NE(r.crs_wkt.find("32706"), std::string::npos);
+  // Through read_heightmap: the geotransform gives the cell size.
+  const Heightmap m = read_heightmap(d / "h.tif", {});
+  EXPECT_EQ(m.format, "geotiff");
+  EXPECT_DOUBLE_EQ(m.metres_per_px, 7.5);
+}
+
+TEST(GeoTiff, RefusesWhatItCannotPlace) {
+  const auto d = test::temp_dir("gis_bad");
+  GeoReference geo;
+  geo.crs = "EPSG:999999";
+  test::expect_error_naming([&] { write_geotiff(d / "x.tif", cv::Mat1f(4, 4, 1.f), 1.0, geo, "metre", "h"); }, "EPSG:999999");
+  test::expect_error_naming([&] { read_geotiff(d / "missing.tif"); }, "missing.tif");
+  write_text_atomic(d / "junk.tif", "not a tiff");
+  test::expect_error_naming([&] { read_geotiff(d / "junk.tif"); }, "junk.tif");
+  test::expect_error_naming([&] { parse_origin("12;34", geo); }, "--origin");
+}
+
+TEST(Heightmap, RawIsLittleEndianRowZeroFirst) {
+  const auto d = test::temp_dir("gis_raw");
+  // 2×2: values 0, 1, 256, 65535 in file order.
+  const std::string bytes("\x00\x00\x01\x00\x00\x01\xff\xff", 8);
+  write_file_atomic(d / "a.r16", bytes.data(), bytes.size());
+  HeightmapUnits u;
+  u.lo_m = -100;
+  u.hi_m = 555.35;
+  u.world_size_m = 20;
+  const Heightmap m = read_heightmap(d / "a.r16", u);
+  ASSERT_EQ(m.height_m.size(), cv::Size(2, 2));
+  const double s = (u.hi_m - u.lo_m) / 65535.0;
+  EXPECT_NEAR(m.height_m(0, 0), -100.0, 1e-4);
+  EXPECT_NEAR(m.height_m(0, 1), -100.0 + s, 1e-4);
+  EXPECT_NEAR(m.height_m(1, 0), -100.0 + 256 * s, 1e-4);
+  EXPECT_NEAR(m.height_m(1, 1), 555.35, 1e-3);
+  EXPECT_DOUBLE_EQ(m.metres_per_px, 10.0);
+  test::expect_error_naming([&] { read_heightmap(d / "a.r16", {}); }, "--range");
+  write_file_atomic(d / "b.r16", bytes.data(), 6);
+  test::expect_error_naming([&] { read_heightmap(d / "b.r16", u); }, "6 bytes");
+  write_text_atomic(d / "c.xyz", "1");
+  test::expect_error_naming([&] { read_heightmap(d / "c.xyz", u); }, "unknown heightmap format");
+}
