@@ -107,6 +107,9 @@ PYEOF
 else
   skip "gdal-bin not installed: GeoTIFF client checks (bash scripts/install-deps.sh)"
 fi
+# infer gets the same layers (the sketch's regions) and GeoTIFFs.
+"$BIN" -q infer "$(dirname "$0")/../docs/examples/painted-sketch.png" --size 96 --layers --geotiff -o "$T/er/inf" >/dev/null 2>"$T/err" || bad "infer --layers: $(cat "$T/err")"
+for s in splat0.png splat1.png flow.png height.tif slope.tif; do [ -s "$T/er/inf.$s" ] || bad "infer --layers: no $s"; done
 # Errors: PNG16 and R16 without units, a RAW of the wrong length, not square, over its input.
 "$BIN" -q erode "$T/er/we.height.png" -o "$T/er/x" >/dev/null 2>"$T/err" && bad "png16 without --range accepted" || \
   { grep -q "we.height.png.*--range" "$T/err" && ok || bad "png16 no range: $(cat "$T/err")"; }

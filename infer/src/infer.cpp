@@ -80,7 +80,7 @@ bool keep_fp32(const std::string& name) { return name.rfind("levels.0.up_conv.",
 }  // namespace
 
 std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<DecodedSketch>& sketches,
-                                     const InferOptions& o) {
+                                     const InferOptions& o, std::vector<cv::Mat1f>* before) {
   c10::InferenceMode inference;  // no autograd bookkeeping at all (cheaper than NoGradGuard)
   // pix2pix runs G in train mode at test time: BatchNorm normalises with the
   // sample's own statistics. With batch statistics a batch would mix samples,
@@ -141,6 +141,11 @@ std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<
   for (size_t i = 0; i < sketches.size(); ++i) {
     cv::Mat1f h = model::tensor_to_height(outs[i], g.range);
     const cv::Size want = o.size_px > 0 ? cv::Size(o.size_px, o.size_px) : sketches[i].label.size();
+    if (before) {
+      cv::Mat1f b;
+      cv::resize(h, b, want, 0, 0, want.width > h.cols ? cv::INTER_CUBIC : cv::INTER_AREA);
+      before->push_back(std::move(b));
+    }
     // At every size the answer is cleaned (amplify_heights): at the
     // model's own side ponds raised and pits breached (issue 39), above it
     // also eroded and refined; --raw (amplify off) keeps the network's bits.

@@ -3,6 +3,7 @@
 #include <map>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "reefgen/version.hpp"
 
@@ -25,6 +26,25 @@ SketchInputs sketch_inputs(const std::vector<std::string>& paths) {
   }
   return in;
 }
+
+namespace {
+// The layers (with the sketch's regions and the network's answer as the
+// heights before erosion) and the GeoTIFFs of one sketch, when asked for.
+void stage_layers_and_geotiffs(StagedOutputs& staged, const InferJob& job, const std::string& prefix,
+                               const cv::Mat1f& h, const std::vector<cv::Mat1f>& before,
+                               const std::vector<cv::Mat1b>& labels, size_t k, double mpp, nlohmann::json& side) {
+  if (!job.layers && !job.geotiff) return;
+  cv::Mat1b region;
+  cv::resize(labels[k], region, h.size(), 0, 0, cv::INTER_NEAREST);
+  const terrain::Layers L = terrain::compute_layers(h, before[k], region, mpp, job.layer_params, job.threads);
+  if (job.layers) {
+    nlohmann::json lj = terrain::stage_layer_files(staged, prefix, L, mpp, job.layer_params, job.threads);
+    for (const auto& [kind, file] : lj["files"].items()) side["files"][kind] = file;
+    side["layers"] = std::move(lj);
+  }
+  if (job.geotiff) side["geotiff"] = gis::stage_geotiff_files(staged, prefix, h, job.layers ? &L : nullptr, mpp, job.geo, job.threads);
+}
+}  // namespace
 
 InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
                         const std::function<void(size_t)>& done) {
@@ -67,6 +87,8 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
       }
       for (const char* ext : {".height.exr", ".height.png", ".r16", ".preview.png", ".json", ".obj", ".glb"})
         outs.push_back(prefix.string() + ext);
+      for (const auto& ext : terrain::layer_file_suffixes()) outs.push_back(prefix.string() + ext);
+      for (const auto& ext : gis::geotiff_suffixes()) outs.push_back(prefix.string() + ext);
     }
     if (!hf.mesh_path.empty()) outs.push_back(hf.mesh_path);
     refuse_output_over_input(inputs, outs);
@@ -79,14 +101,19 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
                                {"precision", to_string(resolve(io, gen))},
                                {"engine", to_string(resolve_engine(io))}};
   constexpr size_t kChunk = 32;
-  std::vector<cv::Mat1f> heights;
+  if (job.geotiff) gis::check_crs(job.geo.crs);
+  std::vector<cv::Mat1f> heights, before;
+  std::vector<cv::Mat1b> labels;
   StagedOutputs staged;
   InferResult r;
   for (size_t i = 0; i < inputs.size(); ++i) {
     if (i % kChunk == 0) {
       std::vector<DecodedSketch> sketches;
       for (size_t k = i; k < std::min(inputs.size(), i + kChunk); ++k) sketches.push_back(read_sketch(inputs[k]));
-      heights = infer_heights(gen, sketches, io);
+      before.clear();
+      labels.clear();
+      for (const auto& s : sketches) labels.push_back(s.label);
+      heights = infer_heights(gen, sketches, io, job.layers || job.geotiff ? &before : nullptr);
     }
     const fs::path prefix = prefix_of(inputs[i]);
     const cv::Mat1f& h = heights[i % kChunk];
@@ -108,6 +135,7 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
         {"height_range_m", {hmin, hmax}},
         {"model_range_m", {gen.range.lo_m, gen.range.hi_m}}};
     side.update(stage_height_files(staged, prefix, h, mpp, hf));
+    stage_layers_and_geotiffs(staged, job, prefix.string(), h, before, labels, i % kChunk, mpp, side);
     if (hf.r16) r.r16_notes.push_back(prefix.string() + ".r16: " + side["r16"]["import_note"].get<std::string>());
     staged.write(prefix.string() + ".json", [&](const fs::path& t) { write_json_atomic(t, side); });  // last of its sketch
     r.heights.push_back(exr);

@@ -68,7 +68,9 @@ cv::Mat3b canonical_sketch(const DecodedSketch& sketch, int size_px);
 // Each output depends on its own sketch only: batch-statistics mode runs one
 // sketch per forward (a batch would share BatchNorm statistics), running
 // statistics mode batches 8 at a time.
+// before (optional): each network answer at the output size before its
+// clean-up and amplification (bicubic), for the wear and deposit layers.
 std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<DecodedSketch>& sketches,
-                                     const InferOptions& o);
+                                     const InferOptions& o, std::vector<cv::Mat1f>* before = nullptr);
 
 }  // namespace reefgen::infer

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "reefgen/gis/geotiff.hpp"
+#include "reefgen/terrain/layers.hpp"
 #include "reefgen/heightfile.hpp"
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/io.hpp"
@@ -28,6 +30,11 @@ struct InferJob {
   HeightFiles files;       // png16 / r16 / preview / exaggeration (mesh and paths are set here)
   std::string model_path;  // recorded in the sidecars
   InferOptions options;
+  bool layers = false;                // also the layer files (docs/LAYERS.md)
+  terrain::LayerParams layer_params;  // their rules
+  bool geotiff = false;               // also PREFIX.height.tif (+ float layers), docs/GIS.md
+  gis::GeoReference geo;
+  int threads = 1;                    // for the layers and their files
 };
 struct InferResult {
   std::vector<fs::path> heights;       // the EXR of each sketch, in input order
