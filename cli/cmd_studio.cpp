@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "app.hpp"
+#include "reefgen/install.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/model/shipped.hpp"
 #include "reefgen/studio/server.hpp"
@@ -44,7 +45,11 @@ Command add_studio_command(CLI::App& app, const GlobalOptions& g) {
             a->o.model = model::resolve_model_path(a->model);
             a->o.out_dir = a->out;
             const char* env = std::getenv("REEFGEN_STUDIO_ASSETS");
-            a->o.assets_dir = !a->assets.empty() ? fs::path(a->assets) : env ? fs::path(env) : fs::path(REEFGEN_STUDIO_ASSETS);
+            const fs::path installed = installed_data("studio");
+            a->o.assets_dir = !a->assets.empty() ? fs::path(a->assets)
+                              : env              ? fs::path(env)
+                              : !installed.empty() ? installed
+                                                   : fs::path(REEFGEN_STUDIO_ASSETS);
             if (!fs::exists(a->o.assets_dir / "index.html"))
               throw Error("studio: no page in " + a->o.assets_dir.string() + " (build it: bash scripts/build.sh)");
             a->o.presets = builtin_presets();

@@ -43,13 +43,20 @@ const std::vector<std::string> kTorchCommands = {"train", "infer", "eval", "eval
 #if !REEFGEN_TORCH_COMMANDS
 // Replaces this process with reefgen-torch from the same folder, same
 // arguments; returns only on failure.
-int exec_torch_binary(char** argv) {
+int exec_torch_binary(char** argv, [[maybe_unused]] const std::string& command) {
   std::error_code ec;
   const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
   const std::filesystem::path torch = (ec ? std::filesystem::path(argv[0]) : self).parent_path() / "reefgen-torch";
   ::execv(torch.c_str(), argv);
+#if REEFGEN_WITH_TORCH
   std::fprintf(stderr, "reefgen: error: cannot run %s (%s); build it with `cmake --build build` (scripts/build.sh)\n",
                torch.c_str(), std::strerror(errno));
+#else
+  std::fprintf(stderr,
+               "reefgen: error: %s needs LibTorch, and this reefgen was built without it (-DREEFGEN_WITH_TORCH=OFF); "
+               "install libtorch-dev (bash scripts/install-deps.sh) and rebuild with -DREEFGEN_WITH_TORCH=ON\n",
+               command.c_str());
+#endif
   return 1;
 }
 #endif
@@ -112,7 +119,7 @@ int main(int argc, char** argv) {
     }
     if (w.empty() || w[0] == '-') break;  // other options: CLI11 reports what is wrong
 #if !REEFGEN_TORCH_COMMANDS
-    if (std::find(kTorchCommands.begin(), kTorchCommands.end(), w) != kTorchCommands.end()) return exec_torch_binary(argv);
+    if (std::find(kTorchCommands.begin(), kTorchCommands.end(), w) != kTorchCommands.end()) return exec_torch_binary(argv, w);
 #endif
     std::string best;
     size_t best_d = 99;
@@ -149,7 +156,8 @@ int main(int argc, char** argv) {
       if (w == "--threads") ++i;
       else if (!w.empty() && w[0] != '-') has_command = true;
     }
-    if (!has_command) return exec_torch_binary(argv);
+    // Without LibTorch there is no other half: this binary prints its own list.
+    if (!has_command && REEFGEN_WITH_TORCH) return exec_torch_binary(argv, "--help");
   }
 #endif
   // `reefgen --threads N CMD ...` = `reefgen CMD ... --threads N`: --threads
