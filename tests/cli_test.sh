@@ -104,9 +104,29 @@ PYEOF
   gdalinfo -stats "$T/er/hs.tif" 2>/dev/null | grep -q "Mean=1[0-9][0-9]" && ok || bad "hillshade mean not mid-grey: $(gdalinfo -stats "$T/er/hs.tif" | grep Mean)"
   gdal_contour -q -fl 0 "$T/er/we.height.tif" "$T/er/c0.csv" -f CSV 2>"$T/err" || bad "gdal_contour: $(cat "$T/err")"
   [ "$(wc -l < "$T/er/c0.csv")" -gt 1 ] && ok || bad "gdal_contour -fl 0 found no coastline"
+  # The 16-bit files get a VRT GDAL reads as metres (Offset/Scale), equal to the EXR within a 16-bit step.
+  gdal_translate -q -unscale -ot Float32 "$T/er/we.r16.vrt" "$T/er/r16m.tif" 2>"$T/err" || bad "r16 vrt: $(cat "$T/err")"
+  gdalinfo -json -stats "$T/er/r16m.tif" > "$T/er/r16.json" 2>/dev/null
+  "$PY" - "$T/er" <<'PYEOF' && ok || bad "R16 VRT not in metres"
+import cv2, json, sys
+d = sys.argv[1]
+b = json.load(open(d + "/r16.json"))["bands"][0]
+exr = cv2.imread(d + "/we.height.exr", cv2.IMREAD_UNCHANGED)
+step = (exr.max() - exr.min()) / 65535 + 0.01
+assert abs(b["minimum"] - exr.min()) < step and abs(b["maximum"] - exr.max()) < step, (b, exr.min(), exr.max())
+PYEOF
 else
   skip "gdal-bin not installed: GeoTIFF client checks (bash scripts/install-deps.sh)"
 fi
+# Unity: Flip Vertically said; a size Unity cannot take (128, not 2^n+1) is said, not given Unity steps.
+"$PY" - "$T/er/we.json" <<'PYEOF' && ok || bad "unity import numbers"
+import json, sys
+j = json.load(open(sys.argv[1]))["r16"]
+u = j["import"]["unity"]
+assert u["flip_vertically"] is True and u["importable"] is False, u
+assert "Unity cannot import this file" in j["import_note"] and "Flip Vertically" not in j["import_note"], j["import_note"]
+assert abs(u["terrain_width_m"] - 127 * 6000 / 128) < 1e-6, u["terrain_width_m"]
+PYEOF
 # infer gets the same layers (the sketch's regions) and GeoTIFFs.
 "$BIN" -q infer "$(dirname "$0")/../docs/examples/painted-sketch.png" --size 96 --layers --geotiff -o "$T/er/inf" >/dev/null 2>"$T/err" || bad "infer --layers: $(cat "$T/err")"
 for s in splat0.png splat1.png flow.png height.tif slope.tif; do [ -s "$T/er/inf.$s" ] || bad "infer --layers: no $s"; done

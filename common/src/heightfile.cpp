@@ -69,13 +69,27 @@ void write_r16(const fs::path& path, const cv::Mat1f& h, double lo, double hi) {
   write_file_atomic(path, bytes.data(), bytes.size());
 }
 
+namespace {
+// Unity's terrains take square heightmaps of 2ⁿ + 1 samples, 33 … 4097.
+bool unity_size(int w, int h) {
+  if (w != h || w < 33 || w > 4097) return false;
+  return ((w - 1) & (w - 2)) == 0;
+}
+}  // namespace
+
 std::string r16_import_note(int w, int h, double lo, double hi, double mpp) {
   std::ostringstream s;
+  // N samples span (N − 1) cells, as in Unreal and the meshes.
   s << "RAW import: " << w << "x" << h << ", 16-bit, byte order little-endian (Windows), 0 = " << lo
-    << " m, 65535 = " << hi << " m.\n"
-    << "  Unity Terrain > Import Raw: Depth Bit 16, Width " << w << ", Height " << h
-    << ", Byte Order Windows, Terrain Size x = z = " << mpp * w << " m, y = " << (hi - lo)
-    << " m; set the terrain's position y to " << lo << " m so sea level is at 0.\n"
+    << " m, 65535 = " << hi << " m; row 0 is north.\n";
+  if (unity_size(w, h))
+    s << "  Unity Terrain > Import Raw: Depth Bit 16, Width " << w << ", Height " << h
+      << ", Byte Order Windows, Flip Vertically on (Unity's row 0 is south), Terrain Size x = z = " << mpp * (w - 1)
+      << " m, y = " << (hi - lo) << " m; set the terrain's position y to " << lo << " m so sea level is at 0.\n";
+  else
+    s << "  Unity cannot import this file: its terrains take square 2^n+1 heightmaps (33 ... 4097); use --size "
+         "1025, 2049 or 4097.\n";
+  s
     << "  Unreal Landscape > Import from file (.r16): resolution " << w << "x" << h << ", Scale Z = "
     << (hi - lo) * 100.0 / 512.0 << " (% of 512 m), X = Y = " << mpp * 100.0
     << " (cm per vertex), Location Z = " << (lo + hi) / 2 * 100.0 << " cm.\n";
@@ -101,8 +115,9 @@ std::string engine_import_json(int w, int h, const HeightRange& r, double mpp) {
         {"scale_xy_cm", mpp * 100.0},
         {"location_z_cm", (r.lo_m + r.hi_m) / 2 * 100.0},  // puts sea level (0 m) at world Z = 0
         {"resolution", {w, h}}}},
-      {"unity", {{"terrain_height_m", span}, {"terrain_width_m", mpp * w}, {"position_y_m", r.lo_m},
-                 {"byte_order", "Windows (little-endian)"}, {"resolution", {w, h}}}},
+      {"unity", {{"terrain_height_m", span}, {"terrain_width_m", mpp * (w - 1)}, {"position_y_m", r.lo_m},
+                 {"byte_order", "Windows (little-endian)"}, {"flip_vertically", true},
+                 {"importable", unity_size(w, h)}, {"resolution", {w, h}}}},
       {"blender", {{"displace_strength_m", span}, {"displace_midlevel", -r.lo_m / span}}}};
   return j.dump();
 }
@@ -150,6 +165,32 @@ void write_glb(const fs::path& path, const cv::Mat1f& h, const MeshOptions& o) {
   reefgen::write_glb(path, grid_mesh(h, o), "island");
 }
 
+namespace {
+// A GDAL VRT that reads a 16-bit height file as metres: pixel size, the
+// linear Offset/Scale (gdal_translate -unscale, QGIS and gdaldem -s honour
+// them), the canvas centred on (0, 0) like the GeoTIFFs (docs/GIS.md).
+std::string height_vrt(const std::string& file, bool raw, int w, int h, double lo, double hi, double mpp) {
+  std::ostringstream s;
+  s.precision(17);
+  s << "<VRTDataset rasterXSize=\"" << w << "\" rasterYSize=\"" << h << "\">\n"
+    << "  <GeoTransform>" << -0.5 * w * mpp << ", " << mpp << ", 0, " << 0.5 * h * mpp << ", 0, " << -mpp
+    << "</GeoTransform>\n";
+  if (raw) {
+    s << "  <VRTRasterBand dataType=\"UInt16\" band=\"1\" subClass=\"VRTRawRasterBand\">\n"
+      << "    <SourceFilename relativetoVRT=\"1\">" << file << "</SourceFilename>\n"
+      << "    <ImageOffset>0</ImageOffset>\n    <PixelOffset>2</PixelOffset>\n"
+      << "    <LineOffset>" << 2 * w << "</LineOffset>\n    <ByteOrder>LSB</ByteOrder>\n";
+  } else {
+    s << "  <VRTRasterBand dataType=\"UInt16\" band=\"1\">\n"
+      << "    <SimpleSource>\n      <SourceFilename relativeToVRT=\"1\">" << file
+      << "</SourceFilename>\n      <SourceBand>1</SourceBand>\n    </SimpleSource>\n";
+  }
+  s << "    <UnitType>metre</UnitType>\n    <Offset>" << lo << "</Offset>\n    <Scale>" << (hi - lo) / 65535.0
+    << "</Scale>\n  </VRTRasterBand>\n</VRTDataset>\n";
+  return s.str();
+}
+}  // namespace
+
 nlohmann::json stage_height_files(StagedOutputs& staged, const std::filesystem::path& prefix,
                                   const cv::Mat1f& height_m, double metres_per_px, const HeightFiles& f) {
   const std::string pre = prefix.string();
@@ -172,6 +213,9 @@ nlohmann::json stage_height_files(StagedOutputs& staged, const std::filesystem::
     const std::filesystem::path p = pre + ".height.png";
     staged.write(p, [&](const std::filesystem::path& t) { write_png16(t, height_m, lo, hi); });
     add("height_png16", p);
+    const std::string vrt = height_vrt(p.filename().string(), false, height_m.cols, height_m.rows, lo, hi, metres_per_px);
+    staged.write(pre + ".height.png.vrt", [&](const std::filesystem::path& t) { write_text_atomic(t, vrt); });
+    add("height_png16_vrt", pre + ".height.png.vrt");
     side["png16"] = {{"encoding", "linear: metres = lo + v/65535·(hi − lo)"}, {"lo_m", lo}, {"hi_m", hi},
                      {"import", import_numbers()}};
   }
@@ -179,6 +223,9 @@ nlohmann::json stage_height_files(StagedOutputs& staged, const std::filesystem::
     const std::filesystem::path p = pre + ".r16";
     staged.write(p, [&](const std::filesystem::path& t) { write_r16(t, height_m, lo, hi); });
     add("height_r16", p);
+    const std::string vrt = height_vrt(p.filename().string(), true, height_m.cols, height_m.rows, lo, hi, metres_per_px);
+    staged.write(pre + ".r16.vrt", [&](const std::filesystem::path& t) { write_text_atomic(t, vrt); });
+    add("height_r16_vrt", pre + ".r16.vrt");
     side["r16"] = {{"width", height_m.cols}, {"height", height_m.rows}, {"byte_order", "little-endian"},
                    {"lo_m", lo}, {"hi_m", hi},
                    {"import_note", r16_import_note(height_m.cols, height_m.rows, lo, hi, metres_per_px)},
