@@ -41,7 +41,13 @@ TEST(Export, Png16AndR16RoundTrip) {
   const cv::Mat png = cv::imread((d / "h.png").string(), cv::IMREAD_UNCHANGED);
   for (int k : {0, 1, 64, 64 * 20 + 30, 64 * 64 - 1})
     EXPECT_EQ(uint16_t(uint8_t(raw[2 * size_t(k)]) | (uint8_t(raw[2 * size_t(k) + 1]) << 8)), png.at<uint16_t>(k / 64, k % 64));
-  EXPECT_NE(r16_import_note(64, 64, -100, 560, 10).find("Width 64"), std::string::npos);
+  // Unity takes square 2^n+1 heightmaps only; its steps say to flip the rows
+  // (Unity's row 0 is south) and span (N − 1) cells.
+  EXPECT_NE(r16_import_note(64, 64, -100, 560, 10).find("Unity cannot import this file"), std::string::npos);
+  const std::string unity = r16_import_note(65, 65, -100, 560, 10);
+  EXPECT_NE(unity.find("Width 65"), std::string::npos);
+  EXPECT_NE(unity.find("Flip Vertically on"), std::string::npos);
+  EXPECT_NE(unity.find("Terrain Size x = z = 640 m"), std::string::npos);
   fs::remove_all(d);
 }
 
@@ -97,13 +103,17 @@ TEST(Export, StageHeightFilesWritesWhatWasAskedOnCommit) {
   }
   for (const char* suffix : {".height.exr", ".height.png", ".r16", ".glb", ".preview.png"})
     EXPECT_TRUE(fs::is_regular_file(d / ("isl" + std::string(suffix)))) << suffix;
-  EXPECT_EQ(side["files"].size(), 5u);
+  EXPECT_EQ(side["files"].size(), 7u);  // EXR, PNG16 + VRT, R16 + VRT, mesh, preview
   EXPECT_EQ(side["files"]["height_r16"], "isl.r16");
   const double lo = side["png16"]["lo_m"], hi = side["png16"]["hi_m"];
   EXPECT_GE(hi, 612.0);
   EXPECT_LE(cv::norm(read_png16(d / "isl.height.png", lo, hi), h, cv::NORM_INF), (hi - lo) / 65535 / 2 + 1e-3);
   EXPECT_EQ(side["r16"]["lo_m"], lo);
-  EXPECT_NE(side["r16"]["import_note"].get<std::string>().find("Width 64"), std::string::npos);
+  EXPECT_NE(side["r16"]["import_note"].get<std::string>().find("resolution 64x64"), std::string::npos);
+  EXPECT_EQ(side["files"]["height_r16_vrt"], "isl.r16.vrt");
+  const std::string vrt = read_text(d / "isl.r16.vrt");
+  EXPECT_NE(vrt.find("<Offset>" ), std::string::npos);
+  EXPECT_NE(vrt.find("isl.r16</SourceFilename>"), std::string::npos);
   ExrAttributes attrs;
   (void)read_exr_height(d / "isl.height.exr", &attrs);
   EXPECT_EQ(attrs["reefgen:seed"], "7");
