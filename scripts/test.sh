@@ -8,5 +8,15 @@ bash scripts/build.sh
 # skipped with their reason elsewhere): one line at the top of the log.
 source scripts/cpu-line.sh
 cpu_line build/cli/reefgen
+generator=()
+command -v ninja >/dev/null && generator=(-G Ninja)
 cd build
 ctest --output-on-failure -j "$(nproc)"
+# The torch-free half (generator, erosion, layers, GIS) builds and passes its
+# tests without LibTorch (-DREEFGEN_WITH_TORCH=OFF: nothing of it is found or
+# linked), as on a machine that has no libtorch-dev.
+cd ..
+cmake -S . -B build-notorch "${generator[@]}" -DCMAKE_BUILD_TYPE=Release -DREEFGEN_WITH_TORCH=OFF \
+  -DREEFGEN_WERROR="${REEFGEN_WERROR:-OFF}" >/dev/null
+cmake --build build-notorch -j "$(nproc)"
+(cd build-notorch && ctest --output-on-failure -j "$(nproc)")
