@@ -5,7 +5,7 @@
 # to end in miniature (a small dataset, a short training, inference) into ./out.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/build.sh
+bash scripts/build.sh reefgen   # the programs only; scripts/test.sh builds the tests
 BIN=build/cli/reefgen
 # The main job: a painted sketch -> a terrain, no training needed.
 mkdir -p out/shipped
