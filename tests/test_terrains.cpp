@@ -7,7 +7,6 @@
 #include "test_util.hpp"
 
 using namespace reefgen;
-using namespace reefgen::procgen;
 using namespace reefgen::islands;
 
 namespace {

@@ -14,7 +14,6 @@ namespace reefgen::islands {
 
 using terrain::GradientNoise2;
 using terrain::NoiseTile;
-using procgen::Sketch;
 
 cv::Mat1f wilbur_height(const WilburParams& p, uint64_t seed) {
   check_params(p, "wilbur", "configs/terrains/wilbur.json");
@@ -43,7 +42,7 @@ cv::Mat1f wilbur_height(const WilburParams& p, uint64_t seed) {
   return h;
 }
 
-procgen::Sketch height_to_sketch(const cv::Mat1f& h, double subsidence, const SketchBands& b) {
+Sketch height_to_sketch(const cv::Mat1f& h, double subsidence, const SketchBands& b) {
   if (!(b.beach_top_m > 0 && b.lagoon_depth_m > 0 && b.reef_depth_m > b.lagoon_depth_m))
     throw Error("sketch bands: need beach_top_m > 0 and 0 < lagoon_depth_m < reef_depth_m");
   if (!(subsidence >= 0 && subsidence <= 1)) throw Error("sketch: subsidence must be in [0, 1]");

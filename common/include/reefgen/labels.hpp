@@ -30,6 +30,13 @@ cv::Vec3b region_rgb(int region, double subsidence);
 cv::Mat3b encode_labels(const cv::Mat1b& label, double subsidence);
 cv::Mat3b encode_labels(const cv::Mat1b& label, const cv::Mat1f& subsidence);
 
+// A label sketch as the island systems make it (procgen's random sketches,
+// islands' height bands): regions and subsidence per pixel.
+struct Sketch {
+  cv::Mat1b label;       // region ids 0..4
+  cv::Mat1f subsidence;  // λ per pixel (the island's; abyss takes the nearest island's)
+};
+
 struct DecodedSketch {
   cv::Mat1b label;       // region ids 0..4
   cv::Mat1f subsidence;  // λ per pixel in [0,1]

@@ -9,7 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "reefgen/params_json.hpp"
-#include "reefgen/procgen/sketch.hpp"
+#include "reefgen/labels.hpp"
 
 namespace reefgen::islands {
 
@@ -44,7 +44,7 @@ struct SketchBands {
   double reef_depth_m = 40.0;    // then reef down to this depth, deeper is abyss, > lagoon_depth_m
 };
 // Regions by height bands; subsidence λ uniform (the value channel).
-procgen::Sketch height_to_sketch(const cv::Mat1f& height_m, double subsidence, const SketchBands& b = {});
+Sketch height_to_sketch(const cv::Mat1f& height_m, double subsidence, const SketchBands& b = {});
 
 }  // namespace reefgen::islands
 

@@ -8,6 +8,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "reefgen/labels.hpp"
+
 namespace reefgen::procgen {
 
 struct SketchParams {
@@ -19,10 +21,7 @@ struct SketchParams {
   double frequency = 2.5;     // fBm features per canvas half-width, (0, 32]
 };
 
-struct Sketch {
-  cv::Mat1b label;       // region ids 0..4
-  cv::Mat1f subsidence;  // λ per pixel (the island's; abyss takes the nearest island's)
-};
+using reefgen::Sketch;  // common/labels.hpp: shared with islands/
 
 // Pure in (params, seed). Throws reefgen::Error for out-of-range params.
 Sketch random_sketch(const SketchParams& p, uint64_t seed);
