@@ -5,6 +5,7 @@
 #include <optional>
 
 #include "app.hpp"
+#include "reefgen/constants.hpp"
 #include "reefgen/gis/geotiff.hpp"
 #include "reefgen/gis/heightmap.hpp"
 #include "reefgen/heightfile.hpp"
@@ -18,9 +19,8 @@ namespace reefgen {
 
 namespace {
 
-// Side limits of `reefgen erode`: the erosion's base grid is 256 cells, and
-// 8192² is where one field of floats plus the layers stays under 4 GB.
-constexpr int kMinErodeSide = 16, kMaxErodeSide = 8192;
+// Side limits of `reefgen erode`: those of inference (constants.hpp).
+constexpr int kMinErodeSide = kMinInferSidePx, kMaxErodeSide = kMaxSidePx;
 
 struct ErodeArgs {
   std::string input, prefix, range, erosion_file, layer_rules, crs, origin;

@@ -4,6 +4,7 @@
 #include <optional>
 
 #include "app.hpp"
+#include "reefgen/constants.hpp"
 #include "reefgen/gis/geotiff.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/procgen/output.hpp"
@@ -55,7 +56,9 @@ terrain::LayerParams layer_params(const GenerateArgs& a) {
 }
 
 void check_common(const GenerateArgs& a) {
-  if (a.size < 8 || a.size > 8192) throw Error("--size " + std::to_string(a.size) + " is out of range; expected 8..8192");
+  if (a.size < kMinGenerateSidePx || a.size > kMaxSidePx)
+    throw Error("--size " + std::to_string(a.size) + " is out of range; expected " + std::to_string(kMinGenerateSidePx) +
+                ".." + std::to_string(kMaxSidePx));
   if (!std::isnan(a.subsidence) && !(a.subsidence >= 0 && a.subsidence <= 1))
     throw Error("--subsidence must be in [0, 1]");
   if (a.threads < 1 || a.threads > 256) throw Error("--threads must be in 1..256");

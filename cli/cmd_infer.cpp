@@ -54,7 +54,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                   "Output side in pixels, up to 8192 (default: the sketch's own). Above the model's 256: amplified "
                   "(erosion carves valleys at each finer level, docs/EROSION.md), e.g. 1025/2049/4097 for Unity, "
                   "1009/2017/4033 for Unreal")
-      ->check(CLI::Range(16, 8192));
+      ->check(CLI::Range(kMinInferSidePx, kMaxSidePx));
   sub->add_option("--erosion", a->erosion,
                   "FILE: a JSON file of the amplification's erosion params (docs/EROSION.md; every key optional, "
                   "e.g. {\"amplify_roughness\": 0.5})")

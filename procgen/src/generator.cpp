@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "reefgen/constants.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/terrain/erosion.hpp"
@@ -276,8 +277,9 @@ cv::Mat2f integrate_warp(const cv::Mat2f& phi, const cv::Mat1f& resistance, int 
 
 IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
   validate(spec);
-  if (opt.size_px < 8 || opt.size_px > 8192)
-    throw Error("size = " + std::to_string(opt.size_px) + " is out of range; expected [8, 8192]");
+  if (opt.size_px < kMinGenerateSidePx || opt.size_px > kMaxSidePx)
+    throw Error("size = " + std::to_string(opt.size_px) + " is out of range; expected [" +
+                std::to_string(kMinGenerateSidePx) + ", " + std::to_string(kMaxSidePx) + "]");
   if (opt.warp_grid < 4 || opt.warp_grid > 1024)
     throw Error("warp_grid = " + std::to_string(opt.warp_grid) + " is out of range; expected [4, 1024]");
   if (opt.resistance_grid < 4 || opt.resistance_grid > 4096)

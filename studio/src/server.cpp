@@ -77,6 +77,10 @@ std::string base64_decode(const std::string& s) {
 
 namespace {
 
+// The smallest canvas the studio draws, px: below it the 3D view and the
+// curve handles have nothing to show.
+constexpr int kMinStudioSidePx = 32;
+
 // A user-correctable problem with a request: 400 with the message.
 struct BadRequest : Error {
   using Error::Error;
@@ -271,17 +275,24 @@ struct StudioServer::Impl {
     }
   }
 
-  // ?size=N: digits only, in 32..max_side (atoi wrapped 4294967328 to 32).
+  // The canvas side a request may ask for, kMinStudioSidePx..max_side.
+  void check_side(int64_t n) const {
+    if (n < kMinStudioSidePx || n > o.max_side)
+      throw BadRequest("size must be in " + std::to_string(kMinStudioSidePx) + ".." + std::to_string(o.max_side));
+  }
+
+  // ?size=N: digits only, in range (atoi wrapped 4294967328 to 32).
   int size_param(const std::string& v) const {
-    const std::string range = "size must be a whole number of pixels in 32.." + std::to_string(o.max_side);
+    const std::string range =
+        "size must be a whole number of pixels in " + std::to_string(kMinStudioSidePx) + ".." + std::to_string(o.max_side);
     if (v.empty() || v.size() > 6 || v.find_first_not_of("0123456789") != std::string::npos) throw BadRequest(range);
     const int n = std::stoi(v);
-    if (n < 32 || n > o.max_side) throw BadRequest(range);
+    if (n < kMinStudioSidePx || n > o.max_side) throw BadRequest(range);
     return n;
   }
 
   procgen::IslandFields island_of(const json& spec_json, int size, procgen::IslandSpec* spec_out) {
-    if (size < 32 || size > o.max_side) throw BadRequest("size must be in 32.." + std::to_string(o.max_side));
+    check_side(size);
     procgen::IslandSpec spec;
     try {
       spec = procgen::spec_from_json(spec_json, "spec");
@@ -485,10 +496,11 @@ struct StudioServer::Impl {
         if (from_spec) {
           procgen::IslandSpec sp;
           if (body.contains("size") && !body["size"].is_number_integer())
-            throw BadRequest("size must be a whole number of pixels in 32.." + std::to_string(o.max_side));
+            throw BadRequest("size must be a whole number of pixels in " + std::to_string(kMinStudioSidePx) + ".." +
+                             std::to_string(o.max_side));
           // Range-checked as int64 before narrowing: 4294967328 must not become 32.
           const int64_t size = body.contains("size") ? body["size"].get<int64_t>() : 256;
-          if (size < 32 || size > o.max_side) throw BadRequest("size must be in 32.." + std::to_string(o.max_side));
+          check_side(size);
           const procgen::IslandFields f = island_of(body["spec"], int(size), &sp);
           h = f.height_m;
           label = encode_labels(f.label, sp.subsidence);

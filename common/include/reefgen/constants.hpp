@@ -13,4 +13,12 @@ inline constexpr double kCanvasWorldSizeM = 6000;
 inline constexpr double kAbyssFloorM = -100;
 inline constexpr double kHeightCeilingM = 560;
 
+// Sides of one height field, px: the generator draws down to 8² (tests use
+// tiny islands); inference needs 16² (the U-Net's stride before amplifying);
+// 8192² is where one field with its working copies stays under ~4 GB.
+// The libraries check them; the CLI and the studio report what they say.
+inline constexpr int kMinGenerateSidePx = 8;
+inline constexpr int kMinInferSidePx = 16;
+inline constexpr int kMaxSidePx = 8192;
+
 }  // namespace reefgen
