@@ -49,12 +49,11 @@ void check_square(const cv::Mat1f& h, const std::string& file) {
                 std::to_string(kMaxErodeSide) + "²; resample it (gdalwarp -ts)");
 }
 
-std::vector<fs::path> planned_outputs(const ErodeArgs& a, const OutputNames& names) {
+std::vector<fs::path> planned_outputs(const OutputNames& names) {
   std::vector<fs::path> outs{names.height};
   for (const char* ext : {".height.png", ".r16", ".preview.png", ".json"}) outs.push_back(names.prefix.string() + ext);
   for (const auto& ext : terrain::layer_file_suffixes()) outs.push_back(names.prefix.string() + ext);
   for (const auto& ext : gis::geotiff_suffixes()) outs.push_back(names.prefix.string() + ext);
-  (void)a;
   return outs;
 }
 
@@ -67,7 +66,7 @@ int run_erode(const ErodeArgs& a0, const GlobalOptions& g) {
   ErodeArgs a = a0;
   parse_range(a.range, a.units);
   const OutputNames names = output_names(a.prefix);
-  refuse_output_over_input({a.input}, planned_outputs(a, names));
+  refuse_output_over_input({a.input}, planned_outputs(names));
   terrain::ErosionParams ep;
   if (!a.erosion_file.empty()) ep = terrain::erosion_params_from_json(read_json(a.erosion_file), a.erosion_file);
   terrain::LayerParams lp;
@@ -106,9 +105,7 @@ int run_erode(const ErodeArgs& a0, const GlobalOptions& g) {
   std::optional<terrain::Layers> L;
   if (a.layers || a.geotiff) L = terrain::compute_layers(out, before, cv::Mat1b(), mpp, lp, a.threads);
   if (a.layers) {
-    nlohmann::json lj = terrain::stage_layer_files(staged, names.prefix.string(), *L, mpp, lp, a.threads);
-    for (const auto& [kind, file] : lj["files"].items()) side["files"][kind] = file;
-    side["layers"] = std::move(lj);
+    terrain::add_layers_to_sidecar(side, terrain::stage_layer_files(staged, names.prefix.string(), *L, mpp, lp, a.threads));
   }
   if (a.geotiff) side["geotiff"] = gis::stage_geotiff_files(staged, names.prefix.string(), out, &*L, mpp, geo, a.threads);
   staged.write(names.prefix.string() + ".json", [&](const fs::path& t) { write_json_atomic(t, side); });  // last

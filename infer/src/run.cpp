@@ -38,9 +38,7 @@ void stage_layers_and_geotiffs(StagedOutputs& staged, const InferJob& job, const
   cv::resize(labels[k], region, h.size(), 0, 0, cv::INTER_NEAREST);
   const terrain::Layers L = terrain::compute_layers(h, before[k], region, mpp, job.layer_params, job.threads);
   if (job.layers) {
-    nlohmann::json lj = terrain::stage_layer_files(staged, prefix, L, mpp, job.layer_params, job.threads);
-    for (const auto& [kind, file] : lj["files"].items()) side["files"][kind] = file;
-    side["layers"] = std::move(lj);
+    terrain::add_layers_to_sidecar(side, terrain::stage_layer_files(staged, prefix, L, mpp, job.layer_params, job.threads));
   }
   if (job.geotiff) side["geotiff"] = gis::stage_geotiff_files(staged, prefix, h, job.layers ? &L : nullptr, mpp, job.geo, job.threads);
 }

@@ -85,9 +85,8 @@ WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFiel
   std::optional<terrain::Layers> L;
   if (layers) {
     L = layer_job.get();
-    nlohmann::json lj = terrain::stage_layer_files(staged, prefix.string(), *L, mpp, *layers, threads);
-    for (const auto& [kind, file] : lj["files"].items()) out.sidecar["files"][kind] = file;
-    out.sidecar["layers"] = std::move(lj);
+    terrain::add_layers_to_sidecar(out.sidecar,
+                                   terrain::stage_layer_files(staged, prefix.string(), *L, mpp, *layers, threads));
   }
   if (extra) extra(staged, out.sidecar, L ? &*L : nullptr);
   out.sidecar["file_bytes"] = bytes;

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <type_traits>
 
+#include "neighbours.hpp"
+
 namespace reefgen::terrain {
 
 namespace {
@@ -27,10 +29,7 @@ void accumulate_multiple(const FlowGraph& g, const cv::Mat1b& role, float cell_a
   const uint8_t* rl = role.ptr<uint8_t>();
   const float* fz = g.surface.ptr<float>();
   const int W = g.surface.cols;
-  static constexpr int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1}, kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
-  const float axial = static_cast<float>(1.0 / metres_per_px);
-  const float diagonal = static_cast<float>(1.0 / (metres_per_px * std::sqrt(2.0)));
-  const float inv_len[8] = {axial, axial, axial, axial, diagonal, diagonal, diagonal, diagonal};
+  const StepLengths len(metres_per_px);
   int offset[8];
   for (int d = 0; d < 8; ++d) offset[d] = kDy[d] * W + kDx[d];
   for (const int i : g.stack) area[i] = cell_area_m2;
@@ -44,7 +43,7 @@ void accumulate_multiple(const FlowGraph& g, const cv::Mat1b& role, float cell_a
       // Non-lower neighbours get a zero share; adding +0 leaves the sum's bits as they are.
       float w[8], sum = 0.f;
       for (int d = 0; d < 8; ++d) {
-        const float sl = (fz[i] - fz[i + offset[d]]) * inv_len[d];
+        const float sl = (fz[i] - fz[i + offset[d]]) * len.inv[d];
         w[d] = sl > 0.f ? (decltype(unit_exponent)::value ? sl : std::pow(sl, exponent)) : 0.f;
         sum += w[d];
       }

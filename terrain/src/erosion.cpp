@@ -56,20 +56,6 @@ void check_erosion_inputs(const cv::Mat1f& h, const cv::Mat1f& K, double metres_
   if (!(metres_per_px > 0)) throw Error("erode: metres_per_px must be > 0");
 }
 
-// The box around the cells above sea level, grown by one cell (their
-// outlets, or the canvas edge); empty when there is no land.
-cv::Rect land_box(const cv::Mat1f& h) {
-  int x0 = h.cols, y0 = h.rows, x1 = -1, y1 = -1;
-  for (int y = 0; y < h.rows; ++y) {
-    const float* r = h.ptr<float>(y);
-    for (int x = 0; x < h.cols; ++x)
-      if (r[x] > 0) x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
-  }
-  if (x1 < 0) return {};
-  return cv::Rect(cv::Point(std::max(0, x0 - 1), std::max(0, y0 - 1)),
-                  cv::Point(std::min(h.cols, x1 + 2), std::min(h.rows, y1 + 2)));
-}
-
 // The box of the active cells; empty when there is none.
 cv::Rect active_box(const cv::Mat1b& role) {
   int x0 = role.cols, y0 = role.rows, x1 = -1, y1 = -1;

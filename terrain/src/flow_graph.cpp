@@ -3,21 +3,11 @@
 
 #include "reefgen/rng.hpp"
 #include "reefgen/terrain/flow.hpp"
+#include "neighbours.hpp"
 
 namespace reefgen::terrain {
 
 namespace {
-
-constexpr int kDx[8] = {1, -1, 0, 0, 1, 1, -1, -1}, kDy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
-
-// 1 / length of each of the 8 steps, 1/m: 4 axial, then 4 diagonal.
-struct StepLengths {
-  float axial, diagonal, inv[8];
-  explicit StepLengths(double metres_per_px)
-      : axial(static_cast<float>(1.0 / metres_per_px)),
-        diagonal(static_cast<float>(1.0 / (metres_per_px * std::sqrt(2.0)))),
-        inv{axial, axial, axial, axial, diagonal, diagonal, diagonal, diagonal} {}
-};
 
 // The donor tree walked breadth-first from each base level (a cell that is
 // its own receiver and drains something): receivers come before donors.

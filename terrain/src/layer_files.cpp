@@ -26,6 +26,11 @@ cv::Mat1b to_8bit(const cv::Mat1f& m, double full_scale) {
 
 }  // namespace
 
+void add_layers_to_sidecar(nlohmann::json& sidecar, nlohmann::json layers) {
+  for (const auto& [kind, file] : layers["files"].items()) sidecar["files"][kind] = file;
+  sidecar["layers"] = std::move(layers);
+}
+
 std::vector<std::string> layer_file_suffixes() {
   return {".flow.png", ".slope.png", ".wear.png", ".deposit.png", ".normal.png", ".splat0.png", ".splat1.png",
           ".materials.png"};

@@ -74,16 +74,6 @@ void slope_and_normals(const cv::Mat1f& h, double dx, cv::Mat1f& slope_deg, cv::
   });
 }
 
-// The box of the land grown by one cell (its outlets), or the whole canvas.
-cv::Rect land_box(const cv::Mat1f& h) {
-  int x0 = h.cols, y0 = h.rows, x1 = -1, y1 = -1;
-  for (int y = 0; y < h.rows; ++y)
-    for (int x = 0; x < h.cols; ++x)
-      if (h(y, x) > 0) x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
-  if (x1 < 0) return {};
-  return cv::Rect(cv::Point(std::max(0, x0 - 1), std::max(0, y0 - 1)), cv::Point(std::min(h.cols, x1 + 2), std::min(h.rows, y1 + 2)));
-}
-
 // Drainage area on the land's box (islands are a minority of the canvas);
 // `graph` indexes that box, `box` says where it is.
 cv::Mat1f drainage_area(const cv::Mat1f& h, double dx, FlowGraph& graph, cv::Rect& box) {

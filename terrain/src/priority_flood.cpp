@@ -149,6 +149,18 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
   return out;
 }
 
+cv::Rect land_box(const cv::Mat1f& h) {
+  int x0 = h.cols, y0 = h.rows, x1 = -1, y1 = -1;
+  for (int y = 0; y < h.rows; ++y) {
+    const float* r = h.ptr<float>(y);
+    for (int x = 0; x < h.cols; ++x)
+      if (r[x] > 0) x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+  }
+  if (x1 < 0) return {};
+  return cv::Rect(cv::Point(std::max(0, x0 - 1), std::max(0, y0 - 1)),
+                  cv::Point(std::min(h.cols, x1 + 2), std::min(h.rows, y1 + 2)));
+}
+
 cv::Mat1b sea_and_edge_roles(const cv::Mat1f& height_m, float sea_m) {
   const int H = height_m.rows, W = height_m.cols;
   cv::Mat1b role(H, W);

@@ -44,6 +44,11 @@ FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role);
 // land cells active, the sea and every edge cell outlets.
 cv::Mat1b sea_and_edge_roles(const cv::Mat1f& height_m, float sea_m = 0.f);
 
+// The box around the cells above sea level (h > 0), grown by one cell (their
+// outlets, or the canvas edge); empty when there is no land. Islands cover a
+// minority of the canvas: routing works on this box.
+cv::Rect land_box(const cv::Mat1f& height_m);
+
 // A drainage graph, built once per routing: each active cell's receiver
 // (the neighbour it drains to; itself for outlets and base levels), the
 // inverse distance to it, and the stack (active cells, every receiver before

@@ -111,6 +111,10 @@ namespace reefgen::terrain {
 nlohmann::json stage_layer_files(StagedOutputs& staged, const std::string& prefix, const Layers& layers,
                                  double metres_per_px, const LayerParams& params, int threads = 1);
 
+// Puts what stage_layer_files returned into an island's sidecar: its files
+// beside the others under "files", the rest under "layers".
+void add_layers_to_sidecar(nlohmann::json& sidecar, nlohmann::json layers);
+
 // The suffixes stage_layer_files writes (for output-over-input checks).
 std::vector<std::string> layer_file_suffixes();
 
