@@ -26,6 +26,19 @@ for p in $("$BIN" presets | awk '{print $1}'); do
   else bad "preset $p failed: $(cat "$T/err")"; fi
 done
 
+# 1a. Every vector path (REEFGEN_CPU_PATH; a path the CPU lacks is capped to
+# the widest it has) gives the same bytes: an eroded random island with
+# layers, whose routing and outline look-ups run on the dispatched loops.
+for path in sse2 avx2 avx512; do
+  REEFGEN_CPU_PATH=$path "$BIN" -q generate --random 1 --seed 3 --size 96 --layers --out "$T/vp/$path" >/dev/null 2>"$T/err" \
+    || bad "generate on the $path path: $(cat "$T/err")"
+  (cd "$T/vp/$path" && find . -type f ! -name '*.json' | sort | xargs sha256sum) > "$T/vp/$path.sha"
+done
+[ -s "$T/vp/sse2.sha" ] && cmp -s "$T/vp/sse2.sha" "$T/vp/avx2.sha" && cmp -s "$T/vp/sse2.sha" "$T/vp/avx512.sha" \
+  && ok || bad "the vector paths give different bytes: $(diff "$T/vp/sse2.sha" "$T/vp/avx512.sha" | head -3)"
+REEFGEN_CPU_PATH=avx3 "$BIN" -q generate --preset atoll --size 32 -o "$T/vp/x" 2>"$T/err" >/dev/null
+[ $? -ne 0 ] && grep -q "REEFGEN_CPU_PATH='avx3'" "$T/err" && ok || bad "an unknown REEFGEN_CPU_PATH is not one line"
+
 # 1b. The generator's commands never load LibTorch (docs/DESIGN.md §7): the
 # dynamic loader's own list of what it initialised; the network commands do
 # (through reefgen-torch, same process).

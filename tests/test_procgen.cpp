@@ -3,9 +3,15 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <vector>
 
 #include <opencv2/imgproc.hpp>
 
+#include "reefgen/cpu.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/generator.hpp"
@@ -48,6 +54,37 @@ TEST(ParametricDistance, OutlineTableMatchesInEveryDirection) {
     EXPECT_NEAR(t.xt(float(0.4 * std::cos(a)), float(0.4 * std::sin(a))), 2.5, 1e-5);
     EXPECT_NEAR(t.xt(float(0.75 * std::cos(a)), float(0.75 * std::sin(a))), 4.5, 1e-5);
   }
+}
+
+// xt_row runs on the CPU's vector path; each path REEFGEN_CPU_PATH can force
+// must give xt()'s bits at every point: the origin, the axes (±0 included),
+// the band edges, outside the outer outline, and a dense grid across the
+// canvas and beyond it (the wind moves sources off the canvas).
+TEST(Outlines, RowOfXtIsXtBitForBitOnEveryVectorPath) {
+  IslandSpec s;
+  s.outlines = {std::vector<double>{0.2, 0.25, 0.18}, {0.3, 0.28}, {0.45, 0.5, 0.4, 0.48}, {0.6}, {0.9, 0.8, 0.95}};
+  const OutlineTable t(s.outlines, s.min_gap);
+  std::vector<float> x = {0.f, -0.f, 0.f, -0.f, 0.2f, -0.2f, 0.f, 0.f, 0.3f, 1.4f, -1.4f}, y = {0.f, 0.f, -0.f, -0.f, 0.f, 0.f, 0.45f, -0.6f, 0.3f, 1.4f, 0.1f};
+  for (int r = 0; r < 97; ++r)
+    for (int c = 0; c < 97; ++c) x.push_back(-1.3f + 2.6f * c / 96), y.push_back(1.3f - 2.6f * r / 96);
+  std::vector<float> want(x.size()), got(x.size());
+  for (size_t p = 0; p < x.size(); ++p) want[p] = t.xt(x[p], y[p]);
+  const char* was = std::getenv("REEFGEN_CPU_PATH");
+  const std::string saved = was ? was : "";
+  for (const char* path : {"sse2", "avx2", "avx512"}) {
+    setenv("REEFGEN_CPU_PATH", path, 1);
+    std::printf("REEFGEN_CPU_PATH=%s runs the %s path\n", path, to_string(cpu_path()));
+    std::fill(got.begin(), got.end(), -1.f);
+    t.xt_row(x.data(), y.data(), int(x.size()), got.data());
+    EXPECT_EQ(0, std::memcmp(want.data(), got.data(), want.size() * sizeof(float))) << path;
+    for (size_t p = 0; p < x.size(); ++p)
+      if (std::memcmp(&want[p], &got[p], sizeof(float)) != 0) {
+        ADD_FAILURE() << path << ": xt(" << x[p] << ", " << y[p] << ") = " << want[p] << ", row gives " << got[p];
+        break;
+      }
+  }
+  if (was) setenv("REEFGEN_CPU_PATH", saved.c_str(), 1);
+  else unsetenv("REEFGEN_CPU_PATH");
 }
 
 TEST(Outlines, OrderingEnforcedAfterInterpolation) {

@@ -8,6 +8,9 @@
 #include <cmath>
 #include <cstdint>
 #include <vector>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
 
 #include <opencv2/core.hpp>
 
@@ -16,7 +19,9 @@
 #include "reefgen/terrain/erosion.hpp"
 #include "reefgen/terrain/flow.hpp"
 #include "reefgen/terrain/layers.hpp"
+#include "reefgen/cpu.hpp"
 #include "reefgen/error.hpp"
+#include "reefgen/rng.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
 
@@ -250,4 +255,75 @@ TEST(Layers, RulesRoundTripAndRefuseBadValues) {
   EXPECT_THROW(layer_params_from_json({{"cliff_deg", 95}}, "r.json"), reefgen::Error);
   EXPECT_THROW(layer_params_from_json({{"clif_deg", 30}}, "r.json"), reefgen::Error);
   EXPECT_THROW(compute_layers(cv::Mat1f(4, 4, NAN), cv::Mat1f(), cv::Mat1b(), 1.0), reefgen::Error);
+}
+
+namespace {
+
+// route_stack's receivers written the plain way (the code before the
+// dispatched row scan): the reference every vector path must equal bit for
+// bit.
+std::vector<int> reference_receivers(const cv::Mat1f& h, const cv::Mat1b& role, double mpp, uint64_t salt) {
+  const int dx[8] = {1, -1, 0, 0, 1, 1, -1, -1}, dy[8] = {0, 0, 1, -1, 1, -1, 1, -1};
+  const float ax = float(1.0 / mpp), dg = float(1.0 / (mpp * std::sqrt(2.0)));
+  const float inv[8] = {ax, ax, ax, ax, dg, dg, dg, dg};
+  const int W = h.cols, H = h.rows;
+  std::vector<int> recv(size_t(W * H));
+  for (int i = 0; i < W * H; ++i) {
+    recv[size_t(i)] = i;
+    if (role(i / W, i % W) != kActive) continue;
+    const int x = i % W, y = i / W;
+    float best = 0.f, w[8], sum = 0.f;
+    for (int k = 0; k < 8; ++k) {
+      w[k] = 0.f;
+      const int nx = x + dx[k], ny = y + dy[k];
+      if (nx < 0 || ny < 0 || nx >= W || ny >= H || role(ny, nx) == kIgnore) continue;
+      const float sl = (h(y, x) - h(ny, nx)) * inv[k];
+      if (sl > 0.f) sum += (w[k] = sl * sl);
+      if (sl > best) best = sl, recv[size_t(i)] = ny * W + nx;
+    }
+    if (salt == 0 || sum <= 0.f) continue;
+    const float u = float(mix64(salt ^ mix64(uint64_t(i))) >> 40) * (1.f / 16777216.f) * sum;
+    float c = 0.f;
+    for (int k = 0; k < 8; ++k) {
+      if (w[k] <= 0.f) continue;
+      c += w[k];
+      recv[size_t(i)] = (y + dy[k]) * W + x + dx[k];
+      if (u < c) break;
+    }
+  }
+  return recv;
+}
+
+}  // namespace
+
+// The row scan runs on the CPU's vector path (docs/BENCHMARKS.md, "Vector
+// paths"); REEFGEN_CPU_PATH forces each smaller one. Every path must give the
+// reference's receivers exactly, ties (heights on a 0.5 m grid) and ignored
+// cells included. A path the CPU lacks is capped to the widest it has, so on
+// an AVX2-only machine "avx512" checks avx2 again (said in the log).
+TEST(FlowGraph, EveryVectorPathGivesTheReferenceReceivers) {
+  cv::Mat1f h(53, 67);
+  cv::Mat1b role(h.size());
+  cv::RNG rng(7);
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x) {
+      h(y, x) = std::round(float(rng.uniform(0.0, 40.0)) * 2.f) / 2.f;
+      const int r = rng.uniform(0, 10);
+      role(y, x) = r == 0 ? kIgnore : r == 1 ? kOutlet : kActive;
+    }
+  const char* was = std::getenv("REEFGEN_CPU_PATH");
+  const std::string saved = was ? was : "";
+  for (const char* path : {"sse2", "avx2", "avx512"}) {
+    setenv("REEFGEN_CPU_PATH", path, 1);
+    std::printf("REEFGEN_CPU_PATH=%s runs the %s path\n", path, to_string(cpu_path()));
+    for (const uint64_t salt : {uint64_t(0), uint64_t(0x5eed)}) {
+      for (const double mpp : {1.0, 23.4375}) {
+        FlowGraph g;
+        route_stack(h, role, mpp, salt, g);
+        EXPECT_EQ(g.receiver, reference_receivers(h, role, mpp, salt)) << path << " salt " << salt << " mpp " << mpp;
+      }
+    }
+  }
+  if (was) setenv("REEFGEN_CPU_PATH", saved.c_str(), 1);
+  else unsetenv("REEFGEN_CPU_PATH");
 }

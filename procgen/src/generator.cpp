@@ -241,11 +241,12 @@ cv::Mat2f wind_field(const std::vector<WindStroke>& strokes, int n) {
 cv::Mat1f resistance_field(const OutlineTable& outlines, const std::vector<float>& rho_of_xt, int m) {
   const float lut_scale = float(rho_of_xt.size() - 1) / 5.f;
   cv::Mat1f rho(m + 1, m + 1);
-  for (int r = 0; r <= m; ++r)
-    for (int c = 0; c <= m; ++c) {
-      const float xt = outlines.xt(-1.f + 2.f * c / m, 1.f - 2.f * r / m);
-      rho(r, c) = rho_of_xt[static_cast<int>(xt * lut_scale + 0.5f)];
-    }
+  std::vector<float> px(m + 1), py(m + 1), xt(m + 1);
+  for (int r = 0; r <= m; ++r) {
+    for (int c = 0; c <= m; ++c) px[c] = -1.f + 2.f * c / m, py[c] = 1.f - 2.f * r / m;
+    outlines.xt_row(px.data(), py.data(), m + 1, xt.data());
+    for (int c = 0; c <= m; ++c) rho(r, c) = rho_of_xt[static_cast<int>(xt[c] * lut_scale + 0.5f)];
+  }
   return rho;
 }
 
@@ -350,6 +351,9 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
     coral_m.create(W, W);
     rho_px.create(W, W);
   }
+  // Per row: where each pixel's material came from (the warp), then x̃ for
+  // the whole row on the CPU's vector path, then heights and labels.
+  std::vector<float> src_x(W), src_y(W), xt_row(W);
   for (int y = 0; y < W; ++y) {
     const float py = 1.f - (2.f * y + 1.f) / W;
     float* hrow = out.height_m.ptr<float>(y);
@@ -359,7 +363,7 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
     const cv::Vec2f* d1 = warp ? D.ptr<cv::Vec2f>(ry[y] + 1) : nullptr;
     for (int x = 0; x < W; ++x) {
       const float px = -1.f + (2.f * x + 1.f) / W;
-      float sx = px, sy = py;  // where the material at this pixel came from
+      float sx = px, sy = py;
       if (warp) {
         const int c = cx[x];
         const float a = fx[x], b = fy[y];
@@ -368,7 +372,13 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
         sx += top[0] + b * (bot[0] - top[0]);
         sy += top[1] + b * (bot[1] - top[1]);
       }
-      const float xt = outlines.xt(sx, sy);
+      src_x[x] = sx;
+      src_y[x] = sy;
+    }
+    outlines.xt_row(src_x.data(), src_y.data(), W, xt_row.data());
+    for (int x = 0; x < W; ++x) {
+      const float sx = src_x[x], sy = src_y[x];  // where the material at this pixel came from
+      const float xt = xt_row[x];
       const float g = xt * lut_scale;
       const int j = std::min(static_cast<int>(g), kLut - 2);
       const float f = g - j;

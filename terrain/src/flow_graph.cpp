@@ -4,6 +4,7 @@
 #include "reefgen/rng.hpp"
 #include "reefgen/terrain/flow.hpp"
 #include "neighbours.hpp"
+#include "steepest.hpp"
 
 namespace reefgen::terrain {
 
@@ -65,19 +66,22 @@ void route_flood(const cv::Mat1f& height_m, const cv::Mat1b& role, double metres
   g.surface = fr.filled;
 }
 
-void route_stack(const cv::Mat1f& height_m, const cv::Mat1b& role, double metres_per_px, uint64_t salt,
-                 FlowGraph& g) {
-  const int W = height_m.cols, H = height_m.rows, n = W * H;
-  const float* z = height_m.ptr<float>();
-  const uint8_t* rl = role.ptr<uint8_t>();
-  const StepLengths len(metres_per_px);
-  g.receiver.resize(n);
-  g.inv_length.resize(n);
-  for (int i = 0; i < n; ++i) {
-    g.receiver[i] = i;
-    if (rl[i] != kActive) continue;
+namespace {
+
+// The scalar scan of one cell: its steepest lower neighbour (D8) and, with a
+// salt, a lower neighbour drawn ∝ slope² (see route_stack). The canvas-edge
+// cells take it whole; the interior rows go through steepest_row.
+struct CellScan {
+  const float* z;
+  const uint8_t* rl;
+  int W, H;
+  const StepLengths& len;
+  uint64_t salt;
+
+  // Slope² to each lower, open neighbour (0 elsewhere); their sum.
+  float weights(int i, float w[8]) const {
     const int x = i % W, y = i / W;
-    float best_s = 0.f, w[8], sum = 0.f;
+    float sum = 0.f;
     for (int k = 0; k < 8; ++k) {
       w[k] = 0.f;
       const int nx = x + kDx[k], ny = y + kDy[k];
@@ -86,19 +90,83 @@ void route_stack(const cv::Mat1f& height_m, const cv::Mat1b& role, double metres
       if (rl[j] == kIgnore) continue;
       const float sl = (z[i] - z[j]) * len.inv[k];
       if (sl > 0.f) sum += (w[k] = sl * sl);
-      if (sl > best_s) best_s = sl, g.receiver[i] = j, g.inv_length[i] = len.inv[k];
     }
-    if (salt != 0 && sum > 0.f) {
-      const float u = float(mix64(salt ^ mix64(uint64_t(i))) >> 40) * (1.f / 16777216.f) * sum;
-      float c = 0.f;
-      for (int k = 0; k < 8; ++k) {
-        if (w[k] <= 0.f) continue;
-        c += w[k];
-        g.receiver[i] = (y + kDy[k]) * W + x + kDx[k];
-        g.inv_length[i] = len.inv[k];
-        if (u < c) break;
-      }
+    return sum;
+  }
+
+  int steepest(int i) const {
+    const int x = i % W, y = i / W;
+    float best_s = 0.f;
+    int best = -1;
+    for (int k = 0; k < 8; ++k) {
+      const int nx = x + kDx[k], ny = y + kDy[k];
+      if (nx < 0 || ny < 0 || nx >= W || ny >= H) continue;
+      const int j = ny * W + nx;
+      if (rl[j] == kIgnore) continue;
+      const float sl = (z[i] - z[j]) * len.inv[k];
+      if (sl > best_s) best_s = sl, best = k;
     }
+    return best;
+  }
+
+  // The neighbour drawn for cell i whose weights sum to `sum` > 0.
+  int drawn(int i, float sum) const {
+    float w[8];
+    weights(i, w);
+    const float u = float(mix64(salt ^ mix64(uint64_t(i))) >> 40) * (1.f / 16777216.f) * sum;
+    float c = 0.f;
+    int pick = -1;
+    for (int k = 0; k < 8; ++k) {
+      if (w[k] <= 0.f) continue;
+      c += w[k];
+      pick = k;
+      if (u < c) break;
+    }
+    return pick;
+  }
+
+  // k (or −1: the cell is its own receiver) → receiver and 1/length.
+  void set(int i, int k, FlowGraph& g) const {
+    if (k < 0) return;
+    g.receiver[i] = i + kDy[k] * W + kDx[k];
+    g.inv_length[i] = len.inv[k];
+  }
+};
+
+}  // namespace
+
+void route_stack(const cv::Mat1f& height_m, const cv::Mat1b& role, double metres_per_px, uint64_t salt,
+                 FlowGraph& g) {
+  const int W = height_m.cols, H = height_m.rows, n = W * H;
+  const StepLengths len(metres_per_px);
+  const CellScan scan{height_m.ptr<float>(), role.ptr<uint8_t>(), W, H, len, salt};
+  g.receiver.resize(n);
+  g.inv_length.resize(n);
+  for (int i = 0; i < n; ++i) g.receiver[i] = i;
+  auto scalar_cell = [&](int i) {
+    if (scan.rl[i] != kActive) return;
+    float w[8];
+    const float sum = salt != 0 ? scan.weights(i, w) : 0.f;
+    scan.set(i, sum > 0.f ? scan.drawn(i, sum) : scan.steepest(i), g);
+  };
+  // The interior rows: the 8-neighbour scan and the draw on the CPU's
+  // vector path (the hashes first, scalar); the edges scalar.
+  const SteepestRowFn steepest = steepest_row();
+  std::vector<int8_t> receiver_k(W);
+  std::vector<float> draw(salt != 0 ? W : 0);
+  for (int y = 0; y < H; ++y) {
+    const int row = y * W;
+    if (y == 0 || y == H - 1 || W < 3) {
+      for (int x = 0; x < W; ++x) scalar_cell(row + x);
+      continue;
+    }
+    for (size_t x = 0; x < draw.size(); ++x)
+      draw[x] = float(mix64(salt ^ mix64(uint64_t(row) + x)) >> 40) * (1.f / 16777216.f);
+    steepest(scan.z + row, scan.rl + row, W, len.inv, draw.empty() ? nullptr : draw.data(), receiver_k.data());
+    scalar_cell(row);
+    for (int x = 1; x < W - 1; ++x)
+      if (scan.rl[row + x] == kActive) scan.set(row + x, receiver_k[x], g);
+    scalar_cell(row + W - 1);
   }
   stack_from_receivers(g.receiver, g.stack);
   g.surface = height_m;

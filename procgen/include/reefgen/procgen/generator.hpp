@@ -84,6 +84,9 @@ class OutlineTable {
   OutlineTable(const std::array<std::vector<double>, 5>& outlines, double min_gap);
   // x̃ at canvas point (x, y).
   float xt(float x, float y) const;
+  // out[p] = xt(x[p], y[p]) for p < n, bit for bit, on the CPU's vector path
+  // (docs/BENCHMARKS.md, "Vector paths"; REEFGEN_CPU_PATH forces a smaller one).
+  void xt_row(const float* x, const float* y, int n, float* out) const;
   std::array<double, 5> radii(double theta) const;
 
  private:
