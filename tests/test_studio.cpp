@@ -4,6 +4,7 @@
 #include <arpa/inet.h>
 #include <httplib.h>
 #include <netinet/in.h>
+#include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -30,6 +31,42 @@ namespace fs = std::filesystem;
 namespace {
 
 const fs::path kRoot = REEFGEN_SOURCE_DIR;
+// The fixture's request-head deadline (the studio's default is 10 s).
+constexpr int kHeadDeadlineMs = 2000;
+
+// A raw loopback connection that has sent `bytes` and nothing more.
+int open_partial(int port, const std::string& bytes) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(uint16_t(port));
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+    ::close(fd);
+    return -1;
+  }
+  if (::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL) != ssize_t(bytes.size())) {
+    ::close(fd);
+    return -1;
+  }
+  return fd;
+}
+
+// What the server sends on fd within timeout_ms (until it closes).
+std::string read_for(int fd, int timeout_ms) {
+  std::string got;
+  char buf[4096];
+  const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
+  for (;;) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(end - std::chrono::steady_clock::now());
+    pollfd p{fd, POLLIN, 0};
+    if (left.count() <= 0 || ::poll(&p, 1, int(left.count())) <= 0) break;
+    const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+    if (n <= 0) break;
+    got.append(buf, size_t(n));
+  }
+  return got;
+}
 
 struct Heights {
   json meta;
@@ -62,6 +99,7 @@ class Studio : public ::testing::Test {
     o.assets_dir = REEFGEN_STUDIO_ASSETS;
     o.max_body_bytes = 1 << 20;
     o.precision = "fp32";
+    o.head_deadline_ms = kHeadDeadlineMs;
     o.presets = {{"round", R"({"outlines": [0.3, 0.38, 0.55, 0.68, 0.98]})"}};
     server = std::make_unique<studio::StudioServer>(o);
     port = server->bind();
@@ -430,4 +468,40 @@ TEST(StudioOptions, AnOutputFolderThatIsAFileIsRefusedAtStart) {
   o.assets_dir = REEFGEN_STUDIO_ASSETS;
   test::expect_error_naming([&] { studio::StudioServer s(o); }, "is a file, not a folder");
   fs::remove_all(dir);
+}
+
+// Issue 36 item 5: clients that trickle their request heads (slowloris) hold
+// no worker. 200 of them connected, a normal request is still answered (the
+// library alone gave each a worker until its 10 s read timeout: 64 workers,
+// every later request waited); each slow one gets 408 at the head deadline,
+// one that keeps trickling included.
+TEST_F(Studio, SlowClientsNeitherStarveTheStudioNorOutstayTheHeadDeadline) {
+  std::vector<int> slow;
+  for (int i = 0; i < 200; ++i) {
+    const int fd = open_partial(port, "GET /api/info HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) + "\r\nX-A: ");
+    ASSERT_GE(fd, 0) << "slow client " << i;
+    slow.push_back(fd);
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  auto r = client->Get("/api/info");
+  const double waited_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  // Liveness, not speed: well under the head deadline the slow ones get.
+  EXPECT_LT(waited_s, kHeadDeadlineMs / 1000.0) << "a normal request waited behind the slow clients";
+  // One that keeps trickling a byte every 100 ms is cut off all the same.
+  const int trickler = slow.back();
+  for (int i = 0; i < 5; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    ASSERT_EQ(::send(trickler, "x", 1, MSG_NOSIGNAL), 1);
+  }
+  for (const int fd : {slow.front(), trickler}) {
+    const std::string answer = read_for(fd, kHeadDeadlineMs + 3000);
+    EXPECT_EQ(answer.rfind("HTTP/1.1 408", 0), 0u) << answer;
+    EXPECT_NE(answer.find("request head not received within 2000 ms"), std::string::npos) << answer;
+  }
+  for (const int fd : slow) ::close(fd);
+  r = client->Get("/api/info");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
 }

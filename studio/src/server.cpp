@@ -10,6 +10,7 @@
 #include <mutex>
 #include <regex>
 #include <stdexcept>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -24,6 +25,7 @@
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/spec.hpp"
 #include "reefgen/version.hpp"
+#include "front_door.hpp"
 
 namespace reefgen::studio {
 
@@ -162,7 +164,9 @@ struct StudioServer::Impl {
   httplib::Server svr;
   std::mutex compute;          // one inference / generation at a time
   std::atomic<uint64_t> latest{0};
-  int port = -1;               // the bound port (Host checks)
+  int port = -1;               // the bound public port (Host checks)
+  std::unique_ptr<FrontDoor> front;  // owns the public port (front_door.hpp)
+  int backend_port = -1;       // the library's loopback port behind it
   // The page: URL path -> file, listed once at start. Regular files only:
   // symbolic links in the folder are never followed, and nothing outside
   // this list is ever served.
@@ -400,7 +404,9 @@ struct StudioServer::Impl {
     // enough workers that a few of them never starve the page.
     svr.new_task_queue = [] { return new httplib::ThreadPool(64); };
     svr.set_read_timeout(10, 0);
-    svr.set_keep_alive_timeout(5);
+    // One request per connection: every request head then passes the front
+    // door's deadline (front_door.hpp), a kept-alive one included.
+    svr.set_keep_alive_max_count(1);
     svr.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
       const auto [status, msg] = refusal(req);
       if (status == 0) return httplib::Server::HandlerResponse::Unhandled;
@@ -599,6 +605,8 @@ StudioServer::StudioServer(StudioOptions options) : impl_(std::make_unique<Impl>
     throw Error(std::string("--precision: ") + e.what());
   }
   if (m.o.max_side < 64 || m.o.max_side > 4096) throw Error("studio: max_side must be in 64..4096");
+  if (m.o.head_deadline_ms < 500 || m.o.head_deadline_ms > 60000)
+    throw Error("studio: head_deadline_ms must be in 500..60000");
   // Checked now, not at the first export: an --out that is a file or
   // read-only would otherwise fail every export with an error.
   std::error_code ec;
@@ -612,18 +620,42 @@ StudioServer::~StudioServer() { stop(); }
 
 int StudioServer::bind() {
   Impl& m = *impl_;
-  const int port = m.o.port == 0 ? m.svr.bind_to_any_port(m.o.host) : (m.svr.bind_to_port(m.o.host, m.o.port) ? m.o.port : -1);
-  if (port < 0)
-    throw Error("studio: cannot listen on " + m.o.host + ":" + std::to_string(m.o.port) +
-                " (in use? choose another with --port)");
-  m.port = port;
-  return port;
+  // The public port is the front door's; the library listens on loopback
+  // behind it and is reached only through it.
+  FrontDoorLimits limits;
+  limits.head_deadline = std::chrono::milliseconds(m.o.head_deadline_ms);
+  m.front = std::make_unique<FrontDoor>(m.o.host, m.o.port, limits);
+  m.backend_port = m.svr.bind_to_any_port("127.0.0.1");
+  if (m.backend_port < 0) throw Error("studio: cannot listen on 127.0.0.1 (loopback) for the HTTP library");
+  m.port = m.front->port();
+  return m.port;
 }
 
-void StudioServer::serve() { impl_->svr.listen_after_bind(); }
+void StudioServer::serve() {
+  Impl& m = *impl_;
+  std::atomic<bool> library_done{false};
+  std::thread library([&m, &library_done] {
+    m.svr.listen_after_bind();
+    library_done = true;
+  });
+  // The library must be running before anything may stop it: its stop()
+  // does nothing before that, and the join below would wait for ever.
+  while (!m.svr.is_running() && !library_done) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  try {
+    m.front->run(m.backend_port);
+  } catch (...) {
+    m.svr.stop();
+    library.join();
+    throw;
+  }
+  m.svr.stop();
+  library.join();
+}
 
 void StudioServer::stop() {
-  if (impl_ && impl_->svr.is_running()) impl_->svr.stop();
+  if (!impl_) return;
+  if (impl_->front) impl_->front->stop();
+  if (impl_->svr.is_running()) impl_->svr.stop();
 }
 
 }  // namespace reefgen::studio

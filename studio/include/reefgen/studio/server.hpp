@@ -37,6 +37,7 @@ struct StudioOptions {
   size_t max_body_bytes = 16u << 20;           // bytes per request; larger bodies get 413
   int max_side = 1024;                         // sketch / generated island side limit, pixels
   std::string precision = "auto";              // fp32 | bf16 | auto (infer's --precision)
+  int head_deadline_ms = 10000;                // a request head must arrive whole within this, ms; 500..60000; else 408
   std::map<std::string, std::string> presets;  // name -> spec JSON text (the CLI's built-in presets)
 };
 
