@@ -156,6 +156,33 @@ TEST_F(Studio, InferAnswersWhatTheCliComputes) {
   EXPECT_GT(got.meta["max_m"].get<double>(), 50.0) << "the painted island has land";
 }
 
+// Issue 36 item 6: transparent pixels are open ocean whatever their colour,
+// through the raw canvas path as through a PNG with alpha (the raw path
+// dropped alpha: transparent yellow came out +377 m high).
+TEST_F(Studio, RawCanvasAlphaIsThePngsAlpha) {
+  const cv::Mat bgr = cv::imread((kRoot / "docs" / "examples" / "painted-sketch.png").string(), cv::IMREAD_COLOR);
+  cv::Mat bgra;
+  cv::cvtColor(bgr, bgra, cv::COLOR_BGR2BGRA);
+  // The top-left quarter: transparent island yellow.
+  bgra(cv::Rect(0, 0, bgra.cols / 2, bgra.rows / 2)).setTo(cv::Scalar(0, 255, 255, 0));
+  std::vector<uchar> png;
+  ASSERT_TRUE(cv::imencode(".png", bgra, png));
+  cv::Mat rgba;
+  cv::cvtColor(bgra, rgba, cv::COLOR_BGRA2RGBA);
+  const std::string raw(reinterpret_cast<const char*>(rgba.data), rgba.total() * 4);
+  auto r = client->Post("/api/infer?w=" + std::to_string(rgba.cols) + "&h=" + std::to_string(rgba.rows), raw,
+                        "application/x-reefgen-rgba");
+  auto p = client->Post("/api/infer", std::string(png.begin(), png.end()), "image/png");
+  ASSERT_TRUE(r && p);
+  ASSERT_EQ(r->status, 200) << r->body;
+  ASSERT_EQ(p->status, 200) << p->body;
+  const cv::Mat1f raw_h = parse_heights(r->body).h, png_h = parse_heights(p->body).h;
+  EXPECT_EQ(cv::norm(raw_h, png_h, cv::NORM_INF), 0.0);
+  double top = 0;
+  cv::minMaxLoc(raw_h(cv::Rect(0, 0, raw_h.cols / 4, raw_h.rows / 4)), nullptr, &top);
+  EXPECT_LT(top, 0.0) << "transparent paint must be sea";
+}
+
 TEST_F(Studio, RawCanvasPixelsGiveThePngsHeights) {
   // The page sends its canvas as raw RGBA (no PNG encoding on its main
   // thread): the same pixels must give the same heights as the PNG.

@@ -270,10 +270,12 @@ struct StudioServer::Impl {
       throw BadRequest("raw RGBA sketch: " + std::to_string(req.body.size()) + " bytes for " + std::to_string(w) + "×" +
                        std::to_string(h) + " pixels; send w·h·4 bytes");
     const cv::Mat rgba(h, w, CV_8UC4, const_cast<char*>(req.body.data()));
-    cv::Mat bgr;
-    cv::cvtColor(rgba, bgr, cv::COLOR_RGBA2BGR);  // the page's canvas is opaque
+    // Alpha kept: a transparent pixel is open ocean, as in a PNG sketch and
+    // the CLI (decode_sketch), whatever colour it carries.
+    cv::Mat bgra;
+    cv::cvtColor(rgba, bgra, cv::COLOR_RGBA2BGRA);
     try {
-      return decode_sketch(bgr, "sketch");
+      return decode_sketch(bgra, "sketch");
     } catch (const Error& e) {
       throw BadRequest(e.what());
     }
