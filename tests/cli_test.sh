@@ -553,6 +553,14 @@ out=$(TMPDIR="$T/bt" bash -c 'mkdir -p "$TMPDIR" && "$0" -q bench dataset --coun
 echo "$out" | "$PY" -c 'import json,sys; d=json.load(sys.stdin); assert d["bench"]=="dataset" and len(d["pairs_per_s"])==2 and d["median_pairs_per_s"]>0 and d["p_erosion"]==1' \
   && [ -z "$(ls -A "$T/bt")" ] && ok || bad "bench dataset: $out $(cat "$T/err") left: $(ls "$T/bt")"
 
+# 6d. Long output names: every final name fits 255 bytes (the temporary's
+# longer suffix is cut short); one byte-count line when a name cannot fit.
+L240=$(printf 'n%.0s' $(seq 1 240))
+"$BIN" -q generate --preset atoll --size 32 -o "$T/ln/$L240" >/dev/null 2>"$T/err" && [ "$(ls "$T/ln" | wc -l)" = 3 ] \
+  && ok || bad "a 240-byte prefix whose names all fit: $(head -c 300 "$T/err")"
+L250=$(printf 'n%.0s' $(seq 1 250))
+expect_error "bytes, the filesystem allows 255" generate --preset atoll --size 32 -o "$T/e/$L250"
+
 # 7. --version, --help with examples.
 "$BIN" --version | grep -q "reefgen [0-9]" && ok || bad "--version"
 "$BIN" generate --help | grep -q "Examples" && ok || bad "generate --help has no examples"

@@ -108,6 +108,32 @@ TEST(Labels, GreyPixelsTakeTheNearestRegionAndTransparentIsAbyss) {
   EXPECT_EQ(decode_sketch(orange).label(0, 0), kIsland);
 }
 
+// Issue 36 item 6: a phone JPEG stores its pixels as the sensor saw them
+// and says in EXIF how to turn them; the sketch is what the painter saw.
+// A 40×20 JPEG, left half island yellow, EXIF orientation 6 (turn 90°
+// clockwise): the sketch is 20×40 with the yellow half on top.
+TEST(Labels, JpegSketchesFollowTheirExifOrientation) {
+  cv::Mat3b img(20, 40, cv::Vec3b(0, 0, 255));
+  img(cv::Rect(0, 0, 20, 20)).setTo(cv::Vec3b(0, 255, 255));
+  std::vector<uchar> jpg;
+  ASSERT_TRUE(cv::imencode(".jpg", img, jpg));
+  // APP1 "Exif": a little-endian TIFF header and one IFD entry, Orientation
+  // (tag 0x0112, SHORT, count 1) = 6.
+  const uint8_t exif[] = {0xFF, 0xE1, 0x00, 0x22, 'E', 'x', 'i', 'f', 0, 0, 'I', 'I', 0x2A, 0x00, 8, 0, 0, 0,
+                          1,    0,    0x12, 0x01, 3,   0,   1,   0,   0, 0, 6,   0,   0,    0,    0, 0, 0, 0};
+  std::vector<uchar> file(jpg.begin(), jpg.begin() + 2);
+  file.insert(file.end(), std::begin(exif), std::end(exif));
+  file.insert(file.end(), jpg.begin() + 2, jpg.end());
+  const auto dir = temp_dir("exif");
+  write_file_atomic(dir / "phone.jpg", file.data(), file.size());
+  const DecodedSketch s = read_sketch(dir / "phone.jpg");
+  ASSERT_EQ(s.label.cols, 20);
+  ASSERT_EQ(s.label.rows, 40);
+  EXPECT_EQ(s.label(5, 10), kIsland) << "the yellow half is on top";
+  EXPECT_EQ(s.label(35, 10), kAbyss);
+  std::filesystem::remove_all(dir);
+}
+
 TEST(Labels, NoRegionColourIsAnError) {
   cv::Mat3b grey(8, 8, cv::Vec3b(100, 100, 100));
   EXPECT_THROW(decode_sketch(grey), Error);
@@ -180,6 +206,21 @@ TEST(Io, StagedOutputsAllOrNothing) {
   EXPECT_EQ(read_text(d / "c.txt"), "new c");
   EXPECT_EQ(count_files(d), 3);
   fs::remove_all(d);
+}
+
+// Issue 36 item 6: a name that fits the filesystem (255 bytes) is written,
+// although NAME.tmp.PID.N would not fit; its temporary name is cut short.
+TEST(Io, LongestNamesAreWrittenThroughAShortenedTemporary) {
+  const auto dir = temp_dir("longname");
+  for (const size_t len : {size_t(240), size_t(255)}) {
+    const std::string name = std::string(len - 11, 'n') + ".height.exr";
+    ASSERT_EQ(name.size(), len);
+    const std::string bytes = "island " + std::to_string(len);
+    write_file_atomic(dir / name, bytes.data(), bytes.size());
+    EXPECT_EQ(read_text(dir / name), bytes);
+  }
+  EXPECT_EQ(count_files(dir), 2) << "no temporary file left";
+  std::filesystem::remove_all(dir);
 }
 
 TEST(Io, WritesToAnUnwritableFolderFailCleanly) {

@@ -67,12 +67,22 @@ extern "C" void unlink_temps_and_die(int sig) {
   ::raise(sig);
 }
 
+// NAME_MAX of Linux filesystems (ext4, xfs, btrfs, tmpfs), bytes.
+constexpr size_t kNameMaxBytes = 255;
+
 // Unique temp name beside the destination (same filesystem, so rename is atomic).
 fs::path temp_path_for(const fs::path& path) {
   static std::atomic<uint64_t> counter{0};
   const auto n = counter.fetch_add(1);
+  const std::string suffix = ".tmp." + std::to_string(::getpid()) + "." + std::to_string(n);
   fs::path tmp = path;
-  tmp += ".tmp." + std::to_string(::getpid()) + "." + std::to_string(n);
+  tmp += suffix;
+  // A final name that fits the filesystem's 255 bytes must not fail for its
+  // temporary name: past the limit, the name's head and "~" before the same
+  // suffix (unique by itself; remove_stale_temps still knows it).
+  const std::string name = path.filename().string();
+  if (name.size() + suffix.size() > kNameMaxBytes)
+    tmp = path.parent_path() / (name.substr(0, kNameMaxBytes - suffix.size() - 1) + "~" + suffix);
   track_temp(tmp);
   return tmp;
 }
@@ -120,11 +130,18 @@ StagedOutputs::~StagedOutputs() {
 void StagedOutputs::write(const fs::path& final_path, const std::function<void(const fs::path&)>& writer) {
   if (committed_) throw Error("internal: " + final_path.string() + " staged after commit");
   std::error_code ec;
+  if (const size_t n = final_path.filename().string().size(); n > kNameMaxBytes)
+    throw Error("cannot write " + final_path.string() + ": its name is " + std::to_string(n) + " bytes, the filesystem allows " +
+                std::to_string(kNameMaxBytes) + " (choose a shorter output name)");
   if (fs::is_directory(final_path, ec))
     throw Error("cannot write " + final_path.string() + ": it is a folder (choose another output name)");
-  for (const auto& f : finals_)
-    if (f == final_path || fs::weakly_canonical(f, ec) == fs::weakly_canonical(final_path, ec))
+  for (const auto& f : finals_) {
+    // Two failed look-ups give two empty paths: not a clash.
+    std::error_code e1, e2;
+    const fs::path a = fs::weakly_canonical(f, e1), b = fs::weakly_canonical(final_path, e2);
+    if (f == final_path || (!e1 && !e2 && a == b))
       throw Error("two outputs of this run are named " + final_path.string() + " (give each its own name)");
+  }
   const fs::path dir = final_path.parent_path().empty() ? fs::path(".") : final_path.parent_path();
   if (std::find(swept_dirs_.begin(), swept_dirs_.end(), dir) == swept_dirs_.end()) {
     remove_stale_temps(dir);
@@ -307,6 +324,11 @@ cv::Mat decode_image(const std::string& bytes, const std::string& name, int flag
   if (bytes.empty()) throw Error(name + ": empty file, not an image");
   if (const std::string bad = image_damage(bytes); !bad.empty())
     throw Error(name + ": " + bad + "; save or download the image again");
+  // IMREAD_UNCHANGED also ignores a JPEG's EXIF orientation, so a phone
+  // photo would come out turned from what its owner sees; a JPEG has no
+  // alpha and no 16 bits to keep, so it is read as it is meant to be shown.
+  const bool jpeg = bytes.size() > 3 && bytes.compare(0, 3, "\xFF\xD8\xFF") == 0;
+  if (jpeg && flags == cv::IMREAD_UNCHANGED) flags = cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR;
   cv::Mat img;
   try {
     img = cv::imdecode(cv::Mat(1, int(bytes.size()), CV_8U, const_cast<char*>(bytes.data())), flags);
