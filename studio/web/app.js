@@ -705,19 +705,28 @@ for (const out of document.querySelectorAll('output[for]')) {
   input.addEventListener('sync', show);
   show();
 }
-// Age re-ages the whole painting: every pixel keeps its hue and blend and
-// takes the new brightness (V = 1 − 0.75·Age), rescaled from the painting as
-// it was when the slider was grabbed (no rounding drift while dragging); one
-// undo step per drag, one request per change (coalesced while dragging).
+// Age re-ages the whole painting as if it had been painted at the new Age:
+// every region colour is its hue times V = 1 − 0.75·Age, so a pixel painted
+// at one Age — a pure colour or a soft edge blending several — is the same
+// blend at another Age scaled by V(new) / V(old). (Scaling each pixel to
+// full brightness instead lifted the dim blends of a soft edge — yellow
+// over blue is grey at half V — to V itself: bright land rings.) Rescaled
+// from the painting as it was when the slider was grabbed (no rounding drift
+// while dragging); one undo step per drag, one request per change
+// (coalesced while dragging).
+let ageBaseV = 0;  // V of the Age the painting had when the slider was grabbed
 function reage() {
-  if (!ageBase) { snapshot(); ageBase = pctx.getImageData(0, 0, paint.width, paint.height); }
+  if (!ageBase) {
+    snapshot();
+    ageBase = pctx.getImageData(0, 0, paint.width, paint.height);
+    ageBaseV = 1 - 0.75 * Number(paintAge) / 100;
+  }
   paintAge = $('age').value;
   const src = ageBase.data, img = pctx.createImageData(ageBase.width, ageBase.height), d = img.data;
-  const v = 255 * (1 - 0.75 * age());
+  const k = (1 - 0.75 * age()) / ageBaseV;
   for (let i = 0; i < src.length; i += 4) {
-    const m = Math.max(src[i], src[i + 1], src[i + 2]);
-    const k = m > 0 ? v / m : 0;
-    d[i] = Math.round(src[i] * k); d[i + 1] = Math.round(src[i + 1] * k); d[i + 2] = Math.round(src[i + 2] * k); d[i + 3] = 255;
+    for (let c = 0; c < 3; ++c) d[i + c] = Math.min(255, Math.round(src[i + c] * k));
+    d[i + 3] = 255;
   }
   pctx.putImageData(img, 0, 0);
   showAge();
