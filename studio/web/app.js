@@ -272,7 +272,7 @@ function requestInfer() {
 const curves = $('curves');
 const cctx = curves.getContext('2d');
 const K = 12;  // control radii per outline
-let spec = null, labelImage = null, drag = null, windDraft = null, defaults = null;
+let spec = null, labelImage = null, drag = null, windDraft = null, defaults = null, shownPreset = '';
 function defaultSpec() {
   return { outlines: [0.3, 0.38, 0.55, 0.68, 0.98], wind: [], subsidence: 0 };
 }
@@ -291,11 +291,36 @@ function loadSpec(s) {
   // Missing curves are the paper's (GET /api/defaults), shown and editable.
   spec.profile = spec.profile || (defaults && defaults.profile.slice()) || null;
   spec.resistance = spec.resistance || (defaults && defaults.resistance.slice()) || null;
-  $('subsidence').value = Math.round(100 * (spec.subsidence || 0));
+  $('subsidence').value = committedSubsidence = String(Math.round(100 * (spec.subsidence || 0)));
+  $('subsidence').dispatchEvent(new Event('sync'));  // its number too (it went stale after a preset)
   drawCurves();
   drawCurveEditor('profile');
   drawCurveEditor('resistance');
 }
+// Undo in curves mode: whole states (spec, subsidence, preset), one step per
+// drag, stroke, removal, curve edit, preset or slider change.
+let committedSubsidence = '0';  // the slider's value before the drag in progress
+const specUndo = [], specRedo = [];
+function specState() { return JSON.stringify({ spec, subsidence: committedSubsidence, preset: shownPreset }); }
+function specSnapshot() {
+  specUndo.push(specState());
+  if (specUndo.length > 40) specUndo.shift();
+  specRedo.length = 0;
+}
+function specRestore(from, to) {
+  if (!from.length) return;
+  to.push(specState());
+  const st = JSON.parse(from.pop());
+  spec = st.spec;
+  $('subsidence').value = committedSubsidence = st.subsidence;
+  $('subsidence').dispatchEvent(new Event('sync'));
+  $('preset').value = shownPreset = st.preset;
+  drawCurves();
+  drawCurveEditor('profile');
+  drawCurveEditor('resistance');
+  requestGenerate();
+}
+probe.spec = () => JSON.stringify(spec);
 const toCanvas = ([x, y]) => [(x + 1) / 2 * curves.width, (1 - y) / 2 * curves.height];  // +y up
 const fromCanvas = ([px, py]) => [px / curves.width * 2 - 1, 1 - py / curves.height * 2];
 // Wind strokes warp the regions after the outlines are drawn (docs/SPEC.md),
@@ -381,9 +406,10 @@ curves.addEventListener('contextmenu', (ev) => {
   ev.preventDefault();
   const p = fromCanvas(canvasPoint(ev, curves));
   const i = spec.wind.findIndex((w) => w.points.some((q) => Math.hypot(q[0] - p[0], q[1] - p[1]) < 0.08));
-  if (i >= 0) { spec.wind.splice(i, 1); drawCurves(); requestGenerate(); }
+  if (i >= 0) { specSnapshot(); spec.wind.splice(i, 1); drawCurves(); requestGenerate(); }
 });
 curves.addEventListener('pointerdown', (ev) => {
+  curves.focus();
   if (ev.button !== 0) return;
   const pt = canvasPoint(ev, curves);
   curves.setPointerCapture(ev.pointerId);
@@ -396,6 +422,7 @@ curves.addEventListener('pointerdown', (ev) => {
     }
   });
   if (best) {  // drags move the spec radius by the pointer's radial motion
+    specSnapshot();
     const [x, y] = fromCanvas(pt);
     best.r0 = spec.outlines[best.ring][best.k];
     best.p0 = Math.hypot(x, y);
@@ -422,6 +449,7 @@ curves.addEventListener('pointerup', () => {
       // At most 8 points: the stroke is an open Catmull-Rom curve anyway.
       const pts = windDraft.points, n = Math.min(8, pts.length);
       windDraft.points = Array.from({ length: n }, (_, i) => pts[Math.round(i * (pts.length - 1) / (n - 1))]);
+      specSnapshot();
       spec.wind.push(windDraft);
       if (spec.wind.length > 64) spec.wind.shift();
       requestGenerate();
@@ -463,7 +491,7 @@ for (const which of ['profile', 'resistance']) {
     drawCurveEditor(which);
     requestGenerate();
   };
-  c.addEventListener('pointerdown', (ev) => { down = true; c.setPointerCapture(ev.pointerId); edit(ev); });
+  c.addEventListener('pointerdown', (ev) => { specSnapshot(); down = true; c.setPointerCapture(ev.pointerId); edit(ev); });
   c.addEventListener('pointermove', (ev) => { if (down) edit(ev); });
   c.addEventListener('pointerup', () => { down = false; });
 }
@@ -494,7 +522,14 @@ function showLabel(b64) {
   };
   img.src = 'data:image/png;base64,' + b64;
 }
-$('subsidence').addEventListener('input', requestGenerate);
+$('subsidence').addEventListener('input', () => {
+  // The first move of a drag is the undo step; the drag's end commits it.
+  if ($('subsidence').value !== committedSubsidence && specUndo[specUndo.length - 1] !== specState()) specSnapshot();
+  requestGenerate();
+});
+$('subsidence').addEventListener('change', () => { committedSubsidence = $('subsidence').value; });
+$('curves-undo').onclick = () => specRestore(specUndo, specRedo);
+$('curves-redo').onclick = () => specRestore(specRedo, specUndo);
 
 // ---------- 2D hill-shaded view
 function hypsometric(h) {
@@ -550,6 +585,15 @@ try {
   camera.position.set(0, 4.5, 6.5);
   controls = new OrbitControls(camera, renderer.domElement);
   controls.target.set(0, 0, 0);
+  // The camera stays above the sea (a drag used to swing it under the water
+  // plane, a sixth of the view's height was enough), pans along the ground,
+  // and keeps the island in reach; Reset view returns to this first view.
+  controls.maxPolarAngle = Math.PI / 2 - 0.08;
+  controls.screenSpacePanning = false;
+  controls.minDistance = 0.8;
+  controls.maxDistance = 25;
+  controls.saveState();
+  probe.camera = () => ({ y: camera.position.y, polar: controls.getPolarAngle() });
   scene.add(new THREE.HemisphereLight(0xdfefff, 0x304050, 1.2));
   const sun = new THREE.DirectionalLight(0xffffff, 1.6);
   sun.position.set(-4, 6, 3);
@@ -623,6 +667,7 @@ function showHeights(h, n, j) {
   $('legend').textContent = `${j.min_m.toFixed(0)} m … ${j.max_m.toFixed(0)} m`;
 }
 $('exaggeration').addEventListener('input', () => { if (current) show3d(current.h, current.n); });
+$('view-reset').onclick = () => { if (controls) { controls.reset(); requestRender(); } };
 
 // ---------- exports: the same writers as the CLI, into the studio's folder
 for (const b of document.querySelectorAll('#exports button')) {
@@ -637,6 +682,13 @@ for (const b of document.querySelectorAll('#exports button')) {
     } else {
       body = { spec: specForServer(), size: 256 };
     }
+    // Some exports take seconds (OBJ of a 1024² island: ~7 s): say so, and
+    // keep the button from starting a second one meanwhile.
+    const t0 = performance.now();
+    const tick = () => status(`exporting ${b.textContent.trim()}… ${((performance.now() - t0) / 1000).toFixed(0)} s`);
+    b.disabled = true;
+    tick();
+    const timer = setInterval(tick, 500);
     try {
       const res = await api(`/api/export?format=${format}&name=${encodeURIComponent(name)}`, JSON.stringify(body), 'application/json');
       const blob = await res.blob();
@@ -649,6 +701,7 @@ for (const b of document.querySelectorAll('#exports button')) {
       const span = range.length === 2 ? ` — ${range[0].toFixed(1)}…${range[1].toFixed(1)} m → 0…65535, scale in ${name}.import.json` : '';
       status(`exported ${a.download}${span} (also in ${res.headers.get('X-Reefgen-Path')})`);
     } catch (e) { status('export failed: ' + e.message); probe.errors.push(e.message); }
+    finally { clearInterval(timer); b.disabled = false; }
   });
 }
 
@@ -749,12 +802,15 @@ $('redo').onclick = () => restore(redoStack, undoStack);
 // on the canvas or on no control: typing in the export name (or a menu) keeps
 // the browser's own undo there.
 document.addEventListener('keydown', (ev) => {
-  if (!(ev.ctrlKey || ev.metaKey) || mode !== 'paint') return;
+  if (!(ev.ctrlKey || ev.metaKey)) return;
   const f = document.activeElement;
-  if (f && f !== paint && f !== document.body && !(f.tagName === 'BUTTON')) return;
+  const own = mode === 'paint' ? paint : $('curves');
+  if (f && f !== own && f !== document.body && !(f.tagName === 'BUTTON')) return;
   const k = ev.key.toLowerCase();
-  if (k === 'z' && !ev.shiftKey) { ev.preventDefault(); restore(undoStack, redoStack); }
-  if (k === 'y' || (k === 'z' && ev.shiftKey)) { ev.preventDefault(); restore(redoStack, undoStack); }
+  const [back, fwd] = mode === 'paint' ? [() => restore(undoStack, redoStack), () => restore(redoStack, undoStack)]
+                                       : [() => specRestore(specUndo, specRedo), () => specRestore(specRedo, specUndo)];
+  if (k === 'z' && !ev.shiftKey) { ev.preventDefault(); back(); }
+  if (k === 'y' || (k === 'z' && ev.shiftKey)) { ev.preventDefault(); fwd(); }
 });
 paint.addEventListener('pointerdown', () => paint.focus());
 $('clear').onclick = () => { snapshot(); clearCanvas(); requestInfer(); };
@@ -794,7 +850,12 @@ try {
     o.textContent = name;
     $('preset').appendChild(o);
   }
-  $('preset').onchange = () => { loadSpec(presets[$('preset').value]); requestGenerate(); };
-  if (presets['young-volcano']) { $('preset').value = 'young-volcano'; loadSpec(presets['young-volcano']); }
+  $('preset').onchange = () => {
+    specSnapshot();  // what was shown before this preset, its menu value included
+    shownPreset = $('preset').value;
+    loadSpec(presets[shownPreset]);
+    requestGenerate();
+  };
+  if (presets['young-volcano']) { $('preset').value = shownPreset = 'young-volcano'; loadSpec(presets['young-volcano']); }
 } catch (e) { status('presets: ' + e.message); }
 setMode('paint');

@@ -355,6 +355,77 @@ await check('handles-follow-the-wind-and-no-404', async () => {
   return page;
 });
 
+// 13. Curves mode: a preset's subsidence shows its own number (it showed the
+// previous one: slider 90, label 74), and undo steps back through presets
+// and drags, Ctrl-Z included.
+await check('curves-subsidence-label-and-undo', async () => {
+  const page = await open();
+  await page.click('#mode-curves');
+  await page.selectOption('#preset', 'barrier-reef');
+  await page.selectOption('#preset', 'atoll');
+  const label = () => page.$eval('output[for="subsidence"]', (o) => o.textContent);
+  expect(await page.inputValue('#subsidence') === '90' && (await label()).startsWith('90'),
+    `atoll: slider ${await page.inputValue('#subsidence')}, label ${await label()}`);
+  // A drag of a ring handle: the outer ring's right-hand handle, outwards.
+  const before = await page.evaluate(() => window.__reefgen.spec());
+  const h = await page.evaluate(() => window.__reefgen.handles()[4][0]);
+  const b = await page.locator('#curves').boundingBox(), cv = await page.$eval('#curves', (c) => c.width);
+  const k = b.width / cv;
+  await page.mouse.move(b.x + h[0] * k, b.y + h[1] * k);
+  await page.mouse.down();
+  await page.mouse.move(b.x + h[0] * k + 30, b.y + h[1] * k, { steps: 5 });
+  await page.mouse.up();
+  expect(await page.evaluate(() => window.__reefgen.spec()) !== before, 'the drag moved nothing');
+  await page.keyboard.press('Control+z');  // the canvas has the focus after the drag
+  expect(await page.evaluate(() => window.__reefgen.spec()) === before, 'Ctrl-Z did not undo the drag');
+  await page.click('#curves-undo');
+  expect(await page.inputValue('#preset') === 'barrier-reef' && (await label()).startsWith('30'),
+    `undo of the atoll preset: ${await page.inputValue('#preset')}, label ${await label()}`);
+  await page.click('#curves-redo');
+  expect(await page.inputValue('#preset') === 'atoll' && (await label()).startsWith('90'), 'redo did not bring the atoll back');
+  return page;
+});
+
+// 14. The camera never goes under the sea, however far it is dragged up, and
+// Reset view brings the first view back.
+await check('camera-stays-above-the-sea-and-resets', async () => {
+  const page = await open();
+  if (!await page.evaluate(() => !!window.__reefgen.camera)) return page;  // no three.js in this build: nothing to orbit
+  const first = await page.evaluate(() => window.__reefgen.camera());
+  const b = await page.locator('#view3d').boundingBox();
+  await page.mouse.move(b.x + b.width / 2, b.y + b.height / 2);
+  await page.mouse.down();
+  await page.mouse.move(b.x + b.width / 2, b.y - 2 * b.height, { steps: 20 });  // far past a sixth of the view
+  await page.mouse.up();
+  const dragged = await page.evaluate(() => window.__reefgen.camera());
+  expect(dragged.y > 0, `camera at y = ${dragged.y.toFixed(2)}: under the sea`);
+  expect(Math.abs(dragged.polar - first.polar) > 0.2, 'the drag did not orbit at all');
+  await page.click('#view-reset');
+  const back = await page.evaluate(() => window.__reefgen.camera());
+  expect(Math.abs(back.y - first.y) < 1e-6 && Math.abs(back.polar - first.polar) < 1e-6, 'Reset view did not return to the first view');
+  return page;
+});
+
+// 15. A slow export says it is working (an OBJ took 7 s with no word).
+await check('export-shows-progress', async () => {
+  const page = await open();
+  const n = await updates(page);
+  await page.selectOption('#canvas-size', '1024');
+  await nextUpdate(page, n, 30000);
+  const obj = page.locator('#exports button[data-format="obj"]');
+  const download = page.waitForEvent('download', { timeout: 60000 });
+  await obj.click();
+  await page.waitForTimeout(150);
+  const during = await page.$eval('#status', (e) => e.textContent);
+  const disabled = await obj.isDisabled();
+  await download;
+  expect(/exporting .*…/.test(during), `status during the export: "${during}"`);
+  expect(disabled, 'the export button stayed live during its export');
+  await page.waitForFunction(() => /exported/.test(document.getElementById('status').textContent), null, { timeout: 60000 });
+  expect(!await obj.isDisabled(), 'the export button stayed disabled');
+  return page;
+});
+
 await browser.close();
 summary.failed = failures;
 console.log(JSON.stringify(summary));
