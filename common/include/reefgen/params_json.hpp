@@ -107,6 +107,33 @@ const Custom<T>& custom_of(const C& c, const Rest&... rest) {
   else
     return custom_of<T>(rest...);
 }
+template <class V, class C>
+void check_count(const V& v, const C& c, const std::string& where, const std::string& see) {
+  if (v.size() < c.lo || v.size() > c.hi)
+    throw Error(where + " has " + std::to_string(v.size()) + (v.size() == 1 ? " element" : " elements") +
+                "; expected " + std::to_string(c.lo) + ".." + std::to_string(c.hi) + " (see " + see + ")");
+}
+
+// A number, or each element of a list of numbers.
+template <class V, class C>
+void check_range_field(const V& v, const C& c, const std::string& where, const std::string& see) {
+  if constexpr (is_vector<V>::value) {
+    for (size_t i = 0; i < v.size(); ++i) check_range(double(v[i]), c, where + "[" + std::to_string(i) + "]", see);
+  } else {
+    check_range(double(v), c, where, see);
+  }
+}
+
+template <class V, class C>
+void check_one_of(const V& v, const C& c, const std::string& where) {
+  if (std::find(c.values.begin(), c.values.end(), v) == c.values.end()) {
+    std::string list;
+    for (size_t i = 0; i < c.values.size(); ++i)
+      list += (i == 0 ? "" : i + 1 == c.values.size() ? " or " : ", ") + c.values[i];
+    throw Error(where + " = '" + v + "'; use " + list);
+  }
+}
+
 }  // namespace params_detail
 
 // True for a struct that declares a field walk.
@@ -129,25 +156,15 @@ void check_params(const P& params, const std::string& origin, const std::string&
     } else {
       auto apply = [&](const auto& c) {
         using C = std::decay_t<decltype(c)>;
+        // The checks are calls that take c, so they stay
+        // dependent here: clang checks the non-dependent expressions of a
+        // nested generic lambda eagerly (v.size() on a double).
         if constexpr (std::is_same_v<C, Count>) {
-          if (v.size() < c.lo || v.size() > c.hi)
-            throw Error(where + " has " + std::to_string(v.size()) + (v.size() == 1 ? " element" : " elements") +
-                        "; expected " + std::to_string(c.lo) +
-                        ".." + std::to_string(c.hi) + " (see " + see + ")");
+          params_detail::check_count(v, c, where, see);
         } else if constexpr (std::is_same_v<C, Range>) {
-          if constexpr (params_detail::is_vector<T>::value) {
-            for (size_t i = 0; i < v.size(); ++i)
-              params_detail::check_range(double(v[i]), c, where + "[" + std::to_string(i) + "]", see);
-          } else {
-            params_detail::check_range(double(v), c, where, see);
-          }
+          params_detail::check_range_field(v, c, where, see);
         } else if constexpr (std::is_same_v<C, OneOf>) {
-          if (std::find(c.values.begin(), c.values.end(), v) == c.values.end()) {
-            std::string list;
-            for (size_t i = 0; i < c.values.size(); ++i)
-              list += (i == 0 ? "" : i + 1 == c.values.size() ? " or " : ", ") + c.values[i];
-            throw Error(where + " = '" + v + "'; use " + list);
-          }
+          params_detail::check_one_of(v, c, where);
         }
       };
       (apply(constraint), ...);
