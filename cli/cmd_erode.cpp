@@ -6,6 +6,7 @@
 
 #include "app.hpp"
 #include "reefgen/constants.hpp"
+#include "finish.hpp"
 #include "reefgen/gis/geotiff.hpp"
 #include "reefgen/gis/heightmap.hpp"
 #include "reefgen/heightfile.hpp"
@@ -23,13 +24,14 @@ namespace {
 constexpr int kMinErodeSide = kMinInferSidePx, kMaxErodeSide = kMaxSidePx;
 
 struct ErodeArgs {
-  std::string input, prefix, range, erosion_file, layer_rules, crs, origin;
+  std::string input, prefix, range, erosion_file;
+  FinishFlags finish;
   gis::HeightmapUnits units;
   double sea_level_m = 0;
   double resistance = 0.3;
   uint64_t seed = 1;
   int threads = default_threads();
-  bool layers = false, geotiff = false, png16 = false, r16 = false, preview = false;
+  bool png16 = false, r16 = false, preview = false;
 };
 
 void parse_range(const std::string& text, gis::HeightmapUnits& u) {
@@ -69,12 +71,7 @@ int run_erode(const ErodeArgs& a0, const GlobalOptions& g) {
   refuse_output_over_input({a.input}, planned_outputs(names));
   terrain::ErosionParams ep;
   if (!a.erosion_file.empty()) ep = terrain::erosion_params_from_json(read_json(a.erosion_file), a.erosion_file);
-  terrain::LayerParams lp;
-  if (!a.layer_rules.empty()) lp = terrain::layer_params_from_json(read_json(a.layer_rules), a.layer_rules);
-  gis::GeoReference geo;
-  geo.crs = a.crs;
-  if (!a.origin.empty()) gis::parse_origin(a.origin, geo);
-  if (a.geotiff) gis::check_crs(geo.crs);
+  const FinishFlags::Parsed fin = a.finish.parse();
   gis::Heightmap in = gis::read_heightmap(a.input, a.units);
   check_square(in.height_m, a.input);
   ensure_writable_dir(names.prefix.parent_path());
@@ -103,11 +100,15 @@ int run_erode(const ErodeArgs& a0, const GlobalOptions& g) {
                          {"realism_after", realism_json(out, mpp)}};
   side.update(stage_height_files(staged, names.prefix, out, mpp, hf));
   std::optional<terrain::Layers> L;
-  if (a.layers || a.geotiff) L = terrain::compute_layers(out, before, cv::Mat1b(), mpp, lp, a.threads);
-  if (a.layers) {
-    terrain::add_layers_to_sidecar(side, terrain::stage_layer_files(staged, names.prefix.string(), *L, mpp, lp, a.threads));
+  if (fin.need_layers || a.finish.geotiff || !fin.bundles.empty())
+    L = terrain::compute_layers(out, before, cv::Mat1b(), mpp, fin.rules, a.threads);
+  if (a.finish.layers) {
+    terrain::add_layers_to_sidecar(side, terrain::stage_layer_files(staged, names.prefix.string(), *L, mpp, fin.rules, a.threads));
   }
-  if (a.geotiff) side["geotiff"] = gis::stage_geotiff_files(staged, names.prefix.string(), out, &*L, mpp, geo, a.threads);
+  if (a.finish.geotiff)
+    side["geotiff"] = gis::stage_geotiff_files(staged, names.prefix.string(), out, &*L, mpp, fin.geo, a.threads);
+  if (!fin.bundles.empty())
+    side["bundles"] = engines::stage_bundles(staged, names.prefix, fin.bundles, {out, &*L, mpp, fin.geo}, a.threads);
   staged.write(names.prefix.string() + ".json", [&](const fs::path& t) { write_json_atomic(t, side); });  // last
   staged.commit();
   for (const auto& p : staged.finals()) std::printf("%s\n", p.c_str());
@@ -123,6 +124,7 @@ Command add_erode_command(CLI::App& app, const GlobalOptions& g) {
       "Erode a heightmap of yours with reefgen's stream-power erosion, at its own size (docs/EROSION.md)\n\n"
       "Examples:\n"
       "  reefgen erode dem.tif -o out/dem --layers --geotiff\n"
+      "  reefgen erode dem.tif -o out/dem --for unity,unreal\n"
       "  reefgen erode island.height.exr -o out/again --layers\n"
       "  reefgen erode terrain.png --range -120:900 --world-size 8000 -o out/t --png16\n"
       "  reefgen erode terrain.r16 --range 0:1024 --metres-per-px 2 --sea-level 40 -o out/t --r16\n");
@@ -141,11 +143,7 @@ Command add_erode_command(CLI::App& app, const GlobalOptions& g) {
       ->check(finite_in(0, 1))->capture_default_str();
   sub->add_option("--erosion", a->erosion_file, "FILE: JSON of erosion parameters (docs/EROSION.md) overriding the defaults");
   sub->add_option("--seed", a->seed, "Seed of the fractal detail the refinement adds")->check(seed_value())->capture_default_str();
-  sub->add_flag("--layers", a->layers, "Also write the layers (docs/LAYERS.md)");
-  sub->add_option("--layer-rules", a->layer_rules, "FILE: JSON of material rules (docs/LAYERS.md)");
-  sub->add_flag("--geotiff", a->geotiff, "Also write PREFIX.height.tif (float32 metres) and the float layers as GeoTIFFs (docs/GIS.md)");
-  sub->add_option("--crs", a->crs, "CRS of the GeoTIFFs, e.g. EPSG:32706 (default: a local metric grid, no CRS)");
-  sub->add_option("--origin", a->origin, "X,Y: map coordinates of the top-left corner, metres (default: centred on 0,0)");
+  add_finish_flags(sub, a->finish);
   sub->add_flag("--png16", a->png16, "Also write PREFIX.height.png (16-bit, range in the sidecar)");
   sub->add_flag("--r16", a->r16, "Also write PREFIX.r16 (16-bit RAW, little-endian)");
   sub->add_flag("--preview", a->preview, "Also write PREFIX.preview.png (hill-shaded colours)");

@@ -5,6 +5,7 @@
 
 #include "app.hpp"
 #include "reefgen/constants.hpp"
+#include "finish.hpp"
 #include "reefgen/gis/geotiff.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/procgen/output.hpp"
@@ -25,10 +26,7 @@ struct GenerateArgs {
   uint64_t seed = 0;
   bool seed_given = false;
   bool preview = false;
-  bool layers = false;
-  std::string layer_rules;  // JSON of terrain::LayerParams
-  bool geotiff = false;
-  std::string crs, origin;
+  FinishFlags finish;
   int threads = default_threads();
   int levels = 4;
   int warp_grid = RenderOptions{}.warp_grid;
@@ -47,12 +45,6 @@ IslandSpec load_spec(const GenerateArgs& a) {
   }
   if (!fs::exists(a.spec_file)) throw Error("cannot read " + a.spec_file + ": no such file");
   return spec_from_json(read_json(a.spec_file), a.spec_file);
-}
-
-terrain::LayerParams layer_params(const GenerateArgs& a) {
-  if (a.layer_rules.empty()) return {};
-  if (!a.layers) throw Error("--layer-rules " + a.layer_rules + " needs --layers");
-  return terrain::layer_params_from_json(read_json(a.layer_rules), a.layer_rules);
 }
 
 void check_common(const GenerateArgs& a) {
@@ -81,22 +73,20 @@ int run_single(const GenerateArgs& a, const GlobalOptions&) {
   RenderOptions opt;
   opt.size_px = a.size;
   opt.warp_grid = a.warp_grid;
-  opt.keep_uneroded = a.layers;
-  const terrain::LayerParams lp = layer_params(a);
-  gis::GeoReference geo;
-  geo.crs = a.crs;
-  if (!a.origin.empty()) gis::parse_origin(a.origin, geo);
-  if (a.geotiff) gis::check_crs(geo.crs);
+  const FinishFlags::Parsed fin = a.finish.parse();
+  opt.keep_uneroded = fin.need_layers;
   const IslandFields f = generate(spec, opt);
   nlohmann::json prov = {{"mode", a.preset.empty() ? "spec" : "preset"},
                          {"source", a.preset.empty() ? a.spec_file : a.preset},
                          {"warp_grid", opt.warp_grid}};
-  ExtraFiles geotiffs;
-  if (a.geotiff)
-    geotiffs = [&](StagedOutputs& staged, nlohmann::json& side, const terrain::Layers* L) {
-      side["geotiff"] = gis::stage_geotiff_files(staged, prefix.string(), f.height_m, L, spec.world_size_m / opt.size_px, geo, a.threads);
-    };
-  const auto w = write_island(prefix, f, spec, prov, a.preview, names.height, a.layers ? &lp : nullptr, a.threads, geotiffs);
+  const double mpp = spec.world_size_m / opt.size_px;
+  const ExtraFiles finishing = [&](StagedOutputs& staged, nlohmann::json& side, const terrain::Layers* L) {
+    if (a.finish.geotiff) side["geotiff"] = gis::stage_geotiff_files(staged, prefix.string(), f.height_m, L, mpp, fin.geo, a.threads);
+    if (!fin.bundles.empty())
+      side["bundles"] = engines::stage_bundles(staged, prefix, fin.bundles, {f.height_m, L, mpp, fin.geo}, a.threads);
+  };
+  const auto w = write_island(prefix, f, spec, prov, a.preview, names.height, fin.need_layers ? &fin.rules : nullptr,
+                              a.threads, finishing, a.finish.layers);
   for (const auto& p : w.files) std::printf("%s\n", p.c_str());
   return 0;
 }
@@ -111,11 +101,13 @@ int run_random(const GenerateArgs& a, const GlobalOptions& g) {
   r.render.size_px = a.size;
   r.render.warp_grid = a.warp_grid;
   r.preview = a.preview;
-  r.layers = a.layers;
-  r.layer_params = layer_params(a);
+  const FinishFlags::Parsed fin = a.finish.parse();
+  r.layers = a.finish.layers;
+  r.layer_params = fin.rules;
   r.threads = a.threads;
   if (a.levels < 1 || a.levels > 64) throw Error("--levels must be in 1..64");
-  if (a.geotiff) throw Error("--geotiff: one island at a time (--preset or --spec), not --random; or convert with `reefgen erode`");
+  if (a.finish.geotiff) throw Error("--geotiff: one island at a time (--preset or --spec), not --random; or convert with `reefgen erode`");
+  if (!fin.bundles.empty()) throw Error("--for: one island at a time (--preset or --spec), not --random");
   Progress progress("generate", size_t(a.random) * size_t(a.levels), g.quiet);
   const RandomIslandsResult res = write_random_islands(dir, r, [&](size_t done) { progress.tick(done); });
   if (!g.quiet)
@@ -134,6 +126,7 @@ Command add_generate_command(CLI::App& app, const GlobalOptions& g) {
                                              "  reefgen generate --preset young-volcano -o out/volcano --preview\n"
                                              "  reefgen generate --preset atoll --subsidence 1 --size 512 -o out/atoll\n"
                                              "  reefgen generate --spec docs/examples/spec.json -o out/mine\n"
+                                             "  reefgen generate --preset barrier-reef --size 1025 -o out/reef --for unity,unreal,gis\n"
                                              "  reefgen generate --random 50 --seed 1 --out out/random --threads 2\n");
   auto* src = sub->add_option_group("source", "What to generate");
   src->add_option("--preset", a->preset, "Built-in preset (see `reefgen presets`)");
@@ -149,13 +142,7 @@ Command add_generate_command(CLI::App& app, const GlobalOptions& g) {
       ->check(seed_value())
       ->each([a](const std::string&) { a->seed_given = true; });
   sub->add_flag("--preview", a->preview, "Also write PREFIX.preview.png (hill-shaded colours)");
-  sub->add_flag("--layers", a->layers,
-                "Also write the layers (docs/LAYERS.md): PREFIX.flow.png, .slope.png, .wear.png, .deposit.png, "
-                ".normal.png, .splat0.png + .splat1.png (8 material weights), .materials.png");
-  sub->add_option("--layer-rules", a->layer_rules, "JSON file of material rules overriding the defaults (docs/LAYERS.md)");
-  sub->add_flag("--geotiff", a->geotiff, "Also write PREFIX.height.tif (float32 metres; with --layers the float layers too) for GIS (docs/GIS.md)");
-  sub->add_option("--crs", a->crs, "CRS of the GeoTIFFs, e.g. EPSG:32706 (default: a local metric grid, no CRS)");
-  sub->add_option("--origin", a->origin, "X,Y: map coordinates of the top-left corner, metres (default: centred on 0,0)");
+  add_finish_flags(sub, a->finish);
   sub->add_option("--threads", a->threads, "Worker threads for --random and --layers (default: all cores)")->check(CLI::Range(1, 256));
   sub->add_option("--levels", a->levels, "Subsidence levels per random configuration, evenly spaced on [0, 1]")->capture_default_str();
   sub->add_option("--warp-grid", a->warp_grid, "Cells of the wind displacement grid across the canvas")->capture_default_str();

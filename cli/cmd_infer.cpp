@@ -4,6 +4,7 @@
 #include <optional>
 
 #include "app.hpp"
+#include "finish.hpp"
 #include "reefgen/constants.hpp"
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/infer/run.hpp"
@@ -25,13 +26,13 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
       "  reefgen infer sketch.png -m runs/paper/generator.pt -o out/island --preview\n"
       "  reefgen infer sketches/ -m generator.pt -o out/ --png16 --r16\n"
       "  reefgen infer sketch.png -m generator.pt -o out/island --mesh out/island.glb --exaggeration 3\n"
-      "  reefgen infer sketch.png -m generator.pt -o out/v --stochastic --seed 7\n");
+      "  reefgen infer sketch.png -m generator.pt -o out/v --stochastic --seed 7\n"
+      "  reefgen infer sketch.png -o out/island --size 2017 --for unreal,gis\n");
   struct Args {
     std::vector<std::string> inputs;
     std::string model, out, mesh, erosion;
     bool png16 = false, r16 = false, preview = false, stochastic = false, running_stats = false, raw = false;
-    bool layers = false, geotiff = false;
-    std::string layer_rules, crs, origin;
+    FinishFlags finish;
     std::string precision = "fp32";  // the same heights on every CPU; bf16/auto are faster (docs/BENCHMARKS.md)
     std::string engine = "auto";
     uint64_t seed = 0;
@@ -60,11 +61,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
                   "e.g. {\"amplify_roughness\": 0.5})")
       ->type_name("FILE");
   sub->add_flag("--preview", a->preview, "Also PREFIX.preview.png: coloured, hill-shaded");
-  sub->add_flag("--layers", a->layers, "Also the layers: material splat maps, flow, slope, wear, deposit, normals (docs/LAYERS.md)");
-  sub->add_option("--layer-rules", a->layer_rules, "FILE: JSON of material rules (docs/LAYERS.md)");
-  sub->add_flag("--geotiff", a->geotiff, "Also PREFIX.height.tif, float32 metres (+ the float layers with --layers), docs/GIS.md");
-  sub->add_option("--crs", a->crs, "CRS of the GeoTIFFs, e.g. EPSG:32706 (default: a local metric grid)");
-  sub->add_option("--origin", a->origin, "X,Y: map coordinates of the top-left corner, metres (default: centred on 0,0)");
+  add_finish_flags(sub, a->finish);
   sub->add_flag("--stochastic", a->stochastic, "Dropout on (pix2pix's noise): a different island per --seed");
   sub->add_option("--seed", a->seed, "Dropout masks for --stochastic")->capture_default_str()->check(seed_value());
   sub->add_option("--precision", a->precision,
@@ -91,14 +88,12 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
             job.files.r16 = a->r16;
             job.files.preview = a->preview;
             job.files.exaggeration = a->exaggeration;
-            job.layers = a->layers;
-            if (!a->layer_rules.empty()) {
-              if (!a->layers) throw Error("--layer-rules " + a->layer_rules + " needs --layers");
-              job.layer_params = terrain::layer_params_from_json(read_json(a->layer_rules), a->layer_rules);
-            }
-            job.geotiff = a->geotiff;
-            job.geo.crs = a->crs;
-            if (!a->origin.empty()) gis::parse_origin(a->origin, job.geo);
+            const FinishFlags::Parsed fin = a->finish.parse();
+            job.layers = a->finish.layers;
+            job.layer_params = fin.rules;
+            job.geotiff = a->finish.geotiff;
+            job.geo = fin.geo;
+            job.bundles = fin.bundles;
             job.threads = a->threads.value_or(default_threads());
             job.model_path = model::resolve_model_path(a->model).string();
             model::GeneratorFile gen = model::load_generator(job.model_path);

@@ -33,7 +33,7 @@ namespace {
 void stage_layers_and_geotiffs(StagedOutputs& staged, const InferJob& job, const std::string& prefix,
                                const cv::Mat1f& h, const std::vector<cv::Mat1f>& before,
                                const std::vector<cv::Mat1b>& labels, size_t k, double mpp, nlohmann::json& side) {
-  if (!job.layers && !job.geotiff) return;
+  if (!job.layers && !job.geotiff && job.bundles.empty()) return;
   cv::Mat1b region;
   cv::resize(labels[k], region, h.size(), 0, 0, cv::INTER_NEAREST);
   const terrain::Layers L = terrain::compute_layers(h, before[k], region, mpp, job.layer_params, job.threads);
@@ -41,6 +41,8 @@ void stage_layers_and_geotiffs(StagedOutputs& staged, const InferJob& job, const
     terrain::add_layers_to_sidecar(side, terrain::stage_layer_files(staged, prefix, L, mpp, job.layer_params, job.threads));
   }
   if (job.geotiff) side["geotiff"] = gis::stage_geotiff_files(staged, prefix, h, job.layers ? &L : nullptr, mpp, job.geo, job.threads);
+  if (!job.bundles.empty())
+    side["bundles"] = engines::stage_bundles(staged, prefix, job.bundles, {h, &L, mpp, job.geo}, job.threads);
 }
 }  // namespace
 
@@ -111,7 +113,7 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
       before.clear();
       labels.clear();
       for (const auto& s : sketches) labels.push_back(s.label);
-      heights = infer_heights(gen, sketches, io, job.layers || job.geotiff ? &before : nullptr);
+      heights = infer_heights(gen, sketches, io, job.layers || job.geotiff || !job.bundles.empty() ? &before : nullptr);
     }
     const fs::path prefix = prefix_of(inputs[i]);
     const cv::Mat1f& h = heights[i % kChunk];

@@ -16,7 +16,8 @@ namespace reefgen::procgen {
 
 WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFields& f, const IslandSpec& spec,
                            const nlohmann::json& provenance, bool preview, const std::filesystem::path& height_given,
-                           const terrain::LayerParams* layers, int threads, const ExtraFiles& extra) {
+                           const terrain::LayerParams* layers, int threads, const ExtraFiles& extra,
+                           bool layer_files) {
   const int W = f.height_m.cols;
   double hmin, hmax;
   cv::minMaxLoc(f.height_m, &hmin, &hmax);
@@ -85,8 +86,9 @@ WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFiel
   std::optional<terrain::Layers> L;
   if (layers) {
     L = layer_job.get();
-    terrain::add_layers_to_sidecar(out.sidecar,
-                                   terrain::stage_layer_files(staged, prefix.string(), *L, mpp, *layers, threads));
+    if (layer_files)
+      terrain::add_layers_to_sidecar(out.sidecar,
+                                     terrain::stage_layer_files(staged, prefix.string(), *L, mpp, *layers, threads));
   }
   if (extra) extra(staged, out.sidecar, L ? &*L : nullptr);
   out.sidecar["file_bytes"] = bytes;

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "reefgen/engines/bundle.hpp"
 #include "reefgen/gis/geotiff.hpp"
 #include "reefgen/terrain/layers.hpp"
 #include "reefgen/heightfile.hpp"
@@ -34,6 +35,7 @@ struct InferJob {
   terrain::LayerParams layer_params;  // their rules
   bool geotiff = false;               // also PREFIX.height.tif (+ float layers), docs/GIS.md
   gis::GeoReference geo;
+  std::vector<engines::Engine> bundles;  // engine bundles, PREFIX.<engine>/ (docs/ENGINES.md)
   int threads = 1;                    // for the layers and their files
 };
 struct InferResult {

@@ -29,14 +29,15 @@ struct WrittenIsland {
 using ExtraFiles = std::function<void(StagedOutputs&, nlohmann::json& sidecar, const terrain::Layers* layers)>;
 
 // `height_path` replaces PREFIX.height.exr when given (`-o NAME.exr`).
-// `layers`: also the layer files with these rules (fields.uneroded_m gives
-// wear and deposit; render with keep_uneroded), computed and encoded on
-// `threads` threads (same bytes whatever the count).
+// `layers`: the layers with these rules (fields.uneroded_m gives wear and
+// deposit; render with keep_uneroded), computed on `threads` threads (same
+// bytes whatever the count) and given to `extra`; their own files too
+// unless `layer_files` is false (an engine bundle wants only the layers).
 WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFields& fields, const IslandSpec& spec,
                            const nlohmann::json& provenance, bool preview,
                            const std::filesystem::path& height_path = {},
                            const terrain::LayerParams* layers = nullptr, int threads = 1,
-                           const ExtraFiles& extra = {});
+                           const ExtraFiles& extra = {}, bool layer_files = true);
 
 // The paper's data generation (`generate --random`): `count` random specs,
 // each at `levels` subsidence levels, written as DIR/island_IIIIII_lL.*.

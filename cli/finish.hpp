@@ -1,0 +1,35 @@
+#pragma once
+// The finishing flags of generate, infer and erode, registered once with one
+// meaning (docs/LAYERS.md, docs/GIS.md, docs/ENGINES.md): --layers,
+// --layer-rules, --geotiff, --crs, --origin and --for.
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "reefgen/engines/bundle.hpp"
+#include "reefgen/gis/geotiff.hpp"
+#include "reefgen/terrain/layers.hpp"
+
+namespace reefgen {
+
+struct FinishFlags {
+  bool layers = false;                // the layer files beside the heights
+  std::string layer_rules;            // FILE: JSON of terrain::LayerParams
+  bool geotiff = false;               // PREFIX.height.tif (+ the float layers with --layers)
+  std::string crs, origin;            // of the GeoTIFFs and the gis bundle
+  std::vector<std::string> engines;   // --for: bundles, PREFIX.<engine>/
+
+  // What the flags ask for, checked (one line naming the flag otherwise).
+  struct Parsed {
+    terrain::LayerParams rules;
+    gis::GeoReference geo;
+    std::vector<engines::Engine> bundles;
+    bool need_layers = false;  // the layer files, or a bundle that carries them
+  };
+  Parsed parse() const;
+};
+
+void add_finish_flags(CLI::App* sub, FinishFlags& f);
+
+}  // namespace reefgen

@@ -1,0 +1,77 @@
+#pragma once
+// Engine bundles (docs/ENGINES.md): one island's heights and material
+// layers in a tool's own layout, in a folder with a README.txt giving that
+// island's import steps and numbers. LibTorch-free.
+//   unity   NAME.raw (16-bit LE, 2ⁿ+1, south row first), NAME.splat0/1.png
+//           (RGBA8, 4 materials each, alphamap 2ⁿ); beyond 4097, tiles
+//           NAME_X_Z whose shared edges are equal
+//   unreal  NAME.png (16-bit, a Landscape size 505…8129) and one 8-bit
+//           greyscale weight layer NAME_<material>.png per material
+//   gis     NAME.height.tif (+ the float layers) with a local metric grid or
+//           the given CRS (gis/geotiff.hpp)
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "reefgen/gis/geotiff.hpp"
+#include "reefgen/heightfile.hpp"
+#include "reefgen/terrain/layers.hpp"
+
+namespace reefgen {
+class StagedOutputs;
+}
+
+namespace reefgen::engines {
+
+enum class Engine { Unity, Unreal, Gis };
+// "unity", "unreal", "gis"; anything else throws reefgen::Error listing them.
+Engine engine_from_string(const std::string& name);
+const char* to_string(Engine e);
+
+// Unity's heightmap resolutions: 2ⁿ + 1 from 33 to 4097 samples a side.
+constexpr int kUnityMinSide = 33, kUnityMaxSide = 4097;
+// Unreal's recommended Landscape sizes (one component layout each).
+constexpr int kUnrealSides[] = {505, 1009, 2017, 4033, 8129};
+
+// The 2ⁿ + 1 side Unity takes for a field of `side` samples: the nearest
+// (ties up), at least 33; sides past 4097 are tiled (unity_tiles).
+int unity_side(int side);
+// Tiles per axis for Unity: 1 up to 4097 samples, else ⌈(side − 1)/4096⌉.
+int unity_tiles(int side);
+// The Landscape size nearest to `side` (ties up).
+int unreal_side(int side);
+
+// Resampled so that corner samples stay on the corners: sample i of the
+// output sits at i·(n − 1)/(side − 1) of the input (the span (n − 1)·px is
+// kept; a side of n samples is n − 1 cells). Bilinear.
+cv::Mat1f resample_corners(const cv::Mat1f& field, int side);
+
+// Unity's RAW: little-endian uint16, the southern row first (Unity's terrain
+// row 0 is at z = 0, the south edge), v = round(65535·(h − lo)/(hi − lo)).
+std::vector<uint8_t> unity_raw_bytes(const cv::Mat1f& height_m, const HeightRange& range);
+
+struct BundleInput {
+  cv::Mat1f height_m;             // metres, sea level 0, row 0 north
+  const terrain::Layers* layers;  // required for unity and unreal (the material weights)
+  double metres_per_px;           // sample spacing
+  gis::GeoReference geo;          // gis only
+};
+
+// Stages the bundle of `e` in folder `dir` (created; nothing else is in
+// place before staged.commit()), files named NAME.*, and returns what the
+// sidecar says about it (files, sizes, resampling, import numbers).
+nlohmann::json stage_bundle(StagedOutputs& staged, const std::filesystem::path& dir, const std::string& name, Engine e,
+                            const BundleInput& in, int threads = 1);
+
+// Every bundle asked for, each in the folder PREFIX.<engine>/ with files
+// named after PREFIX's file name; returns {engine: what stage_bundle said}.
+nlohmann::json stage_bundles(StagedOutputs& staged, const std::filesystem::path& prefix,
+                             const std::vector<Engine>& engines, const BundleInput& in, int threads = 1);
+
+// "unity,unreal" or repeated flags → engines, in order, each once.
+std::vector<Engine> engines_from_strings(const std::vector<std::string>& names);
+
+}  // namespace reefgen::engines

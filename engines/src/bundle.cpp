@@ -1,0 +1,257 @@
+#include "reefgen/engines/bundle.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "reefgen/error.hpp"
+#include "reefgen/io.hpp"
+
+namespace reefgen::engines {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Samples per Unity tile edge, 2¹² + 1: Unity's largest heightmap.
+constexpr int kUnityTileCells = kUnityMaxSide - 1;
+
+// 16-bit code of each height, v = round(65535·(h − lo)/(hi − lo)).
+uint16_t code16(float h, const HeightRange& r) {
+  const double v = std::round(65535.0 * (double(h) - r.lo_m) / (r.hi_m - r.lo_m));
+  return uint16_t(std::clamp(v, 0.0, 65535.0));
+}
+
+// The eight weights resampled to side² samples, quantised to sum 255
+// (terrain::splat_maps), packed four per RGBA image.
+std::array<cv::Mat4b, 2> splats_at(const terrain::Layers& L, int side) {
+  terrain::Layers w;
+  for (int m = 0; m < terrain::kNumMaterials; ++m) w.weight[size_t(m)] = resample_corners(L.weight[size_t(m)], side);
+  return terrain::splat_maps(w);
+}
+
+// One channel of a splat pair: material m's 8-bit weight.
+cv::Mat1b weight_layer(const std::array<cv::Mat4b, 2>& splat, int m) {
+  cv::Mat1b out;
+  cv::extractChannel(splat[size_t(m / 4)], out, m % 4);
+  return out;
+}
+
+void stage_text(StagedOutputs& staged, const fs::path& path, const std::string& text) {
+  staged.write(path, [&](const fs::path& t) { write_file_atomic(t, text.data(), text.size()); });
+}
+
+std::string fmt(const char* f, double v) {
+  char b[64];
+  std::snprintf(b, sizeof b, f, v);
+  return b;
+}
+
+nlohmann::json stage_unity(StagedOutputs& staged, const fs::path& dir, const std::string& name, const BundleInput& in) {
+  const int n = in.height_m.cols, tiles = unity_tiles(n);
+  const int side = tiles == 1 ? unity_side(n) : tiles * kUnityTileCells + 1;
+  const cv::Mat1f h = side == n ? in.height_m : resample_corners(in.height_m, side);
+  const double mpp = in.metres_per_px * (n - 1) / (side - 1);
+  const HeightRange r = export_range(h);
+  const int tile_side = tiles == 1 ? side : kUnityMaxSide, alpha = tile_side - 1;
+  const auto splat = splats_at(*in.layers, tiles * alpha);
+  nlohmann::json files = nlohmann::json::array();
+  // Tile (X, Z): X east, Z north, 0 at the south-west; neighbours share
+  // their edge samples, so the edges are equal by construction.
+  for (int tz = 0; tz < tiles; ++tz)
+    for (int tx = 0; tx < tiles; ++tx) {
+      const std::string stem = tiles == 1 ? name : name + "_" + std::to_string(tx) + "_" + std::to_string(tz);
+      const int row0 = (tiles - 1 - tz) * (tile_side - 1), col0 = tx * (tile_side - 1);
+      const cv::Mat1f t = h(cv::Rect(col0, row0, tile_side, tile_side));
+      const std::vector<uint8_t> raw = unity_raw_bytes(t, r);
+      staged.write(dir / (stem + ".raw"), [&](const fs::path& p) { write_file_atomic(p, raw.data(), raw.size()); });
+      const int arow0 = (tiles - 1 - tz) * alpha, acol0 = tx * alpha;
+      for (int s = 0; s < 2; ++s) {
+        const cv::Mat4b cut = splat[size_t(s)](cv::Rect(acol0, arow0, alpha, alpha)).clone();
+        staged.write(dir / (stem + ".splat" + std::to_string(s) + ".png"), [cut](const fs::path& p) { write_png(p, cut); });
+      }
+      files.push_back({{"raw", stem + ".raw"}, {"splat", {stem + ".splat0.png", stem + ".splat1.png"}}, {"x", tx}, {"z", tz}});
+    }
+  const double width_m = mpp * (tile_side - 1), height_m = r.hi_m - r.lo_m;
+  std::string readme =
+      "reefgen island for Unity (Terrain), " + std::to_string(tiles * tiles) + " tile(s)\n\n"
+      "Heights: " + std::to_string(tile_side) + "x" + std::to_string(tile_side) +
+      " samples per tile, 16-bit little-endian RAW, southern row first (no flip needed).\n"
+      "Range: " + fmt("%.1f", r.lo_m) + " m ... " + fmt("%.1f", r.hi_m) + " m -> 0 ... 65535 (linear).\n" +
+      (side != n ? "Resampled from " + std::to_string(n) + " to " + std::to_string(side) +
+                       " samples a side (Unity takes 2^n+1 up to 4097; larger terrains are tiled).\n"
+                 : std::string()) +
+      "\nFor each tile NAME_X_Z.raw (X east, Z north; one file when there is no suffix):\n"
+      "1. Create a Terrain; Terrain Settings > Texture Resolutions: Heightmap Resolution " + std::to_string(tile_side) +
+      ", Control Texture Resolution " + std::to_string(alpha) + ".\n"
+      "2. Import Raw...: Depth Bit 16, Width " + std::to_string(tile_side) + ", Height " + std::to_string(tile_side) +
+      ", Byte Order Windows, Flip Vertically OFF, Terrain Size X " + fmt("%.3f", width_m) + ", Y " +
+      fmt("%.3f", height_m) + ", Z " + fmt("%.3f", width_m) + ".\n"
+      "3. Position: X = " + fmt("%.3f", width_m) + " * X_index, Y " + fmt("%.3f", r.lo_m) + " (sea level at world Y = 0), Z = " +
+      fmt("%.3f", width_m) + " * Z_index.\n"
+      "4. Materials: add 8 Terrain Layers in this order, then copy NAME.splat0.png (layers 1-4 in R,G,B,A) and\n"
+      "   NAME.splat1.png (layers 5-8) into TerrainData.alphamapTextures (import each PNG as Read/Write, sRGB off,\n"
+      "   no compression; top row = north). Weights sum to 255 at every pixel.\n"
+      "   Layers: ";
+  for (int m = 0; m < terrain::kNumMaterials; ++m) readme += std::string(m ? ", " : "") + terrain::material_name(m);
+  readme += "\n";
+  stage_text(staged, dir / "README.txt", readme);
+  return {{"engine", "unity"}, {"tiles", files}, {"tiles_per_axis", tiles}, {"tile_side_px", tile_side},
+          {"alphamap_px", alpha}, {"resampled_from_px", n}, {"side_px", side}, {"range_m", {r.lo_m, r.hi_m}},
+          {"terrain_size_m", {width_m, height_m, width_m}}, {"position_y_m", r.lo_m}, {"row_order", "south first"}};
+}
+
+nlohmann::json stage_unreal(StagedOutputs& staged, const fs::path& dir, const std::string& name, const BundleInput& in) {
+  const int n = in.height_m.cols, side = unreal_side(n);
+  const cv::Mat1f h = side == n ? in.height_m : resample_corners(in.height_m, side);
+  const double mpp = in.metres_per_px * (n - 1) / (side - 1);
+  const HeightRange r = export_range(h);
+  staged.write(dir / (name + ".png"), [h, r](const fs::path& p) { write_png16(p, h, r.lo_m, r.hi_m); });
+  const auto splat = splats_at(*in.layers, side);
+  nlohmann::json layers = nlohmann::json::object();
+  for (int m = 0; m < terrain::kNumMaterials; ++m) {
+    const cv::Mat1b w = weight_layer(splat, m);
+    const std::string file = name + "_" + terrain::material_name(m) + ".png";
+    staged.write(dir / file, [w](const fs::path& p) { write_png(p, w); });
+    layers[terrain::material_name(m)] = file;
+  }
+  // Unreal maps the 16 bits to 512 m at Z scale 100 %, centred on code 32768.
+  const double scale_z = (r.hi_m - r.lo_m) * 100.0 / 512.0, scale_xy = mpp * 100.0;
+  const double loc_z = (r.lo_m + r.hi_m) / 2 * 100.0, half = (side - 1) / 2.0 * scale_xy;
+  std::string readme =
+      "reefgen island for Unreal Engine (Landscape)\n\n"
+      "Heights: " + name + ".png, " + std::to_string(side) + "x" + std::to_string(side) +
+      " 16-bit greyscale, row 0 = north (-Y side of the Landscape).\n"
+      "Range: " + fmt("%.1f", r.lo_m) + " m ... " + fmt("%.1f", r.hi_m) + " m -> 0 ... 65535 (linear).\n" +
+      (side != n ? "Resampled from " + std::to_string(n) + " to " + std::to_string(side) +
+                       " samples a side, the nearest Landscape size (505, 1009, 2017, 4033, 8129).\n"
+                 : std::string()) +
+      "\n1. Landscape mode > Manage > New > Import from File: Heightmap File " + name + ".png.\n"
+      "2. Location X " + fmt("%.1f", -half) + ", Y " + fmt("%.1f", -half) + ", Z " + fmt("%.1f", loc_z) +
+      " (sea level at Z = 0); Scale X " + fmt("%.4f", scale_xy) + ", Y " + fmt("%.4f", scale_xy) + ", Z " +
+      fmt("%.4f", scale_z) + ".\n"
+      "3. Layers: create a Landscape material with these weight-blended layers and, for each, Import the file:\n";
+  for (int m = 0; m < terrain::kNumMaterials; ++m)
+    readme += std::string("   ") + terrain::material_name(m) + ": " + name + "_" + terrain::material_name(m) + ".png\n";
+  readme += "   (8-bit greyscale, same size as the heights; the eight sum to 255 at every pixel)\n";
+  stage_text(staged, dir / "README.txt", readme);
+  return {{"engine", "unreal"}, {"heightmap", name + ".png"}, {"weight_layers", layers}, {"side_px", side},
+          {"resampled_from_px", n}, {"range_m", {r.lo_m, r.hi_m}}, {"scale_cm", {scale_xy, scale_xy, scale_z}},
+          {"location_cm", {-half, -half, loc_z}}};
+}
+
+nlohmann::json stage_gis(StagedOutputs& staged, const fs::path& dir, const std::string& name, const BundleInput& in,
+                         int threads) {
+  nlohmann::json j = gis::stage_geotiff_files(staged, (dir / name).string(), in.height_m, in.layers, in.metres_per_px,
+                                              in.geo, threads);
+  const std::string crs = in.geo.crs.empty() ? "none: a local metric grid centred on (0, 0) unless --origin" : in.geo.crs;
+  std::string readme =
+      "reefgen island for GIS (GDAL, QGIS)\n\n"
+      "Heights: " + name + ".height.tif, float32 metres (sea level 0), pixel size " + fmt("%.6f", in.metres_per_px) +
+      " m.\nCRS: " + crs + ".\n"
+      "Layers: the float layers as GeoTIFFs beside it (slope in degrees, flow in m^2, wear and deposit in m).\n\n"
+      "  gdalinfo -stats " + name + ".height.tif\n"
+      "  gdaldem hillshade " + name + ".height.tif hillshade.tif\n"
+      "  gdal_contour -fl 0 " + name + ".height.tif coast.gpkg      # the coastline\n"
+      "QGIS: Layer > Add Layer > Add Raster Layer; with no CRS, assign your project's metric CRS.\n";
+  stage_text(staged, dir / "README.txt", readme);
+  j["engine"] = "gis";
+  return j;
+}
+
+}  // namespace
+
+Engine engine_from_string(const std::string& s) {
+  if (s == "unity") return Engine::Unity;
+  if (s == "unreal") return Engine::Unreal;
+  if (s == "gis") return Engine::Gis;
+  throw Error("--for " + s + ": use unity, unreal or gis (docs/ENGINES.md)");
+}
+
+const char* to_string(Engine e) { return e == Engine::Unity ? "unity" : e == Engine::Unreal ? "unreal" : "gis"; }
+
+int unity_side(int side) {
+  int best = kUnityMinSide;
+  for (int s = kUnityMinSide; s <= kUnityMaxSide; s = 2 * s - 1)
+    if (std::abs(s - side) <= std::abs(best - side)) best = s;
+  return best;
+}
+
+int unity_tiles(int side) { return side <= kUnityMaxSide ? 1 : (side - 1 + kUnityTileCells - 1) / kUnityTileCells; }
+
+int unreal_side(int side) {
+  int best = kUnrealSides[0];
+  for (const int s : kUnrealSides)
+    if (std::abs(s - side) <= std::abs(best - side)) best = s;
+  return best;
+}
+
+cv::Mat1f resample_corners(const cv::Mat1f& f, int side) {
+  if (f.rows < 2 || f.cols < 2 || side < 2) throw Error("resample: fields and sides must be at least 2 samples");
+  cv::Mat1f out(side, side);
+  const double sy = double(f.rows - 1) / (side - 1), sx = double(f.cols - 1) / (side - 1);
+  for (int r = 0; r < side; ++r) {
+    const double y = r * sy;
+    const int y0 = std::min(int(y), f.rows - 2);
+    const float fy = float(y - y0);
+    const float* a = f.ptr<float>(y0);
+    const float* b = f.ptr<float>(y0 + 1);
+    float* o = out.ptr<float>(r);
+    for (int c = 0; c < side; ++c) {
+      const double x = c * sx;
+      const int x0 = std::min(int(x), f.cols - 2);
+      const float fx = float(x - x0);
+      const float top = a[x0] + fx * (a[x0 + 1] - a[x0]), bot = b[x0] + fx * (b[x0 + 1] - b[x0]);
+      o[c] = top + fy * (bot - top);
+    }
+  }
+  return out;
+}
+
+std::vector<uint8_t> unity_raw_bytes(const cv::Mat1f& h, const HeightRange& r) {
+  std::vector<uint8_t> out(size_t(h.total()) * 2);
+  size_t k = 0;
+  for (int row = h.rows - 1; row >= 0; --row)
+    for (int c = 0; c < h.cols; ++c) {
+      const uint16_t v = code16(h(row, c), r);
+      out[k++] = uint8_t(v & 0xFF);
+      out[k++] = uint8_t(v >> 8);
+    }
+  return out;
+}
+
+nlohmann::json stage_bundle(StagedOutputs& staged, const fs::path& dir, const std::string& name, Engine e,
+                            const BundleInput& in, int threads) {
+  if (in.height_m.rows != in.height_m.cols) throw Error("bundle: the height field must be square");
+  if (e != Engine::Gis && !in.layers) throw Error("internal: the " + std::string(to_string(e)) + " bundle needs the layers");
+  ensure_writable_dir(dir);
+  nlohmann::json j = e == Engine::Unity    ? stage_unity(staged, dir, name, in)
+                     : e == Engine::Unreal ? stage_unreal(staged, dir, name, in)
+                                           : stage_gis(staged, dir, name, in, threads);
+  j["folder"] = dir.filename().string();
+  j["readme"] = "README.txt";
+  return j;
+}
+
+nlohmann::json stage_bundles(StagedOutputs& staged, const fs::path& prefix, const std::vector<Engine>& engines,
+                             const BundleInput& in, int threads) {
+  nlohmann::json out = nlohmann::json::object();
+  const std::string name = prefix.filename().string();
+  for (const Engine e : engines)
+    out[to_string(e)] = stage_bundle(staged, fs::path(prefix.string() + "." + to_string(e)), name, e, in, threads);
+  return out;
+}
+
+std::vector<Engine> engines_from_strings(const std::vector<std::string>& names) {
+  std::vector<Engine> out;
+  for (const std::string& list : names)
+    for (size_t at = 0; at <= list.size();) {
+      const size_t comma = std::min(list.find(',', at), list.size());
+      const Engine e = engine_from_string(list.substr(at, comma - at));
+      if (std::find(out.begin(), out.end(), e) == out.end()) out.push_back(e);
+      at = comma + 1;
+    }
+  return out;
+}
+
+}  // namespace reefgen::engines

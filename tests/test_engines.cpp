@@ -1,0 +1,180 @@
+// Engine bundles (docs/ENGINES.md) at the byte level: Unity's RAW order and
+// sizes, tiles whose shared edges are equal, Unreal's Landscape sizes and
+// weight layers, the splat weights summing to 255.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <vector>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "reefgen/engines/bundle.hpp"
+#include "reefgen/error.hpp"
+#include "reefgen/io.hpp"
+#include "test_util.hpp"
+
+using namespace reefgen;
+using namespace reefgen::engines;
+namespace fs = std::filesystem;
+
+namespace {
+
+// Weights of the eight materials: smooth, different per material, summing
+// to 1 (what compute_layers guarantees).
+terrain::Layers weights(int side) {
+  terrain::Layers L;
+  cv::Mat1f sum(side, side, 0.f);
+  for (int m = 0; m < terrain::kNumMaterials; ++m) {
+    cv::Mat1f w(side, side);
+    for (int r = 0; r < side; ++r)
+      for (int c = 0; c < side; ++c) w(r, c) = 1.f + std::sin(0.1f * (m + 1) * r + 0.07f * c * (m % 3));
+    L.weight[size_t(m)] = w;
+    sum += w;
+  }
+  for (auto& w : L.weight) w /= sum;
+  return L;
+}
+
+std::vector<uint8_t> bytes_of(const fs::path& p) {
+  const std::string s = read_text(p, size_t(1) << 30);
+  return {s.begin(), s.end()};
+}
+
+void expect_splats_sum_to_255(const fs::path& s0, const fs::path& s1, int side) {
+  const cv::Mat a = cv::imread(s0.string(), cv::IMREAD_UNCHANGED), b = cv::imread(s1.string(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(a.type(), CV_8UC4);
+  ASSERT_EQ(a.cols, side);
+  ASSERT_EQ(b.size(), a.size());
+  for (int r = 0; r < a.rows; ++r)
+    for (int c = 0; c < a.cols; ++c) {
+      int s = 0;
+      for (int k = 0; k < 4; ++k) s += a.at<cv::Vec4b>(r, c)[k] + b.at<cv::Vec4b>(r, c)[k];
+      ASSERT_EQ(s, 255) << s0 << " at " << r << "," << c;
+    }
+}
+
+}  // namespace
+
+TEST(Engines, SizesEachEngineTakes) {
+  EXPECT_EQ(unity_side(1025), 1025);
+  EXPECT_EQ(unity_side(1000), 1025);
+  EXPECT_EQ(unity_side(600), 513);
+  EXPECT_EQ(unity_side(12), 33);
+  EXPECT_EQ(unity_side(4097), 4097);
+  EXPECT_EQ(unity_tiles(4097), 1);
+  EXPECT_EQ(unity_tiles(4098), 2);
+  EXPECT_EQ(unity_tiles(8193), 2);
+  EXPECT_EQ(unreal_side(1025), 1009);
+  EXPECT_EQ(unreal_side(2049), 2017);
+  EXPECT_EQ(unreal_side(8192), 8129);
+  EXPECT_EQ(unreal_side(100), 505);
+  EXPECT_THROW(engine_from_string("godot"), Error);
+  EXPECT_EQ(engines_from_strings({"unity,gis", "unity"}), (std::vector<Engine>{Engine::Unity, Engine::Gis}));
+}
+
+// Corner samples stay on the corners and a plane is resampled exactly.
+TEST(Engines, ResamplingKeepsCornersAndPlanes) {
+  cv::Mat1f f(65, 65);
+  for (int r = 0; r < 65; ++r)
+    for (int c = 0; c < 65; ++c) f(r, c) = 3.f * r - 2.f * c;
+  const cv::Mat1f g = resample_corners(f, 33);
+  for (int r = 0; r < 33; ++r)
+    for (int c = 0; c < 33; ++c) ASSERT_NEAR(g(r, c), 3.f * 2 * r - 2.f * 2 * c, 1e-4);
+  const cv::Mat1f up = resample_corners(f, 129);
+  EXPECT_FLOAT_EQ(up(0, 0), f(0, 0));
+  EXPECT_FLOAT_EQ(up(128, 128), f(64, 64));
+  EXPECT_FLOAT_EQ(up(0, 128), f(0, 64));
+}
+
+// Unity's row 0 is the south edge: the RAW starts with the image's last row,
+// little-endian, v = round(65535·(h − lo)/(hi − lo)).
+TEST(Engines, UnityRawIsSouthFirstLittleEndian) {
+  cv::Mat1f h(33, 33);
+  for (int r = 0; r < 33; ++r)
+    for (int c = 0; c < 33; ++c) h(r, c) = float(r * 33 + c);  // 0 at the north-west corner
+  const std::vector<uint8_t> raw = unity_raw_bytes(h, {0, 1088});
+  ASSERT_EQ(raw.size(), 33u * 33u * 2u);
+  auto at = [&](size_t k) { return int(raw[2 * k]) | int(raw[2 * k + 1]) << 8; };
+  EXPECT_EQ(at(0), int(std::lround(65535.0 * (32 * 33) / 1088)));  // south-west corner first
+  EXPECT_EQ(at(32), int(std::lround(65535.0 * (32 * 33 + 32) / 1088)));
+  EXPECT_EQ(at(33 * 32), 0);  // the north-west corner is the last row's first sample
+  EXPECT_EQ(at(33 * 33 - 1), int(std::lround(65535.0 * 32 / 1088)));
+}
+
+// Past 4097 samples Unity gets NAME_X_Z tiles of 4097 (X east, Z north)
+// whose shared edge rows and columns are the same samples, and splat tiles
+// of 4096² summing to 255.
+TEST(Engines, UnityTilesShareTheirEdges) {
+  const int n = 4200;
+  cv::Mat1f h(n, n);
+  for (int r = 0; r < n; ++r)
+    for (int c = 0; c < n; ++c) h(r, c) = 50.f * std::sin(r * 0.003f) + 0.01f * c;
+  const terrain::Layers L = weights(64);
+  const fs::path dir = test::temp_dir("unity-tiles");
+  StagedOutputs staged;
+  const nlohmann::json j = stage_bundles(staged, dir / "isle", {Engine::Unity}, {h, &L, 2.0, {}});
+  staged.commit();
+  const fs::path b = dir / "isle.unity";
+  ASSERT_EQ(j["unity"]["tiles_per_axis"], 2);
+  const int t = kUnityMaxSide;
+  std::vector<std::vector<uint8_t>> tile(4);
+  for (int z = 0; z < 2; ++z)
+    for (int x = 0; x < 2; ++x) {
+      tile[size_t(2 * z + x)] = bytes_of(b / ("isle_" + std::to_string(x) + "_" + std::to_string(z) + ".raw"));
+      ASSERT_EQ(tile[size_t(2 * z + x)].size(), size_t(t) * t * 2);
+    }
+  auto sample = [&](int k, int row, int col) {  // row 0 = south in the RAW
+    const auto& v = tile[size_t(k)];
+    const size_t i = 2 * (size_t(row) * t + col);
+    return int(v[i]) | int(v[i + 1]) << 8;
+  };
+  for (int i = 0; i < t; ++i) {
+    ASSERT_EQ(sample(0, i, t - 1), sample(1, i, 0)) << "X edge, south row of tiles, row " << i;
+    ASSERT_EQ(sample(2, i, t - 1), sample(3, i, 0)) << "X edge, north row of tiles, row " << i;
+    ASSERT_EQ(sample(0, t - 1, i), sample(2, 0, i)) << "Z edge, west tiles, column " << i;
+  }
+  expect_splats_sum_to_255(b / "isle_1_1.splat0.png", b / "isle_1_1.splat1.png", t - 1);
+  EXPECT_TRUE(fs::exists(b / "README.txt"));
+  fs::remove_all(dir);
+}
+
+// Unreal: the nearest Landscape size, the heights as 16-bit PNG within one
+// step of the field, one 8-bit weight layer per material summing to 255.
+TEST(Engines, UnrealLandscapeSizeAndWeightLayers) {
+  const int n = 1025;
+  cv::Mat1f h(n, n);
+  for (int r = 0; r < n; ++r)
+    for (int c = 0; c < n; ++c) h(r, c) = -80.f + 0.3f * r + 0.1f * c;
+  const terrain::Layers L = weights(128);
+  const fs::path dir = test::temp_dir("unreal");
+  StagedOutputs staged;
+  const nlohmann::json j = stage_bundles(staged, dir / "isle", {Engine::Unreal}, {h, &L, 5.0, {}});
+  staged.commit();
+  const fs::path b = dir / "isle.unreal";
+  EXPECT_EQ(j["unreal"]["side_px"], 1009);
+  const cv::Mat png = cv::imread((b / "isle.png").string(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(png.type(), CV_16UC1);
+  ASSERT_EQ(png.cols, 1009);
+  const double lo = j["unreal"]["range_m"][0], hi = j["unreal"]["range_m"][1];
+  // Corners are kept; the plane stays a plane.
+  EXPECT_NEAR(lo + png.at<uint16_t>(0, 0) * (hi - lo) / 65535, h(0, 0), (hi - lo) / 65535);
+  EXPECT_NEAR(lo + png.at<uint16_t>(1008, 1008) * (hi - lo) / 65535, h(n - 1, n - 1), (hi - lo) / 65535);
+  // Z scale: 16 bits span 512 m at 100 %; sea level at Z = 0.
+  EXPECT_NEAR(double(j["unreal"]["scale_cm"][2]), (hi - lo) * 100 / 512, 1e-9);
+  EXPECT_NEAR(double(j["unreal"]["location_cm"][2]), (hi + lo) * 50, 1e-9);
+  cv::Mat1i sum(1009, 1009, 0);
+  for (int m = 0; m < terrain::kNumMaterials; ++m) {
+    const cv::Mat w = cv::imread((b / ("isle_" + std::string(terrain::material_name(m)) + ".png")).string(), cv::IMREAD_UNCHANGED);
+    ASSERT_EQ(w.type(), CV_8UC1) << terrain::material_name(m);
+    ASSERT_EQ(w.cols, 1009);
+    cv::Mat1i wi;
+    w.convertTo(wi, CV_32S);
+    sum += wi;
+  }
+  double mn = 0, mx = 0;
+  cv::minMaxLoc(sum, &mn, &mx);
+  EXPECT_EQ(mn, 255);
+  EXPECT_EQ(mx, 255);
+  fs::remove_all(dir);
+}
