@@ -259,6 +259,13 @@ TEST_F(Studio, ExportsWriteOnlyIntoTheOutputFolder) {
   }
   EXPECT_EQ(read_exr_height(out / "exports" / "isle.height.exr").cols, 256);
   EXPECT_EQ(fs::file_size(out / "exports" / "isle.r16"), 257u * 257u * 2) << "Unity sizes: 2^n + 1";
+  // One import note per 16-bit format (an R16 then a PNG16 shared one note,
+  // the second describing a 256² file beside a 257² R16).
+  const json r16_note = read_json(out / "exports" / "isle.r16.import.json");
+  const json png_note = read_json(out / "exports" / "isle.png16.import.json");
+  EXPECT_EQ(r16_note["unity"]["resolution"][0], 257);
+  EXPECT_EQ(png_note["unity"]["resolution"][0], 256);
+  EXPECT_FALSE(fs::exists(out / "exports" / "isle.import.json"));
   EXPECT_EQ(file_bytes(out / "exports" / "isle.glb").substr(0, 4), "glTF");
   const json spec_body = {{"spec", json::parse(R"({"outlines": [0.3, 0.38, 0.55, 0.68, 0.98]})")}, {"size", 64}};
   auto s = client->Post("/api/export?format=spec&name=mine", spec_body.dump(), "application/json");

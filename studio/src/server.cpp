@@ -26,6 +26,7 @@
 #include "reefgen/procgen/spec.hpp"
 #include "reefgen/version.hpp"
 #include "front_door.hpp"
+#include "reefgen/engines/bundle.hpp"
 
 namespace reefgen::studio {
 
@@ -535,14 +536,16 @@ struct StudioServer::Impl {
       const fs::path path = o.out_dir / (name + ext.at(format));
       // 16-bit files span the field's own range (a 608 m preset peak was
       // clipped at the model's 560 m); the range and each engine's import
-      // numbers go to NAME.import.json beside the file.
+      // numbers go to NAME.<format>.import.json beside the file (one per
+      // format: an R16 and a PNG16 of one name used to share one note).
       cv::Mat1f exported = h;
       if (format == "r16") {
-        // Unity's terrains are 2^n + 1 samples a side: resample to that.
-        cv::resize(h, exported, {h.cols + 1, h.rows + 1}, 0, 0, cv::INTER_LINEAR);
+        // Unity's terrains are 2^n + 1 samples a side: the rule and the
+        // corner-keeping resampling of `--for unity` (docs/ENGINES.md).
+        exported = engines::resample_corners(h, engines::unity_side(h.cols));
       }
-      // r16: the resampled field's own spacing.
-      const double export_mpp = mpp * h.cols / exported.cols;
+      // r16: the resampled field's own spacing (the span is kept).
+      const double export_mpp = mpp * (h.cols - 1) / (exported.cols - 1);
       StagedOutputs staged;
       if (format == "sketch") {
         staged.write(path, [&](const fs::path& t) { write_png(t, label); });
@@ -556,8 +559,9 @@ struct StudioServer::Impl {
         if (format == "glb" || format == "obj") hf.mesh = format;
         const json side = stage_height_files(staged, o.out_dir / name, exported, export_mpp, hf);
         if (side.contains(format)) {  // png16, r16: the range and each engine's numbers beside the file
-          staged.write(o.out_dir / (name + ".import.json"),
-                       [&](const fs::path& t) { write_json_atomic(t, side[format]["import"]); });
+          const std::string note = name + "." + format + ".import.json";
+          staged.write(o.out_dir / note, [&](const fs::path& t) { write_json_atomic(t, side[format]["import"]); });
+          res.set_header("X-Reefgen-Import-Note", note);
           res.set_header("X-Reefgen-Range-M", std::to_string(side[format]["lo_m"].get<double>()) + " " +
                                                   std::to_string(side[format]["hi_m"].get<double>()));
         }
