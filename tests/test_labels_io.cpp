@@ -223,6 +223,23 @@ TEST(Io, LongestNamesAreWrittenThroughAShortenedTemporary) {
   std::filesystem::remove_all(dir);
 }
 
+// Issue 36 item 7: a rename that fails says why ("rename failed (Success)"
+// came from reporting the clean-up's error code instead of the rename's).
+TEST(Io, AFailedRenameSaysWhy) {
+  const auto dir = temp_dir("rename");
+  std::filesystem::create_directories(dir / "taken" / "inside");
+  try {
+    write_file_atomic(dir / "taken", "x", 1);
+    ADD_FAILURE() << "no error for a destination that is a non-empty folder";
+  } catch (const Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("taken"), std::string::npos) << m;
+    EXPECT_EQ(m.find("Success"), std::string::npos) << m;
+  }
+  EXPECT_EQ(count_files(dir), 1) << "only the folder: the temporary is gone";
+  std::filesystem::remove_all(dir);
+}
+
 TEST(Io, WritesToAnUnwritableFolderFailCleanly) {
   // A regular file where a folder is expected: fails even for root, unlike
   // permission bits.

@@ -92,8 +92,12 @@ void commit_temp(const fs::path& tmp, const fs::path& path) {
   untrack_temp(tmp);
   fs::rename(tmp, path, ec);
   if (ec) {
-    fs::remove(tmp, ec);
-    throw Error("cannot write " + path.string() + ": rename failed (" + ec.message() + ")");
+    // The rename's own error: removing the temporary resets its own code
+    // (the message used to read "rename failed (Success)").
+    const std::string why = ec.message();
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
+    throw Error("cannot write " + path.string() + ": rename failed (" + why + ")");
   }
 }
 
