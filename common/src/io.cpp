@@ -338,7 +338,7 @@ cv::Mat decode_image(const std::string& bytes, const std::string& name, int flag
     img = cv::imdecode(cv::Mat(1, int(bytes.size()), CV_8U, const_cast<char*>(bytes.data())), flags);
   } catch (const cv::Exception&) {
   }
-  if (img.empty()) throw Error(name + ": not an image reefgen can decode (use PNG or JPEG)");
+  if (img.empty()) throw Error(name + ": not an image reefgen can decode (PNG, JPEG, TIFF, BMP or WebP)");
   return img;
 }
 
