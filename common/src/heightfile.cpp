@@ -17,16 +17,6 @@ namespace reefgen {
 
 namespace {
 
-cv::Mat1w to_u16(const cv::Mat1f& h, double lo, double hi) {
-  if (!(hi > lo)) throw Error("height range [" + std::to_string(lo) + ", " + std::to_string(hi) + "] is empty");
-  cv::Mat1w out(h.size());
-  const double k = 65535.0 / (hi - lo);
-  for (int y = 0; y < h.rows; ++y)
-    for (int x = 0; x < h.cols; ++x)
-      out(y, x) = uint16_t(std::lround(std::clamp((double(h(y, x)) - lo) * k, 0.0, 65535.0)));
-  return out;
-}
-
 void check_mesh(const cv::Mat1f& h, const MeshOptions& o) {
   if (h.rows < 2 || h.cols < 2) throw Error("mesh: height field must be at least 2x2");
   if (!(o.exaggeration > 0 && o.exaggeration <= 100)) throw Error("mesh: exaggeration must be in (0, 100]");
@@ -44,6 +34,16 @@ struct Grid {
 };
 
 }  // namespace
+
+cv::Mat1w to_u16(const cv::Mat1f& h, double lo, double hi) {
+  if (!(hi > lo)) throw Error("height range [" + std::to_string(lo) + ", " + std::to_string(hi) + "] is empty");
+  cv::Mat1w out(h.size());
+  const double k = 65535.0 / (hi - lo);
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x)
+      out(y, x) = uint16_t(std::lround(std::clamp((double(h(y, x)) - lo) * k, 0.0, 65535.0)));
+  return out;
+}
 
 void write_png16(const fs::path& path, const cv::Mat1f& h, double lo, double hi) {
   write_png(path, to_u16(h, lo, hi));

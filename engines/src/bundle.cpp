@@ -16,12 +16,6 @@ namespace {
 // Samples per Unity tile edge, 2¹² + 1: Unity's largest heightmap.
 constexpr int kUnityTileCells = kUnityMaxSide - 1;
 
-// 16-bit code of each height, v = round(65535·(h − lo)/(hi − lo)).
-uint16_t code16(float h, const HeightRange& r) {
-  const double v = std::round(65535.0 * (double(h) - r.lo_m) / (r.hi_m - r.lo_m));
-  return uint16_t(std::clamp(v, 0.0, 65535.0));
-}
-
 // The eight weights resampled to side² samples, quantised to sum 255
 // (terrain::splat_maps), packed four per RGBA image.
 std::array<cv::Mat4b, 2> splats_at(const terrain::Layers& L, int side) {
@@ -209,13 +203,13 @@ cv::Mat1f resample_corners(const cv::Mat1f& f, int side) {
 }
 
 std::vector<uint8_t> unity_raw_bytes(const cv::Mat1f& h, const HeightRange& r) {
+  const cv::Mat1w code = to_u16(h, r.lo_m, r.hi_m);
   std::vector<uint8_t> out(size_t(h.total()) * 2);
   size_t k = 0;
   for (int row = h.rows - 1; row >= 0; --row)
     for (int c = 0; c < h.cols; ++c) {
-      const uint16_t v = code16(h(row, c), r);
-      out[k++] = uint8_t(v & 0xFF);
-      out[k++] = uint8_t(v >> 8);
+      out[k++] = uint8_t(code(row, c) & 0xFF);
+      out[k++] = uint8_t(code(row, c) >> 8);
     }
   return out;
 }

@@ -14,6 +14,10 @@
 
 namespace reefgen {
 
+// The 16-bit code of every height, v = round(65535·(h − lo)/(hi − lo)),
+// clamped: the one mapping of PNG16, R16 and the engine bundles.
+cv::Mat1w to_u16(const cv::Mat1f& height_m, double lo_m, double hi_m);
+
 // 16-bit greyscale PNG, linear: v = round(65535·(h − lo)/(hi − lo)).
 void write_png16(const std::filesystem::path& path, const cv::Mat1f& height_m, double lo_m, double hi_m);
 cv::Mat1f read_png16(const std::filesystem::path& path, double lo_m, double hi_m);
