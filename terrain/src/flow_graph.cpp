@@ -68,9 +68,11 @@ void route_flood(const cv::Mat1f& height_m, const cv::Mat1b& role, double metres
 
 namespace {
 
-// The scalar scan of one cell: its steepest lower neighbour (D8) and, with a
-// salt, a lower neighbour drawn ∝ slope² (see route_stack). The canvas-edge
-// cells take it whole; the interior rows go through steepest_row.
+// Where in [0, 1) cell i's random receiver is drawn (route_stack's salt).
+float draw_fraction(uint64_t salt, uint64_t i) { return float(mix64(salt ^ mix64(i)) >> 40) * (1.f / 16777216.f); }
+
+// The scalar scan of one cell, for the canvas-edge cells (the interior rows
+// go through steepest_row, which gives the same answers).
 struct CellScan {
   const float* z;
   const uint8_t* rl;
@@ -78,10 +80,12 @@ struct CellScan {
   const StepLengths& len;
   uint64_t salt;
 
-  // Slope² to each lower, open neighbour (0 elsewhere); their sum.
-  float weights(int i, float w[8]) const {
+  // Cell i's receiver direction k, −1 for none: the steepest lower open
+  // neighbour (D8); with a salt, a lower one drawn ∝ slope² where any is.
+  int receiver_k(int i) const {
     const int x = i % W, y = i / W;
-    float sum = 0.f;
+    float best_s = 0.f, sum = 0.f, w[8];
+    int best = -1;
     for (int k = 0; k < 8; ++k) {
       w[k] = 0.f;
       const int nx = x + kDx[k], ny = y + kDy[k];
@@ -90,39 +94,18 @@ struct CellScan {
       if (rl[j] == kIgnore) continue;
       const float sl = (z[i] - z[j]) * len.inv[k];
       if (sl > 0.f) sum += (w[k] = sl * sl);
-    }
-    return sum;
-  }
-
-  int steepest(int i) const {
-    const int x = i % W, y = i / W;
-    float best_s = 0.f;
-    int best = -1;
-    for (int k = 0; k < 8; ++k) {
-      const int nx = x + kDx[k], ny = y + kDy[k];
-      if (nx < 0 || ny < 0 || nx >= W || ny >= H) continue;
-      const int j = ny * W + nx;
-      if (rl[j] == kIgnore) continue;
-      const float sl = (z[i] - z[j]) * len.inv[k];
       if (sl > best_s) best_s = sl, best = k;
     }
-    return best;
-  }
-
-  // The neighbour drawn for cell i whose weights sum to `sum` > 0.
-  int drawn(int i, float sum) const {
-    float w[8];
-    weights(i, w);
-    const float u = float(mix64(salt ^ mix64(uint64_t(i))) >> 40) * (1.f / 16777216.f) * sum;
+    if (salt == 0 || !(sum > 0.f)) return best;
+    const float u = draw_fraction(salt, uint64_t(i)) * sum;
     float c = 0.f;
-    int pick = -1;
     for (int k = 0; k < 8; ++k) {
       if (w[k] <= 0.f) continue;
       c += w[k];
-      pick = k;
+      best = k;
       if (u < c) break;
     }
-    return pick;
+    return best;
   }
 
   // k (or −1: the cell is its own receiver) → receiver and 1/length.
@@ -144,10 +127,7 @@ void route_stack(const cv::Mat1f& height_m, const cv::Mat1b& role, double metres
   g.inv_length.resize(n);
   for (int i = 0; i < n; ++i) g.receiver[i] = i;
   auto scalar_cell = [&](int i) {
-    if (scan.rl[i] != kActive) return;
-    float w[8];
-    const float sum = salt != 0 ? scan.weights(i, w) : 0.f;
-    scan.set(i, sum > 0.f ? scan.drawn(i, sum) : scan.steepest(i), g);
+    if (scan.rl[i] == kActive) scan.set(i, scan.receiver_k(i), g);
   };
   // The interior rows: the 8-neighbour scan and the draw on the CPU's
   // vector path (the hashes first, scalar); the edges scalar.
@@ -161,7 +141,7 @@ void route_stack(const cv::Mat1f& height_m, const cv::Mat1b& role, double metres
       continue;
     }
     for (size_t x = 0; x < draw.size(); ++x)
-      draw[x] = float(mix64(salt ^ mix64(uint64_t(row) + x)) >> 40) * (1.f / 16777216.f);
+      draw[x] = draw_fraction(salt, uint64_t(row) + x);
     steepest(scan.z + row, scan.rl + row, W, len.inv, draw.empty() ? nullptr : draw.data(), receiver_k.data());
     scalar_cell(row);
     for (int x = 1; x < W - 1; ++x)
