@@ -65,11 +65,12 @@ void relay(int client, int backend) {
     }
     if (client_open && fds[0].revents) {
       const ssize_t n = ::recv(client, buf, sizeof buf, 0);
-      if (n == 0) {
+      if (n < 0) break;
+      // The client is done, or the backend stopped reading (it refused the
+      // request, e.g. 411, and closed): its answer may still be on the way.
+      if (n == 0 || !send_all(backend, buf, size_t(n))) {
         client_open = false;
         ::shutdown(backend, SHUT_WR);
-      } else if (n < 0 || !send_all(backend, buf, size_t(n))) {
-        break;
       }
     }
   }
