@@ -34,7 +34,7 @@ void add_finish_flags(CLI::App* sub, FinishFlags& f) {
   sub->add_option("--origin", f.origin, "X,Y: map coordinates of the top-left corner, metres (default: centred on 0,0)");
   sub->add_option("--for", f.engines,
                   "Bundles in each tool's own layout, each in PREFIX.<engine>/ with a README.txt of import steps: "
-                  "unity, unreal, gis (comma-separated or repeated; docs/ENGINES.md)")
+                  "unity, unreal, godot, blender, gis (comma-separated or repeated; docs/ENGINES.md)")
       ->type_name("ENGINE");
 }
 

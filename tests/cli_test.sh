@@ -563,9 +563,13 @@ expect_error "bytes, the filesystem allows 255" generate --preset atoll --size 3
 
 # 6e. Engine bundles (docs/ENGINES.md), each in PREFIX.<engine>/ with its
 # README: Unity's RAW at 2^n+1 (257), Unreal's nearest Landscape size (505)
-# with eight weight layers, GDAL reading the gis one in metres.
-if "$BIN" -q generate --preset atoll --size 257 -o "$T/eb/atoll" --for unity,unreal,gis >/dev/null 2>"$T/err"; then
-  for e in unity unreal gis; do [ -s "$T/eb/atoll.$e/README.txt" ] && ok || bad "bundle $e has no README.txt"; done
+# with eight weight layers, Terrain3D's maps filling whole regions, Blender's
+# GLB and script, GDAL reading the gis one in metres.
+if "$BIN" -q generate --preset atoll --size 257 -o "$T/eb/atoll" --for unity,unreal --for godot,blender,gis >/dev/null 2>"$T/err"; then
+  for e in unity unreal godot blender gis; do [ -s "$T/eb/atoll.$e/README.txt" ] && ok || bad "bundle $e has no README.txt"; done
+  "$PY" -c "import cv2,sys; m=cv2.imread(sys.argv[1], cv2.IMREAD_UNCHANGED); assert m.shape==(512,512,4), m.shape" \
+    "$T/eb/atoll.godot/atoll.color.png" && [ -s "$T/eb/atoll.godot/atoll.control.exr" ] && ok || bad "godot: maps not 512² (two 256 regions)"
+  [ -s "$T/eb/atoll.blender/atoll.glb" ] && grep -q "use_clamp = False" "$T/eb/atoll.blender/atoll.displace.py" && ok || bad "blender: no GLB or an unclamped recipe"
   [ "$(stat -c %s "$T/eb/atoll.unity/atoll.raw")" = $((257 * 257 * 2)) ] && ok || bad "unity RAW is not 257²·2 bytes"
   [ "$(ls "$T/eb/atoll.unreal/"atoll_*.png | wc -l)" = 8 ] && ok || bad "unreal: not eight weight layers"
   "$PY" -c "import cv2,sys; m=cv2.imread(sys.argv[1], cv2.IMREAD_UNCHANGED); assert m.shape==(505,505) and m.dtype.name=='uint16', m.shape" \
@@ -573,10 +577,10 @@ if "$BIN" -q generate --preset atoll --size 257 -o "$T/eb/atoll" --for unity,unr
   if command -v gdalinfo >/dev/null; then
     gdalinfo "$T/eb/atoll.gis/atoll.height.tif" | grep -q "Pixel Size = (23.34" && ok || bad "gis bundle: pixel size not in metres"
   else skip "gdalinfo missing: the gis bundle is not opened with GDAL"; fi
-  "$PY" -c "import json,sys; b=json.load(open(sys.argv[1]))['bundles']; assert set(b)=={'unity','unreal','gis'} and b['unreal']['side_px']==505, b.keys()" \
+  "$PY" -c "import json,sys; b=json.load(open(sys.argv[1]))['bundles']; assert set(b)=={'unity','unreal','godot','blender','gis'} and b['unreal']['side_px']==505, b.keys()" \
     "$T/eb/atoll.json" && ok || bad "the sidecar does not list the bundles"
 else bad "generate --for: $(cat "$T/err")"; fi
-expect_error "--for godot: use unity, unreal or gis" generate --preset atoll --size 64 -o "$T/e/x" --for godot
+expect_error "--for cryengine: use unity, unreal, godot, blender or gis" generate --preset atoll --size 64 -o "$T/e/x" --for cryengine
 expect_error "--for: one island at a time" generate --random 1 --size 64 --out "$T/e" --for unity
 
 # 7. --version, --help with examples.

@@ -19,6 +19,9 @@ PAINT="$(dirname "$0")/../docs/examples/floating-painting.png"
 "$BIN" -q floating --painting "$PAINT" --preset spire -o "$T/spire.glb" >/dev/null || { echo "FAIL: floating spire"; exit 1; }
 "$BIN" -q terrain wilbur --seed 2 --size 64 -o "$T/w" --mesh glb >/dev/null && "$BIN" -q floating --height "$T/w.height.exr" -o "$T/terrain.glb" >/dev/null ||
   { echo "FAIL: floating --height"; exit 1; }
+# The Blender bundle's GLB: its colour and normal textures inside the binary chunk.
+"$BIN" -q generate --preset young-volcano --size 65 -o "$T/b/isl" --for blender >/dev/null && cp "$T/b/isl.blender/isl.glb" "$T/textured.glb" ||
+  { echo "FAIL: generate --for blender"; exit 1; }
 cat > "$T/validate.js" <<'JS'
 const v = require(process.argv[2] + '/node_modules/gltf-validator');
 const fs = require('fs');

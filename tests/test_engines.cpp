@@ -1,8 +1,10 @@
 // Engine bundles (docs/ENGINES.md) at the byte level: Unity's RAW order and
 // sizes, tiles whose shared edges are equal, Unreal's Landscape sizes and
-// weight layers, the splat weights summing to 255.
+// weight layers, the splat weights summing to 255, Terrain3D's control bits
+// and regions, the Blender GLB's tangent-space normals.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <vector>
@@ -12,6 +14,7 @@
 #include "reefgen/engines/bundle.hpp"
 #include "reefgen/error.hpp"
 #include "reefgen/io.hpp"
+#include "reefgen/mesh.hpp"
 #include "test_util.hpp"
 
 using namespace reefgen;
@@ -177,4 +180,142 @@ TEST(Engines, UnrealLandscapeSizeAndWeightLayers) {
   EXPECT_EQ(mn, 255);
   EXPECT_EQ(mx, 255);
   fs::remove_all(dir);
+}
+
+TEST(Engines, Terrain3DControlBitsFollowItsLayout) {
+  // Terrain3D's table: base << 27, overlay << 22, blend << 14; the rest 0.
+  EXPECT_EQ(terrain3d_encode({3, 5, 200}), (3u << 27) | (5u << 22) | (200u << 14));
+  EXPECT_EQ(terrain3d_encode({31, 31, 255}), 0xFFFFC000u);
+  for (int base = 0; base < 32; ++base)
+    for (int overlay = 0; overlay < 32; overlay += 3)
+      for (int blend = 0; blend < 256; blend += 17) {
+        const uint32_t bits = terrain3d_encode({base, overlay, blend});
+        const Terrain3DControl c = terrain3d_decode(bits);
+        ASSERT_EQ(c.base, base);
+        ASSERT_EQ(c.overlay, overlay);
+        ASSERT_EQ(c.blend, blend);
+        // reefgen's ids (0..7) never make a float NaN or infinity: EXR tools pass them through.
+        float f;
+        std::memcpy(&f, &bits, sizeof f);
+        if (base < terrain::kNumMaterials && overlay < terrain::kNumMaterials) ASSERT_TRUE(std::isfinite(f));
+      }
+  EXPECT_EQ(terrain3d_region_side(257), 256);
+  EXPECT_EQ(terrain3d_region_side(8193), 512);
+  EXPECT_EQ(terrain3d_region_side(16385), 1024);
+}
+
+TEST(Engines, GodotBundleIsRegionAlignedAndItsControlMapDecodes) {
+  const int n = 300;
+  cv::Mat1f h(n, n);
+  for (int r = 0; r < n; ++r)
+    for (int c = 0; c < n; ++c) h(r, c) = -50.f + 0.5f * r - 0.2f * c;
+  const terrain::Layers L = weights(n);
+  const fs::path dir = test::temp_dir("godot");
+  StagedOutputs staged;
+  const nlohmann::json j = stage_bundles(staged, dir / "isle", {Engine::Godot}, {h, &L, 10.0, {}});
+  staged.commit();
+  const fs::path b = dir / "isle.godot";
+  const int side = j["godot"]["side_px"], pad = j["godot"]["padding_px"];
+  EXPECT_EQ(side, 512);
+  EXPECT_EQ(pad, 106);
+  const cv::Mat1f height = read_exr_height(b / "isle.height.exr");
+  const cv::Mat1f control = read_exr_height(b / "isle.control.exr");
+  ASSERT_EQ(height.cols, side);
+  ASSERT_EQ(control.cols, side);
+  // The island sits centred and unchanged; the padding repeats its edge.
+  EXPECT_EQ(cv::norm(height(cv::Rect(pad, pad, n, n)), h, cv::NORM_INF), 0);
+  EXPECT_EQ(height(0, 0), h(0, 0));
+  EXPECT_EQ(height(side - 1, side - 1), h(n - 1, n - 1));
+  for (int r = 0; r < n; r += 7)
+    for (int c = 0; c < n; c += 5) {
+      uint32_t bits;
+      std::memcpy(&bits, &control(pad + r, pad + c), sizeof bits);
+      const Terrain3DControl t = terrain3d_decode(bits);
+      std::vector<std::pair<float, int>> w;
+      for (int m = 0; m < terrain::kNumMaterials; ++m) w.push_back({-L.weight[size_t(m)](r, c), m});
+      std::stable_sort(w.begin(), w.end());
+      ASSERT_EQ(t.base, w[0].second) << r << "," << c;
+      ASSERT_EQ(t.overlay, w[1].second) << r << "," << c;
+      ASSERT_NEAR(t.blend, 255.0 * w[1].first / (w[0].first + w[1].first), 0.5 + 1e-6);
+      ASSERT_EQ(bits & 0x3FFFu, 0u) << "UV, hole, navigation and autoshader bits must be 0";
+    }
+  uint32_t corner;
+  std::memcpy(&corner, &control(0, 0), sizeof corner);
+  EXPECT_EQ(corner, 0u) << "padding is deep sea floor";
+  const cv::Mat colour = cv::imread((b / "isle.color.png").string(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(colour.type(), CV_8UC4);
+  EXPECT_EQ(colour.cols, side);
+  EXPECT_EQ(colour.at<cv::Vec4b>(side / 2, side / 2)[3], 128) << "alpha 0.5: roughness unchanged";
+  fs::remove_all(dir);
+}
+
+namespace {
+
+// The PNG of image `index` inside a GLB, decoded.
+cv::Mat glb_image(const fs::path& glb, int index) {
+  const std::string s = read_text(glb, size_t(1) << 30);
+  uint32_t json_len;
+  std::memcpy(&json_len, s.data() + 12, 4);
+  const nlohmann::json j = nlohmann::json::parse(s.substr(20, json_len));
+  const size_t bin = 20 + json_len + 8;
+  const auto& view = j["bufferViews"][size_t(j["images"][size_t(index)]["bufferView"])];
+  const std::string png = s.substr(bin + size_t(view["byteOffset"]), size_t(view["byteLength"]));
+  return cv::imdecode(std::vector<uint8_t>(png.begin(), png.end()), cv::IMREAD_UNCHANGED);
+}
+
+}  // namespace
+
+TEST(Engines, BlenderNormalTextureIsFlatOnAPlaneWhateverTheMeshSize) {
+  // On a tilted plane the mesh's normal is the true normal everywhere, so
+  // the tangent-space texture must read "straight up" (128, 128, 255) —
+  // also past the GLB's 1025² vertex cap, where mesh and texture differ.
+  for (const int n : {65, 1100}) {
+    cv::Mat1f h(n, n);
+    for (int r = 0; r < n; ++r)
+      for (int c = 0; c < n; ++c) h(r, c) = -60.f + 0.8f * r + 0.5f * c;
+    terrain::Layers L = weights(n);
+    // 5 m apart: 0.1 rise per metre east, 0.16 fall per metre north (rows run south).
+    const cv::Vec3f up(-0.1f, 0.16f, 1.0f);
+    L.normal = cv::Mat3f(n, n, up / float(cv::norm(up)));
+    const fs::path dir = test::temp_dir("blender");
+    StagedOutputs staged;
+    const nlohmann::json j = stage_bundles(staged, dir / "isle", {Engine::Blender}, {h, &L, 5.0, {}});
+    staged.commit();
+    const fs::path b = dir / "isle.blender";
+    EXPECT_EQ(int(j["blender"]["mesh_side_px"]), std::min(n, 1025));
+    const Mesh m = read_glb(b / "isle.glb");
+    EXPECT_EQ(m.positions.size(), size_t(std::min(n, 1025)) * size_t(std::min(n, 1025)));
+    const cv::Mat normal = glb_image(b / "isle.glb", 1);
+    ASSERT_EQ(normal.type(), CV_8UC3);
+    ASSERT_EQ(normal.cols, n);
+    for (int r = 1; r + 1 < n; r += 13)
+      for (int c = 1; c + 1 < n; c += 11) {
+        const cv::Vec3b v = normal.at<cv::Vec3b>(r, c);  // BGR
+        ASSERT_NEAR(v[2], 128, 1) << n << " at " << r << "," << c;
+        ASSERT_NEAR(v[1], 128, 1) << n << " at " << r << "," << c;
+        ASSERT_GE(v[0], 254) << n << " at " << r << "," << c;
+      }
+    fs::remove_all(dir);
+  }
+}
+
+TEST(Engines, BlenderNormalTextureRedIsEastGreenIsNorth) {
+  // A flat mesh under normals leaning east, then north: glTF's tangent-space
+  // convention (red = +u = east, green = up the image = north).
+  const int n = 65;
+  const cv::Mat1f h(n, n, -10.f);
+  const float lean = 0.3f / std::sqrt(1.09f), upright = 1.f / std::sqrt(1.09f);
+  const int want = int(std::lround((lean + 1) * 127.5f));
+  for (const int axis : {0, 1}) {
+    terrain::Layers L = weights(n);
+    L.normal = cv::Mat3f(n, n, axis == 0 ? cv::Vec3f(lean, 0, upright) : cv::Vec3f(0, lean, upright));
+    const fs::path dir = test::temp_dir("blender-axes");
+    StagedOutputs staged;
+    stage_bundles(staged, dir / "isle", {Engine::Blender}, {h, &L, 5.0, {}});
+    staged.commit();
+    const cv::Vec3b v = glb_image(dir / "isle.blender" / "isle.glb", 1).at<cv::Vec3b>(n / 2, n / 2);  // BGR
+    EXPECT_NEAR(v[2], axis == 0 ? want : 128, 1) << "red, axis " << axis;
+    EXPECT_NEAR(v[1], axis == 1 ? want : 128, 1) << "green, axis " << axis;
+    fs::remove_all(dir);
+  }
 }

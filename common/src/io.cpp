@@ -374,12 +374,15 @@ void put_chunk(std::string& out, const char type[4], const std::string& data) {
   put_u32be(out, uint32_t(crc32(0, reinterpret_cast<const Bytef*>(out.data() + start), uInt(out.size() - start))));
 }
 
+}  // namespace
+
 // 8-bit grey, RGB or RGBA PNG with the Sub filter on every row and zlib's RLE
 // strategy. libpng's adaptive filter search was 9 % of a dataset build; label
 // maps are runs of one colour, which Sub turns into runs of zero bytes that
 // RLE compresses as well as the search would.
 std::string encode_png8(const cv::Mat& image, int level) {
   const int ch = image.channels(), W = image.cols, H = image.rows;
+  if (image.depth() != CV_8U || (ch != 1 && ch != 3 && ch != 4)) throw Error("internal: encode_png8 takes 8-bit grey, BGR or BGRA");
   std::string out("\x89PNG\r\n\x1a\n", 8);
   std::string ihdr;
   put_u32be(ihdr, uint32_t(W));
@@ -417,7 +420,6 @@ std::string encode_png8(const cv::Mat& image, int level) {
   return out;
 }
 
-}  // namespace
 
 void write_png(const fs::path& path, const cv::Mat& image, int level) {
   if (image.depth() == CV_8U && (image.channels() == 4 || image.channels() == 3 || image.channels() == 1)) {
@@ -436,6 +438,11 @@ void write_png(const fs::path& path, const cv::Mat& image, int level) {
 }
 
 void write_exr_height(const fs::path& path, const cv::Mat1f& height_m, const ExrAttributes& attrs, int zip_level) {
+  write_exr_channel(path, height_m, "Y", attrs, zip_level);
+}
+
+void write_exr_channel(const fs::path& path, const cv::Mat1f& height_m, const std::string& channel,
+                       const ExrAttributes& attrs, int zip_level) {
   CV_Assert(height_m.isContinuous());
   // No tool downstream survives a NaN or an infinite height: refuse to write
   // one rather than hand it on (it comes from parameters out of sane range).
@@ -447,10 +454,10 @@ void write_exr_height(const fs::path& path, const cv::Mat1f& height_m, const Exr
   // only ~20 % under ZIP, which costs more time than generating them.
   header.compression() = zip_level > 0 ? Imf::ZIP_COMPRESSION : Imf::NO_COMPRESSION;
   if (zip_level > 0) header.zipCompressionLevel() = zip_level;
-  header.channels().insert("Y", Imf::Channel(Imf::FLOAT));
+  header.channels().insert(channel, Imf::Channel(Imf::FLOAT));
   for (const auto& [k, v] : attrs) header.insert(k, Imf::StringAttribute(v));
   Imf::FrameBuffer fb;
-  fb.insert("Y", Imf::Slice(Imf::FLOAT, (char*)height_m.ptr<float>(), sizeof(float),
+  fb.insert(channel, Imf::Slice(Imf::FLOAT, (char*)height_m.ptr<float>(), sizeof(float),
                             sizeof(float) * height_m.cols));
   const fs::path tmp = temp_path_for(path);
   try {

@@ -20,6 +20,7 @@ namespace {
 void check_indices(const Mesh& m, const std::string& what) {
   if (!m.uvs.empty() && m.uvs.size() != m.positions.size()) throw Error(what + ": one uv per vertex needed");
   if (!m.colors.empty() && m.colors.size() != m.positions.size()) throw Error(what + ": one colour per vertex needed");
+  if (!m.tangents.empty() && m.tangents.size() != m.positions.size()) throw Error(what + ": one tangent per vertex needed");
   for (const auto& t : m.triangles)
     for (uint32_t i : t)
       if (i >= m.positions.size()) throw Error(what + ": triangle index " + std::to_string(i) + " out of range");
@@ -90,8 +91,40 @@ void write_obj(const fs::path& path, const Mesh& m, const std::string& comment) 
   write_text_atomic(path, out);
 }
 
-void write_glb(const fs::path& path, const Mesh& m, const std::string& name) {
+namespace {
+
+// The images of `t` appended to the binary chunk (each view padded to 4
+// bytes, as GLB wants), and the matte material that shows them.
+void add_textures(nlohmann::json& j, std::string& bin, const GlbTextures& t, const std::string& name) {
+  using nlohmann::json;
+  json images = json::array(), textures = json::array();
+  json pbr = {{"metallicFactor", 0}, {"roughnessFactor", 1}};
+  json material = {{"name", name + "-textured"}};
+  auto add_image = [&](const std::string& png) {
+    j["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", bin.size()}, {"byteLength", png.size()}});
+    bin += png;
+    while (bin.size() % 4) bin += char(0);
+    images.push_back({{"bufferView", j["bufferViews"].size() - 1}, {"mimeType", "image/png"}});
+    textures.push_back({{"sampler", 0}, {"source", images.size() - 1}});
+    return textures.size() - 1;
+  };
+  if (!t.base_colour_png.empty()) pbr["baseColorTexture"] = {{"index", add_image(t.base_colour_png)}};
+  if (!t.normal_png.empty()) material["normalTexture"] = {{"index", add_image(t.normal_png)}};
+  material["pbrMetallicRoughness"] = pbr;
+  j["materials"] = {material};
+  if (images.empty()) return;
+  j["images"] = images;
+  j["textures"] = textures;
+  // Linear, mipmapped, clamped at the island's edges (no wrap-around seam).
+  j["samplers"] = {{{"magFilter", 9729}, {"minFilter", 9987}, {"wrapS", 33071}, {"wrapT", 33071}}};
+  j["buffers"][0]["byteLength"] = bin.size();
+}
+
+}  // namespace
+
+void write_glb(const fs::path& path, const Mesh& m, const std::string& name, const GlbTextures* textures) {
   check_indices(m, path.string());
+  if (textures && m.uvs.empty()) throw Error(path.string() + ": textures need texture coordinates");
   if (m.positions.empty() || m.triangles.empty()) throw Error(path.string() + ": empty mesh");
   const std::vector<cv::Vec3f> nrm = m.normals.size() == m.positions.size() ? m.normals : vertex_normals(m);
   float mn[3] = {1e30f, 1e30f, 1e30f}, mx[3] = {-1e30f, -1e30f, -1e30f};
@@ -118,6 +151,7 @@ void write_glb(const fs::path& path, const Mesh& m, const std::string& name) {
   };
   add_attribute("POSITION", m.positions.data(), 12, "VEC3");
   add_attribute("NORMAL", nrm.data(), 12, "VEC3");
+  if (!m.tangents.empty()) add_attribute("TANGENT", m.tangents.data(), 16, "VEC4");
   if (!m.uvs.empty()) add_attribute("TEXCOORD_0", m.uvs.data(), 8, "VEC2");
   if (!m.colors.empty()) add_attribute("COLOR_0", m.colors.data(), 12, "VEC3");
   accessors.push_back({{"bufferView", add_view(m.triangles.data(), m.triangles.size() * 12, 34963)},
@@ -130,7 +164,10 @@ void write_glb(const fs::path& path, const Mesh& m, const std::string& name) {
             {"buffers", {{{"byteLength", bin.size()}}}},
             {"bufferViews", views},
             {"accessors", accessors}};
-  if (!m.colors.empty()) {
+  if (textures) {
+    add_textures(j, bin, *textures, name);
+    primitive["material"] = 0;
+  } else if (!m.colors.empty()) {
     // COLOR_0 multiplies the base colour: a white, matte material shows it as is.
     j["materials"] = {{{"name", name + "-vertex-colours"},
                        {"pbrMetallicRoughness", {{"baseColorFactor", {1, 1, 1, 1}}, {"metallicFactor", 0}, {"roughnessFactor", 1}}}}};

@@ -6,10 +6,40 @@
 
 #include "reefgen/error.hpp"
 #include "reefgen/io.hpp"
+#include "stages.hpp"
 
 namespace reefgen::engines {
 
 namespace fs = std::filesystem;
+
+namespace detail {
+
+void stage_text(StagedOutputs& staged, const fs::path& path, const std::string& text) {
+  staged.write(path, [text](const fs::path& t) { write_file_atomic(t, text.data(), text.size()); });
+}
+
+std::string fmt(const char* f, double v) {
+  char b[64];
+  std::snprintf(b, sizeof b, f, v);
+  return b;
+}
+
+cv::Mat3f resample_corners3(const cv::Mat3f& f, int side) {
+  std::vector<cv::Mat1f> ch;
+  cv::split(f, ch);
+  for (auto& c : ch) c = resample_corners(c, side);
+  cv::Mat3f out;
+  cv::merge(ch, out);
+  return out;
+}
+
+terrain::Layers weights_at(const terrain::Layers& L, int side) {
+  terrain::Layers w;
+  for (int m = 0; m < terrain::kNumMaterials; ++m) w.weight[size_t(m)] = resample_corners(L.weight[size_t(m)], side);
+  return w;
+}
+
+}  // namespace detail
 
 namespace {
 
@@ -18,11 +48,7 @@ constexpr int kUnityTileCells = kUnityMaxSide - 1;
 
 // The eight weights resampled to side² samples, quantised to sum 255
 // (terrain::splat_maps), packed four per RGBA image.
-std::array<cv::Mat4b, 2> splats_at(const terrain::Layers& L, int side) {
-  terrain::Layers w;
-  for (int m = 0; m < terrain::kNumMaterials; ++m) w.weight[size_t(m)] = resample_corners(L.weight[size_t(m)], side);
-  return terrain::splat_maps(w);
-}
+std::array<cv::Mat4b, 2> splats_at(const terrain::Layers& L, int side) { return terrain::splat_maps(detail::weights_at(L, side)); }
 
 // One channel of a splat pair: material m's 8-bit weight.
 cv::Mat1b weight_layer(const std::array<cv::Mat4b, 2>& splat, int m) {
@@ -31,15 +57,8 @@ cv::Mat1b weight_layer(const std::array<cv::Mat4b, 2>& splat, int m) {
   return out;
 }
 
-void stage_text(StagedOutputs& staged, const fs::path& path, const std::string& text) {
-  staged.write(path, [&](const fs::path& t) { write_file_atomic(t, text.data(), text.size()); });
-}
-
-std::string fmt(const char* f, double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, f, v);
-  return b;
-}
+using detail::fmt;
+using detail::stage_text;
 
 nlohmann::json stage_unity(StagedOutputs& staged, const fs::path& dir, const std::string& name, const BundleInput& in) {
   const int n = in.height_m.cols, tiles = unity_tiles(n);
@@ -158,11 +177,22 @@ nlohmann::json stage_gis(StagedOutputs& staged, const fs::path& dir, const std::
 Engine engine_from_string(const std::string& s) {
   if (s == "unity") return Engine::Unity;
   if (s == "unreal") return Engine::Unreal;
+  if (s == "godot") return Engine::Godot;
+  if (s == "blender") return Engine::Blender;
   if (s == "gis") return Engine::Gis;
-  throw Error("--for " + s + ": use unity, unreal or gis (docs/ENGINES.md)");
+  throw Error("--for " + s + ": use unity, unreal, godot, blender or gis (docs/ENGINES.md)");
 }
 
-const char* to_string(Engine e) { return e == Engine::Unity ? "unity" : e == Engine::Unreal ? "unreal" : "gis"; }
+const char* to_string(Engine e) {
+  switch (e) {
+    case Engine::Unity: return "unity";
+    case Engine::Unreal: return "unreal";
+    case Engine::Godot: return "godot";
+    case Engine::Blender: return "blender";
+    case Engine::Gis: return "gis";
+  }
+  return "?";
+}
 
 int unity_side(int side) {
   int best = kUnityMinSide;
@@ -219,9 +249,11 @@ nlohmann::json stage_bundle(StagedOutputs& staged, const fs::path& dir, const st
   if (in.height_m.rows != in.height_m.cols) throw Error("bundle: the height field must be square");
   if (e != Engine::Gis && !in.layers) throw Error("internal: the " + std::string(to_string(e)) + " bundle needs the layers");
   ensure_writable_dir(dir);
-  nlohmann::json j = e == Engine::Unity    ? stage_unity(staged, dir, name, in)
-                     : e == Engine::Unreal ? stage_unreal(staged, dir, name, in)
-                                           : stage_gis(staged, dir, name, in, threads);
+  nlohmann::json j = e == Engine::Unity     ? stage_unity(staged, dir, name, in)
+                     : e == Engine::Unreal  ? stage_unreal(staged, dir, name, in)
+                     : e == Engine::Godot   ? detail::stage_godot(staged, dir, name, in)
+                     : e == Engine::Blender ? detail::stage_blender(staged, dir, name, in)
+                                            : stage_gis(staged, dir, name, in, threads);
   j["folder"] = dir.filename().string();
   j["readme"] = "README.txt";
   return j;

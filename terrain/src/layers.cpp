@@ -244,7 +244,7 @@ std::array<cv::Mat4b, 2> splat_maps(const Layers& L) {
   return out;
 }
 
-cv::Mat3b material_colour_map(const Layers& L) {
+cv::Mat3b material_colour_map(const Layers& L, bool shaded) {
   // Base colours (RGB): sand seen through shallow water, reef, deep floor…
   static constexpr float kRgb[kNumMaterials][3] = {{32, 52, 92},   {120, 196, 204}, {64, 150, 140}, {228, 212, 164},
                                                    {62, 118, 48},  {112, 100, 92},  {156, 146, 130}, {92, 112, 124}};
@@ -257,7 +257,7 @@ cv::Mat3b material_colour_map(const Layers& L) {
       float c[3] = {0, 0, 0};
       for (int m = 0; m < kNumMaterials; ++m)
         for (int k = 0; k < 3; ++k) c[k] += L.weight[size_t(m)](y, x) * kRgb[m][k];
-      const float shade = std::clamp(0.45f + 0.75f * L.normal(y, x).dot(sun), 0.35f, 1.25f);
+      const float shade = shaded ? std::clamp(0.45f + 0.75f * L.normal(y, x).dot(sun), 0.35f, 1.25f) : 1.0f;
       out(y, x) = cv::Vec3b(cv::saturate_cast<uint8_t>(c[2] * shade), cv::saturate_cast<uint8_t>(c[1] * shade),
                             cv::saturate_cast<uint8_t>(c[0] * shade));  // BGR for OpenCV's writers
     }

@@ -101,6 +101,8 @@ std::string image_damage(const std::string& bytes);
 // 8-bit (CV_8UC3 BGR or CV_8UC1) or 16-bit PNG, lossless, written atomically.
 // `level` is zlib's 0..9: 1 is several times faster and ~10 % larger (datasets).
 void write_png(const fs::path& path, const cv::Mat& image, int level = 6);
+// The bytes of an 8-bit grey, BGR or BGRA PNG (what write_png writes for those).
+std::string encode_png8(const cv::Mat& image, int level = 6);
 
 // Single-channel float32 OpenEXR with channel "Y" (heights in metres) and
 // string attributes (e.g. "reefgen:json" holding the sidecar). ZIP compressed
@@ -108,6 +110,10 @@ void write_png(const fs::path& path, const cv::Mat& image, int level = 6);
 using ExrAttributes = std::map<std::string, std::string>;
 void write_exr_height(const fs::path& path, const cv::Mat1f& height_m, const ExrAttributes& attrs = {},
                       int zip_level = 6);
+// The same with another channel name: Godot's EXR loader takes "R" as a
+// one-channel float image (Image::FORMAT_RF), "Y" as grey RGB.
+void write_exr_channel(const fs::path& path, const cv::Mat1f& values, const std::string& channel,
+                       const ExrAttributes& attrs = {}, int zip_level = 6);
 // Reads channel "Y" (or the only channel) of an EXR file; attributes of string
 // type are returned in `attrs` when not null.
 cv::Mat1f read_exr_height(const fs::path& path, ExrAttributes* attrs = nullptr);

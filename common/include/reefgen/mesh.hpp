@@ -19,6 +19,7 @@ struct Mesh {
   std::vector<cv::Vec3f> normals;                    // per vertex; empty = area-weighted from the faces
   std::vector<cv::Vec2f> uvs;                        // per vertex texture coordinates, [0, 1]; optional
   std::vector<cv::Vec3f> colors;                     // per vertex linear RGB, [0, 1]; optional
+  std::vector<cv::Vec4f> tangents;                   // per vertex unit xyz + handedness w (glTF TANGENT); optional, GLB only
 };
 // Top-down planar texture coordinates: u along x, v along z, [0, 1] over the
 // given extent (metres, centred on the origin), so a top-view image of that
@@ -31,9 +32,17 @@ std::vector<cv::Vec3f> vertex_normals(const Mesh& m);
 // Wavefront OBJ ("v x y z [r g b]", "vt u v", then "f a b c" or "f a/a b/b c/c",
 // 1-based), `comment` on the first line.
 void write_obj(const std::filesystem::path& path, const Mesh& m, const std::string& comment);
+// Textures a GLB carries inside it (PNG bytes; empty = none): a matte
+// material with baseColorTexture (sRGB) and normalTexture (tangent space,
+// OpenGL convention: green = +v up the image), both on TEXCOORD_0.
+struct GlbTextures {
+  std::string base_colour_png, normal_png;
+};
 // Binary glTF 2.0: POSITION, NORMAL, [TEXCOORD_0], [COLOR_0 with a plain
-// matte material so importers show the colours], uint32 indices, one node named `name`.
-void write_glb(const std::filesystem::path& path, const Mesh& m, const std::string& name);
+// matte material so importers show the colours], uint32 indices, one node
+// named `name`; with `textures`, their images in the binary chunk (needs uvs).
+void write_glb(const std::filesystem::path& path, const Mesh& m, const std::string& name,
+               const GlbTextures* textures = nullptr);
 
 // Read back what the writers produce (triangles only; OBJ "f a/b/c" forms and
 // negative indices accepted). Throw reefgen::Error naming the file on anything else.

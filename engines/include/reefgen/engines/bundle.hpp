@@ -7,8 +7,13 @@
 //           NAME_X_Z whose shared edges are equal
 //   unreal  NAME.png (16-bit, a Landscape size 505…8129) and one 8-bit
 //           greyscale weight layer NAME_<material>.png per material
+//   godot   Terrain3D: NAME.height.exr (metres), NAME.control.exr (its uint32
+//           control bits in a float EXR), NAME.color.png, region-aligned
+//   blender NAME.glb (mesh + baked colour and normal textures), NAME.height.exr
+//           and NAME.displace.py (the displacement recipe as a script)
 //   gis     NAME.height.tif (+ the float layers) with a local metric grid or
 //           the given CRS (gis/geotiff.hpp)
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -26,8 +31,8 @@ class StagedOutputs;
 
 namespace reefgen::engines {
 
-enum class Engine { Unity, Unreal, Gis };
-// "unity", "unreal", "gis"; anything else throws reefgen::Error listing them.
+enum class Engine { Unity, Unreal, Godot, Blender, Gis };
+// "unity", "unreal", "godot", "blender", "gis"; anything else throws reefgen::Error listing them.
 Engine engine_from_string(const std::string& name);
 const char* to_string(Engine e);
 
@@ -35,6 +40,27 @@ const char* to_string(Engine e);
 constexpr int kUnityMinSide = 33, kUnityMaxSide = 4097;
 // Unreal's recommended Landscape sizes (one component layout each).
 constexpr int kUnrealSides[] = {505, 1009, 2017, 4033, 8129};
+
+// Terrain3D's region sizes (vertices a side) and how many regions its map
+// holds per axis (32 × 32 in Terrain3D 1.0).
+constexpr int kTerrain3DRegionSides[] = {256, 512, 1024, 2048};
+constexpr int kTerrain3DMaxRegions = 32;
+// The smallest region size whose 32 regions span `side` samples.
+int terrain3d_region_side(int side);
+
+// One control-map pixel in Terrain3D's documented uint32 bit layout
+// (docs/ENGINES.md): base texture id in bits 31–27, overlay id 26–22, blend
+// (overlay's share, 0 = base only) 21–14; the UV angle/scale, hole,
+// navigation and autoshader bits are 0 (manual texturing).
+struct Terrain3DControl {
+  int base = 0, overlay = 0, blend = 0;  // ids 0..31, blend 0..255
+};
+uint32_t terrain3d_encode(const Terrain3DControl& c);
+Terrain3DControl terrain3d_decode(uint32_t bits);
+// Per pixel: base = the heaviest material, overlay = the second, blend =
+// round(255·w₂/(w₁ + w₂)); texture ids are the material numbers 0..7 (so
+// no pixel's bits make a NaN or an infinity as a float).
+cv::Mat1i terrain3d_control(const terrain::Layers& layers);
 
 // The 2ⁿ + 1 side Unity takes for a field of `side` samples: the nearest
 // (ties up), at least 33; sides past 4097 are tiled (unity_tiles).

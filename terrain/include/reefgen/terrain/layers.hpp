@@ -85,9 +85,10 @@ cv::Mat1b regions_of_heights(const cv::Mat1f& height_m, const LayerParams& p = {
 // (largest remainder), packed four materials per RGBA image.
 std::array<cv::Mat4b, 2> splat_maps(const Layers& layers);
 
-// A colour picture of the materials (each its base colour, hill-shaded):
-// the Terrain3D colour map and the picture docs/ shows.
-cv::Mat3b material_colour_map(const Layers& layers);
+// A colour picture of the materials (each its base colour), BGR: hill-shaded
+// for the picture docs/ shows and PREFIX.materials.png; unshaded (the
+// normals are used only when shaded) for textures an engine lights itself.
+cv::Mat3b material_colour_map(const Layers& layers, bool shaded = true);
 
 }  // namespace reefgen::terrain
 

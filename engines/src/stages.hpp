@@ -1,0 +1,26 @@
+#pragma once
+// Pieces the bundle writers share (engines/src only).
+#include <filesystem>
+#include <string>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "reefgen/engines/bundle.hpp"
+
+namespace reefgen::engines::detail {
+
+void stage_text(StagedOutputs& staged, const std::filesystem::path& path, const std::string& text);
+// printf of one number, for README lines.
+std::string fmt(const char* format, double v);
+// resample_corners of each channel.
+cv::Mat3f resample_corners3(const cv::Mat3f& field, int side);
+// The eight weights resampled to side² samples, corner-aligned.
+terrain::Layers weights_at(const terrain::Layers& layers, int side);
+
+nlohmann::json stage_godot(StagedOutputs& staged, const std::filesystem::path& dir, const std::string& name,
+                           const BundleInput& in);
+nlohmann::json stage_blender(StagedOutputs& staged, const std::filesystem::path& dir, const std::string& name,
+                             const BundleInput& in);
+
+}  // namespace reefgen::engines::detail

@@ -1,0 +1,129 @@
+// The Godot bundle: Terrain3D's height, control and colour maps
+// (docs/ENGINES.md "Godot (Terrain3D)").
+#include <cmath>
+#include <cstring>
+
+#include <opencv2/imgproc.hpp>
+
+#include "reefgen/error.hpp"
+#include "reefgen/io.hpp"
+#include "stages.hpp"
+
+namespace reefgen::engines {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr uint32_t kIdMask = 0x1F, kBlendMask = 0xFF;
+constexpr int kBaseShift = 27, kOverlayShift = 22, kBlendShift = 14;
+// Terrain3D's colour map: RGB multiplies the textures, alpha 0.5 leaves
+// their roughness as it is (its own default fill, white at alpha 0.5).
+constexpr uint8_t kNeutralRoughness = 128;
+
+// The control bits as the float32 pixels Terrain3D reads (Image::FORMAT_RF
+// holding the uint32 memory as is).
+cv::Mat1f bits_as_floats(const cv::Mat1i& bits) {
+  cv::Mat1f out(bits.size());
+  std::memcpy(out.ptr<float>(), bits.ptr<int>(), bits.total() * sizeof(float));
+  return out;
+}
+
+// `f` grown to `side` samples a side, the original centred (offset `pad`),
+// the new border filled by `fill` (OpenCV border mode, or a constant).
+template <class M>
+M pad_to(const M& f, int side, int pad, int border, const cv::Scalar& value = {}) {
+  M out;
+  cv::copyMakeBorder(f, out, pad, side - f.rows - pad, pad, side - f.cols - pad, border, value);
+  return out;
+}
+
+}  // namespace
+
+int terrain3d_region_side(int side) {
+  for (const int r : kTerrain3DRegionSides)
+    if (side <= r * kTerrain3DMaxRegions) return r;
+  throw Error("Terrain3D holds at most " + std::to_string(kTerrain3DRegionSides[3] * kTerrain3DMaxRegions) +
+              " samples a side; this island has " + std::to_string(side));
+}
+
+uint32_t terrain3d_encode(const Terrain3DControl& c) {
+  return (uint32_t(c.base) & kIdMask) << kBaseShift | (uint32_t(c.overlay) & kIdMask) << kOverlayShift |
+         (uint32_t(c.blend) & kBlendMask) << kBlendShift;
+}
+
+Terrain3DControl terrain3d_decode(uint32_t x) {
+  return {int(x >> kBaseShift & kIdMask), int(x >> kOverlayShift & kIdMask), int(x >> kBlendShift & kBlendMask)};
+}
+
+cv::Mat1i terrain3d_control(const terrain::Layers& L) {
+  const int H = L.weight[0].rows, W = L.weight[0].cols;
+  cv::Mat1i out(H, W);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      // The two heaviest materials, the lower id first on ties.
+      int a = 0, b = -1;
+      for (int m = 1; m < terrain::kNumMaterials; ++m) {
+        const float w = L.weight[size_t(m)](y, x);
+        if (w > L.weight[size_t(a)](y, x)) b = a, a = m;
+        else if (b < 0 || w > L.weight[size_t(b)](y, x)) b = m;
+      }
+      const float wa = L.weight[size_t(a)](y, x), wb = L.weight[size_t(b)](y, x);
+      Terrain3DControl c{a, a, 0};
+      if (wb > 0) c = {a, b, int(std::lround(255.0 * wb / (wa + wb)))};
+      uint32_t bits = terrain3d_encode(c);
+      std::memcpy(&out(y, x), &bits, sizeof bits);
+    }
+  return out;
+}
+
+namespace detail {
+
+nlohmann::json stage_godot(StagedOutputs& staged, const fs::path& dir, const std::string& name, const BundleInput& in) {
+  const int n = in.height_m.cols, region = terrain3d_region_side(n);
+  const int side = (n + region - 1) / region * region, pad = (side - n) / 2;
+  const cv::Mat1f h = pad_to(in.height_m, side, pad, cv::BORDER_REPLICATE);
+  // The padding is deep sea floor (base = overlay = material 0, blend 0: all bits 0).
+  const cv::Mat1f control = pad_to(bits_as_floats(terrain3d_control(*in.layers)), side, pad, cv::BORDER_CONSTANT);
+  cv::Mat4b colour;
+  cv::cvtColor(pad_to(terrain::material_colour_map(*in.layers, false), side, pad, cv::BORDER_REPLICATE), colour,
+               cv::COLOR_BGR2BGRA);
+  colour.forEach([](cv::Vec4b& p, const int*) { p[3] = kNeutralRoughness; });
+  staged.write(dir / (name + ".height.exr"), [&](const fs::path& p) { write_exr_channel(p, h, "R"); });
+  staged.write(dir / (name + ".control.exr"), [&](const fs::path& p) { write_exr_channel(p, control, "R"); });
+  staged.write(dir / (name + ".color.png"), [&](const fs::path& p) { write_png(p, colour); });
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(in.height_m, &lo, &hi);
+  std::string readme =
+      "reefgen island for Godot 4 with Terrain3D (1.0 or later)\n\n"
+      "Maps: " + std::to_string(side) + "x" + std::to_string(side) + " samples (the island's " + std::to_string(n) +
+      " centred: " + std::to_string(pad) + " samples of its edge added on the north and west,\n"
+      "the rest on the south and east) so the maps fill whole regions of " + std::to_string(region) + ".\n"
+      "  " + name + ".height.exr   float32 metres, sea level 0 (" + fmt("%.1f", lo) + " ... " + fmt("%.1f", hi) + " m)\n"
+      "  " + name + ".control.exr  Terrain3D's control map: uint32 bits in a float32 EXR (base texture, overlay, blend)\n"
+      "  " + name + ".color.png    colour map: RGB tints the textures, alpha 0.5 (roughness unchanged)\n\n"
+      "1. Terrain3D node: Region Size " + std::to_string(region) + ", Vertex Spacing " + fmt("%.4f", in.metres_per_px) +
+      " (metres between samples).\n"
+      "2. Texture list: add 8 textures, ids in this order:\n";
+  for (int m = 0; m < terrain::kNumMaterials; ++m)
+    readme += "   " + std::to_string(m) + " " + terrain::material_name(m) + "\n";
+  readme +=
+      "3. Open addons/terrain_3d/tools/importer.tscn, select Importer: Height File " + name +
+      ".height.exr, Control File " + name + ".control.exr, Color File " + name +
+      ".color.png,\n"
+      "   Import Position (0, 0, 0) (the island's centre), Import Scale 1, Height Offset 0 (heights are metres).\n"
+      "4. Run Import, then save the Terrain3D data.\n";
+  stage_text(staged, dir / "README.txt", readme);
+  return {{"engine", "godot"},      {"heightmap", name + ".height.exr"}, {"control_map", name + ".control.exr"},
+          {"color_map", name + ".color.png"}, {"side_px", side},        {"padding_px", pad},
+          {"resampled_from_px", n}, {"region_side_px", region},          {"vertex_spacing_m", in.metres_per_px},
+          {"control_bits", "base id << 27 | overlay id << 22 | blend << 14"}, {"texture_ids", [] {
+             nlohmann::json ids = nlohmann::json::array();
+             for (int m = 0; m < terrain::kNumMaterials; ++m) ids.push_back(terrain::material_name(m));
+             return ids;
+           }()}};
+}
+
+}  // namespace detail
+
+}  // namespace reefgen::engines
