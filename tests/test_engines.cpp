@@ -72,7 +72,9 @@ TEST(Engines, SizesEachEngineTakes) {
   EXPECT_EQ(unreal_side(2049), 2017);
   EXPECT_EQ(unreal_side(8192), 8129);
   EXPECT_EQ(unreal_side(100), 505);
-  EXPECT_THROW(engine_from_string("godot"), Error);
+  EXPECT_EQ(engine_from_string("godot"), Engine::Godot);
+  EXPECT_EQ(engine_from_string("blender"), Engine::Blender);
+  EXPECT_THROW(engine_from_string("cryengine"), Error);
   EXPECT_EQ(engines_from_strings({"unity,gis", "unity"}), (std::vector<Engine>{Engine::Unity, Engine::Gis}));
 }
 
