@@ -22,6 +22,7 @@
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/spec.hpp"
 #include "reefgen/studio/server.hpp"
+#include "reefgen/studio/zip.hpp"
 #include "test_util.hpp"
 
 using namespace reefgen;
@@ -279,6 +280,19 @@ TEST_F(Studio, ExportsWriteOnlyIntoTheOutputFolder) {
   }
   EXPECT_FALSE(fs::exists(out / "evil.height.exr"));
   expect_error(client->Post("/api/export?format=tiff&name=x", body.dump(), "application/json"), 400, "format 'tiff'");
+  // Bundles: the folder beside the other exports, and one ZIP of this export's files.
+  for (const char* e : {"unity", "unreal", "godot", "blender", "gis"}) {
+    auto r = client->Post(std::string("/api/export?format=") + e + "&name=isle", spec_body.dump(), "application/json");
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 200) << e << ": " << r->body;
+    const fs::path folder = out / "exports" / (std::string("isle.") + e);
+    EXPECT_EQ(fs::canonical(r->get_header_value("X-Reefgen-Path")), fs::canonical(folder)) << e;
+    EXPECT_EQ(r->body.substr(0, 4), std::string("PK\x03\x04", 4)) << e;
+    for (const auto& f : fs::directory_iterator(folder))
+      EXPECT_NE(r->body.find(std::string("isle.") + e + "/" + f.path().filename().string()), std::string::npos)
+          << e << ": the ZIP lacks " << f.path().filename();
+  }
+  EXPECT_EQ(fs::file_size(out / "exports" / "isle.unity" / "isle.raw"), 65u * 65u * 2) << "64² → Unity's 65²";
   expect_error(client->Post("/api/export?format=spec&name=x", body.dump(), "application/json"), 400, "needs a spec");
   // Static files: no path outside the page's folder.
   auto t = client->Get("/../../etc/passwd");
@@ -538,4 +552,30 @@ TEST_F(Studio, SlowClientsNeitherStarveTheStudioNorOutstayTheHeadDeadline) {
   r = client->Get("/api/info");
   ASSERT_TRUE(r);
   EXPECT_EQ(r->status, 200);
+}
+
+TEST(StudioZip, StoredArchiveHasTheFilesAndTheirCrcs) {
+  const std::string zip = studio::zip_stored({{"a/hello.txt", "hello"}, {"a/empty", ""}});
+  auto u16 = [&](size_t at) { return unsigned(uint8_t(zip[at])) | unsigned(uint8_t(zip[at + 1])) << 8; };
+  auto u32 = [&](size_t at) { return u16(at) | u16(at + 2) << 16; };
+  // Local header of the first file: signature, stored, CRC-32 of "hello" (golden), sizes, name, bytes.
+  EXPECT_EQ(u32(0), 0x04034b50u);
+  EXPECT_EQ(u16(8), 0u);
+  EXPECT_EQ(u32(14), 0x3610a686u);
+  EXPECT_EQ(u32(18), 5u);
+  EXPECT_EQ(u32(22), 5u);
+  EXPECT_EQ(zip.substr(30, 11), "a/hello.txt");
+  EXPECT_EQ(zip.substr(41, 5), "hello");
+  // End record: two entries, and the central directory where it says.
+  const size_t end = zip.size() - 22;
+  EXPECT_EQ(u32(end), 0x06054b50u);
+  EXPECT_EQ(u16(end + 10), 2u);
+  const size_t central = u32(end + 16);
+  EXPECT_EQ(u32(central), 0x02014b50u);
+  EXPECT_EQ(u32(central + 16), 0x3610a686u);
+  EXPECT_EQ(u32(central + 42), 0u) << "the first file's local header offset";
+  EXPECT_EQ(u32(end + 12), zip.size() - 22 - central) << "central directory size";
+  // Deterministic: the same files give the same bytes.
+  EXPECT_EQ(zip, studio::zip_stored({{"a/hello.txt", "hello"}, {"a/empty", ""}}));
+  EXPECT_THROW(studio::zip_stored({{"", "x"}}), Error);
 }

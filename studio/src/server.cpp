@@ -27,6 +27,8 @@
 #include "reefgen/version.hpp"
 #include "front_door.hpp"
 #include "reefgen/engines/bundle.hpp"
+#include "reefgen/studio/zip.hpp"
+#include "reefgen/terrain/layers.hpp"
 
 namespace reefgen::studio {
 
@@ -298,7 +300,9 @@ struct StudioServer::Impl {
     return n;
   }
 
-  procgen::IslandFields island_of(const json& spec_json, int size, procgen::IslandSpec* spec_out) {
+  // keep_uneroded: also the heights before erosion (the layers' wear and deposit).
+  procgen::IslandFields island_of(const json& spec_json, int size, procgen::IslandSpec* spec_out,
+                                  bool keep_uneroded = false) {
     check_side(size);
     procgen::IslandSpec spec;
     try {
@@ -308,8 +312,31 @@ struct StudioServer::Impl {
     }
     procgen::RenderOptions ro;
     ro.size_px = size;
+    ro.keep_uneroded = keep_uneroded;
     if (spec_out) *spec_out = spec;
     return procgen::generate(spec, ro);
+  }
+
+  // The bundle of `e` (layers from the regions, the erosion when known) staged
+  // into OUT/NAME.<engine>/ and sent as NAME.<engine>.zip holding exactly
+  // this export's files (an earlier, larger export's tiles may still be in
+  // the folder).
+  void send_bundle(httplib::Response& res, engines::Engine e, const std::string& name, const cv::Mat1f& h,
+                   const cv::Mat1f& before_m, const cv::Mat1b& region, double mpp) {
+    const terrain::Layers L = terrain::compute_layers(h, before_m, region, mpp);
+    std::error_code ec;
+    fs::create_directories(o.out_dir, ec);
+    ensure_writable_dir(o.out_dir);
+    const std::string folder = name + "." + engines::to_string(e);
+    StagedOutputs staged;
+    engines::stage_bundle(staged, o.out_dir / folder, name, e, {h, &L, mpp, {}});
+    staged.commit();
+    std::vector<std::pair<std::string, std::string>> files;
+    for (const fs::path& f : staged.finals()) files.emplace_back(folder + "/" + f.filename().string(), read_text(f, size_t(4) << 30));
+    const std::string zip = zip_stored(files);
+    res.set_header("Content-Disposition", "attachment; filename=\"" + folder + ".zip\"");
+    res.set_header("X-Reefgen-Path", fs::absolute(o.out_dir / folder).string());
+    res.set_content(zip, "application/zip");
   }
 
   json heights_meta(const cv::Mat1f& h, double ms) {
@@ -488,7 +515,13 @@ struct StudioServer::Impl {
                                                              {"r16", ".r16"},        {"glb", ".glb"},
                                                              {"obj", ".obj"},        {"sketch", ".sketch.png"},
                                                              {"spec", ".spec.json"}};
-      if (!ext.count(format)) throw BadRequest("format '" + format + "': use exr, png16, r16, glb, obj, sketch or spec");
+      // Engine bundles (docs/ENGINES.md): the folder NAME.<engine>/ in the
+      // output folder, sent as one stored ZIP.
+      const bool bundle = format == "unity" || format == "unreal" || format == "godot" || format == "blender" ||
+                          format == "gis";
+      if (!ext.count(format) && !bundle)
+        throw BadRequest("format '" + format + "': use exr, png16, r16, glb, obj, sketch, spec, or a bundle: unity, "
+                         "unreal, godot, blender, gis");
       const json body = json::parse(req.body, nullptr, false);
       if (body.is_discarded() || !body.is_object())
         throw BadRequest("the body must be JSON: {\"sketch_png\": base64} or {\"spec\": {...}, \"size\": N}");
@@ -496,7 +529,8 @@ struct StudioServer::Impl {
       if (!from_spec && !body.contains("sketch_png")) throw BadRequest("the body needs sketch_png or spec");
       if (format == "spec" && !from_spec) throw BadRequest("format spec needs a spec (curves mode)");
       // The source again (deterministic), then the CLI's writer for the format.
-      cv::Mat1f h;
+      cv::Mat1f h, before_m;  // before_m: the heights before erosion (the layers' wear and deposit), when known
+      cv::Mat1b region;       // region ids at the heights' size
       cv::Mat3b label;
       json spec_json;
       double mpp = 0;
@@ -510,8 +544,10 @@ struct StudioServer::Impl {
           // Range-checked as int64 before narrowing: 4294967328 must not become 32.
           const int64_t size = body.contains("size") ? body["size"].get<int64_t>() : 256;
           check_side(size);
-          const procgen::IslandFields f = island_of(body["spec"], int(size), &sp);
+          const procgen::IslandFields f = island_of(body["spec"], int(size), &sp, bundle);
           h = f.height_m;
+          before_m = f.uneroded_m;
+          region = f.label;
           label = encode_labels(f.label, sp.subsidence);
           procgen::to_json(spec_json, sp);
           mpp = sp.world_size_m / h.cols;
@@ -527,12 +563,17 @@ struct StudioServer::Impl {
           const DecodedSketch s = sketch_of(png);
           h = infer::infer_heights(gen, {s}, io)[0];
           label = encode_labels(s.label, s.subsidence);
+          cv::resize(s.label, region, h.size(), 0, 0, cv::INTER_NEAREST);
           mpp = kCanvasWorldSizeM / h.cols;
         }
       }
       std::error_code ec;
       fs::create_directories(o.out_dir, ec);
       ensure_writable_dir(o.out_dir);
+      if (bundle) {
+        send_bundle(res, engines::engine_from_string(format), name, h, before_m, region, mpp);
+        return;
+      }
       const fs::path path = o.out_dir / (name + ext.at(format));
       // 16-bit files span the field's own range (a 608 m preset peak was
       // clipped at the model's 560 m); the range and each engine's import

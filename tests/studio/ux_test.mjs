@@ -249,6 +249,25 @@ await check('png16-export-states-its-unclipped-range', async () => {
   return page;
 });
 
+// 8b. Engine bundles from the export bar: one ZIP of the bundle folder,
+// with its README and the engine's files (docs/ENGINES.md).
+await check('bundle-export-downloads-a-zip', async () => {
+  const page = await open();
+  const fs = await import('node:fs');
+  for (const [engine, file] of [['unity', 'island.raw'], ['godot', 'island.control.exr']]) {
+    const [dl] = await Promise.all([page.waitForEvent('download', { timeout: 60000 }),
+                                    page.click(`#exports button[data-format="${engine}"]`)]);
+    expect(dl.suggestedFilename() === `island.${engine}.zip`, `download named ${dl.suggestedFilename()}`);
+    const bytes = fs.readFileSync(await dl.path());
+    const text = bytes.toString('latin1');
+    expect(text.startsWith('PK\x03\x04'), `${engine}: not a ZIP`);
+    for (const want of [`island.${engine}/README.txt`, `island.${engine}/${file}`])
+      expect(text.includes(want), `${engine}: the ZIP lacks ${want}`);
+    await page.waitForFunction(() => /exported/.test(document.getElementById('status').textContent), null, { timeout: 20000 });
+  }
+  return page;
+});
+
 // 9. At 1024×700 canvas and 3D view sit side by side, both on screen.
 await check('side-by-side-at-1024x700', async () => {
   const page = await open(1024, 700);
