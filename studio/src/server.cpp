@@ -317,19 +317,63 @@ struct StudioServer::Impl {
     return procgen::generate(spec, ro);
   }
 
+  // What an export or a layer view is made from: the page's source (a
+  // painted sketch, or a spec and a size) computed again, deterministically.
+  struct Source {
+    cv::Mat1f height_m;
+    cv::Mat1f before_m;  // heights before erosion (the layers' wear and deposit), when known
+    cv::Mat1b region;    // region ids at the heights' size
+    cv::Mat3b label;     // the HSV label map
+    json spec_json;      // curves mode: the spec as run
+    double metres_per_px = 0;
+  };
+  Source source_of(const json& body, bool keep_uneroded) {
+    if (body.is_discarded() || !body.is_object())
+      throw BadRequest("the body must be JSON: {\"sketch_png\": base64} or {\"spec\": {...}, \"size\": N}");
+    const bool from_spec = body.contains("spec");
+    if (!from_spec && !body.contains("sketch_png")) throw BadRequest("the body needs sketch_png or spec");
+    Source src;
+    std::lock_guard<std::mutex> lock(compute);
+    if (from_spec) {
+      procgen::IslandSpec sp;
+      if (body.contains("size") && !body["size"].is_number_integer())
+        throw BadRequest("size must be a whole number of pixels in " + std::to_string(kMinStudioSidePx) + ".." +
+                         std::to_string(o.max_side));
+      // Range-checked as int64 before narrowing: 4294967328 must not become 32.
+      const int64_t size = body.contains("size") ? body["size"].get<int64_t>() : 256;
+      check_side(size);
+      const procgen::IslandFields f = island_of(body["spec"], int(size), &sp, keep_uneroded);
+      src = {f.height_m, f.uneroded_m, f.label, encode_labels(f.label, sp.subsidence), {}, sp.world_size_m / f.height_m.cols};
+      procgen::to_json(src.spec_json, sp);
+      return src;
+    }
+    if (!body["sketch_png"].is_string()) throw BadRequest("sketch_png must be a string: the sketch PNG in base64");
+    std::string png;
+    try {
+      png = base64_decode(body["sketch_png"].get<std::string>());
+    } catch (const Error& e) {
+      throw BadRequest(std::string("sketch_png: ") + e.what());
+    }
+    const DecodedSketch s = sketch_of(png);
+    src.height_m = infer::infer_heights(gen, {s}, io)[0];
+    src.label = encode_labels(s.label, s.subsidence);
+    cv::resize(s.label, src.region, src.height_m.size(), 0, 0, cv::INTER_NEAREST);
+    src.metres_per_px = kCanvasWorldSizeM / src.height_m.cols;
+    return src;
+  }
+
   // The bundle of `e` (layers from the regions, the erosion when known) staged
   // into OUT/NAME.<engine>/ and sent as NAME.<engine>.zip holding exactly
   // this export's files (an earlier, larger export's tiles may still be in
   // the folder).
-  void send_bundle(httplib::Response& res, engines::Engine e, const std::string& name, const cv::Mat1f& h,
-                   const cv::Mat1f& before_m, const cv::Mat1b& region, double mpp) {
-    const terrain::Layers L = terrain::compute_layers(h, before_m, region, mpp);
+  void send_bundle(httplib::Response& res, engines::Engine e, const std::string& name, const Source& src) {
+    const terrain::Layers L = terrain::compute_layers(src.height_m, src.before_m, src.region, src.metres_per_px);
     std::error_code ec;
     fs::create_directories(o.out_dir, ec);
     ensure_writable_dir(o.out_dir);
     const std::string folder = name + "." + engines::to_string(e);
     StagedOutputs staged;
-    engines::stage_bundle(staged, o.out_dir / folder, name, e, {h, &L, mpp, {}});
+    engines::stage_bundle(staged, o.out_dir / folder, name, e, {src.height_m, &L, src.metres_per_px, {}});
     staged.commit();
     std::vector<std::pair<std::string, std::string>> files;
     for (const fs::path& f : staged.finals()) files.emplace_back(folder + "/" + f.filename().string(), read_text(f, size_t(4) << 30));
@@ -508,6 +552,17 @@ struct StudioServer::Impl {
         send_heights(res, f.height_m, j, req.get_param_value("enc") == "u16");
       });
     }));
+    // A layer as a picture for the 2D view and the 3D view's texture
+    // (docs/STUDIO.md): materials (hill-shaded base colours) or flow.
+    svr.Post("/api/layers", guarded([this](const httplib::Request& req, httplib::Response& res) {
+      const std::string view = req.get_param_value("view");
+      if (view != "materials" && view != "flow") throw BadRequest("view '" + view + "': use materials or flow");
+      const Source src = source_of(json::parse(req.body, nullptr, false), true);
+      const terrain::Layers L = terrain::compute_layers(src.height_m, src.before_m, src.region, src.metres_per_px);
+      const cv::Mat3b picture = view == "materials" ? terrain::material_colour_map(L)
+                                                    : terrain::flow_colour_map(L, src.height_m, src.metres_per_px);
+      res.set_content(encode_png8(picture, 1), "image/png");
+    }));
     svr.Post("/api/export", guarded([this](const httplib::Request& req, httplib::Response& res) {
       const std::string format = req.get_param_value("format"), name = req.get_param_value("name");
       check_name(name);
@@ -523,55 +578,19 @@ struct StudioServer::Impl {
         throw BadRequest("format '" + format + "': use exr, png16, r16, glb, obj, sketch, spec, or a bundle: unity, "
                          "unreal, godot, blender, gis");
       const json body = json::parse(req.body, nullptr, false);
-      if (body.is_discarded() || !body.is_object())
-        throw BadRequest("the body must be JSON: {\"sketch_png\": base64} or {\"spec\": {...}, \"size\": N}");
-      const bool from_spec = body.contains("spec");
-      if (!from_spec && !body.contains("sketch_png")) throw BadRequest("the body needs sketch_png or spec");
-      if (format == "spec" && !from_spec) throw BadRequest("format spec needs a spec (curves mode)");
+      if (format == "spec" && body.is_object() && !body.contains("spec"))
+        throw BadRequest("format spec needs a spec (curves mode)");
       // The source again (deterministic), then the CLI's writer for the format.
-      cv::Mat1f h, before_m;  // before_m: the heights before erosion (the layers' wear and deposit), when known
-      cv::Mat1b region;       // region ids at the heights' size
-      cv::Mat3b label;
-      json spec_json;
-      double mpp = 0;
-      {
-        std::lock_guard<std::mutex> lock(compute);
-        if (from_spec) {
-          procgen::IslandSpec sp;
-          if (body.contains("size") && !body["size"].is_number_integer())
-            throw BadRequest("size must be a whole number of pixels in " + std::to_string(kMinStudioSidePx) + ".." +
-                             std::to_string(o.max_side));
-          // Range-checked as int64 before narrowing: 4294967328 must not become 32.
-          const int64_t size = body.contains("size") ? body["size"].get<int64_t>() : 256;
-          check_side(size);
-          const procgen::IslandFields f = island_of(body["spec"], int(size), &sp, bundle);
-          h = f.height_m;
-          before_m = f.uneroded_m;
-          region = f.label;
-          label = encode_labels(f.label, sp.subsidence);
-          procgen::to_json(spec_json, sp);
-          mpp = sp.world_size_m / h.cols;
-        } else {
-          if (!body["sketch_png"].is_string())
-            throw BadRequest("sketch_png must be a string: the sketch PNG in base64");
-          std::string png;
-          try {
-            png = base64_decode(body["sketch_png"].get<std::string>());
-          } catch (const Error& e) {
-            throw BadRequest(std::string("sketch_png: ") + e.what());
-          }
-          const DecodedSketch s = sketch_of(png);
-          h = infer::infer_heights(gen, {s}, io)[0];
-          label = encode_labels(s.label, s.subsidence);
-          cv::resize(s.label, region, h.size(), 0, 0, cv::INTER_NEAREST);
-          mpp = kCanvasWorldSizeM / h.cols;
-        }
-      }
+      const Source src = source_of(body, bundle);
+      const cv::Mat1f& h = src.height_m;
+      const cv::Mat3b& label = src.label;
+      const json& spec_json = src.spec_json;
+      const double mpp = src.metres_per_px;
       std::error_code ec;
       fs::create_directories(o.out_dir, ec);
       ensure_writable_dir(o.out_dir);
       if (bundle) {
-        send_bundle(res, engines::engine_from_string(format), name, h, before_m, region, mpp);
+        send_bundle(res, engines::engine_from_string(format), name, src);
         return;
       }
       const fs::path path = o.out_dir / (name + ext.at(format));

@@ -664,24 +664,47 @@ function showHeights(h, n, j) {
   current = { h, n, mpp: j.metres_per_px };
   showShade(h, n, j.metres_per_px);
   show3d(h, n);
+  if ($('layer-view').value !== 'heights') showLayer();
   $('legend').textContent = `${j.min_m.toFixed(0)} m … ${j.max_m.toFixed(0)} m`;
 }
 $('exaggeration').addEventListener('input', () => { if (current) show3d(current.h, current.n); });
+
+// ---------- layer views: the server's materials or flow picture (the CLI's
+// layers of this very island) in place of the hill-shaded heights, on the
+// 2D view and as the 3D surface. Only the latest request's answer is shown.
+let layerToken = 0;
+probe.layerViews = 0;
+async function sourceBody(size) {
+  if (mode === 'curves') return { spec: specForServer(), size };
+  const buf = new Uint8Array(await (await sketchBlob()).arrayBuffer());
+  let s = '';
+  for (let i = 0; i < buf.length; i += 8192) s += String.fromCharCode(...buf.subarray(i, i + 8192));
+  return { sketch_png: btoa(s) };
+}
+async function showLayer() {
+  const view = $('layer-view').value, token = ++layerToken;
+  if (!current) return;
+  if (view === 'heights') { showShade(current.h, current.n, current.mpp); show3d(current.h, current.n); return; }
+  try {
+    const res = await api(`/api/layers?view=${view}`, JSON.stringify(await sourceBody(current.n)), 'application/json');
+    const picture = await createImageBitmap(await res.blob());
+    if (token !== layerToken) return;
+    const c = $('shade');
+    if (c.width !== picture.width) c.width = c.height = picture.width;
+    c.getContext('2d').drawImage(picture, 0, 0);
+    show3d(current.h, current.n);
+    probe.layerViews++;
+    probe.layerView = view;
+  } catch (e) { status('layer view failed: ' + e.message); probe.errors.push(e.message); }
+}
+$('layer-view').addEventListener('change', showLayer);
 $('view-reset').onclick = () => { if (controls) { controls.reset(); requestRender(); } };
 
 // ---------- exports: the same writers as the CLI, into the studio's folder
 for (const b of document.querySelectorAll('#exports button')) {
   b.addEventListener('click', async () => {
     const format = b.dataset.format, name = $('name').value;
-    let body;
-    if (mode === 'paint') {
-      const buf = new Uint8Array(await (await sketchBlob()).arrayBuffer());
-      let s = '';
-      for (let i = 0; i < buf.length; i += 8192) s += String.fromCharCode(...buf.subarray(i, i + 8192));
-      body = { sketch_png: btoa(s) };
-    } else {
-      body = { spec: specForServer(), size: 256 };
-    }
+    const body = await sourceBody(256);
     // Some exports take seconds (OBJ of a 1024² island: ~7 s): say so, and
     // keep the button from starting a second one meanwhile.
     const t0 = performance.now();

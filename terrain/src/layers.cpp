@@ -264,4 +264,30 @@ cv::Mat3b material_colour_map(const Layers& L, bool shaded) {
   return out;
 }
 
+cv::Mat3b flow_colour_map(const Layers& L, const cv::Mat1f& h, double dx) {
+  // Drainage below ten cells' area is not a stream yet: nothing is drawn.
+  constexpr double kMinCells = 10;
+  const double cell = dx * dx;
+  double max_area = 0;
+  cv::minMaxLoc(L.flow_area_m2, nullptr, &max_area);
+  const double span = std::max(1e-9, std::log10(std::max(max_area / cell, kMinCells + 1)) - std::log10(kMinCells));
+  const cv::Vec3f sun(-0.5f, 0.5f, float(M_SQRT1_2));
+  cv::Mat3b out(h.size());
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x) {
+      const float shade = std::clamp(0.45f + 0.75f * L.normal(y, x).dot(sun), 0.35f, 1.25f);
+      cv::Vec3f c = h(y, x) < 0 ? cv::Vec3f(120, 90, 60) : cv::Vec3f(150, 155, 150) * shade;  // BGR
+      const double cells = L.flow_area_m2(y, x) / cell;
+      if (h(y, x) >= 0 && cells > kMinCells) {
+        const float t = float(std::clamp((std::log10(cells) - std::log10(kMinCells)) / span, 0.0, 1.0));
+        const cv::Vec3f stream = cv::Vec3f(255, 210, 120) * (1 - t) + cv::Vec3f(200, 70, 0) * t;
+        const float a = 0.6f + 0.4f * t;
+        c = c * (1 - a) + stream * a;
+      }
+      out(y, x) = cv::Vec3b(cv::saturate_cast<uint8_t>(c[0]), cv::saturate_cast<uint8_t>(c[1]),
+                            cv::saturate_cast<uint8_t>(c[2]));
+    }
+  return out;
+}
+
 }  // namespace reefgen::terrain

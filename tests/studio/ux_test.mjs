@@ -268,6 +268,34 @@ await check('bundle-export-downloads-a-zip', async () => {
   return page;
 });
 
+// 8c. The layer switch: materials and flow replace the hill-shaded heights
+// on the 2D view and the 3D surface, and Heights brings them back.
+await check('layer-views-switch', async () => {
+  const page = await open();
+  const pixels = () => page.evaluate(() => {
+    const c = document.getElementById('shade'), d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+    let h = 0;
+    for (let i = 0; i < d.length; i += 97) h = (h * 31 + d[i]) >>> 0;
+    return h;
+  });
+  const heights = await pixels(), shot0 = await page.evaluate(() => window.__reefgen.snapshot3d());
+  const seen = {};
+  for (const view of ['materials', 'flow']) {
+    const n = await page.evaluate(() => window.__reefgen.layerViews);
+    await page.selectOption('#layer-view', view);
+    await page.waitForFunction((k) => window.__reefgen.layerViews > k, n, { timeout: 30000 });
+    seen[view] = await pixels();
+    expect(seen[view] !== heights, `${view}: the 2D view still shows the heights`);
+    expect(await page.evaluate(() => window.__reefgen.snapshot3d()) !== shot0, `${view}: the 3D view did not change`);
+  }
+  expect(seen.materials !== seen.flow, 'materials and flow look the same');
+  await page.selectOption('#layer-view', 'heights');
+  await page.waitForTimeout(300);
+  expect(await pixels() === heights, 'Heights did not bring the hill-shaded heights back');
+  if (shots) await page.selectOption('#layer-view', 'materials');
+  return page;
+});
+
 // 9. At 1024×700 canvas and 3D view sit side by side, both on screen.
 await check('side-by-side-at-1024x700', async () => {
   const page = await open(1024, 700);

@@ -89,6 +89,10 @@ std::array<cv::Mat4b, 2> splat_maps(const Layers& layers);
 // for the picture docs/ shows and PREFIX.materials.png; unshaded (the
 // normals are used only when shaded) for textures an engine lights itself.
 cv::Mat3b material_colour_map(const Layers& layers, bool shaded = true);
+// A picture of the drainage (BGR): the relief hill-shaded in grey, water
+// blue, and the flow drawn over it from white (a few cells drain here) to
+// deep blue (the largest drainage area on the map), on a log scale.
+cv::Mat3b flow_colour_map(const Layers& layers, const cv::Mat1f& height_m, double metres_per_px);
 
 }  // namespace reefgen::terrain
 
