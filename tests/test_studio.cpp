@@ -293,6 +293,18 @@ TEST_F(Studio, ExportsWriteOnlyIntoTheOutputFolder) {
           << e << ": the ZIP lacks " << f.path().filename();
   }
   EXPECT_EQ(fs::file_size(out / "exports" / "isle.unity" / "isle.raw"), 65u * 65u * 2) << "64² → Unity's 65²";
+  // Layer pictures: the island's size, different per view; unknown views refused.
+  std::string pictures[2];
+  for (int k = 0; k < 2; ++k) {
+    auto r = client->Post(std::string("/api/layers?view=") + (k ? "flow" : "materials"), spec_body.dump(), "application/json");
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 200) << r->body;
+    const cv::Mat img = cv::imdecode(std::vector<uchar>(r->body.begin(), r->body.end()), cv::IMREAD_COLOR);
+    ASSERT_EQ(img.cols, 64);
+    pictures[k] = r->body;
+  }
+  EXPECT_NE(pictures[0], pictures[1]);
+  expect_error(client->Post("/api/layers?view=wear", spec_body.dump(), "application/json"), 400, "view 'wear'");
   expect_error(client->Post("/api/export?format=spec&name=x", body.dump(), "application/json"), 400, "needs a spec");
   // Static files: no path outside the page's folder.
   auto t = client->Get("/../../etc/passwd");
