@@ -27,6 +27,7 @@ Command add_dataset_command(CLI::App& app, const GlobalOptions& g) {
                                             "  reefgen dataset build --config configs/dataset/paper.json --out data/paper\n"
                                             "  reefgen dataset build --count 200 --seed 1 --out data/small\n"
                                             "  reefgen dataset build --config configs/dataset/paper.json --out data/p --shard 0/2\n"
+                                            "  reefgen dataset build --count 100 --out data/layers --layers\n"
                                             "  reefgen dataset merge data/p\n"
                                             "  reefgen dataset stats data/p\n");
   sub->require_subcommand(1);
@@ -40,6 +41,9 @@ Command add_dataset_command(CLI::App& app, const GlobalOptions& g) {
   a->o.threads = default_threads();
   build->add_option("--threads", a->o.threads, "Worker threads (default: all cores)");
   build->add_option("--shard", a->o.shard, "Build only slice I of N (pairs with index % N == I)")->capture_default_str();
+  build->add_flag("--layers", a->o.layers,
+                  "Also each pair's layers (docs/LAYERS.md): SPLIT/INDEX.flow.png, .slope.png, .splat0/1.png, ..., "
+                  "listed with checksums in the manifest");
   auto merge_dir = std::make_shared<std::string>();
   auto* merge = sub->add_subcommand("merge", "Join shard manifests into manifest.jsonl, verifying checksums");
   merge->add_option("dir", *merge_dir, "Dataset folder")->required();

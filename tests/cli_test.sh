@@ -210,6 +210,20 @@ cp "$T/d2/train/$(ls "$T/d2/train" | grep label.png | tail -1)" "$T/d2/train/$g"
 if "$BIN" -q dataset build --config "$T/ds.json" --seed 4 --out "$T/d2" 2>"$T/err" >/dev/null; then bad "foreign file accepted"
 else grep -q "$g is corrupt or from another dataset" "$T/err" && ok || bad "foreign file message: $(cat "$T/err")"; fi
 "$BIN" -q dataset build --config "$T/ds.json" --seed 5 --out "$T/d1" 2>"$T/err" >/dev/null && bad "other seed into same folder" || ok
+# --layers: each pair's layer files, listed with checksums; sharded and merged equal, threads alike.
+"$BIN" -q dataset build --config "$T/ds.json" --seed 4 --out "$T/dl1" --layers --threads 1 >/dev/null || bad "dataset --layers"
+"$BIN" -q dataset build --config "$T/ds.json" --seed 4 --out "$T/dl2" --layers --threads 2 --shard 0/2 >/dev/null &&
+  "$BIN" -q dataset build --config "$T/ds.json" --seed 4 --out "$T/dl2" --layers --threads 2 --shard 1/2 >/dev/null &&
+  "$BIN" -q dataset merge "$T/dl2" >/dev/null && cmp -s "$T/dl1/manifest.jsonl" "$T/dl2/manifest.jsonl" && ok ||
+  bad "dataset --layers: sharded, 2 threads, merged differs from 1 thread"
+"$PY" -c "
+import json, sys, os
+lines = [json.loads(l) for l in open(sys.argv[1] + '/manifest.jsonl')]
+assert len(lines) == 12 and all(len(r['layers']) == 8 and set(r['layers']) == set(r['layers_fnv64']) for r in lines)
+assert all(os.path.exists(sys.argv[1] + '/' + f) for r in lines for f in r['layers'].values())
+" "$T/dl1" && ok || bad "dataset --layers: manifest does not list eight layer files per pair"
+"$BIN" -q dataset build --config "$T/ds.json" --seed 4 --out "$T/dl1" >/dev/null 2>"$T/err" && bad "a --layers dataset resumed without --layers" ||
+  { grep -q "layers differ" "$T/err" && ok || bad "no word on --layers: $(cat "$T/err")"; }
 "$BIN" -q dataset stats "$T/d1" > "$T/stats.json" || bad "dataset stats"
 grep -q '"pairs": 12' "$T/stats.json" && ok || bad "stats: pair count"
 [ -s "$T/d1/contact_sheet.png" ] && ok || bad "stats: no contact sheet"

@@ -23,6 +23,7 @@
 #include "reefgen/labels.hpp"
 #include "reefgen/parallel.hpp"
 #include "reefgen/preview.hpp"
+#include "reefgen/terrain/layers.hpp"
 #include "reefgen/version.hpp"
 
 namespace reefgen::augment {
@@ -85,6 +86,28 @@ bool existing_matches(const fs::path& label_path, const fs::path& height_path, c
   return true;
 }
 
+// The layer files of one pair (docs/LAYERS.md), from its regions; the
+// augmented pair has no heights before erosion, so wear and deposit are 0.
+// Written again on a resumed build (same bytes: a pure function of the pair).
+// Returns the manifest's fields: the files, their checksums, the scales.
+json write_pair_layers(const fs::path& dir, const std::string& stem, const Pair& pair) {
+  const double mpp = kCanvasWorldSizeM / pair.height_m.cols;
+  const terrain::Layers L = terrain::compute_layers(pair.height_m, cv::Mat1f(), pair.label, mpp);
+  StagedOutputs staged;
+  const json side = terrain::stage_layer_files(staged, (dir / stem).string(), L, mpp, {});
+  staged.commit();
+  const std::string folder = fs::path(stem).parent_path().string();
+  json files = json::object(), sums = json::object();
+  for (const auto& [kind, name] : side["files"].items()) {
+    files[kind] = folder + "/" + name.get<std::string>();
+    sums[kind] = file_checksum(dir / files[kind].get<std::string>());
+  }
+  return {{"layers", files},
+          {"layers_fnv64", sums},
+          {"flow_log10_max", side["flow"]["log10_max"]},
+          {"flow_cell_area_m2", side["flow"]["cell_area_m2"]}};
+}
+
 }  // namespace
 
 BuildResult build_dataset(const DatasetParams& p, const BuildOptions& a) {
@@ -127,11 +150,12 @@ BuildResult build_dataset(const DatasetParams& p, const BuildOptions& a) {
                {"sea_level_m", 0.0},
                {"label_encoding", "HSV: hue 60*(id+1) deg for island, beach, lagoon, reef; 0 deg abyss; V = 1 - 0.75*subsidence"},
                {"files", "SPLIT/INDEX.label.png (RGB 8-bit) + SPLIT/INDEX.height.exr (float32, channel Y, metres)"}};
+  if (a.layers) meta["layers"] = terrain::layer_file_suffixes();
   const fs::path meta_path = dir / "dataset.json";
   if (fs::exists(meta_path)) {
     json old = read_json(meta_path);
     old.erase("version");
-    if (old != meta) throw Error(meta_path.string() + " describes another dataset (seed or params differ); use an empty --out folder");
+    if (old != meta) throw Error(meta_path.string() + " describes another dataset (seed, params or --layers differ); use an empty --out folder");
   }
   meta["version"] = kVersion;
   write_json_atomic(meta_path, meta);
@@ -171,7 +195,7 @@ BuildResult build_dataset(const DatasetParams& p, const BuildOptions& a) {
         }
         double lo, hi;
         cv::minMaxLoc(pair.height_m, &lo, &hi);
-        put_line(k, json{{"index", info.index},
+        json record{{"index", info.index},
                       {"split", split_name(info.split)},
                       {"configuration", info.configuration},
                       {"subsidence", info.subsidence},
@@ -180,7 +204,9 @@ BuildResult build_dataset(const DatasetParams& p, const BuildOptions& a) {
                       {"label", stem + ".label.png"},
                       {"height", stem + ".height.exr"},
                       {"label_fnv64", file_checksum(label_path)},
-                      {"height_fnv64", file_checksum(height_path)}}.dump());
+                      {"height_fnv64", file_checksum(height_path)}};
+        if (a.layers) record.update(write_pair_layers(dir, stem, pair));
+        put_line(k, record.dump());
       },
       [&](size_t d) { progress.tick(d); });
   if (next_line != indices.size()) throw Error(dir.string() + ": internal error: manifest incomplete");
@@ -240,6 +266,13 @@ MergeResult merge_dataset(const fs::path& dir) {
         throw Error(f.string() + ": missing or checksum mismatch; rebuild its shard");
       listed.insert(rel);
     }
+    if (r.contains("layers"))
+      for (const auto& [kind, rel] : r["layers"].items()) {
+        const fs::path f = dir / rel.get<std::string>();
+        if (!fs::exists(f) || file_checksum(f) != r.at("layers_fnv64").at(kind).get<std::string>())
+          throw Error(f.string() + ": missing or checksum mismatch; rebuild its shard");
+        listed.insert(rel.get<std::string>());
+      }
     merged.write(r.dump() + "\n");
   }
   for (size_t k = 0; k < in.size(); ++k) {

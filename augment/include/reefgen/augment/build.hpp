@@ -21,6 +21,7 @@ struct BuildOptions {
   int threads = 1;            // worker threads, [1, 256]; same bytes whatever the count
   std::string shard = "0/1";  // build only the pairs with index % N == I
   bool quiet = false;         // no progress on stderr
+  bool layers = false;        // also each pair's layer files (docs/LAYERS.md), listed with checksums in the manifest
 };
 struct BuildResult {
   std::filesystem::path manifest;  // manifest.jsonl, or manifest.shard-I-of-N.jsonl
