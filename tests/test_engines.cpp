@@ -199,7 +199,9 @@ TEST(Engines, Terrain3DControlBitsFollowItsLayout) {
         // reefgen's ids (0..7) never make a float NaN or infinity: EXR tools pass them through.
         float f;
         std::memcpy(&f, &bits, sizeof f);
-        if (base < terrain::kNumMaterials && overlay < terrain::kNumMaterials) ASSERT_TRUE(std::isfinite(f));
+        if (base < terrain::kNumMaterials && overlay < terrain::kNumMaterials) {
+          ASSERT_TRUE(std::isfinite(f));
+        }
       }
   EXPECT_EQ(terrain3d_region_side(257), 256);
   EXPECT_EQ(terrain3d_region_side(8193), 512);

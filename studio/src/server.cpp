@@ -466,6 +466,177 @@ struct StudioServer::Impl {
     };
   }
 
+  // A member answering one route, behind guarded()'s one-line errors.
+  using Answer = void (Impl::*)(const httplib::Request&, httplib::Response&);
+  httplib::Server::Handler handler(Answer a) {
+    return guarded([this, a](const httplib::Request& req, httplib::Response& res) { (this->*a)(req, res); });
+  }
+
+  void answer_info(const httplib::Request&, httplib::Response& res) {
+    const auto& u = gen.g->options();
+    res.set_content(json{{"version", kVersion},
+                         {"model", {{"path", fs::absolute(o.model).string()}, {"size_px", gen.size_px},
+                                    {"ngf", u.ngf}, {"upsample", model::to_string(u.upsample)},
+                                    {"train_step", gen.train_step}, {"lo_m", gen.range.lo_m}, {"hi_m", gen.range.hi_m}}},
+                         {"precision", infer::to_string(infer::resolve(io, gen))},
+                         {"engine", infer::to_string(infer::resolve_engine(io))},
+                         {"max_side", o.max_side},
+                         {"max_body_bytes", o.max_body_bytes},
+                         {"out_dir", fs::absolute(o.out_dir).string()}}
+                        .dump(-1, ' ', false, json::error_handler_t::replace),
+                    "application/json");
+  }
+
+  void answer_presets(const httplib::Request&, httplib::Response& res) {
+    json j = json::object();
+    for (const auto& [name, text] : o.presets) j[name] = json::parse(text);
+    res.set_content(j.dump(), "application/json");
+  }
+
+  void answer_defaults(const httplib::Request&, httplib::Response& res) {
+    json j;
+    procgen::to_json(j, procgen::IslandSpec{});  // the paper's profile and resistance curves among them
+    res.set_content(j.dump(), "application/json");
+  }
+
+  void answer_infer(const httplib::Request& req, httplib::Response& res) {
+    const bool raw = lower(req.get_header_value("Content-Type")).rfind("application/x-reefgen-rgba", 0) == 0;
+    const DecodedSketch s = raw ? sketch_of_rgba(req) : sketch_of(req.body);
+    latest_wins(res, [&] {
+      const auto t0 = std::chrono::steady_clock::now();
+      const cv::Mat1f h = infer::infer_heights(gen, {s}, io)[0];
+      const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      send_heights(res, h, heights_meta(h, ms), req.get_param_value("enc") == "u16");
+    });
+  }
+
+  void answer_generate(const httplib::Request& req, httplib::Response& res) {
+    const json spec = json::parse(req.body, nullptr, false);
+    if (spec.is_discarded()) throw BadRequest("the body is not valid JSON: send an island spec (docs/SPEC.md)");
+    const int size = req.has_param("size") ? size_param(req.get_param_value("size")) : 256;
+    latest_wins(res, [&] {
+      const auto t0 = std::chrono::steady_clock::now();
+      procgen::IslandSpec sp;
+      const procgen::IslandFields f = island_of(spec, size, &sp);
+      const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      json j = heights_meta(f.height_m, ms);
+      std::vector<uchar> png;
+      cv::imencode(".png", encode_labels(f.label, sp.subsidence), png);
+      j["label_png"] = base64_encode(png.data(), png.size());
+      j["metres_per_px"] = sp.world_size_m / f.height_m.cols;
+      send_heights(res, f.height_m, j, req.get_param_value("enc") == "u16");
+    });
+  }
+
+  // A layer as a picture for the 2D view and the 3D view's texture
+  // (docs/STUDIO.md): materials (hill-shaded base colours) or flow.
+  void answer_layers(const httplib::Request& req, httplib::Response& res) {
+    const std::string view = req.get_param_value("view");
+    if (view != "materials" && view != "flow") throw BadRequest("view '" + view + "': use materials or flow");
+    const Source src = source_of(json::parse(req.body, nullptr, false), true);
+    const terrain::Layers L = terrain::compute_layers(src.height_m, src.before_m, src.region, src.metres_per_px);
+    const cv::Mat3b picture = view == "materials" ? terrain::material_colour_map(L)
+                                                  : terrain::flow_colour_map(L, src.height_m, src.metres_per_px);
+    res.set_content(encode_png8(picture, 1), "image/png");
+  }
+
+  // One file per format beside the CLI's (the same writers), or a bundle.
+  static const std::map<std::string, std::string>& export_suffixes() {
+    static const std::map<std::string, std::string> ext = {{"exr", ".height.exr"}, {"png16", ".height.png"},
+                                                           {"r16", ".r16"},        {"glb", ".glb"},
+                                                           {"obj", ".obj"},        {"sketch", ".sketch.png"},
+                                                           {"spec", ".spec.json"}};
+    return ext;
+  }
+
+  void answer_export(const httplib::Request& req, httplib::Response& res) {
+    const std::string format = req.get_param_value("format"), name = req.get_param_value("name");
+    check_name(name);
+    // Engine bundles (docs/ENGINES.md): the folder NAME.<engine>/ in the
+    // output folder, sent as one stored ZIP.
+    const bool bundle = format == "unity" || format == "unreal" || format == "godot" || format == "blender" ||
+                        format == "gis";
+    if (!export_suffixes().count(format) && !bundle)
+      throw BadRequest("format '" + format + "': use exr, png16, r16, glb, obj, sketch, spec, or a bundle: unity, "
+                       "unreal, godot, blender, gis");
+    const json body = json::parse(req.body, nullptr, false);
+    if (format == "spec" && body.is_object() && !body.contains("spec"))
+      throw BadRequest("format spec needs a spec (curves mode)");
+    // The source again (deterministic), then the CLI's writer for the format.
+    const Source src = source_of(body, bundle);
+    std::error_code ec;
+    fs::create_directories(o.out_dir, ec);
+    ensure_writable_dir(o.out_dir);
+    if (bundle) send_bundle(res, engines::engine_from_string(format), name, src);
+    else send_file(res, format, name, src);
+  }
+
+  // OUT/NAME.<suffix> written with the CLI's writer for `format` and sent.
+  void send_file(httplib::Response& res, const std::string& format, const std::string& name, const Source& src) {
+    const cv::Mat1f& h = src.height_m;
+    const fs::path path = o.out_dir / (name + export_suffixes().at(format));
+    // 16-bit files span the field's own range (a 608 m preset peak was
+    // clipped at the model's 560 m); the range and each engine's import
+    // numbers go to NAME.<format>.import.json beside the file (one per
+    // format: an R16 and a PNG16 of one name used to share one note).
+    cv::Mat1f exported = h;
+    if (format == "r16") {
+      // Unity's terrains are 2^n + 1 samples a side: the rule and the
+      // corner-keeping resampling of `--for unity` (docs/ENGINES.md).
+      exported = engines::resample_corners(h, engines::unity_side(h.cols));
+    }
+    // r16: the resampled field's own spacing (the span is kept).
+    const double export_mpp = src.metres_per_px * (h.cols - 1) / (exported.cols - 1);
+    StagedOutputs staged;
+    if (format == "sketch") {
+      staged.write(path, [&](const fs::path& t) { write_png(t, src.label); });
+    } else if (format == "spec") {
+      staged.write(path, [&](const fs::path& t) { write_json_atomic(t, src.spec_json); });
+    } else {
+      HeightFiles hf;
+      hf.exr = format == "exr";
+      hf.png16 = format == "png16";
+      hf.r16 = format == "r16";
+      if (format == "glb" || format == "obj") hf.mesh = format;
+      const json side = stage_height_files(staged, o.out_dir / name, exported, export_mpp, hf);
+      if (side.contains(format)) {  // png16, r16: the range and each engine's numbers beside the file
+        const std::string note = name + "." + format + ".import.json";
+        staged.write(o.out_dir / note, [&](const fs::path& t) { write_json_atomic(t, side[format]["import"]); });
+        res.set_header("X-Reefgen-Import-Note", note);
+        res.set_header("X-Reefgen-Range-M", std::to_string(side[format]["lo_m"].get<double>()) + " " +
+                                                std::to_string(side[format]["hi_m"].get<double>()));
+      }
+    }
+    staged.commit();
+    const std::string bytes = read_text(path);
+    res.set_header("Content-Disposition", "attachment; filename=\"" + path.filename().string() + "\"");
+    res.set_header("X-Reefgen-Path", fs::absolute(path).string());
+    res.set_content(bytes, format == "spec" ? "application/json" : "application/octet-stream");
+  }
+
+  // The page's files (the API's routes above take precedence). The page may
+  // be cached: three.js is 1.2 MB and the HTTP library compresses text on
+  // every request.
+  void answer_asset(const httplib::Request& req, httplib::Response& res) {
+    const std::string path = req.path == "/" ? "/index.html" : req.path;
+    const auto it = assets.find(path);
+    std::error_code ec;
+    if (it == assets.end() || !fs::is_regular_file(fs::symlink_status(it->second, ec))) {
+      fail(res, 404, "not found: " + printable(req.path));
+      return;
+    }
+    std::string bytes;
+    try {
+      bytes = read_text(it->second);
+    } catch (const std::exception&) {
+      fail(res, 404, "not found: " + printable(req.path));
+      return;
+    }
+    res.set_header("Cache-Control", "max-age=600");
+    res.set_header("X-Content-Type-Options", "nosniff");
+    res.set_content(bytes, content_type_of(it->second).c_str());
+  }
+
   void routes() {
     svr.set_payload_max_length(o.max_body_bytes);
     // One listener per port: the library's default SO_REUSEPORT let a second
@@ -501,159 +672,14 @@ struct StudioServer::Impl {
       return httplib::Server::HandlerResponse::Handled;
     }));
     list_assets();
-    svr.Get("/api/info", guarded([this](const httplib::Request&, httplib::Response& res) {
-      const auto& u = gen.g->options();
-      res.set_content(json{{"version", kVersion},
-                           {"model", {{"path", fs::absolute(o.model).string()}, {"size_px", gen.size_px},
-                                      {"ngf", u.ngf}, {"upsample", model::to_string(u.upsample)},
-                                      {"train_step", gen.train_step}, {"lo_m", gen.range.lo_m}, {"hi_m", gen.range.hi_m}}},
-                           {"precision", infer::to_string(infer::resolve(io, gen))},
-                           {"engine", infer::to_string(infer::resolve_engine(io))},
-                           {"max_side", o.max_side},
-                           {"max_body_bytes", o.max_body_bytes},
-                           {"out_dir", fs::absolute(o.out_dir).string()}}
-                          .dump(-1, ' ', false, json::error_handler_t::replace),
-                      "application/json");
-    }));
-    svr.Get("/api/presets", guarded([this](const httplib::Request&, httplib::Response& res) {
-      json j = json::object();
-      for (const auto& [name, text] : o.presets) j[name] = json::parse(text);
-      res.set_content(j.dump(), "application/json");
-    }));
-    svr.Get("/api/defaults", guarded([](const httplib::Request&, httplib::Response& res) {
-      json j;
-      procgen::to_json(j, procgen::IslandSpec{});  // the paper's profile and resistance curves among them
-      res.set_content(j.dump(), "application/json");
-    }));
-    svr.Post("/api/infer", guarded([this](const httplib::Request& req, httplib::Response& res) {
-      const bool raw = lower(req.get_header_value("Content-Type")).rfind("application/x-reefgen-rgba", 0) == 0;
-      const DecodedSketch s = raw ? sketch_of_rgba(req) : sketch_of(req.body);
-      latest_wins(res, [&] {
-        const auto t0 = std::chrono::steady_clock::now();
-        const cv::Mat1f h = infer::infer_heights(gen, {s}, io)[0];
-        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-        send_heights(res, h, heights_meta(h, ms), req.get_param_value("enc") == "u16");
-      });
-    }));
-    svr.Post("/api/generate", guarded([this](const httplib::Request& req, httplib::Response& res) {
-      const json spec = json::parse(req.body, nullptr, false);
-      if (spec.is_discarded()) throw BadRequest("the body is not valid JSON: send an island spec (docs/SPEC.md)");
-      const int size = req.has_param("size") ? size_param(req.get_param_value("size")) : 256;
-      latest_wins(res, [&] {
-        const auto t0 = std::chrono::steady_clock::now();
-        procgen::IslandSpec sp;
-        const procgen::IslandFields f = island_of(spec, size, &sp);
-        const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-        json j = heights_meta(f.height_m, ms);
-        std::vector<uchar> png;
-        cv::imencode(".png", encode_labels(f.label, sp.subsidence), png);
-        j["label_png"] = base64_encode(png.data(), png.size());
-        j["metres_per_px"] = sp.world_size_m / f.height_m.cols;
-        send_heights(res, f.height_m, j, req.get_param_value("enc") == "u16");
-      });
-    }));
-    // A layer as a picture for the 2D view and the 3D view's texture
-    // (docs/STUDIO.md): materials (hill-shaded base colours) or flow.
-    svr.Post("/api/layers", guarded([this](const httplib::Request& req, httplib::Response& res) {
-      const std::string view = req.get_param_value("view");
-      if (view != "materials" && view != "flow") throw BadRequest("view '" + view + "': use materials or flow");
-      const Source src = source_of(json::parse(req.body, nullptr, false), true);
-      const terrain::Layers L = terrain::compute_layers(src.height_m, src.before_m, src.region, src.metres_per_px);
-      const cv::Mat3b picture = view == "materials" ? terrain::material_colour_map(L)
-                                                    : terrain::flow_colour_map(L, src.height_m, src.metres_per_px);
-      res.set_content(encode_png8(picture, 1), "image/png");
-    }));
-    svr.Post("/api/export", guarded([this](const httplib::Request& req, httplib::Response& res) {
-      const std::string format = req.get_param_value("format"), name = req.get_param_value("name");
-      check_name(name);
-      static const std::map<std::string, std::string> ext = {{"exr", ".height.exr"}, {"png16", ".height.png"},
-                                                             {"r16", ".r16"},        {"glb", ".glb"},
-                                                             {"obj", ".obj"},        {"sketch", ".sketch.png"},
-                                                             {"spec", ".spec.json"}};
-      // Engine bundles (docs/ENGINES.md): the folder NAME.<engine>/ in the
-      // output folder, sent as one stored ZIP.
-      const bool bundle = format == "unity" || format == "unreal" || format == "godot" || format == "blender" ||
-                          format == "gis";
-      if (!ext.count(format) && !bundle)
-        throw BadRequest("format '" + format + "': use exr, png16, r16, glb, obj, sketch, spec, or a bundle: unity, "
-                         "unreal, godot, blender, gis");
-      const json body = json::parse(req.body, nullptr, false);
-      if (format == "spec" && body.is_object() && !body.contains("spec"))
-        throw BadRequest("format spec needs a spec (curves mode)");
-      // The source again (deterministic), then the CLI's writer for the format.
-      const Source src = source_of(body, bundle);
-      const cv::Mat1f& h = src.height_m;
-      const cv::Mat3b& label = src.label;
-      const json& spec_json = src.spec_json;
-      const double mpp = src.metres_per_px;
-      std::error_code ec;
-      fs::create_directories(o.out_dir, ec);
-      ensure_writable_dir(o.out_dir);
-      if (bundle) {
-        send_bundle(res, engines::engine_from_string(format), name, src);
-        return;
-      }
-      const fs::path path = o.out_dir / (name + ext.at(format));
-      // 16-bit files span the field's own range (a 608 m preset peak was
-      // clipped at the model's 560 m); the range and each engine's import
-      // numbers go to NAME.<format>.import.json beside the file (one per
-      // format: an R16 and a PNG16 of one name used to share one note).
-      cv::Mat1f exported = h;
-      if (format == "r16") {
-        // Unity's terrains are 2^n + 1 samples a side: the rule and the
-        // corner-keeping resampling of `--for unity` (docs/ENGINES.md).
-        exported = engines::resample_corners(h, engines::unity_side(h.cols));
-      }
-      // r16: the resampled field's own spacing (the span is kept).
-      const double export_mpp = mpp * (h.cols - 1) / (exported.cols - 1);
-      StagedOutputs staged;
-      if (format == "sketch") {
-        staged.write(path, [&](const fs::path& t) { write_png(t, label); });
-      } else if (format == "spec") {
-        staged.write(path, [&](const fs::path& t) { write_json_atomic(t, spec_json); });
-      } else {
-        HeightFiles hf;
-        hf.exr = format == "exr";
-        hf.png16 = format == "png16";
-        hf.r16 = format == "r16";
-        if (format == "glb" || format == "obj") hf.mesh = format;
-        const json side = stage_height_files(staged, o.out_dir / name, exported, export_mpp, hf);
-        if (side.contains(format)) {  // png16, r16: the range and each engine's numbers beside the file
-          const std::string note = name + "." + format + ".import.json";
-          staged.write(o.out_dir / note, [&](const fs::path& t) { write_json_atomic(t, side[format]["import"]); });
-          res.set_header("X-Reefgen-Import-Note", note);
-          res.set_header("X-Reefgen-Range-M", std::to_string(side[format]["lo_m"].get<double>()) + " " +
-                                                  std::to_string(side[format]["hi_m"].get<double>()));
-        }
-      }
-      staged.commit();
-      const std::string bytes = read_text(path);
-      res.set_header("Content-Disposition", "attachment; filename=\"" + path.filename().string() + "\"");
-      res.set_header("X-Reefgen-Path", fs::absolute(path).string());
-      res.set_content(bytes, format == "spec" ? "application/json" : "application/octet-stream");
-    }));
-    // The page's files (the API's routes above take precedence). The page may
-    // be cached: three.js is 1.2 MB and the HTTP library compresses text on
-    // every request.
-    svr.Get(R"(/.*)", [this](const httplib::Request& req, httplib::Response& res) {
-      const std::string path = req.path == "/" ? "/index.html" : req.path;
-      const auto it = assets.find(path);
-      std::error_code ec;
-      if (it == assets.end() || !fs::is_regular_file(fs::symlink_status(it->second, ec))) {
-        fail(res, 404, "not found: " + printable(req.path));
-        return;
-      }
-      std::string bytes;
-      try {
-        bytes = read_text(it->second);
-      } catch (const std::exception&) {
-        fail(res, 404, "not found: " + printable(req.path));
-        return;
-      }
-      res.set_header("Cache-Control", "max-age=600");
-      res.set_header("X-Content-Type-Options", "nosniff");
-      res.set_content(bytes, content_type_of(it->second).c_str());
-    });
+    svr.Get("/api/info", handler(&Impl::answer_info));
+    svr.Get("/api/presets", handler(&Impl::answer_presets));
+    svr.Get("/api/defaults", handler(&Impl::answer_defaults));
+    svr.Post("/api/infer", handler(&Impl::answer_infer));
+    svr.Post("/api/generate", handler(&Impl::answer_generate));
+    svr.Post("/api/layers", handler(&Impl::answer_layers));
+    svr.Post("/api/export", handler(&Impl::answer_export));
+    svr.Get(R"(/.*)", [this](const httplib::Request& req, httplib::Response& res) { answer_asset(req, res); });
     svr.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr) {
       fail(res, 500, "internal error");
     });
