@@ -7,6 +7,7 @@
 #include "reefgen/heightfile.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/mesh.hpp"
+#include "reefgen/parallel.hpp"
 #include "stages.hpp"
 
 namespace reefgen::engines::detail {
@@ -23,7 +24,7 @@ constexpr int kMeshMaxSide = 1025;
 constexpr int kTextureMaxSide = 4096;
 
 cv::Vec3f unit(const cv::Vec3f& v) {
-  const float len = float(cv::norm(v));
+  const float len = std::sqrt(v.dot(v));
   return len > 0 ? v / len : cv::Vec3f(0, 0, 1);
 }
 
@@ -35,9 +36,11 @@ cv::Vec3f unit(const cv::Vec3f& v) {
 // carries the same at its vertices (TANGENT, w = +1: bitangent = north).
 cv::Vec3f east_tangent(const cv::Vec3f& nm) { return unit(cv::Vec3f(1, 0, 0) - nm[0] * nm); }
 
-cv::Mat3b tangent_space_normals(const cv::Mat3f& truth, const cv::Mat3f& mesh) {
+cv::Mat3b tangent_space_normals(const cv::Mat3f& truth, const cv::Mat3f& mesh, int threads) {
   cv::Mat3b out(truth.size());
-  for (int y = 0; y < truth.rows; ++y)
+  // Rows are independent: the same bytes whatever the thread count.
+  parallel_for(size_t(truth.rows), threads, [&](size_t row) {
+    const int y = int(row);
     for (int x = 0; x < truth.cols; ++x) {
       const cv::Vec3f n = unit(truth(y, x)), nm = unit(mesh(y, x));
       const cv::Vec3f t = east_tangent(nm), b = nm.cross(t);
@@ -45,6 +48,7 @@ cv::Mat3b tangent_space_normals(const cv::Mat3f& truth, const cv::Mat3f& mesh) {
       auto code = [](float v) { return cv::saturate_cast<uint8_t>(std::lround((v + 1) * 127.5f)); };
       out(y, x) = cv::Vec3b(code(ts[2]), code(ts[1]), code(ts[0]));
     }
+  });
   return out;
 }
 
@@ -102,11 +106,10 @@ std::string displace_script(const std::string& name, int side, double metres_per
          "bsdf.inputs['Roughness'].default_value = 1.0\nme.materials.append(mat)\n";
 }
 
-}  // namespace
-
-nlohmann::json stage_blender(StagedOutputs& staged, const fs::path& dir, const std::string& name,
-                             const BundleInput& in) {
-  const int n = in.height_m.cols, m = std::min(n, kMeshMaxSide), T = std::min(n, kTextureMaxSide);
+// The GLB's grid (m² vertices, uvs on the T² textures' texel grid, tangents)
+// and its textures: the materials' colours and the tangent-space normals.
+std::pair<Mesh, GlbTextures> textured_mesh(const BundleInput& in, int m, int T, int threads) {
+  const int n = in.height_m.cols;
   const double span_m = in.metres_per_px * (n - 1);
   const cv::Mat1f hm = m == n ? in.height_m : resample_corners(in.height_m, m);
   Mesh mesh = grid_mesh(hm, {span_m / (m - 1), 1.0});
@@ -123,18 +126,44 @@ nlohmann::json stage_blender(StagedOutputs& staged, const fs::path& dir, const s
     mesh.tangents[i] = {t[0], t[2], -t[1], 1.0f};
   }
   const terrain::Layers& L = *in.layers;
-  const cv::Mat3b colour = terrain::material_colour_map(T == n ? L : weights_at(L, T), false);
   const cv::Mat3f truth = T == n ? L.normal : resample_corners3(L.normal, T);
   const cv::Mat3f under = resample_corners3(normals_of(mesh, m), T);
-  const GlbTextures tex{encode_png8(colour), encode_png8(tangent_space_normals(truth, under))};
-  staged.write(dir / (name + ".glb"), [&](const fs::path& p) { write_glb(p, mesh, name, &tex); });
+  const cv::Mat3b normal = tangent_space_normals(truth, under, threads);
+  GlbTextures tex;
+  parallel_for(2, threads, [&](size_t k) {
+    if (k) tex.normal_png = encode_png8(normal);
+    else tex.base_colour_png = encode_png8(terrain::material_colour_map(T == n ? L : weights_at(L, T), false));
+  });
+  return {std::move(mesh), std::move(tex)};
+}
+
+}  // namespace
+
+nlohmann::json stage_blender(StagedOutputs& staged, const fs::path& dir, const std::string& name,
+                             const BundleInput& in, int threads) {
+  const int n = in.height_m.cols, m = std::min(n, kMeshMaxSide), T = std::min(n, kTextureMaxSide);
+  const double span_m = in.metres_per_px * (n - 1);
   const ExrAttributes attrs{{"reefgen:metres_per_pixel", fmt("%.9g", in.metres_per_px)}};
-  const cv::Mat1f h = in.height_m;
-  staged.write(dir / (name + ".height.exr"), [&](const fs::path& p) { write_exr_height(p, h, attrs); });
-  staged.write(dir / (name + ".color.png"), [&](const fs::path& p) { write_png(p, colour); });
+  const cv::Mat1f& h = in.height_m;
   double lo = 0, hi = 0;
   cv::minMaxLoc(h, &lo, &hi);
-  stage_text(staged, dir / (name + ".displace.py"), displace_script(name, n, in.metres_per_px, lo, hi));
+  const std::string script = displace_script(name, n, in.metres_per_px, lo, hi);
+  // The GLB (built and written in one job, the longest) beside the EXR and
+  // the colour map (the same colours as the GLB's texture, encoded again
+  // while the GLB is being built).
+  staged.write_all({{dir / (name + ".glb"),
+                     [&](const fs::path& p) {
+                       const auto [mesh, tex] = textured_mesh(in, m, T, threads);
+                       write_glb(p, mesh, name, &tex);
+                     }},
+                    {dir / (name + ".height.exr"), [&](const fs::path& p) { write_exr_height(p, h, attrs, kExrZipLevel); }},
+                    {dir / (name + ".color.png"),
+                     [&](const fs::path& p) {
+                       const terrain::Layers& L = *in.layers;
+                       write_png(p, terrain::material_colour_map(T == n ? L : weights_at(L, T), false));
+                     }},
+                    {dir / (name + ".displace.py"), [&](const fs::path& p) { write_file_atomic(p, script.data(), script.size()); }}},
+                   threads);
   const std::string readme =
       "reefgen island for Blender\n\n"
       "A. The mesh: File > Import > glTF 2.0, " + name + ".glb. " + std::to_string(m) + "x" + std::to_string(m) +

@@ -251,8 +251,8 @@ nlohmann::json stage_bundle(StagedOutputs& staged, const fs::path& dir, const st
   ensure_writable_dir(dir);
   nlohmann::json j = e == Engine::Unity     ? stage_unity(staged, dir, name, in)
                      : e == Engine::Unreal  ? stage_unreal(staged, dir, name, in)
-                     : e == Engine::Godot   ? detail::stage_godot(staged, dir, name, in)
-                     : e == Engine::Blender ? detail::stage_blender(staged, dir, name, in)
+                     : e == Engine::Godot   ? detail::stage_godot(staged, dir, name, in, threads)
+                     : e == Engine::Blender ? detail::stage_blender(staged, dir, name, in, threads)
                                             : stage_gis(staged, dir, name, in, threads);
   j["folder"] = dir.filename().string();
   j["readme"] = "README.txt";

@@ -10,6 +10,11 @@
 
 namespace reefgen::engines::detail {
 
+// The bundles' EXRs: zlib level 1, 0.2 % larger than level 6 on a 2049²
+// island and written several times faster (the bundle's cost bar,
+// docs/BENCHMARKS.md).
+constexpr int kExrZipLevel = 1;
+
 void stage_text(StagedOutputs& staged, const std::filesystem::path& path, const std::string& text);
 // printf of one number, for README lines.
 std::string fmt(const char* format, double v);
@@ -18,9 +23,10 @@ cv::Mat3f resample_corners3(const cv::Mat3f& field, int side);
 // The eight weights resampled to side² samples, corner-aligned.
 terrain::Layers weights_at(const terrain::Layers& layers, int side);
 
+// threads: files written side by side, rows shared out (same bytes whatever the count).
 nlohmann::json stage_godot(StagedOutputs& staged, const std::filesystem::path& dir, const std::string& name,
-                           const BundleInput& in);
+                           const BundleInput& in, int threads);
 nlohmann::json stage_blender(StagedOutputs& staged, const std::filesystem::path& dir, const std::string& name,
-                             const BundleInput& in);
+                             const BundleInput& in, int threads);
 
 }  // namespace reefgen::engines::detail

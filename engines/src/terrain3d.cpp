@@ -79,7 +79,8 @@ cv::Mat1i terrain3d_control(const terrain::Layers& L) {
 
 namespace detail {
 
-nlohmann::json stage_godot(StagedOutputs& staged, const fs::path& dir, const std::string& name, const BundleInput& in) {
+nlohmann::json stage_godot(StagedOutputs& staged, const fs::path& dir, const std::string& name, const BundleInput& in,
+                           int threads) {
   const int n = in.height_m.cols, region = terrain3d_region_side(n);
   const int side = (n + region - 1) / region * region, pad = (side - n) / 2;
   const cv::Mat1f h = pad_to(in.height_m, side, pad, cv::BORDER_REPLICATE);
@@ -89,9 +90,10 @@ nlohmann::json stage_godot(StagedOutputs& staged, const fs::path& dir, const std
   cv::cvtColor(pad_to(terrain::material_colour_map(*in.layers, false), side, pad, cv::BORDER_REPLICATE), colour,
                cv::COLOR_BGR2BGRA);
   colour.forEach([](cv::Vec4b& p, const int*) { p[3] = kNeutralRoughness; });
-  staged.write(dir / (name + ".height.exr"), [&](const fs::path& p) { write_exr_channel(p, h, "R"); });
-  staged.write(dir / (name + ".control.exr"), [&](const fs::path& p) { write_exr_channel(p, control, "R"); });
-  staged.write(dir / (name + ".color.png"), [&](const fs::path& p) { write_png(p, colour); });
+  staged.write_all({{dir / (name + ".height.exr"), [&](const fs::path& p) { write_exr_channel(p, h, "R", {}, kExrZipLevel); }},
+                    {dir / (name + ".control.exr"), [&](const fs::path& p) { write_exr_channel(p, control, "R", {}, kExrZipLevel); }},
+                    {dir / (name + ".color.png"), [&](const fs::path& p) { write_png(p, colour); }}},
+                   threads);
   double lo = 0, hi = 0;
   cv::minMaxLoc(in.height_m, &lo, &hi);
   std::string readme =
