@@ -56,7 +56,7 @@ void check_common(const GenerateArgs& a) {
   if (a.threads < 1 || a.threads > 256) throw Error("--threads must be in 1..256");
 }
 
-int run_single(const GenerateArgs& a, const GlobalOptions&) {
+int run_single(const GenerateArgs& a, const GlobalOptions& g) {
   IslandSpec spec = load_spec(a);
   if (!std::isnan(a.subsidence)) spec.subsidence = a.subsidence;
   if (a.seed_given) spec.noise.seed = a.seed;
@@ -74,6 +74,7 @@ int run_single(const GenerateArgs& a, const GlobalOptions&) {
   opt.size_px = a.size;
   opt.warp_grid = a.warp_grid;
   const FinishFlags::Parsed fin = a.finish.parse();
+  note_bundle_sizes(fin, a.size, g.quiet);
   opt.keep_uneroded = fin.need_layers;
   const IslandFields f = generate(spec, opt);
   nlohmann::json prov = {{"mode", a.preset.empty() ? "spec" : "preset"},

@@ -94,6 +94,8 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
             job.geotiff = a->finish.geotiff;
             job.geo = fin.geo;
             job.bundles = fin.bundles;
+            // The output side when --size gives it (else each sketch's own, said in its bundle's README).
+            if (a->size > 0) note_bundle_sizes(fin, a->size, g.quiet);
             job.threads = a->threads.value_or(default_threads());
             job.model_path = model::resolve_model_path(a->model).string();
             model::GeneratorFile gen = model::load_generator(job.model_path);

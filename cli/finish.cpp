@@ -1,5 +1,7 @@
 #include "finish.hpp"
 
+#include <cstdio>
+
 #include "reefgen/error.hpp"
 #include "reefgen/io.hpp"
 
@@ -20,6 +22,12 @@ FinishFlags::Parsed FinishFlags::parse() const {
   const bool gis_bundle = std::find(p.bundles.begin(), p.bundles.end(), engines::Engine::Gis) != p.bundles.end();
   if (geotiff || gis_bundle) gis::check_crs(p.geo.crs);
   return p;
+}
+
+void note_bundle_sizes(const FinishFlags::Parsed& fin, int side, bool quiet) {
+  if (quiet) return;
+  for (const engines::Engine e : fin.bundles)
+    if (const std::string note = engines::size_note(e, side); !note.empty()) std::fprintf(stderr, "note: %s\n", note.c_str());
 }
 
 void add_finish_flags(CLI::App* sub, FinishFlags& f) {

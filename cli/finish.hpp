@@ -30,6 +30,10 @@ struct FinishFlags {
   Parsed parse() const;
 };
 
+// One stderr line per bundle that resamples a field of `side` samples (the
+// README in the bundle says it too); nothing when quiet.
+void note_bundle_sizes(const FinishFlags::Parsed& fin, int side, bool quiet);
+
 void add_finish_flags(CLI::App* sub, FinishFlags& f);
 
 }  // namespace reefgen

@@ -594,6 +594,8 @@ if "$BIN" -q generate --preset atoll --size 257 -o "$T/eb/atoll" --for unity,unr
   "$PY" -c "import json,sys; b=json.load(open(sys.argv[1]))['bundles']; assert set(b)=={'unity','unreal','godot','blender','gis'} and b['unreal']['side_px']==505, b.keys()" \
     "$T/eb/atoll.json" && ok || bad "the sidecar does not list the bundles"
 else bad "generate --for: $(cat "$T/err")"; fi
+"$BIN" generate --preset atoll --size 300 -o "$T/eb/odd" --for unity 2>&1 >/dev/null | grep -q "note: --for unity: 300² resampled to 257²" \
+  && ok || bad "no note that --for unity resampled 300² to 257²"
 expect_error "--for cryengine: use unity, unreal, godot, blender or gis" generate --preset atoll --size 64 -o "$T/e/x" --for cryengine
 expect_error "--for: one island at a time" generate --random 1 --size 64 --out "$T/e" --for unity
 

@@ -72,6 +72,12 @@ TEST(Engines, SizesEachEngineTakes) {
   EXPECT_EQ(unreal_side(2049), 2017);
   EXPECT_EQ(unreal_side(8192), 8129);
   EXPECT_EQ(unreal_side(100), 505);
+  EXPECT_EQ(size_note(Engine::Unity, 1025), "");
+  EXPECT_NE(size_note(Engine::Unity, 1024).find("resampled to 1025²"), std::string::npos);
+  EXPECT_NE(size_note(Engine::Unity, 8193).find("2×2 tiles"), std::string::npos);
+  EXPECT_EQ(size_note(Engine::Unreal, 2017), "");
+  EXPECT_NE(size_note(Engine::Unreal, 2049).find("resampled to 2017²"), std::string::npos);
+  EXPECT_EQ(size_note(Engine::Gis, 777), "");
   EXPECT_EQ(engine_from_string("godot"), Engine::Godot);
   EXPECT_EQ(engine_from_string("blender"), Engine::Blender);
   EXPECT_THROW(engine_from_string("cryengine"), Error);

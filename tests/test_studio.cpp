@@ -293,6 +293,11 @@ TEST_F(Studio, ExportsWriteOnlyIntoTheOutputFolder) {
           << e << ": the ZIP lacks " << f.path().filename();
   }
   EXPECT_EQ(fs::file_size(out / "exports" / "isle.unity" / "isle.raw"), 65u * 65u * 2) << "64² → Unity's 65²";
+  {
+    auto r = client->Post("/api/export?format=unity&name=isle", spec_body.dump(), "application/json");
+    ASSERT_TRUE(r);
+    EXPECT_NE(r->get_header_value("X-Reefgen-Note").find("resampled to 65²"), std::string::npos) << "no size note";
+  }
   // Layer pictures: the island's size, different per view; unknown views refused.
   std::string pictures[2];
   for (int k = 0; k < 2; ++k) {

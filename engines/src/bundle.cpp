@@ -268,6 +268,23 @@ nlohmann::json stage_bundles(StagedOutputs& staged, const fs::path& prefix, cons
   return out;
 }
 
+std::string size_note(Engine e, int side) {
+  const std::string n = std::to_string(side) + "²";
+  if (e == Engine::Unity) {
+    if (unity_tiles(side) > 1)
+      return "--for unity: " + n + " is past Unity's 4097²: resampled to " +
+             std::to_string(unity_tiles(side) * (kUnityMaxSide - 1) + 1) + "² in " + std::to_string(unity_tiles(side)) +
+             "×" + std::to_string(unity_tiles(side)) + " tiles of 4097²";
+    if (unity_side(side) != side)
+      return "--for unity: " + n + " resampled to " + std::to_string(unity_side(side)) +
+             "² (Unity takes 2^n+1: 33, 65, …, 4097; use --size " + std::to_string(unity_side(side)) + " to avoid it)";
+  }
+  if (e == Engine::Unreal && unreal_side(side) != side)
+    return "--for unreal: " + n + " resampled to " + std::to_string(unreal_side(side)) +
+           "² (Landscape sizes 505, 1009, 2017, 4033, 8129; use --size " + std::to_string(unreal_side(side)) + " to avoid it)";
+  return "";
+}
+
 std::vector<Engine> engines_from_strings(const std::vector<std::string>& names) {
   std::vector<Engine> out;
   for (const std::string& list : names)

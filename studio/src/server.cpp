@@ -380,6 +380,9 @@ struct StudioServer::Impl {
     const std::string zip = zip_stored(files);
     res.set_header("Content-Disposition", "attachment; filename=\"" + folder + ".zip\"");
     res.set_header("X-Reefgen-Path", fs::absolute(o.out_dir / folder).string());
+    // The size the engine wanted instead (the bundle's README says it too).
+    if (const std::string note = engines::size_note(e, src.height_m.cols); !note.empty())
+      res.set_header("X-Reefgen-Note", note.substr(note.find(": ") + 2));
     res.set_content(zip, "application/zip");
   }
 

@@ -722,7 +722,8 @@ for (const b of document.querySelectorAll('#exports button')) {
       // 16-bit files span the field's own range (nothing clipped): say which.
       const range = (res.headers.get('X-Reefgen-Range-M') || '').split(' ').map(Number);
       const span = range.length === 2 ? ` — ${range[0].toFixed(1)}…${range[1].toFixed(1)} m → 0…65535, scale in ${res.headers.get('X-Reefgen-Import-Note')}` : '';
-      status(`exported ${a.download}${span} (also in ${res.headers.get('X-Reefgen-Path')})`);
+      const note = res.headers.get('X-Reefgen-Note');
+      status(`exported ${a.download}${span} (also in ${res.headers.get('X-Reefgen-Path')})${note ? ' — ' + note : ''}`);
     } catch (e) { status('export failed: ' + e.message); probe.errors.push(e.message); }
     finally { clearInterval(timer); b.disabled = false; }
   });

@@ -97,6 +97,11 @@ nlohmann::json stage_bundle(StagedOutputs& staged, const std::filesystem::path& 
 nlohmann::json stage_bundles(StagedOutputs& staged, const std::filesystem::path& prefix,
                              const std::vector<Engine>& engines, const BundleInput& in, int threads = 1);
 
+// One line saying how `e` changes a field of `side` samples a side (Unity's
+// 2ⁿ + 1 or its tiles, Unreal's nearest Landscape size, Terrain3D's region
+// padding), or "" when the engine takes it as it is.
+std::string size_note(Engine e, int side);
+
 // "unity,unreal" or repeated flags → engines, in order, each once.
 std::vector<Engine> engines_from_strings(const std::vector<std::string>& names);
 
