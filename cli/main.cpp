@@ -60,6 +60,69 @@ int exec_torch_binary(char** argv, [[maybe_unused]] const std::string& command) 
   return 1;
 }
 #endif
+
+// Edit distance between two (short) words: the nearest command to a typo.
+size_t levenshtein(const std::string& w, const std::string& n) {
+  std::vector<size_t> prev(n.size() + 1), cur(n.size() + 1);
+  for (size_t k = 0; k <= n.size(); ++k) prev[k] = k;
+  for (size_t a = 1; a <= w.size(); ++a) {
+    cur[0] = a;
+    for (size_t k = 1; k <= n.size(); ++k)
+      cur[k] = std::min({prev[k] + 1, cur[k - 1] + 1, prev[k - 1] + (w[a - 1] == n[k - 1] ? 0 : 1)});
+    std::swap(prev, cur);
+  }
+  return prev[n.size()];
+}
+
+// The first word that is not a global option must be a command: an unknown
+// one is named with the nearest of `names` (exit 109). In the torch-free
+// binary a network command is handed to reefgen-torch. -1 = go on parsing.
+int check_command_word(int argc, char** argv, const std::vector<std::string>& names) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string w = argv[i];
+    if (w == "-q" || w == "--quiet" || w.rfind("--threads=", 0) == 0) continue;
+    if (w == "--threads") {
+      ++i;
+      continue;
+    }
+    if (w.empty() || w[0] == '-') return -1;  // other options: CLI11 reports what is wrong
+#if !REEFGEN_TORCH_COMMANDS
+    if (std::find(kTorchCommands.begin(), kTorchCommands.end(), w) != kTorchCommands.end()) return exec_torch_binary(argv, w);
+#endif
+    std::string best;
+    size_t best_d = 99;
+    for (const std::string& n : names) {
+      if (n == w) return -1;  // the first word is the command; later words belong to it
+      if (const size_t d = levenshtein(w, n); d < best_d) best_d = d, best = n;
+    }
+    std::fprintf(stderr, "reefgen: error: unknown command '%s'%s (see reefgen --help)\n", w.c_str(),
+                 best_d <= 3 ? ("; did you mean '" + best + "'?").c_str() : "");
+    return 109;
+  }
+  return -1;
+}
+
+// `reefgen --threads N CMD ...` = `reefgen CMD ... --threads N`: --threads
+// belongs to the commands that compute, and may come before them.
+std::vector<std::string> threads_after_command(const std::vector<std::string>& args) {
+  std::vector<std::string> lead, moved;
+  size_t i = 0;
+  for (; i < args.size() && !args[i].empty() && args[i][0] == '-'; ++i) {
+    if (args[i] == "--threads" && i + 1 < args.size()) {
+      moved.push_back(args[i]);
+      moved.push_back(args[++i]);
+    } else if (args[i].rfind("--threads=", 0) == 0) {
+      moved.push_back(args[i]);
+    } else {
+      lead.push_back(args[i]);
+    }
+  }
+  if (moved.empty() || i == args.size()) return args;
+  std::vector<std::string> out = lead;
+  out.insert(out.end(), args.begin() + long(i), args.end());
+  out.insert(out.end(), moved.begin(), moved.end());
+  return out;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -110,42 +173,9 @@ int main(int argc, char** argv) {
     commands.push_back(add(app, g));
 #endif
   // An unknown command word is named, with the nearest known one.
-  for (int i = 1; i < argc; ++i) {
-    const std::string w = argv[i];
-    if (w == "-q" || w == "--quiet" || w.rfind("--threads=", 0) == 0) continue;
-    if (w == "--threads") {
-      ++i;
-      continue;
-    }
-    if (w.empty() || w[0] == '-') break;  // other options: CLI11 reports what is wrong
-#if !REEFGEN_TORCH_COMMANDS
-    if (std::find(kTorchCommands.begin(), kTorchCommands.end(), w) != kTorchCommands.end()) return exec_torch_binary(argv, w);
-#endif
-    std::string best;
-    size_t best_d = 99;
-    bool known = false;
-    std::vector<std::string> names = kTorchCommands;
-    for (const auto& c : commands) names.push_back(c.sub->get_name());
-    for (const std::string& n : names) {
-      if (n == w) known = true;
-      // Levenshtein distance, small words only.
-      std::vector<size_t> prev(n.size() + 1), cur(n.size() + 1);
-      for (size_t k = 0; k <= n.size(); ++k) prev[k] = k;
-      for (size_t a = 1; a <= w.size(); ++a) {
-        cur[0] = a;
-        for (size_t k = 1; k <= n.size(); ++k)
-          cur[k] = std::min({prev[k] + 1, cur[k - 1] + 1, prev[k - 1] + (w[a - 1] == n[k - 1] ? 0 : 1)});
-        std::swap(prev, cur);
-      }
-      if (prev[n.size()] < best_d) best_d = prev[n.size()], best = n;
-    }
-    if (!known) {
-      std::fprintf(stderr, "reefgen: error: unknown command '%s'%s (see reefgen --help)\n", w.c_str(),
-                   best_d <= 3 ? ("; did you mean '" + best + "'?").c_str() : "");
-      return 109;
-    }
-    break;  // the first word is the command; later words belong to it
-  }
+  std::vector<std::string> names = kTorchCommands;
+  for (const auto& c : commands) names.push_back(c.sub->get_name());
+  if (const int rc = check_command_word(argc, argv, names); rc >= 0) return rc;
 #if !REEFGEN_TORCH_COMMANDS
   // No command word (--help, --version, nothing): the full list of commands
   // lives in reefgen-torch.
@@ -160,29 +190,7 @@ int main(int argc, char** argv) {
     if (!has_command && REEFGEN_WITH_TORCH) return exec_torch_binary(argv, "--help");
   }
 #endif
-  // `reefgen --threads N CMD ...` = `reefgen CMD ... --threads N`: --threads
-  // belongs to the commands that compute, and may come before them.
-  std::vector<std::string> args(argv + 1, argv + argc);
-  {
-    std::vector<std::string> lead, moved;
-    size_t i = 0;
-    for (; i < args.size() && !args[i].empty() && args[i][0] == '-'; ++i) {
-      if (args[i] == "--threads" && i + 1 < args.size()) {
-        moved.push_back(args[i]);
-        moved.push_back(args[++i]);
-      } else if (args[i].rfind("--threads=", 0) == 0) {
-        moved.push_back(args[i]);
-      } else {
-        lead.push_back(args[i]);
-      }
-    }
-    if (!moved.empty() && i < args.size()) {
-      std::vector<std::string> out = lead;
-      out.insert(out.end(), args.begin() + long(i), args.end());
-      out.insert(out.end(), moved.begin(), moved.end());
-      args = out;
-    }
-  }
+  const std::vector<std::string> args = threads_after_command(std::vector<std::string>(argv + 1, argv + argc));
   try {
     std::vector<const char*> av{argv[0]};
     for (const auto& a : args) av.push_back(a.c_str());
