@@ -317,6 +317,241 @@ void sync_from_rank0(Comm& comm, Pix2Pix& p, int64_t& step) {
 
 }  // namespace
 
+namespace {
+
+// The schedule in steps: B samples per rank, Bg per step in all; pix2pix's
+// constant learning rate, then its linear decay; `end` stops at --max-steps.
+struct StepPlan {
+  int64_t n = 0, B = 0, Bg = 0, per_epoch = 0, constant = 0, decay = 0, total = 0, end = 0;
+};
+StepPlan plan_steps(const TrainParams& params, int64_t n, int world, int64_t max_steps) {
+  StepPlan s;
+  s.n = n;
+  s.B = params.batch_size;
+  s.Bg = s.B * world;
+  s.per_epoch = (n + s.Bg - 1) / s.Bg;
+  s.constant = std::llround(params.epochs * s.per_epoch);
+  s.decay = std::llround(params.epochs_decay * s.per_epoch);
+  s.total = s.constant + s.decay;
+  if (s.total < 1)
+    throw Error("training config: epochs " + std::to_string(params.epochs) + " + epochs_decay " +
+                std::to_string(params.epochs_decay) + " give 0 steps over " + std::to_string(n) +
+                " training pairs; raise epochs (e.g. --epochs 1)");
+  s.end = max_steps >= 0 ? std::min(s.total, max_steps) : s.total;
+  return s;
+}
+
+// The run folder must not be the dataset or inside it (validation pictures
+// and checkpoints would land among the pairs), nor hold the dataset.
+void check_run_apart_from_data(const RunOptions& run) {
+  std::error_code ec;
+  const fs::path d = fs::weakly_canonical(fs::absolute(run.data), ec), o = fs::weakly_canonical(fs::absolute(run.out), ec);
+  auto under = [](const fs::path& child, const fs::path& parent) {
+    auto c = child.begin();
+    for (auto q = parent.begin(); q != parent.end(); ++q, ++c)
+      if (c == child.end() || *c != *q) return false;
+    return true;
+  };
+  if (under(o, d) || under(d, o))
+    throw Error(run.out.string() + ": the run folder is the dataset " + run.data.string() +
+                " or overlaps it; choose an --out outside the dataset");
+}
+
+// A resumed run reads the same data as before: another size, height range
+// or number of pairs would change the sample order and what the model means.
+void check_same_dataset(const RunOptions& run, const DatasetInfo& data, int64_t n) {
+  const json before = read_json(run.out / "run.json");
+  auto differs = [&](const char* key, const json& now) {
+    if (before.contains(key) && before.at(key) != now)
+      throw Error(run.data.string() + ": not the dataset this run was started with (" + key + " " +
+                  before.at(key).dump() + " then, " + now.dump() + " now; " +
+                  before.value("data", std::string("?")) + "); resume with --data " +
+                  before.value("data", std::string("?")) + " or start a new run");
+  };
+  differs("size_px", data.size_px);
+  // The manifest lists every pair with its files' checksums: the same
+  // manifest is the same data, wherever the folder was moved.
+  differs("manifest_fnv64", file_checksum(run.data / "manifest.jsonl"));
+  differs("height_range_m", json::array({data.range.lo_m, data.range.hi_m}));
+  if (before.contains("pairs")) {
+    const json& pb = before.at("pairs");
+    if (pb.value("train", int64_t(-1)) != n)
+      throw Error(run.data.string() + ": not the dataset this run was started with (" +
+                  std::to_string(pb.value("train", int64_t(-1))) + " training pairs then, " + std::to_string(n) +
+                  " now); resume with --data " + before.value("data", std::string("?")) + " or start a new run");
+  }
+}
+
+// Rank 0's guards on the run folder (the only rank that reads and writes
+// it), checked before anything is created; `lock` holds the folder's lock.
+void open_run_folder(const RunOptions& run, const DatasetInfo& data, int64_t n, std::optional<DirLock>& lock) {
+  const fs::path ckpt = run.out / "checkpoint.pt";
+  if (run.resume && !fs::exists(ckpt))
+    throw Error(run.out.string() + ": no checkpoint.pt to resume from; start a new run without --resume " +
+                "(in an empty or new --out folder)");
+  if (!run.resume && !run.init_from.empty() && !fs::is_regular_file(run.init_from))
+    throw Error(run.init_from.string() +
+                ": no such checkpoint to start from (--init takes another run's RUN/checkpoint.pt)");
+  ensure_writable_dir(run.out);
+  // One process per run folder: two would interleave log.csv and overwrite
+  // each other's checkpoints.
+  lock.emplace(run.out, "run folder");
+  if (run.resume) {  // temp files of a killed run (kill -9 mid-write) are never completed: drop them
+    remove_stale_temps(run.out);
+    if (fs::is_directory(run.out / "val")) remove_stale_temps(run.out / "val");
+  }
+  if (run.resume && fs::exists(run.out / "run.json")) check_same_dataset(run, data, n);
+  if (!run.resume && fs::exists(ckpt))
+    throw Error(run.out.string() + ": already holds a run; pass --resume to continue it or choose another --out");
+  // A run that failed before its first checkpoint (full disk, bad data) left
+  // run.json and maybe log rows but nothing to resume: a new run starts over.
+  if (!run.resume) {
+    truncate_log(run.out / "log.csv", 0);
+    truncate_log(run.out / "val.csv", 0);
+  }
+}
+
+// The weights to start from (rank 0): the checkpoint when resuming (with its
+// step, log window, logs cut back to it), another run's with --init, else
+// the fresh ones. Returns the step.
+int64_t restore_start(const RunOptions& run, Pix2Pix& p, const TrainParams& params, LogWindow& window, int world,
+                      int64_t Bg) {
+  const fs::path ckpt = run.out / "checkpoint.pt";
+  if (run.resume && fs::exists(ckpt)) {
+    int64_t threads_then = 0, world_then = 1;
+    const int64_t step = load_checkpoint(ckpt, p, params, &window, &threads_then, world, &world_then);
+    if (threads_then != torch::get_num_threads() && run.on_log)
+      run.on_log("warning: the checkpoint was written with " + std::to_string(threads_then) + " LibTorch threads, now " +
+                 std::to_string(torch::get_num_threads()) + ": the result will differ slightly from an uninterrupted run");
+    if (world_then != world && run.on_log)
+      run.on_log("the checkpoint was written by " + std::to_string(world_then) + " rank(s), now " +
+                 std::to_string(world) + " with the same global batch of " + std::to_string(Bg) +
+                 ": the same run up to rounding (docs/TRAINING.md)");
+    truncate_log(run.out / "log.csv", step);
+    truncate_log(run.out / "val.csv", step);
+    if (run.on_log) run.on_log("resumed " + ckpt.string() + " at step " + std::to_string(step));
+    return step;
+  }
+  if (!run.init_from.empty()) {
+    load_checkpoint_weights(run.init_from, p, params);
+    if (run.on_log) run.on_log("G and D start from " + run.init_from.string());
+  }
+  return 0;
+}
+
+// run.json: what ran (config, data, schedule, sizes), and where a fine-tuned
+// run's weights came from (a resume keeps the record).
+json run_record(const json& run_json, const RunOptions& run) {
+  json record = run_json;
+  if (!run.resume && !run.init_from.empty())
+    record["init_from"] = {{"path", fs::absolute(run.init_from).string()}, {"fnv64", file_checksum(run.init_from)}};
+  else if (run.resume && fs::exists(run.out / "run.json")) {
+    const json before = read_json(run.out / "run.json");
+    if (before.contains("init_from")) record["init_from"] = before.at("init_from");
+  }
+  return record;
+}
+
+// Every rank must run the same job on the same data: compared with rank 0's.
+void check_same_job(Comm& comm, const json& mine, int rank, const RunOptions& run) {
+  const json lead_job = json::parse(comm.broadcast_string(mine.dump(), "the start of the job"));
+  for (const auto& [k, v] : lead_job.items())
+    if (mine.at(k) != v)
+      throw Error("rank " + std::to_string(rank) + ": " +
+                  (k == "config" ? "its training config differs from rank 0's"
+                                 : "its dataset " + run.data.string() + " differs from rank 0's (" + k + ")") +
+                  "; give every rank the same --config, flags and dataset");
+}
+
+// Rank 0's validation: a grid of fixed samples (label | truth | G's answer)
+// and the mean absolute error in metres over the validation pairs.
+struct Validator {
+  Pix2Pix& p;
+  const DatasetInfo& data;
+  const std::vector<PairRef>& val;  // the val split, else the training pairs
+  std::vector<Sample> fixed;
+  const TrainParams& params;
+  fs::path out;
+
+  Validator(Pix2Pix& p_, const DatasetInfo& d, bool lead, const TrainParams& pr, const fs::path& run_out)
+      : p(p_), data(d), val(d.val.empty() ? d.train : d.val), params(pr), out(run_out) {
+    for (int i = 0; lead && i < std::min<int>(params.val_samples, int(val.size())); ++i)
+      fixed.push_back(load_sample(data, val[size_t(i)], {}, 0));
+  }
+
+  void write_grid(int64_t s) {
+    std::vector<cv::Mat> rows;
+    without_side_effects(p.G(), [&] {
+      torch::NoGradGuard no_grad;
+      p.G()->train();  // pix2pix's test-time mode: batch statistics; dropout off
+      p.G()->set_dropout_enabled(false);
+      for (const Sample& v : fixed) {
+        const torch::Tensor pred = p.G()->forward(v.label.unsqueeze(0))[0];  // {1,S,S}
+        const cv::Mat1f truth_m = model::tensor_to_height(v.height, data.range);
+        const cv::Mat1f pred_m = model::tensor_to_height(pred, data.range);
+        cv::Mat row;
+        cv::hconcat(std::vector<cv::Mat>{tensor_to_label_bgr(v.label), render_preview(truth_m), render_preview(pred_m)}, row);
+        rows.push_back(row);
+      }
+    });
+    cv::Mat grid;
+    cv::vconcat(rows, grid);
+    ensure_writable_dir(out / "val");
+    char name[48];
+    std::snprintf(name, sizeof name, "step-%08lld.png", static_cast<long long>(s));
+    write_png(out / "val" / name, grid);
+  }
+
+  double mae_m(bool batch_stats) {
+    double sum = 0;
+    int64_t count = 0;
+    without_side_effects(p.G(), [&] {
+      torch::NoGradGuard no_grad;
+      p.G()->train(batch_stats);
+      p.G()->set_dropout_enabled(false);
+      for (size_t i = 0; i < std::min(val.size(), size_t(params.val_max_pairs)); ++i) {
+        const Sample v = load_sample(data, val[i], {}, 0);
+        sum += (p.G()->forward(v.label.unsqueeze(0))[0] - v.height).abs().mean().item<double>();
+        ++count;
+      }
+    });
+    const double metres_per_unit = (data.range.hi_m - data.range.lo_m) / 2.0;
+    return count ? sum / double(count) * metres_per_unit : 0.0;
+  }
+};
+
+// Losses averaged over the ranks (what a one-process run would log), and
+// one rank's Ctrl-C stops all of them after the same step.
+Losses average_over_ranks(Comm& comm, const Losses& l, int world, int64_t step, bool& stopping, double& allreduce_s) {
+  torch::Tensor t = torch::tensor({l.g_gan, l.g_l1, l.d_real, l.d_fake, stopping ? 1.0 : 0.0}, torch::kFloat64);
+  comm.allreduce_sum({t}, "the all-reduce of step " + std::to_string(step + 1) + "'s losses");
+  auto v = t.accessor<double, 1>();
+  stopping = v[4] > 0;
+  allreduce_s = comm.take_collective_seconds();
+  return {v[0] / world, v[1] / world, v[2] / world, v[3] / world};
+}
+
+// A step's losses and time into the log window; every log_every steps (and
+// at the end) one log.csv row of the window's means, then a new window.
+void log_step(LogWindow& window, const Losses& l, double dt, double allreduce_s, int64_t step, const StepPlan& plan,
+              double lr, const TrainParams& params, bool lead, const fs::path& log_csv) {
+  const double ls[4] = {l.g_gan, l.g_l1, l.d_real, l.d_fake};
+  for (int k = 0; k < 4; ++k) window.sums[k] += ls[k];
+  window.steps += 1;
+  window.seconds += dt;
+  window.timed_steps += 1;
+  window.allreduce_seconds += allreduce_s;
+  if (step % params.log_every != 0 && step != plan.total) return;
+  std::string row = std::to_string(step) + "," + fmt(double(step) / double(plan.per_epoch)) + "," + fmt(lr);
+  for (double s : window.sums) row += "," + fmt(s / double(window.steps));
+  const double timed_steps = double(std::max<int64_t>(1, window.timed_steps));
+  row += "," + fmt(window.seconds / timed_steps) + "," + fmt(window.allreduce_seconds / timed_steps);
+  if (lead) append_line(log_csv, "step,epoch,lr,G_GAN,G_L1,D_real,D_fake,s_per_iter,allreduce_s", row);
+  window = {};
+}
+
+}  // namespace
+
 RunResult run_training(const TrainParams& requested, const RunOptions& run) {
   validate(requested, "training config");
   // precision "auto" decided once, here: run.json and the checkpoints record
@@ -344,108 +579,17 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
   at::globalContext().setDeterministicAlgorithms(params.deterministic, /*warn_only=*/true);
   keep_freed_memory();
 
-  // B samples per rank, Bg per step in all: step s reads samples
-  // s·Bg .. s·Bg+Bg-1 of the stream, rank r the r-th slice of B of them.
-  const int64_t n = int64_t(data.train.size()), B = params.batch_size, Bg = B * world;
-  const int64_t steps_per_epoch = (n + Bg - 1) / Bg;
-  const int64_t steps_constant = std::llround(params.epochs * steps_per_epoch);
-  const int64_t steps_decay = std::llround(params.epochs_decay * steps_per_epoch);
-  const int64_t total = steps_constant + steps_decay;
-  if (total < 1)
-    throw Error("training config: epochs " + std::to_string(params.epochs) + " + epochs_decay " +
-                std::to_string(params.epochs_decay) + " give 0 steps over " + std::to_string(n) +
-                " training pairs; raise epochs (e.g. --epochs 1)");
-  const int64_t end = run.max_steps >= 0 ? std::min(total, run.max_steps) : total;
-
-  // The run folder must not be the dataset or inside it (validation pictures
-  // and checkpoints would land among the pairs), nor hold the dataset.
-  {
-    std::error_code ec;
-    const fs::path d = fs::weakly_canonical(fs::absolute(run.data), ec), o = fs::weakly_canonical(fs::absolute(run.out), ec);
-    auto under = [](const fs::path& child, const fs::path& parent) {
-      auto c = child.begin();
-      for (auto q = parent.begin(); q != parent.end(); ++q, ++c)
-        if (c == child.end() || *c != *q) return false;
-      return true;
-    };
-    if (under(o, d) || under(d, o))
-      throw Error(run.out.string() + ": the run folder is the dataset " + run.data.string() +
-                  " or overlaps it; choose an --out outside the dataset");
-  }
-
-  const fs::path ckpt = run.out / "checkpoint.pt";
+  const StepPlan plan = plan_steps(params, int64_t(data.train.size()), world, run.max_steps);
+  const int64_t n = plan.n, B = plan.B, Bg = plan.Bg, end = plan.end;
+  check_run_apart_from_data(run);
+  const fs::path ckpt = run.out / "checkpoint.pt", log_csv = run.out / "log.csv", val_csv = run.out / "val.csv";
   std::optional<DirLock> lock;
-  const fs::path log_csv = run.out / "log.csv", val_csv = run.out / "val.csv";
-  if (lead) {  // the run folder: rank 0 alone reads and writes it
-    if (run.resume && !fs::exists(ckpt))  // checked before anything is created
-      throw Error(run.out.string() + ": no checkpoint.pt to resume from; start a new run without --resume " +
-                  "(in an empty or new --out folder)");
-    if (!run.resume && !run.init_from.empty() && !fs::is_regular_file(run.init_from))
-      throw Error(run.init_from.string() +
-                  ": no such checkpoint to start from (--init takes another run's RUN/checkpoint.pt)");
-    ensure_writable_dir(run.out);
-    // One process per run folder: two would interleave log.csv and overwrite
-    // each other's checkpoints.
-    lock.emplace(run.out, "run folder");
-    if (run.resume) {  // temp files of a killed run (kill -9 mid-write) are never completed: drop them
-      remove_stale_temps(run.out);
-      if (fs::is_directory(run.out / "val")) remove_stale_temps(run.out / "val");
-    }
-    // A resumed run reads the same data as before: another size, height range
-    // or number of pairs would change the sample order and what the model means.
-    if (run.resume && fs::exists(run.out / "run.json")) {
-      const json before = read_json(run.out / "run.json");
-      auto differs = [&](const char* key, const json& now) {
-        if (before.contains(key) && before.at(key) != now)
-          throw Error(run.data.string() + ": not the dataset this run was started with (" + key + " " +
-                      before.at(key).dump() + " then, " + now.dump() + " now; " +
-                      before.value("data", std::string("?")) + "); resume with --data " +
-                      before.value("data", std::string("?")) + " or start a new run");
-      };
-      differs("size_px", data.size_px);
-      // The manifest lists every pair with its files' checksums: the same
-      // manifest is the same data, wherever the folder was moved.
-      differs("manifest_fnv64", file_checksum(run.data / "manifest.jsonl"));
-      differs("height_range_m", json::array({data.range.lo_m, data.range.hi_m}));
-      if (before.contains("pairs")) {
-        const json& pb = before.at("pairs");
-        if (pb.value("train", int64_t(-1)) != n)
-          throw Error(run.data.string() + ": not the dataset this run was started with (" +
-                      std::to_string(pb.value("train", int64_t(-1))) + " training pairs then, " + std::to_string(n) +
-                      " now); resume with --data " + before.value("data", std::string("?")) + " or start a new run");
-      }
-    }
-    if (!run.resume && fs::exists(ckpt))
-      throw Error(run.out.string() + ": already holds a run; pass --resume to continue it or choose another --out");
-    // A run that failed before its first checkpoint (full disk, bad data) left
-    // run.json and maybe log rows but nothing to resume: a new run starts over.
-    if (!run.resume) {
-      truncate_log(log_csv, 0);
-      truncate_log(val_csv, 0);
-    }
-  }
+  if (lead) open_run_folder(run, data, n, lock);
 
   torch::manual_seed(params.seed);  // weight initialisation
   Pix2Pix p(pix2pix_options(params));
   LogWindow window;
-  int64_t step = 0;
-  if (lead && run.resume && fs::exists(ckpt)) {
-    int64_t threads_then = 0, world_then = 1;
-    step = load_checkpoint(ckpt, p, params, &window, &threads_then, world, &world_then);
-    if (threads_then != torch::get_num_threads() && run.on_log)
-      run.on_log("warning: the checkpoint was written with " + std::to_string(threads_then) + " LibTorch threads, now " +
-                 std::to_string(torch::get_num_threads()) + ": the result will differ slightly from an uninterrupted run");
-    if (world_then != world && run.on_log)
-      run.on_log("the checkpoint was written by " + std::to_string(world_then) + " rank(s), now " +
-                 std::to_string(world) + " with the same global batch of " + std::to_string(Bg) +
-                 ": the same run up to rounding (docs/TRAINING.md)");
-    truncate_log(log_csv, step);
-    truncate_log(val_csv, step);
-    if (run.on_log) run.on_log("resumed " + ckpt.string() + " at step " + std::to_string(step));
-  } else if (lead && !run.init_from.empty()) {
-    load_checkpoint_weights(run.init_from, p, params);
-    if (run.on_log) run.on_log("G and D start from " + run.init_from.string());
-  }
+  int64_t step = lead ? restore_start(run, p, params, window, world, Bg) : 0;
   const json run_json = {{"reefgen_version", kVersion},
                          {"config", params},
                          {"seed", params.seed},
@@ -454,34 +598,19 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
                          {"manifest_fnv64", file_checksum(run.data / "manifest.jsonl")},
                          {"height_range_m", {data.range.lo_m, data.range.hi_m}},
                          {"pairs", {{"train", n}, {"val", data.val.size()}}},
-                         {"steps", {{"per_epoch", steps_per_epoch}, {"constant", steps_constant},
-                                    {"decay", steps_decay}, {"total", total}}},
+                         {"steps", {{"per_epoch", plan.per_epoch}, {"constant", plan.constant},
+                                    {"decay", plan.decay}, {"total", plan.total}}},
                          {"parameters", {{"G", model::count_parameters(*p.G())}, {"D", model::count_parameters(*p.D())}}},
                          {"torch_threads", torch::get_num_threads()},
                          {"world_size", world},
                          {"global_batch", Bg}};
-  json run_record = run_json;
-  // A fine-tuned run records where its weights came from (a resume keeps the record).
-  if (!run.resume && !run.init_from.empty())
-    run_record["init_from"] = {{"path", fs::absolute(run.init_from).string()},
-                               {"fnv64", file_checksum(run.init_from)}};
-  else if (run.resume && fs::exists(run.out / "run.json")) {
-    const json before = read_json(run.out / "run.json");
-    if (before.contains("init_from")) run_record["init_from"] = before.at("init_from");
-  }
-  if (lead) write_json_atomic(run.out / "run.json", run_record);
+  if (lead) write_json_atomic(run.out / "run.json", run_record(run_json, run));
   if (comm) {
-    // Every rank must run the same job on the same data: compare with rank 0.
-    const json mine = {{"config", comparable(params, world)},
-                       {"manifest_fnv64", run_json.at("manifest_fnv64")},
-                       {"pairs", run_json.at("pairs")}};
-    const json lead_job = json::parse(comm->broadcast_string(mine.dump(), "the start of the job"));
-    for (const auto& [k, v] : lead_job.items())
-      if (mine.at(k) != v)
-        throw Error("rank " + std::to_string(rank) + ": " +
-                    (k == "config" ? "its training config differs from rank 0's"
-                                   : "its dataset " + run.data.string() + " differs from rank 0's (" + k + ")") +
-                    "; give every rank the same --config, flags and dataset");
+    check_same_job(*comm,
+                   {{"config", comparable(params, world)},
+                    {"manifest_fnv64", run_json.at("manifest_fnv64")},
+                    {"pairs", run_json.at("pairs")}},
+                   rank, run);
     sync_from_rank0(*comm, p, step);
   }
 
@@ -497,53 +626,9 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
     }
     return {torch::stack(labels), torch::stack(heights)};  // {B,3,S,S}, {B,1,S,S}
   };
+  Validator validate_on(p, data, lead, params, run.out);
 
-  // Fixed validation samples (the val split, else the first training pairs), no jitter.
-  const std::vector<PairRef>& val = data.val.empty() ? data.train : data.val;
-  std::vector<Sample> val_fixed;  // rank 0 validates
-  for (int i = 0; lead && i < std::min<int>(params.val_samples, int(val.size())); ++i)
-    val_fixed.push_back(load_sample(data, val[size_t(i)], {}, 0));
-
-  const double metres_per_unit = (data.range.hi_m - data.range.lo_m) / 2.0;
-  auto write_val_grid = [&](int64_t s) {
-    std::vector<cv::Mat> rows;
-    without_side_effects(p.G(), [&] {
-      torch::NoGradGuard no_grad;
-      p.G()->train();  // pix2pix's test-time mode: batch statistics; dropout off
-      p.G()->set_dropout_enabled(false);
-      for (const Sample& v : val_fixed) {
-        const torch::Tensor pred = p.G()->forward(v.label.unsqueeze(0))[0];  // {1,S,S}
-        const cv::Mat1f truth_m = model::tensor_to_height(v.height, data.range);
-        const cv::Mat1f pred_m = model::tensor_to_height(pred, data.range);
-        cv::Mat row;
-        cv::hconcat(std::vector<cv::Mat>{tensor_to_label_bgr(v.label), render_preview(truth_m), render_preview(pred_m)}, row);
-        rows.push_back(row);
-      }
-    });
-    cv::Mat grid;
-    cv::vconcat(rows, grid);
-    ensure_writable_dir(run.out / "val");
-    char name[48];
-    std::snprintf(name, sizeof name, "step-%08lld.png", static_cast<long long>(s));
-    write_png(run.out / "val" / name, grid);
-  };
-  auto val_mae = [&](bool batch_stats) {
-    double sum = 0;
-    int64_t count = 0;
-    without_side_effects(p.G(), [&] {
-      torch::NoGradGuard no_grad;
-      p.G()->train(batch_stats);
-      p.G()->set_dropout_enabled(false);
-      for (size_t i = 0; i < std::min(val.size(), size_t(params.val_max_pairs)); ++i) {
-        const Sample v = load_sample(data, val[i], {}, 0);
-        sum += (p.G()->forward(v.label.unsqueeze(0))[0] - v.height).abs().mean().item<double>();
-        ++count;
-      }
-    });
-    return count ? sum / double(count) * metres_per_unit : 0.0;
-  };
-
-  RunResult result{step, total, false};
+  RunResult result{step, plan.total, false};
   auto export_generator = [&] {
     try {
       model::save_generator(run.out / "generator.pt", p.G(), data.range, data.size_px, step);
@@ -583,7 +668,7 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
   using clock = std::chrono::steady_clock;
   while (step < end) {
     const auto t0 = clock::now();
-    const double lr = lr_at(params, step, steps_constant, steps_decay);
+    const double lr = lr_at(params, step, plan.constant, plan.decay);
     p.set_lr(lr);
     auto [label, height] = next_batch_or_checkpoint(loader, step);
     // Dropout draws from torch's generator, reseeded per step: a resumed run
@@ -597,47 +682,25 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
     Losses l = p.step(label, height);
     bool stopping = run.stop && run.stop->load();
     double allreduce_s = 0;
-    if (comm) {
-      // Losses averaged over the ranks (what a one-process run would log),
-      // and one rank's Ctrl-C stops all of them after the same step.
-      torch::Tensor t = torch::tensor({l.g_gan, l.g_l1, l.d_real, l.d_fake, stopping ? 1.0 : 0.0}, torch::kFloat64);
-      comm->allreduce_sum({t}, "the all-reduce of step " + std::to_string(step + 1) + "'s losses");
-      auto v = t.accessor<double, 1>();
-      l = {v[0] / world, v[1] / world, v[2] / world, v[3] / world};
-      stopping = v[4] > 0;
-      allreduce_s = comm->take_collective_seconds();
-    }
+    if (comm) l = average_over_ranks(*comm, l, world, step, stopping, allreduce_s);
     if (!std::isfinite(l.g_gan + l.g_l1 + l.d_real + l.d_fake))
       throw Error("training diverged at step " + std::to_string(step + 1) + " (a loss is NaN or infinite); "
                   "lower lr or resume from the last checkpoint in " + ckpt.string());
     ++step;
     const double dt = std::chrono::duration<double>(clock::now() - t0).count();
-    const double ls[4] = {l.g_gan, l.g_l1, l.d_real, l.d_fake};
-    for (int k = 0; k < 4; ++k) window.sums[k] += ls[k];
-    window.steps += 1;
-    window.seconds += dt;
-    window.timed_steps += 1;
-    window.allreduce_seconds += allreduce_s;
-    const double epoch = double(step) / double(steps_per_epoch);
-    if (step % params.log_every == 0 || step == total) {
-      std::string row = std::to_string(step) + "," + fmt(epoch) + "," + fmt(lr);
-      for (double s : window.sums) row += "," + fmt(s / double(window.steps));
-      const double timed_steps = double(std::max<int64_t>(1, window.timed_steps));
-      row += "," + fmt(window.seconds / timed_steps) + "," + fmt(window.allreduce_seconds / timed_steps);
-      if (lead) append_line(log_csv, "step,epoch,lr,G_GAN,G_L1,D_real,D_fake,s_per_iter,allreduce_s", row);
-      window = {};
-    }
-    if (lead && (step % params.val_every == 0 || step == total || step == end)) write_val_grid(step);  // end: --max-steps too
-    if (lead && (step % steps_per_epoch == 0 || step == total)) {
+    log_step(window, l, dt, allreduce_s, step, plan, lr, params, lead, log_csv);
+    if (lead && (step % params.val_every == 0 || step == plan.total || step == end)) validate_on.write_grid(step);  // end: --max-steps too
+    if (lead && (step % plan.per_epoch == 0 || step == plan.total)) {
       append_line(val_csv, "step,epoch,mae_m_batchstats,mae_m_running",
-                  std::to_string(step) + "," + fmt(epoch) + "," + fmt(val_mae(true)) + "," + fmt(val_mae(false)));
+                  std::to_string(step) + "," + fmt(double(step) / double(plan.per_epoch)) + "," +
+                      fmt(validate_on.mae_m(true)) + "," + fmt(validate_on.mae_m(false)));
     }
     if (lead && (step % params.checkpoint_every == 0 || step == end || stopping)) {
       save_checkpoint(ckpt, p, params, step, window, world);
       saved_step = step;
       if (run.on_log) run.on_log("checkpoint at step " + std::to_string(step) + ": " + ckpt.string());
     }
-    if (run.on_step) run.on_step({step, total, lr, dt, allreduce_s, l});
+    if (run.on_step) run.on_step({step, plan.total, lr, dt, allreduce_s, l});
     if (stopping && step < end) {
       result.interrupted = true;
       break;
