@@ -276,9 +276,8 @@ cv::Mat2f integrate_warp(const cv::Mat2f& phi, const cv::Mat1f& resistance, int 
 
 // ---------------------------------------------------------------- generate
 
-namespace {
-
-void check_render_options(const RenderOptions& opt) {
+IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
+  validate(spec);
   if (opt.size_px < kMinGenerateSidePx || opt.size_px > kMaxSidePx)
     throw Error("size = " + std::to_string(opt.size_px) + " is out of range; expected [" +
                 std::to_string(kMinGenerateSidePx) + ", " + std::to_string(kMaxSidePx) + "]");
@@ -288,130 +287,59 @@ void check_render_options(const RenderOptions& opt) {
     throw Error("resistance_grid = " + std::to_string(opt.resistance_grid) + " is out of range; expected [4, 4096]");
   if (opt.wind_grid < 4 || opt.wind_grid > 1024)
     throw Error("wind_grid = " + std::to_string(opt.wind_grid) + " is out of range; expected [4, 1024]");
-}
-
-// Everything that depends on x̃ alone, tabulated once per island: resistance
-// ρ, the subsided profile, coral, and the two merged (smooth max).
-struct ProfileTables {
-  static constexpr int kLut = 4097;
-  static constexpr float kScale = (kLut - 1) / 5.f;
-  std::vector<float> rho = std::vector<float>(kLut), hsub = rho, coral = rho, merged = rho;
-  explicit ProfileTables(const IslandSpec& spec) {
-    for (int j = 0; j < kLut; ++j) {
-      const double xt = 5.0 * j / (kLut - 1);
-      rho[j] = float(sample_curve(spec.resistance, xt / 5.0));
-      hsub[j] = float(subsided_height_m(sample_curve(spec.profile, xt / 5.0), spec.subsidence, spec.heights));
-      coral[j] = float(coral_height_m(xt - 3.0, spec.coral));
-      merged[j] = spec.coral.enabled ? float(smax(hsub[j], coral[j], spec.smax_k)) : hsub[j];
-    }
-  }
-};
-
-// The wind's displacement on the (warp_grid + 1)² nodes (integrate_warp), or
-// empty when no stroke blows.
-cv::Mat2f wind_displacement(const IslandSpec& spec, const RenderOptions& opt, const OutlineTable& outlines,
-                            const std::vector<float>& rho) {
-  const bool warp = std::any_of(spec.wind.begin(), spec.wind.end(), [](const WindStroke& w) { return w.strength > 0; });
-  if (!warp) return {};
-  const int n = opt.warp_grid;
-  const cv::Mat2f phi_coarse = wind_field(spec.wind, opt.wind_grid);
-  cv::Mat2f phi(n + 1, n + 1);
-  for (int r = 0; r <= n; ++r)
-    for (int c = 0; c <= n; ++c)
-      phi(r, c) = sample_nodes(phi_coarse, opt.wind_grid, -1.f + 2.f * c / n, 1.f - 2.f * r / n);
-  return integrate_warp(phi, resistance_field(outlines, rho, opt.resistance_grid), spec.wind_substeps);
-}
-
-// Detail noise: the shared periodic tile, sampled at a seed-dependent offset
-// and one of 8 orientations, in source coordinates so it moves with the wind.
-struct NoiseSampler {
-  const NoiseTile* tile = nullptr;
-  float u0 = 0, v0 = 0, texels = 0, amp = 0;
-  int orient = 0;
-  bool magnified = false;
-  NoiseSampler(const DetailNoise& noise, int W) {
-    if (noise.amplitude > 0) tile = &NoiseTile::get(noise.octaves);
-    Rng noise_rng(noise.seed, 0, "detail-noise-placement");
-    u0 = float(noise_rng.uniform(0, NoiseTile::kSize));
-    v0 = float(noise_rng.uniform(0, NoiseTile::kSize));
-    orient = static_cast<int>(noise_rng.uniform_int(0, 7));
-    texels = float(NoiseTile::kBaseCell / noise.feature);
-    amp = float(noise.amplitude);
-    // Magnified (a texel wider than a pixel, e.g. above ~400² at the default
-    // feature), the tile is read bicubically: bilinear kinks would draw a grid
-    // of creases (docs/EROSION.md). At 256² (1.6 texels per pixel) the look-up
-    // stays bilinear, so the training data does not change.
-    magnified = texels * 2.f / float(W) < 1.f;
-  }
-  bool on() const { return tile != nullptr; }
-  // The profile height hs with the noise of source point (sx, sy) on it.
-  float apply(float hs, float sx, float sy) const {
-    const float qa = (orient & 1) ? sy : sx, qb = (orient & 1) ? sx : sy;
-    const float u = ((orient & 2) ? -qa : qa) * texels + u0, v = ((orient & 4) ? -qb : qb) * texels + v0;
-    return hs * (1.f + amp * (magnified ? tile->sample_cubic(u, v) : tile->sample(u, v)));
-  }
-};
-
-// Where the material at each pixel of row y came from: the pixel centre
-// moved by the bilinear displacement D (empty: no wind).
-struct SourceGrid {
-  std::vector<int> cell;   // grid cell per pixel column (or row)
-  std::vector<float> frac; // position inside it
-  SourceGrid(int W, int n) : cell(size_t(W)), frac(size_t(W)) {
-    for (int i = 0; i < W; ++i) {
-      const float g = (2.f * i + 1.f) / (2.f * W) * n;  // pixel centre in grid units
-      cell[size_t(i)] = std::min(static_cast<int>(g), n - 1);
-      frac[size_t(i)] = g - float(cell[size_t(i)]);
-    }
-  }
-  void row(const cv::Mat2f& D, int y, int W, float* src_x, float* src_y) const {
-    const float py = 1.f - (2.f * y + 1.f) / W;
-    const cv::Vec2f* d0 = D.empty() ? nullptr : D.ptr<cv::Vec2f>(cell[size_t(y)]);
-    const cv::Vec2f* d1 = D.empty() ? nullptr : D.ptr<cv::Vec2f>(cell[size_t(y)] + 1);
-    for (int x = 0; x < W; ++x) {
-      const float px = -1.f + (2.f * x + 1.f) / W;
-      float sx = px, sy = py;
-      if (d0) {
-        // Bilinear weights are separable: per column and per row.
-        const int c = cell[size_t(x)];
-        const float a = frac[size_t(x)], b = frac[size_t(y)];
-        const cv::Vec2f top = d0[c] + a * (d0[c + 1] - d0[c]);
-        const cv::Vec2f bot = d1[c] + a * (d1[c + 1] - d1[c]);
-        sx += top[0] + b * (bot[0] - top[0]);
-        sy += top[1] + b * (bot[1] - top[1]);
-      }
-      src_x[x] = sx;
-      src_y[x] = sy;
-    }
-  }
-};
-
-// Coral grows after the erosion (docs/EROSION.md): smooth max of the eroded
-// volcano and the coral height, on the heights before erosion too when kept.
-void grow_coral(IslandFields& out, const cv::Mat1f& coral_m, const SmoothMaxTable& smax_table) {
-  for (int y = 0; y < out.height_m.rows; ++y) {
-    float* h = out.height_m.ptr<float>(y);
-    const float* c = coral_m.ptr<float>(y);
-    for (int x = 0; x < out.height_m.cols; ++x) h[x] = smax_table(h[x], c[x]);
-    if (!out.uneroded_m.empty()) {
-      float* u = out.uneroded_m.ptr<float>(y);
-      for (int x = 0; x < out.height_m.cols; ++x) u[x] = smax_table(u[x], c[x]);
-    }
-  }
-}
-
-}  // namespace
-
-IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
-  validate(spec);
-  check_render_options(opt);
   const int W = opt.size_px;
   const OutlineTable outlines(spec.outlines, spec.min_gap);
-  const ProfileTables T(spec);
-  const cv::Mat2f D = wind_displacement(spec, opt, outlines, T.rho);
-  const NoiseSampler noise(spec.noise, W);
+
+  // Everything that depends on x̃ alone is tabulated once per island.
+  constexpr int kLut = 4097;
+  const float lut_scale = (kLut - 1) / 5.f;
+  std::vector<float> rho(kLut), hsub(kLut), coral(kLut), merged(kLut);
+  for (int j = 0; j < kLut; ++j) {
+    const double xt = 5.0 * j / (kLut - 1);
+    rho[j] = float(sample_curve(spec.resistance, xt / 5.0));
+    hsub[j] = float(subsided_height_m(sample_curve(spec.profile, xt / 5.0), spec.subsidence, spec.heights));
+    coral[j] = float(coral_height_m(xt - 3.0, spec.coral));
+    merged[j] = spec.coral.enabled ? float(smax(hsub[j], coral[j], spec.smax_k)) : hsub[j];
+  }
+
+  const bool warp = std::any_of(spec.wind.begin(), spec.wind.end(), [](const WindStroke& w) { return w.strength > 0; });
+  const int n = opt.warp_grid;
+  cv::Mat2f D;
+  if (warp) {
+    const cv::Mat2f phi_coarse = wind_field(spec.wind, opt.wind_grid);
+    cv::Mat2f phi(n + 1, n + 1);
+    for (int r = 0; r <= n; ++r)
+      for (int c = 0; c <= n; ++c)
+        phi(r, c) = sample_nodes(phi_coarse, opt.wind_grid, -1.f + 2.f * c / n, 1.f - 2.f * r / n);
+    D = integrate_warp(phi, resistance_field(outlines, rho, opt.resistance_grid), spec.wind_substeps);
+  }
+
+  // Detail noise: the shared periodic tile, sampled at a seed-dependent offset
+  // and one of 8 orientations, in source coordinates so it moves with the wind.
+  const bool noisy = spec.noise.amplitude > 0;
+  const NoiseTile* tile = noisy ? &NoiseTile::get(spec.noise.octaves) : nullptr;
+  Rng noise_rng(spec.noise.seed, 0, "detail-noise-placement");
+  const float u0 = float(noise_rng.uniform(0, NoiseTile::kSize)), v0 = float(noise_rng.uniform(0, NoiseTile::kSize));
+  const int orient = static_cast<int>(noise_rng.uniform_int(0, 7));
+  const float texels = float(NoiseTile::kBaseCell / spec.noise.feature);
+  // Magnified (a texel wider than a pixel, e.g. above ~400² at the default
+  // feature), the tile is read bicubically: bilinear kinks would draw a grid
+  // of creases (docs/EROSION.md). At 256² (1.6 texels per pixel) the look-up
+  // stays bilinear, so the training data does not change.
+  const bool magnified = texels * 2.f / float(W) < 1.f;
+  auto detail = [&](float u, float v) { return magnified ? tile->sample_cubic(u, v) : tile->sample(u, v); };
+  const float amp = float(spec.noise.amplitude);
   const SmoothMaxTable smax_table(spec.smax_k);
-  const SourceGrid grid(W, opt.warp_grid);
+
+  // Bilinear weights of the displacement grid are separable: per column and per row.
+  std::vector<int> cx(W), ry(W);
+  std::vector<float> fx(W), fy(W);
+  for (int i = 0; i < W; ++i) {
+    const float g = (2.f * i + 1.f) / (2.f * W) * n;  // pixel centre in grid units
+    const int c = std::min(static_cast<int>(g), n - 1);
+    cx[i] = ry[i] = c;
+    fx[i] = fy[i] = g - c;
+  }
 
   IslandFields out{cv::Mat1f(W, W), cv::Mat1f(W, W), cv::Mat1b(W, W), cv::Mat1f()};
   // With erosion, the volcano (h_sub + detail noise) is eroded on its own and
@@ -426,31 +354,59 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
   // Per row: where each pixel's material came from (the warp), then x̃ for
   // the whole row on the CPU's vector path, then heights and labels.
   std::vector<float> src_x(W), src_y(W), xt_row(W);
-  auto lerp = [](const float* t, int j, float f) { return t[j] + f * (t[j + 1] - t[j]); };
-  const float *hsub = T.hsub.data(), *coral = T.coral.data(), *rho = T.rho.data(), *merged = T.merged.data();
-  const bool noisy = noise.on(), coral_on = spec.coral.enabled;
   for (int y = 0; y < W; ++y) {
-    grid.row(D, y, W, src_x.data(), src_y.data());
-    outlines.xt_row(src_x.data(), src_y.data(), W, xt_row.data());
+    const float py = 1.f - (2.f * y + 1.f) / W;
     float* hrow = out.height_m.ptr<float>(y);
     float* xrow = out.xt.ptr<float>(y);
     uint8_t* lrow = out.label.ptr<uint8_t>(y);
+    const cv::Vec2f* d0 = warp ? D.ptr<cv::Vec2f>(ry[y]) : nullptr;
+    const cv::Vec2f* d1 = warp ? D.ptr<cv::Vec2f>(ry[y] + 1) : nullptr;
+    for (int x = 0; x < W; ++x) {
+      const float px = -1.f + (2.f * x + 1.f) / W;
+      float sx = px, sy = py;
+      if (warp) {
+        const int c = cx[x];
+        const float a = fx[x], b = fy[y];
+        const cv::Vec2f top = d0[c] + a * (d0[c + 1] - d0[c]);
+        const cv::Vec2f bot = d1[c] + a * (d1[c + 1] - d1[c]);
+        sx += top[0] + b * (bot[0] - top[0]);
+        sy += top[1] + b * (bot[1] - top[1]);
+      }
+      src_x[x] = sx;
+      src_y[x] = sy;
+    }
+    outlines.xt_row(src_x.data(), src_y.data(), W, xt_row.data());
     for (int x = 0; x < W; ++x) {
       const float sx = src_x[x], sy = src_y[x];  // where the material at this pixel came from
       const float xt = xt_row[x];
-      const float g = xt * ProfileTables::kScale;
-      const int j = std::min(static_cast<int>(g), ProfileTables::kLut - 2);
+      const float g = xt * lut_scale;
+      const int j = std::min(static_cast<int>(g), kLut - 2);
       const float f = g - j;
+      float h;
       if (eroded) {
-        hrow[x] = noisy ? noise.apply(lerp(hsub, j, f), sx, sy) : lerp(hsub, j, f);
-        coral_m(y, x) = lerp(coral, j, f);
-        rho_px(y, x) = lerp(rho, j, f);
+        float hs = hsub[j] + f * (hsub[j + 1] - hsub[j]);
+        if (noisy) {
+          const float qa = (orient & 1) ? sy : sx, qb = (orient & 1) ? sx : sy;
+          const float u = ((orient & 2) ? -qa : qa) * texels + u0, v = ((orient & 4) ? -qb : qb) * texels + v0;
+          hs *= 1.f + amp * detail(u, v);
+        }
+        h = hs;
+        coral_m(y, x) = coral[j] + f * (coral[j + 1] - coral[j]);
+        rho_px(y, x) = rho[j] + f * (rho[j + 1] - rho[j]);
       } else if (!noisy) {
-        hrow[x] = lerp(merged, j, f);
+        h = merged[j] + f * (merged[j + 1] - merged[j]);
       } else {
-        const float hs = noise.apply(lerp(hsub, j, f), sx, sy);
-        hrow[x] = coral_on ? smax_table(hs, lerp(coral, j, f)) : hs;
+        float hs = hsub[j] + f * (hsub[j + 1] - hsub[j]);
+        const float qa = (orient & 1) ? sy : sx, qb = (orient & 1) ? sx : sy;
+        const float u = ((orient & 2) ? -qa : qa) * texels + u0, v = ((orient & 4) ? -qb : qb) * texels + v0;
+        hs *= 1.f + amp * detail(u, v);
+        if (spec.coral.enabled) {
+          h = smax_table(hs, coral[j] + f * (coral[j + 1] - coral[j]));
+        } else {
+          h = hs;
+        }
       }
+      hrow[x] = h;
       xrow[x] = xt;
       lrow[x] = static_cast<uint8_t>(std::min(static_cast<int>(xt), 4));
     }
@@ -458,7 +414,16 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
   if (eroded) {
     if (opt.keep_uneroded) out.uneroded_m = out.height_m.clone();
     out.height_m = terrain::erode_island(out.height_m, rho_px, spec.world_size_m, spec.noise.seed, spec.erosion);
-    if (spec.coral.enabled) grow_coral(out, coral_m, smax_table);
+    if (spec.coral.enabled)
+      for (int y = 0; y < W; ++y) {
+        float* h = out.height_m.ptr<float>(y);
+        const float* c = coral_m.ptr<float>(y);
+        for (int x = 0; x < W; ++x) h[x] = smax_table(h[x], c[x]);
+        if (!out.uneroded_m.empty()) {
+          float* u = out.uneroded_m.ptr<float>(y);
+          for (int x = 0; x < W; ++x) u[x] = smax_table(u[x], c[x]);
+        }
+      }
   }
   return out;
 }
