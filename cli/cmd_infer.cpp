@@ -102,6 +102,9 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
             infer::InferOptions& io = job.options;
             io.stochastic = a->stochastic;
             io.running_stats = a->running_stats;
+            if (a->running_stats && gen.g->options().norm != model::Norm::Batch && !g.quiet)
+              std::fprintf(stderr, "note: --running-stats changes nothing: %s has no BatchNorm (it uses %s)\n",
+                           job.model_path.c_str(), gen.g->options().norm == model::Norm::Instance ? "instance norm" : "no normalisation");
             io.amplify = !a->raw;
             try {
               io.precision = infer::precision_from_string(a->precision);

@@ -143,6 +143,10 @@ PYEOF
 # infer gets the same layers (the sketch's regions) and GeoTIFFs.
 "$BIN" -q infer "$(dirname "$0")/../docs/examples/painted-sketch.png" --size 96 --layers --geotiff -o "$T/er/inf" >/dev/null 2>"$T/err" || bad "infer --layers: $(cat "$T/err")"
 for s in splat0.png splat1.png flow.png height.tif slope.tif; do [ -s "$T/er/inf.$s" ] || bad "infer --layers: no $s"; done
+# --running-stats on the shipped (instance-norm) model: said to change nothing, and the sidecar agrees.
+"$BIN" infer "$(dirname "$0")/../docs/examples/painted-sketch.png" --raw --running-stats -o "$T/er/rs" 2>&1 >/dev/null |
+  grep -q "running-stats changes nothing" && grep -q '"batchnorm": "none (the generator uses instance norm)"' "$T/er/rs.json" \
+  && ok || bad "--running-stats on an instance-norm model is not said to change nothing"
 # Errors: PNG16 and R16 without units, a RAW of the wrong length, not square, over its input.
 "$BIN" -q erode "$T/er/we.height.png" -o "$T/er/x" >/dev/null 2>"$T/err" && bad "png16 without --range accepted" || \
   { grep -q "we.height.png.*--range" "$T/err" && ok || bad "png16 no range: $(cat "$T/err")"; }

@@ -96,8 +96,17 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
   ensure_writable_dir(out_dir.empty() ? fs::path(".") : out_dir);
 
   // The mode every sidecar records (resolve throws for impossible pairs).
+  // A generator without BatchNorm (the shipped one: instance norm) has no
+  // running statistics: --running-stats changes nothing there, and says so.
+  const bool has_bn = gen.g->options().norm == model::Norm::Batch;
   const nlohmann::json mode = {{"stochastic", io.stochastic}, {"seed", io.seed},
-                               {"batchnorm", io.running_stats ? "running statistics" : "batch statistics"},
+                               {"batchnorm", !has_bn             ? "none (the generator uses " +
+                                                                   std::string(gen.g->options().norm == model::Norm::Instance
+                                                                                   ? "instance norm"
+                                                                                   : "no normalisation") +
+                                                                   ")"
+                                             : io.running_stats ? "running statistics"
+                                                                : "batch statistics"},
                                {"precision", to_string(resolve(io, gen))},
                                {"engine", to_string(resolve_engine(io))}};
   constexpr size_t kChunk = 32;
