@@ -41,8 +41,8 @@ void add_finish_flags(CLI::App* sub, FinishFlags& f) {
   sub->add_option("--crs", f.crs, "CRS of the GeoTIFFs, e.g. EPSG:32706 (default: a local metric grid, no CRS)");
   sub->add_option("--origin", f.origin, "X,Y: map coordinates of the top-left corner, metres (default: centred on 0,0)");
   sub->add_option("--for", f.engines,
-                  "Bundles in each tool's own layout, each in PREFIX.<engine>/ with a README.txt of import steps: "
-                  "unity, unreal, godot, blender, gis (comma-separated or repeated; docs/ENGINES.md)")
+                  "Bundles in each tool's own layout, each in PREFIX.<engine>/ with a README.txt of import steps: " +
+                  engines::engine_names() + " (comma-separated or repeated; docs/ENGINES.md)")
       ->type_name("ENGINE");
 }
 

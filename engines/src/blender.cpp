@@ -162,7 +162,7 @@ nlohmann::json stage_blender(StagedOutputs& staged, const fs::path& dir, const s
                        const terrain::Layers& L = *in.layers;
                        write_png(p, terrain::material_colour_map(T == n ? L : weights_at(L, T), false));
                      }},
-                    {dir / (name + ".displace.py"), [&](const fs::path& p) { write_file_atomic(p, script.data(), script.size()); }}},
+                    {dir / (name + ".displace.py"), [&](const fs::path& p) { write_text_atomic(p, script); }}},
                    threads);
   const std::string readme =
       "reefgen island for Blender\n\n"

@@ -15,7 +15,7 @@ namespace fs = std::filesystem;
 namespace detail {
 
 void stage_text(StagedOutputs& staged, const fs::path& path, const std::string& text) {
-  staged.write(path, [text](const fs::path& t) { write_file_atomic(t, text.data(), text.size()); });
+  staged.write(path, [&](const fs::path& t) { write_text_atomic(t, text); });
 }
 
 std::string fmt(const char* f, double v) {
@@ -174,13 +174,22 @@ nlohmann::json stage_gis(StagedOutputs& staged, const fs::path& dir, const std::
 
 }  // namespace
 
+std::string engine_names() {
+  std::string out;
+  for (const Engine e : kEngines) out += std::string(out.empty() ? "" : ", ") + to_string(e);
+  return out;
+}
+
+bool is_engine_name(const std::string& s) {
+  return std::any_of(std::begin(kEngines), std::end(kEngines), [&](Engine e) { return s == to_string(e); });
+}
+
 Engine engine_from_string(const std::string& s) {
-  if (s == "unity") return Engine::Unity;
-  if (s == "unreal") return Engine::Unreal;
-  if (s == "godot") return Engine::Godot;
-  if (s == "blender") return Engine::Blender;
-  if (s == "gis") return Engine::Gis;
-  throw Error("--for " + s + ": use unity, unreal, godot, blender or gis (docs/ENGINES.md)");
+  for (const Engine e : kEngines)
+    if (s == to_string(e)) return e;
+  std::string names = engine_names();
+  names.replace(names.rfind(", "), 2, " or ");
+  throw Error("--for " + s + ": use " + names + " (docs/ENGINES.md)");
 }
 
 const char* to_string(Engine e) {

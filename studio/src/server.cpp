@@ -557,11 +557,10 @@ struct StudioServer::Impl {
     check_name(name);
     // Engine bundles (docs/ENGINES.md): the folder NAME.<engine>/ in the
     // output folder, sent as one stored ZIP.
-    const bool bundle = format == "unity" || format == "unreal" || format == "godot" || format == "blender" ||
-                        format == "gis";
+    const bool bundle = engines::is_engine_name(format);
     if (!export_suffixes().count(format) && !bundle)
-      throw BadRequest("format '" + format + "': use exr, png16, r16, glb, obj, sketch, spec, or a bundle: unity, "
-                       "unreal, godot, blender, gis");
+      throw BadRequest("format '" + format + "': use exr, png16, r16, glb, obj, sketch, spec, or a bundle: " +
+                       engines::engine_names());
     const json body = json::parse(req.body, nullptr, false);
     if (format == "spec" && body.is_object() && !body.contains("spec"))
       throw BadRequest("format spec needs a spec (curves mode)");

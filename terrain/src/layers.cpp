@@ -244,20 +244,27 @@ std::array<cv::Mat4b, 2> splat_maps(const Layers& L) {
   return out;
 }
 
+namespace {
+// Lambert-like shade of a unit normal under a sun from the north-west, 45°
+// up; the same light in every picture the layers make.
+float hill_shade(const cv::Vec3f& normal) {
+  const cv::Vec3f sun(-0.5f, 0.5f, float(M_SQRT1_2));
+  return std::clamp(0.45f + 0.75f * normal.dot(sun), 0.35f, 1.25f);
+}
+}  // namespace
+
 cv::Mat3b material_colour_map(const Layers& L, bool shaded) {
   // Base colours (RGB): sand seen through shallow water, reef, deep floor…
   static constexpr float kRgb[kNumMaterials][3] = {{32, 52, 92},   {120, 196, 204}, {64, 150, 140}, {228, 212, 164},
                                                    {62, 118, 48},  {112, 100, 92},  {156, 146, 130}, {92, 112, 124}};
   const int H = L.weight[0].rows, W = L.weight[0].cols;
-  // Sun from the north-west, 45° up.
-  const cv::Vec3f sun(-0.5f, 0.5f, float(M_SQRT1_2));
   cv::Mat3b out(H, W);
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
       float c[3] = {0, 0, 0};
       for (int m = 0; m < kNumMaterials; ++m)
         for (int k = 0; k < 3; ++k) c[k] += L.weight[size_t(m)](y, x) * kRgb[m][k];
-      const float shade = shaded ? std::clamp(0.45f + 0.75f * L.normal(y, x).dot(sun), 0.35f, 1.25f) : 1.0f;
+      const float shade = shaded ? hill_shade(L.normal(y, x)) : 1.0f;
       out(y, x) = cv::Vec3b(cv::saturate_cast<uint8_t>(c[2] * shade), cv::saturate_cast<uint8_t>(c[1] * shade),
                             cv::saturate_cast<uint8_t>(c[0] * shade));  // BGR for OpenCV's writers
     }
@@ -271,11 +278,10 @@ cv::Mat3b flow_colour_map(const Layers& L, const cv::Mat1f& h, double dx) {
   double max_area = 0;
   cv::minMaxLoc(L.flow_area_m2, nullptr, &max_area);
   const double span = std::max(1e-9, std::log10(std::max(max_area / cell, kMinCells + 1)) - std::log10(kMinCells));
-  const cv::Vec3f sun(-0.5f, 0.5f, float(M_SQRT1_2));
   cv::Mat3b out(h.size());
   for (int y = 0; y < h.rows; ++y)
     for (int x = 0; x < h.cols; ++x) {
-      const float shade = std::clamp(0.45f + 0.75f * L.normal(y, x).dot(sun), 0.35f, 1.25f);
+      const float shade = hill_shade(L.normal(y, x));
       cv::Vec3f c = h(y, x) < 0 ? cv::Vec3f(120, 90, 60) : cv::Vec3f(150, 155, 150) * shade;  // BGR
       const double cells = L.flow_area_m2(y, x) / cell;
       if (h(y, x) >= 0 && cells > kMinCells) {

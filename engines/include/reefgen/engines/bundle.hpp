@@ -32,7 +32,13 @@ class StagedOutputs;
 namespace reefgen::engines {
 
 enum class Engine { Unity, Unreal, Godot, Blender, Gis };
-// "unity", "unreal", "godot", "blender", "gis"; anything else throws reefgen::Error listing them.
+// Every engine, in the order the docs and messages list them.
+constexpr Engine kEngines[] = {Engine::Unity, Engine::Unreal, Engine::Godot, Engine::Blender, Engine::Gis};
+// "unity, unreal, godot, blender, gis": for help texts and messages.
+std::string engine_names();
+// True for "unity", "unreal", "godot", "blender" or "gis".
+bool is_engine_name(const std::string& name);
+// The engine of that name; anything else throws reefgen::Error listing them.
 Engine engine_from_string(const std::string& name);
 const char* to_string(Engine e);
 
