@@ -36,7 +36,7 @@ double cell_size(const RealismArgs& a, const ExrAttributes& attrs, int width, co
 Command add_realism_command(CLI::App& app, const GlobalOptions&) {
   auto a = std::make_shared<RealismArgs>();
   auto* sub = app.add_subcommand("realism",
-                                 "Realism statistics of height files: pits, terraces, valleys (docs/REALISM.md)\n\n"
+                                 "Realism statistics of height files: pits, terraces, valleys, seams (docs/REALISM.md)\n\n"
                                  "Examples:\n"
                                  "  reefgen realism out/atoll.height.exr\n"
                                  "  reefgen realism out/*.height.exr --json > stats.jsonl\n"
@@ -49,8 +49,8 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
   sub->add_flag("--json", a->json, "One JSON object per file on stdout");
   return {sub, [a] {
             if (!a->json)
-              std::printf("%-40s %7s %9s %9s %9s %9s %8s\n", "file", "size", "land", "max_m", "pits", "terraces",
-                          "valleys");
+              std::printf("%-40s %7s %9s %9s %9s %9s %8s %10s %10s\n", "file", "size", "land", "max_m", "pits", "terraces",
+                          "valleys", "seams_rows", "seams_cols");
             for (const auto& f : a->files) {
               if (!fs::is_regular_file(f)) throw Error(f + ": no such file (expected an OpenEXR height file)");
               ExrAttributes attrs;
@@ -68,11 +68,13 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                                     {"metres_per_px", mpp}, {"land_share", land},
                                     {"max_height_m", st.max_height_m}, {"flank_cells", st.flank_cells},
                                     {"pits", st.pits},    {"terraces", st.terraces},
-                                    {"valleys", st.valleys}};
+                                    {"valleys", st.valleys}, {"seams_rows", st.seams_rows},
+                                    {"seams_cols", st.seams_cols}};
                 std::printf("%s\n", j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
               } else {
-                std::printf("%-40s %4dx%-4d %8.1f%% %9.1f %8.2f%% %8.2f%% %8.3f\n", f.c_str(), h.cols, h.rows,
-                            100 * land, st.max_height_m, 100 * st.pits, 100 * st.terraces, st.valleys);
+                std::printf("%-40s %4dx%-4d %8.1f%% %9.1f %8.2f%% %8.2f%% %8.3f %10.2f %10.2f\n", f.c_str(), h.cols, h.rows,
+                            100 * land, st.max_height_m, 100 * st.pits, 100 * st.terraces, st.valleys, st.seams_rows,
+                            st.seams_cols);
               }
             }
             return 0;

@@ -634,3 +634,28 @@ TEST(Realism, StatisticsOfKnownShapes) {
   EXPECT_THROW(realism_stats(bad, mpp), Error);
   EXPECT_THROW(realism_stats(cone(20, 10.f), 0), Error);
 }
+
+// The seam statistic (docs/REALISM.md) against a reference computed by hand
+// and on a field with a step along one column, as a window border would leave.
+TEST(Realism, SeamScoreFindsOneSteppedColumn) {
+  const cv::Mat1f rough = cone(400, 40.f, 0.2f, 7);
+  const RealismStats s = realism_stats(rough, 15);
+  EXPECT_GT(s.seams_rows, 1.0);
+  EXPECT_LT(s.seams_rows, 2.5);
+  EXPECT_LT(s.seams_cols, 2.5);
+  cv::Mat1f stepped = rough.clone();
+  for (int y = 0; y < stepped.rows; ++y)
+    for (int x = 201; x < stepped.cols; ++x)
+      if (stepped(y, x) > 0) stepped(y, x) += 3.f;
+  const RealismStats t = realism_stats(stepped, 15);
+  EXPECT_GT(t.seams_cols, 4.0) << "a 3 m step along column 200 must stand out";
+  EXPECT_NEAR(t.seams_rows, s.seams_rows, 0.5) << "a vertical step adds nothing along rows";
+  // A hand-sized case: rows 0..5 of land with steps 1,1,1,5,1 between them,
+  // every row full: p = {1,1,1,5,1}, running median 1 → score 5.
+  cv::Mat1f rows(6, 8);
+  const float level[6] = {10, 11, 12, 13, 18, 19};
+  for (int y = 0; y < 6; ++y) rows.row(y).setTo(level[y]);
+  EXPECT_DOUBLE_EQ(terrain::seam_score(rows, true), 5.0);
+  EXPECT_DOUBLE_EQ(terrain::seam_score(rows, false), 0.0) << "no step along columns: nothing to compare";
+  EXPECT_DOUBLE_EQ(terrain::seam_score(cv::Mat1f(6, 8, -5.f), true), 0.0) << "no land";
+}

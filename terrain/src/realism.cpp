@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include <opencv2/imgproc.hpp>
 
@@ -81,7 +82,62 @@ RealismStats realism_stats(const cv::Mat1f& h, double metres_per_px) {
     st.terraces = double(flats) / double(st.flank_cells);
     st.valleys = double(valleys) / double(st.flank_cells);
   }
+  st.seams_rows = seam_score(hc, true);
+  st.seams_cols = seam_score(hc, false);
   return st;
+}
+
+namespace {
+double median_of(std::vector<float>& v) {
+  const auto mid = v.begin() + long(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+// p[r] of seam_score for the rows of h (columns: pass the transpose); -1 for
+// a row left out.
+std::vector<double> step_profile(const cv::Mat1f& h) {
+  const int H = h.rows, W = h.cols;
+  std::vector<int> land(size_t(std::max(H - 1, 0)), 0);
+  int busiest = 0;
+  for (int r = 0; r + 1 < H; ++r) {
+    const float* a = h.ptr<float>(r);
+    const float* b = h.ptr<float>(r + 1);
+    for (int c = 0; c < W; ++c) land[size_t(r)] += a[c] > 0 && b[c] > 0;
+    busiest = std::max(busiest, land[size_t(r)]);
+  }
+  std::vector<double> p(land.size(), -1.0);
+  std::vector<float> steps;
+  for (int r = 0; r + 1 < H; ++r) {
+    if (busiest == 0 || land[size_t(r)] < kSeamMinRowShare * busiest) continue;
+    const float* a = h.ptr<float>(r);
+    const float* b = h.ptr<float>(r + 1);
+    steps.clear();
+    for (int c = 0; c < W; ++c)
+      if (a[c] > 0 && b[c] > 0) steps.push_back(std::abs(b[c] - a[c]));
+    p[size_t(r)] = median_of(steps);
+  }
+  return p;
+}
+}  // namespace
+
+double seam_score(const cv::Mat1f& h, bool along_rows) {
+  const std::vector<double> p = step_profile(along_rows ? h : cv::Mat1f(h.t()));
+  double score = 0;
+  std::vector<float> near;
+  for (size_t r = 0; r < p.size(); ++r) {
+    if (p[r] < 0) continue;
+    near.clear();
+    const size_t lo = r >= size_t(kSeamWindowRows) ? r - kSeamWindowRows : 0;
+    const size_t hi = std::min(p.size() - 1, r + kSeamWindowRows);
+    for (size_t k = lo; k <= hi; ++k)
+      if (p[k] >= 0) near.push_back(float(p[k]));
+    const double ref = median_of(near);
+    // A flat run (ref 0) has no step to compare with: a seam there would have
+    // raised its own neighbours' median, so it is left out rather than infinite.
+    if (ref > 0) score = std::max(score, p[r] / ref);
+  }
+  return score;
 }
 
 }  // namespace reefgen::terrain

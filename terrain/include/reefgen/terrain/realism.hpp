@@ -17,7 +17,25 @@ struct RealismStats {
   double terraces = 0;  // share of flank cells with slope < 2°
   double valleys = 0;   // share of flank cells that are convergent (plan curvature < −1e-3 1/m on
                         // heights smoothed by a Gaussian of σ = 60 m, where the gradient > 0.02)
+  double seams_rows = 0;  // seam_score along rows (a horizontal border between row r and r+1); 0 = no land
+  double seams_cols = 0;  // the same along columns (a vertical border)
 };
+
+// Rows (or columns) that hold fewer than this share of the busiest row's land
+// cells are left out of the seam profile: a coast's few cells give a noisy median.
+inline constexpr double kSeamMinRowShare = 0.25;
+// Half-width of the running median a row's step is compared with (rows): wider
+// than a seam, narrower than an island's change of relief.
+inline constexpr int kSeamWindowRows = 16;
+
+// The seam statistic of docs/REALISM.md: on land, over the rows holding at
+// least kSeamMinRowShare of the busiest row's land cells, the profile
+// p[r] = median over the cells land in rows r and r+1 of |h[r+1][c] − h[r][c]|;
+// the score is max over r of p[r] / (median of p over r ± kSeamWindowRows).
+// A window or tile border shows as one row whose step stands out (a 3 m step
+// along one row of an island scores ~12); a seamless field scores 1.5–2.
+// along_rows = false scores the columns (the transpose). 0 when no row qualifies.
+double seam_score(const cv::Mat1f& height_m, bool along_rows);
 
 // metres_per_px: horizontal size of a cell. Throws reefgen::Error on an empty,
 // non-finite field or a non-positive cell size.
