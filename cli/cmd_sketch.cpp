@@ -19,8 +19,34 @@ void require_png_name(const fs::path& p) {
   if (e != ".png")
     throw Error(p.string() + ": sketches are written as PNG; name the output *.png");
 }
-}  // namespace
 
+struct RandomArgs {
+  procgen::SketchParams p;
+  procgen::ArchipelagoParams world;
+  std::string size = "256";
+  uint64_t seed = 1;
+  int count = 1;
+  std::string out;
+};
+
+// --size W (one canvas: the paper's sketches) or WxH (an archipelago);
+// returns whether it is an archipelago and fills the sizes.
+bool parse_sketch_size(RandomArgs& a, bool islands_given) {
+  int w = 0, h = 0;
+  char x = 0, rest = 0;
+  const int n = std::sscanf(a.size.c_str(), "%d%c%d%c", &w, &x, &h, &rest);
+  if (n == 1) {
+    a.p.size_px = w;
+    return false;
+  }
+  if (n != 3 || (x != 'x' && x != 'X'))
+    throw Error("--size " + a.size + ": use W (one 6 km canvas) or WxH (an archipelago), e.g. 2048x2048");
+  a.world.width_px = w;
+  a.world.height_px = h;
+  a.world.islands = islands_given ? a.p.islands : procgen::ArchipelagoParams{}.islands;
+  return true;
+}
+}  // namespace
 
 Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
   auto* sub = app.add_subcommand(
@@ -55,20 +81,21 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
       "Examples:\n"
       "  reefgen sketch random --seed 3 -o sketch.png\n"
       "  reefgen sketch random --seed 4 --islands 3 --subsidence 0.8 -o atolls.png\n"
-      "  reefgen sketch random --seed 5 --count 20 -o sketches/     # sketches/sketch_0000.png ...\n");
+      "  reefgen sketch random --seed 5 --count 20 -o sketches/     # sketches/sketch_0000.png ...\n"
+      "  reefgen sketch random --size 2048x2048 --islands 24 -o sea.png   # an archipelago, 48 km across\n\n"
+      "--size W draws one canvas of 6 km whatever W (the paper's sketches); --size WxH draws\n"
+      "an archipelago at the model's own scale (--metres-per-px, 23.4 m: 2048 px = 48 km) with\n"
+      "young high islands, barrier reefs and atolls of very different sizes, some crossing\n"
+      "the border, for `reefgen world`.\n");
   sub->require_subcommand(0, 1);
-  struct Args {
-    procgen::SketchParams p;
-    uint64_t seed = 1;
-    int count = 1;
-    std::string out;
-  };
-  auto a = std::make_shared<Args>();
+  auto a = std::make_shared<RandomArgs>();
   rnd->add_option("--seed", a->seed, "Seed")->capture_default_str()->check(seed_value());
   rnd->add_option("-o,--output,--out", a->out, "PNG file, or a folder with --count > 1")->required();
   rnd->add_option("--count", a->count, "Number of sketches (seeds seed, seed+1, ...)")->capture_default_str();
-  rnd->add_option("--size", a->p.size_px, "W")->capture_default_str();
-  rnd->add_option("--islands", a->p.islands, "Islands per sketch [1, 16]")->capture_default_str();
+  rnd->add_option("--size", a->size, "W (one 6 km canvas) or WxH (an archipelago at --metres-per-px)")->capture_default_str();
+  rnd->add_option("--islands", a->p.islands, "Islands per sketch [1, 16]; archipelago [1, 512] (default 24)");
+  rnd->add_option("--metres-per-px", a->world.metres_per_px, "Archipelago: ground of one pixel, m")
+      ->capture_default_str()->check(finite_in(1e-3, 1000));
   rnd->add_option("--subsidence", a->p.subsidence, "λ in [0, 1] (darker colours); -1 = random per island")->capture_default_str()->check(finite_in(-1, 1));
   rnd->add_option("--roughness", a->p.roughness, "Outline noise amplitude [0, 1]")->capture_default_str();
   return {sub, [a, f, rnd, sub]() -> int {
@@ -108,13 +135,17 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
               return 0;
             }
             if (a->count < 1) throw Error("--count must be ≥ 1");
-            (void)procgen::random_sketch(procgen::SketchParams{a->p}, a->seed);  // validate before writing
+            const bool archipelago = parse_sketch_size(*a, rnd->count("--islands") > 0);
+            auto make = [&](uint64_t seed) {
+              return archipelago ? procgen::archipelago_sketch(a->world, seed) : procgen::random_sketch(a->p, seed);
+            };
+            if (!archipelago) (void)procgen::random_sketch(a->p, a->seed);  // validate before writing
             const bool many = a->count > 1;
             if (!many) require_png_name(a->out);
             if (many) ensure_writable_dir(a->out);
             StagedOutputs staged;  // all or nothing: a failure keeps an earlier set as it was
             for (int i = 0; i < a->count; ++i) {
-              const procgen::Sketch s = procgen::random_sketch(a->p, a->seed + uint64_t(i));
+              const procgen::Sketch s = make(a->seed + uint64_t(i));
               char name[32];
               std::snprintf(name, sizeof name, "sketch_%04d.png", i);
               const fs::path path = many ? fs::path(a->out) / name : fs::path(a->out);

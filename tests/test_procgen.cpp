@@ -18,6 +18,7 @@
 #include "reefgen/terrain/noise.hpp"
 #include "reefgen/procgen/output.hpp"
 #include "reefgen/procgen/random_spec.hpp"
+#include "reefgen/procgen/sketch.hpp"
 #include "test_util.hpp"
 
 using namespace reefgen;
@@ -447,4 +448,59 @@ TEST(RandomIslands, SameFilesWhateverTheThreadsAndResumable) {
   test::expect_error_naming([&] { write_random_islands(a, r); }, "other settings");
   fs::remove_all(a);
   fs::remove_all(b);
+}
+
+// sketch random --size WxH (issue 38): a sea at the model's scale with three
+// kinds of islands of very different sizes, some on the border, pure in the seed.
+TEST(Archipelago, KindsSizesAndBordersAtTheModelsScale) {
+  ArchipelagoParams p;
+  p.width_px = 1200;
+  p.height_px = 700;
+  p.islands = 30;
+  const Sketch a = archipelago_sketch(p, 5);
+  ASSERT_EQ(a.label.size(), cv::Size(1200, 700));
+  EXPECT_EQ(cv::norm(a.label, archipelago_sketch(p, 5).label, cv::NORM_INF), 0.0) << "pure in the seed";
+  EXPECT_GT(cv::norm(a.label, archipelago_sketch(p, 6).label, cv::NORM_L1), 0.0);
+  // Islands (8-connected non-abyss) and their areas: many, of very different sizes.
+  cv::Mat1i comp;
+  cv::Mat stats, centroids;
+  const int n = cv::connectedComponentsWithStats(cv::Mat1b(a.label != uint8_t(kAbyss)), comp, stats, centroids, 8);
+  EXPECT_GE(n - 1, 20) << "30 islands, most apart";
+  int smallest = 1 << 30, largest = 0;
+  bool on_border = false;
+  for (int c = 1; c < n; ++c) {
+    smallest = std::min(smallest, stats.at<int>(c, cv::CC_STAT_AREA));
+    largest = std::max(largest, stats.at<int>(c, cv::CC_STAT_AREA));
+    on_border |= stats.at<int>(c, cv::CC_STAT_LEFT) == 0 || stats.at<int>(c, cv::CC_STAT_TOP) == 0 ||
+                 stats.at<int>(c, cv::CC_STAT_LEFT) + stats.at<int>(c, cv::CC_STAT_WIDTH) == p.width_px ||
+                 stats.at<int>(c, cv::CC_STAT_TOP) + stats.at<int>(c, cv::CC_STAT_HEIGHT) == p.height_px;
+  }
+  EXPECT_GT(largest, 50 * smallest) << "islands of very different sizes";
+  EXPECT_TRUE(on_border) << "an island crosses the canvas border";
+  // The largest island's radius is max_radius_m at 23.4 m a pixel, capped to a
+  // third of the shorter side: 233 px (its reef reaches about that far; an
+  // island close by may join it).
+  EXPECT_GT(std::sqrt(largest / M_PI), 0.7 * 700 / 3.0);
+  // Young (mountain, λ ≤ 0.25), barrier (λ 0.4–0.7) and atolls (λ ≥ 0.85, no mountain).
+  bool young = false, barrier = false, atoll = false;
+  for (int y = 0; y < a.label.rows; ++y)
+    for (int x = 0; x < a.label.cols; ++x) {
+      const float l = a.subsidence(y, x);
+      if (a.label(y, x) == kAbyss) {
+        ASSERT_EQ(l, 0.f) << "the abyss is bright";
+        continue;
+      }
+      young |= a.label(y, x) == kIsland && l <= 0.25f;
+      barrier |= a.label(y, x) == kIsland && l >= 0.4f && l <= 0.7f;
+      atoll |= a.label(y, x) == kLagoon && l >= 0.85f;
+      ASSERT_FALSE(a.label(y, x) == kIsland && l >= 0.85f) << "an atoll has no mountain";
+    }
+  EXPECT_TRUE(young && barrier && atoll);
+  // Errors.
+  ArchipelagoParams bad = p;
+  bad.islands = 0;
+  EXPECT_THROW(archipelago_sketch(bad, 1), Error);
+  bad = p;
+  bad.width_px = 20000;
+  EXPECT_THROW(archipelago_sketch(bad, 1), Error);
 }

@@ -7,6 +7,11 @@ namespace reefgen {
 // the default of IslandSpec::world_size_m, infer/eval's --world-size and the
 // metres per pixel of every export whose source carries no size.
 inline constexpr double kCanvasWorldSizeM = 6000;
+// The side of the model's input and output, px, and so the metres of one
+// sketch pixel at the model's own scale (kCanvasWorldSizeM / kModelSidePx =
+// 23.4 m): a world sketch is read at this scale unless the user says otherwise.
+inline constexpr int kModelSidePx = 256;
+inline constexpr double kModelMetresPerPx = kCanvasWorldSizeM / kModelSidePx;
 
 // The height range the networks map to [-1, 1], m: the abyss floor and a
 // ceiling above every generated peak of the shipped datasets.

@@ -26,4 +26,24 @@ using reefgen::Sketch;  // common/labels.hpp: shared with islands/
 // Pure in (params, seed). Throws reefgen::Error for out-of-range params.
 Sketch random_sketch(const SketchParams& p, uint64_t seed);
 
+// An archipelago at the model's own scale (issue 38): a W×H sea of islands
+// whose sizes are in metres, so a pixel means the same ground as in the
+// model's 256² canvas. Three kinds, drawn in turn: young high islands
+// (λ 0–0.25: a wide mountain, a narrow fringing lagoon), barrier-reef
+// islands (λ 0.4–0.7: a smaller mountain in a wide lagoon) and atolls
+// (λ 0.85–1: a reef and islet ring round a lagoon). Radii are log-uniform in
+// [min_radius_m, max_radius_m] with the first island the largest; some
+// islands cross the canvas border. The abyss is bright (λ 0).
+struct ArchipelagoParams {
+  int width_px = 2048;            // W, [16, 16384]
+  int height_px = 2048;           // H, [16, 16384]
+  int islands = 24;               // [1, 512]
+  double metres_per_px = 6000.0 / 256;  // ground of one pixel, m, (0, 1000]
+  double min_radius_m = 400;      // outer (reef) radius of the smallest island, m, > 0
+  double max_radius_m = 10000;    // of the largest, m, ≥ min_radius_m (capped to a third of the shorter side)
+  double roughness = 0.3;         // fBm amplitude on each island's bump, [0, 1]
+  double frequency = 2.5;         // fBm features per island radius, (0, 32]
+};
+Sketch archipelago_sketch(const ArchipelagoParams& p, uint64_t seed);
+
 }  // namespace reefgen::procgen
