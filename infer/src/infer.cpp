@@ -79,6 +79,48 @@ namespace {
 bool keep_fp32(const std::string& name) { return name.rfind("levels.0.up_conv.", 0) == 0; }
 }  // namespace
 
+torch::Tensor forward_generator(model::GeneratorFile& g, const torch::Tensor& x, Engine engine, Precision precision,
+                                bool running_stats) {
+  const int64_t n = x.size(0), side = x.size(3);
+  torch::Tensor y;
+  if (engine == Engine::OneDnn) {
+    const bool train_mode = !running_stats;
+    const std::string key = std::to_string(n) + "/" + std::to_string(side) + "/" +
+                            (precision == Precision::Bf16 ? "bf16" : "fp32") + (train_mode ? "/batch" : "/running");
+    auto& fast = g.fast[key];
+    if (!fast) {
+      g.g->train(train_mode);
+      g.g->set_dropout_enabled(false);
+      fast = std::make_shared<model::FastUNet>(
+          *g.g, model::FastUNetOptions{int(n), int(side),
+                                       precision == Precision::Bf16 ? model::FastPrecision::Bf16
+                                                                    : model::FastPrecision::Fp32});
+    }
+    y = fast->forward(x);  // {n,1,S,S}
+  } else if (precision == Precision::Bf16) {
+    // A bf16 copy of G, made once per loaded file (same modes as g). The
+    // output layer stays float32: bf16's 8-bit mantissa alone would round
+    // heights near the top of the range by more than a metre.
+    if (!g.g_bf16) {
+      g.g_bf16 = model::UNetGenerator(g.g->options());
+      auto dst = g.g_bf16->named_parameters(), src = g.g->named_parameters();
+      for (auto& t : dst)
+        t.value().set_data(keep_fp32(t.key()) ? src[t.key()].detach().clone()
+                                               : src[t.key()].detach().to(torch::kBFloat16));
+      auto dstb = g.g_bf16->named_buffers(), srcb = g.g->named_buffers();
+      for (auto& t : dstb)
+        t.value().set_data(srcb[t.key()].is_floating_point() ? srcb[t.key()].detach().to(torch::kBFloat16)
+                                                               : srcb[t.key()].detach().clone());
+    }
+    g.g_bf16->train(g.g->is_training());
+    g.g_bf16->set_dropout_enabled(g.g->dropout_enabled());
+    y = g.g_bf16->forward(x.to(torch::kBFloat16)).to(torch::kFloat32);  // {n,1,S,S}
+  } else {
+    y = g.g->forward(x);  // {n,1,S,S}
+  }
+  return y;
+}
+
 std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<DecodedSketch>& sketches,
                                      const InferOptions& o, std::vector<cv::Mat1f>* before) {
   c10::InferenceMode inference;  // no autograd bookkeeping at all (cheaper than NoGradGuard)
@@ -99,42 +141,7 @@ std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<
     const size_t n = std::min(batch, inputs.size() - i);
     if (o.stochastic) torch::manual_seed(derive_seed(o.seed, 0, "infer-dropout"));
     const torch::Tensor x = torch::stack(std::vector<torch::Tensor>(inputs.begin() + long(i), inputs.begin() + long(i + n)));
-    torch::Tensor y;
-    if (engine == Engine::OneDnn) {
-      const bool train_mode = !o.running_stats;
-      const std::string key = std::to_string(n) + "/" + std::to_string(g.size_px) + "/" +
-                              (precision == Precision::Bf16 ? "bf16" : "fp32") + (train_mode ? "/batch" : "/running");
-      auto& fast = g.fast[key];
-      if (!fast) {
-        g.g->train(train_mode);
-        g.g->set_dropout_enabled(false);
-        fast = std::make_shared<model::FastUNet>(
-            *g.g, model::FastUNetOptions{int(n), g.size_px,
-                                         precision == Precision::Bf16 ? model::FastPrecision::Bf16
-                                                                      : model::FastPrecision::Fp32});
-      }
-      y = fast->forward(x);  // {n,1,S,S}
-    } else if (precision == Precision::Bf16) {
-      // A bf16 copy of G, made once per loaded file (same modes as g). The
-      // output layer stays float32: bf16's 8-bit mantissa alone would round
-      // heights near the top of the range by more than a metre.
-      if (!g.g_bf16) {
-        g.g_bf16 = model::UNetGenerator(g.g->options());
-        auto dst = g.g_bf16->named_parameters(), src = g.g->named_parameters();
-        for (auto& t : dst)
-          t.value().set_data(keep_fp32(t.key()) ? src[t.key()].detach().clone()
-                                                 : src[t.key()].detach().to(torch::kBFloat16));
-        auto dstb = g.g_bf16->named_buffers(), srcb = g.g->named_buffers();
-        for (auto& t : dstb)
-          t.value().set_data(srcb[t.key()].is_floating_point() ? srcb[t.key()].detach().to(torch::kBFloat16)
-                                                                 : srcb[t.key()].detach().clone());
-      }
-      g.g_bf16->train(g.g->is_training());
-      g.g_bf16->set_dropout_enabled(g.g->dropout_enabled());
-      y = g.g_bf16->forward(x.to(torch::kBFloat16)).to(torch::kFloat32);  // {n,1,S,S}
-    } else {
-      y = g.g->forward(x);  // {n,1,S,S}
-    }
+    const torch::Tensor y = forward_generator(g, x, engine, precision, o.running_stats);  // {n,1,S,S}
     for (size_t k = 0; k < n; ++k) outs.push_back(y[long(k)]);
   }
   std::vector<cv::Mat1f> heights;

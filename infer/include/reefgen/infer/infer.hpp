@@ -61,6 +61,13 @@ Precision resolve(const InferOptions& o, const model::GeneratorFile& g);
 // regions by nearest neighbour (never blended), subsidence bilinear.
 cv::Mat3b canonical_sketch(const DecodedSketch& sketch, int size_px);
 
+// One forward of the generator on x {n,3,S,S} (S a multiple of 2^depth; the
+// oneDNN engine up to 4096) → {n,1,S,S} in [-1, 1], by engine and precision
+// as resolved; the caller sets g's train/dropout modes (infer_heights does).
+// The oneDNN engine's plan is built once per (n, S, precision, mode).
+torch::Tensor forward_generator(model::GeneratorFile& g, const torch::Tensor& x, Engine engine, Precision precision,
+                                bool running_stats);
+
 // Heights in metres at o.size_px (default: the sketch's own size). Above the
 // model's side, a square output is amplified (amplify_heights:
 // erosion that carves valleys at each finer level, never a bilinear stretch);
