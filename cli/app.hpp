@@ -41,6 +41,7 @@ Command add_bench_command(CLI::App& app, const GlobalOptions& g);
 Command add_dataset_command(CLI::App& app, const GlobalOptions& g);
 Command add_train_command(CLI::App& app, const GlobalOptions& g);
 Command add_infer_command(CLI::App& app, const GlobalOptions& g);
+Command add_world_command(CLI::App& app, const GlobalOptions& g);
 Command add_sketch_command(CLI::App& app, const GlobalOptions& g);
 Command add_terrain_command(CLI::App& app, const GlobalOptions& g);
 Command add_eval_command(CLI::App& app, const GlobalOptions& g);

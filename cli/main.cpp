@@ -38,7 +38,7 @@ void install_stop_handlers() {
 
 namespace {
 // The commands that run a network, handled by reefgen-torch.
-const std::vector<std::string> kTorchCommands = {"train", "infer", "eval", "eval-sketches", "model", "studio", "bench"};
+const std::vector<std::string> kTorchCommands = {"train", "infer", "world", "eval", "eval-sketches", "model", "studio", "bench"};
 
 #if !REEFGEN_TORCH_COMMANDS
 // Replaces this process with reefgen-torch from the same folder, same
@@ -167,7 +167,7 @@ int main(int argc, char** argv) {
                    reefgen::add_realism_command, reefgen::add_erode_command})
     commands.push_back(add(app, g));
 #if REEFGEN_TORCH_COMMANDS
-  for (auto add : {reefgen::add_train_command, reefgen::add_infer_command, reefgen::add_eval_command,
+  for (auto add : {reefgen::add_train_command, reefgen::add_infer_command, reefgen::add_world_command, reefgen::add_eval_command,
                    reefgen::add_eval_sketches_command, reefgen::add_model_command, reefgen::add_studio_command,
                    reefgen::add_bench_command})
     commands.push_back(add(app, g));

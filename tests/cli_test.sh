@@ -603,6 +603,45 @@ else bad "generate --for: $(cat "$T/err")"; fi
 expect_error "--for cryengine: use unity, unreal, godot, blender or gis" generate --preset atoll --size 64 -o "$T/e/x" --for cryengine
 expect_error "--for: one island at a time" generate --random 1 --size 64 --out "$T/e" --for unity
 
+# 6f. Worlds (docs/WORLDS.md): an archipelago sketch at the model's scale
+# keeps its size (any aspect with --raw); an island larger than the model's
+# islands gets one massif whose summit is in its painted mountain; --size
+# amplifies a square world, drained and without a measurable seam.
+if "$BIN" -q sketch random --size 768x512 --islands 8 --seed 3 -o "$T/w/sea.png" >/dev/null 2>"$T/err" \
+   && "$BIN" -q world "$T/w/sea.png" --raw -o "$T/w/sea" >/dev/null 2>"$T/err"; then
+  "$PY" -c "import cv2,sys; a=cv2.imread(sys.argv[1]); assert a.shape[:2]==(512,768), a.shape" "$T/w/sea.png" && ok || bad "sketch random --size 768x512 is not 768×512"
+  OPENCV_IO_ENABLE_OPENEXR=1 "$PY" -c "import cv2,sys; h=cv2.imread(sys.argv[1], cv2.IMREAD_UNCHANGED); assert h.shape==(512,768), h.shape" \
+    "$T/w/sea.height.exr" && ok || bad "world --raw of a 768×512 sketch is not 768×512"
+else bad "sketch random WxH / world --raw: $(cat "$T/err")"; fi
+"$PY" - "$T/w/big.png" <<'PYEOF'
+import cv2, numpy as np, sys
+img = np.zeros((640, 640, 3), np.uint8); img[:] = (0, 0, 255)           # abyss (BGR red)
+for r, bgr in ((230, (255, 0, 0)), (200, (255, 255, 0)), (175, (0, 255, 0)), (160, (0, 255, 255))):
+    cv2.circle(img, (320, 320), r, bgr, -1)                              # reef, lagoon, beach, mountain
+cv2.imwrite(sys.argv[1], img)
+PYEOF
+if "$BIN" -q world "$T/w/big.png" --raw -o "$T/w/big" >/dev/null 2>"$T/err"; then
+  OPENCV_IO_ENABLE_OPENEXR=1 "$PY" -c "
+import cv2, numpy as np, sys
+h = cv2.imread(sys.argv[1], cv2.IMREAD_UNCHANGED)
+s = cv2.GaussianBlur(h, (0, 0), 20)
+y, x = np.unravel_index(np.argmax(s), s.shape)
+core = np.hypot(*np.mgrid[0:640, 0:640] - 319.5) < 160
+assert np.hypot(y - 319.5, x - 319.5) < 100, (y, x)
+assert (h[core] > 0).mean() > 0.97, (h[core] > 0).mean()
+" "$T/w/big.height.exr" && ok || bad "a 15 km island: no single summit in its painted mountain"
+else bad "world on a large island: $(cat "$T/err")"; fi
+if "$BIN" -q world "$T/w/big.png" --size 1025 -o "$T/w/big1025" >/dev/null 2>"$T/err"; then
+  "$BIN" realism "$T/w/big1025.height.exr" --json | "$PY" -c "
+import json, sys
+r = json.load(sys.stdin)
+assert r['size_px'] == [1025, 1025] and r['pits'] <= 0.01 and r['seams_rows'] <= 2.5 and r['seams_cols'] <= 2.5, r
+" && ok || bad "world --size 1025: not drained or seamed"
+else bad "world --size 1025: $(cat "$T/err")"; fi
+expect_error "amplifying a world needs a square sketch" world "$T/w/sea.png" -o "$T/w/x"
+expect_error "no such sketch file" world "$T/w/none.png" -o "$T/w/x"
+[ ! -e "$T/w/x.height.exr" ] && ok || bad "a failed world wrote its output"
+
 # 7. --version, --help with examples.
 "$BIN" --version | grep -q "reefgen [0-9]" && ok || bad "--version"
 "$BIN" generate --help | grep -q "Examples" && ok || bad "generate --help has no examples"

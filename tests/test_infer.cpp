@@ -17,6 +17,7 @@
 #include "reefgen/procgen/random_spec.hpp"
 #include "reefgen/terrain/realism.hpp"
 #include "reefgen/model/shipped.hpp"
+#include "reefgen/infer/world.hpp"
 #include "reefgen/constants.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/cpu.hpp"
@@ -549,4 +550,39 @@ TEST(Infer, BullseyeGivesOneSummitNoPitsNoRings) {
     EXPECT_LE(rise, 2.0) << "a concentric ridge on the flank, subsidence " << subsidence;
     std::cerr << "[ bullseye ] flank rise raw " << rise_raw << " m -> " << rise << " m\n";
   }
+}
+
+// world_model_heights (issue 38): the sketch's own size at the model's scale,
+// resampled for another scale, pure, and local: with no normalisation layer,
+// a large island changes nothing beyond the network's reach and its own box.
+TEST(World, ScaleSizeAndLocality) {
+  const fs::path d = temp_dir("world");
+  auto g = tiny_generator(d, false);
+  InferOptions io;
+  io.engine = Engine::Torch;
+  auto sea = [](int W, int H) {
+    DecodedSketch s{cv::Mat1b(H, W, uint8_t(kAbyss)), cv::Mat1f(H, W, 0.f), 0};
+    cv::circle(s.label, {W - 80, H / 2}, 30, cv::Scalar(kReef), -1);
+    cv::circle(s.label, {W - 80, H / 2}, 15, cv::Scalar(kIsland), -1);
+    return s;
+  };
+  const DecodedSketch small_only = sea(900, 500);
+  const cv::Mat1f a = world_model_heights(g, small_only, kModelMetresPerPx, io);
+  ASSERT_EQ(a.size(), cv::Size(900, 500));
+  EXPECT_TRUE(cv::checkRange(a, true, nullptr, -100, 560.001));
+  EXPECT_EQ(cv::norm(a, world_model_heights(g, small_only, kModelMetresPerPx, io), cv::NORM_INF), 0.0);
+  EXPECT_EQ(world_model_heights(g, small_only, 2 * kModelMetresPerPx, io).size(), cv::Size(1800, 1000));
+  // A 3.5 km (150 px) island on the left: the coarse pass and the network's
+  // reach (depth 6: ~190 px) stay on the left half.
+  DecodedSketch both = small_only;
+  both.label = small_only.label.clone();
+  cv::circle(both.label, {230, 250}, 170, cv::Scalar(kReef), -1);
+  cv::circle(both.label, {230, 250}, 150, cv::Scalar(kIsland), -1);
+  const cv::Mat1f b = world_model_heights(g, both, kModelMetresPerPx, io);
+  const cv::Rect right(700, 0, 200, 500);
+  EXPECT_LT(cv::norm(a(right), b(right), cv::NORM_INF), 1e-3);
+  EXPECT_GT(cv::norm(a(cv::Rect(150, 170, 160, 160)), b(cv::Rect(150, 170, 160, 160)), cv::NORM_INF), 1.0);
+  // One pass takes up to kMaxWorldPassPx a side.
+  const DecodedSketch huge{cv::Mat1b(8, 5000, uint8_t(kAbyss)), cv::Mat1f(8, 5000, 0.f), 0};
+  test::expect_error_naming([&] { world_model_heights(g, huge, kModelMetresPerPx, io); }, "one pass takes up to");
 }

@@ -481,7 +481,7 @@ TEST(Archipelago, KindsSizesAndBordersAtTheModelsScale) {
   // third of the shorter side: 233 px (its reef reaches about that far; an
   // island close by may join it).
   EXPECT_GT(std::sqrt(largest / M_PI), 0.7 * 700 / 3.0);
-  // Young (mountain, λ ≤ 0.25), barrier (λ 0.4–0.7) and atolls (λ ≥ 0.85, no mountain).
+  // Young (mountain, λ ≤ 0.15), barrier (λ 0.25–0.4) and atolls (λ ≥ 0.85, no mountain).
   bool young = false, barrier = false, atoll = false;
   for (int y = 0; y < a.label.rows; ++y)
     for (int x = 0; x < a.label.cols; ++x) {
@@ -490,8 +490,8 @@ TEST(Archipelago, KindsSizesAndBordersAtTheModelsScale) {
         ASSERT_EQ(l, 0.f) << "the abyss is bright";
         continue;
       }
-      young |= a.label(y, x) == kIsland && l <= 0.25f;
-      barrier |= a.label(y, x) == kIsland && l >= 0.4f && l <= 0.7f;
+      young |= a.label(y, x) == kIsland && l <= 0.15f;
+      barrier |= a.label(y, x) == kIsland && l >= 0.25f && l <= 0.4f;
       atoll |= a.label(y, x) == kLagoon && l >= 0.85f;
       ASSERT_FALSE(a.label(y, x) == kIsland && l >= 0.85f) << "an atoll has no mountain";
     }

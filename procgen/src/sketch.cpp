@@ -145,8 +145,10 @@ std::vector<WorldIsland> place_islands(const ArchipelagoParams& p, Rng& rng) {
       if (gap > 0) break;
     }
     best.kind = IslandKind(i % 3);
-    best.lambda = best.kind == IslandKind::kYoung     ? rng.uniform(0.0, 0.25)
-                  : best.kind == IslandKind::kBarrier ? rng.uniform(0.4, 0.7)
+    // The presets' subsidence (young-volcano 0, barrier-reef 0.3, atoll 0.9):
+    // past ~0.4 the generator, and so the model, sinks the painted mountain.
+    best.lambda = best.kind == IslandKind::kYoung     ? rng.uniform(0.0, 0.15)
+                  : best.kind == IslandKind::kBarrier ? rng.uniform(0.25, 0.4)
                                                       : rng.uniform(0.85, 1.0);
     best.noise_u = float(rng.uniform(0, 4096));
     best.noise_v = float(rng.uniform(0, 4096));

@@ -29,9 +29,10 @@ Sketch random_sketch(const SketchParams& p, uint64_t seed);
 // An archipelago at the model's own scale (issue 38): a W×H sea of islands
 // whose sizes are in metres, so a pixel means the same ground as in the
 // model's 256² canvas. Three kinds, drawn in turn: young high islands
-// (λ 0–0.25: a wide mountain, a narrow fringing lagoon), barrier-reef
-// islands (λ 0.4–0.7: a smaller mountain in a wide lagoon) and atolls
-// (λ 0.85–1: a reef and islet ring round a lagoon). Radii are log-uniform in
+// (λ 0–0.15: a wide mountain, a narrow fringing lagoon), barrier-reef
+// islands (λ 0.25–0.4: a smaller mountain in a wide lagoon) and atolls
+// (λ 0.85–1: a reef and islet ring round a lagoon, all under the sea as the
+// generator's atoll preset is). Radii are log-uniform in
 // [min_radius_m, max_radius_m] with the first island the largest; some
 // islands cross the canvas border. The abyss is bright (λ 0).
 struct ArchipelagoParams {

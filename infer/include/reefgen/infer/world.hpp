@@ -1,0 +1,49 @@
+#pragma once
+// Worlds (issue 38): a sketch of any size and aspect read at the model's own
+// scale (a pixel is 23.4 m unless the user says otherwise), answered by the
+// generator in one pass over the whole sketch (docs/WORLDS.md: why one pass
+// and not windows).
+#include <opencv2/core.hpp>
+
+#include "reefgen/infer/infer.hpp"
+#include "reefgen/labels.hpp"
+
+namespace reefgen::infer {
+
+// Reflected margin round a world sketch before its pass, px at the model's
+// scale: an island crossing the border continues past it instead of meeting
+// the network's zero padding (one receptive-field-wide band at the bottleneck
+// would be 256; 64 measured enough, docs/WORLDS.md).
+inline constexpr int kWorldMarginPx = 64;
+// The largest side one pass takes, px at the model's scale (the oneDNN
+// engine's plan; ~9 GB of activations at fp32): 96 km at 23.4 m.
+inline constexpr int kMaxWorldPassPx = 4096;
+
+// Islands whose equivalent radius (√(area/π) of the painted, non-abyss
+// region) passes this, px at the model's scale, are larger than the islands
+// the model learned from (reef radius ≤ ~0.55 of the 128 px half-canvas,
+// with the spread of the random specs): they get a second, coarse pass.
+inline constexpr double kLargeIslandRadiusPx = 100;
+// The radius a large island is shrunk to for its coarse pass, px: a typical
+// training island, so the model draws one massif with its summit in the core.
+inline constexpr double kCoarseIslandRadiusPx = 75;
+// What "large forms" are, px at the model's scale (750 m): below it the
+// whole-sketch pass's valleys and coasts stay.
+inline constexpr double kLargeFormSigmaPx = 32;
+
+// The generator's heights (m) over the whole sketch, at the model's scale:
+// sketch_metres_per_px / kModelMetresPerPx times the sketch's size. The
+// sketch is resampled to that scale (regions by nearest neighbour,
+// subsidence bilinear), given a reflected margin, padded with bright abyss to
+// a square multiple of 2^depth, answered in one forward and cropped back.
+// An island larger than kLargeIslandRadiusPx takes its large forms from a
+// coarse pass of the island alone at kCoarseIslandRadiusPx (the whole-sketch
+// pass draws it as a plateau ringed by ridges, with no summit): the two
+// answers' low-passes (σ = kLargeFormSigmaPx) are swapped over the island,
+// faded in with its size (docs/WORLDS.md).
+// The answer is the network's (no clean-up); o's engine, precision and
+// modes apply. Throws reefgen::Error past kMaxWorldPassPx.
+cv::Mat1f world_model_heights(model::GeneratorFile& g, const DecodedSketch& sketch, double sketch_metres_per_px,
+                              const InferOptions& o);
+
+}  // namespace reefgen::infer

@@ -1,0 +1,119 @@
+#include "reefgen/infer/world.hpp"
+
+#include <cmath>
+#include <string>
+
+#include <opencv2/imgproc.hpp>
+
+#include "reefgen/constants.hpp"
+#include "reefgen/error.hpp"
+#include "reefgen/rng.hpp"
+
+namespace reefgen::infer {
+
+namespace {
+// The sketch at the model's scale, as label ids and λ.
+DecodedSketch at_model_scale(const DecodedSketch& s, double sketch_metres_per_px) {
+  const double f = sketch_metres_per_px / kModelMetresPerPx;
+  const cv::Size size(std::max(1, int(std::lround(s.label.cols * f))), std::max(1, int(std::lround(s.label.rows * f))));
+  if (size == s.label.size()) return s;
+  DecodedSketch out;
+  cv::resize(s.label, out.label, size, 0, 0, cv::INTER_NEAREST);
+  cv::resize(s.subsidence, out.subsidence, size, 0, 0, cv::INTER_LINEAR);
+  return out;
+}
+
+// One forward over label/λ maps already square and a multiple of 2^depth.
+cv::Mat1f forward_heights(model::GeneratorFile& g, const cv::Mat1b& label, const cv::Mat1f& sub, const InferOptions& o) {
+  const torch::Tensor x = model::label_to_tensor(encode_labels(label, sub)).unsqueeze(0);  // {1,3,S,S}
+  const torch::Tensor y = forward_generator(g, x, resolve_engine(o), resolve(o, g), o.running_stats);  // {1,1,S,S}
+  return model::tensor_to_height(y[0], g.range);
+}
+
+// Pads label/λ with bright abyss to a square side that is a multiple of unit,
+// the content centred; returns the offset of the content.
+cv::Point pad_square(cv::Mat1b& label, cv::Mat1f& sub, int unit) {
+  const int side = (std::max(label.rows, label.cols) + unit - 1) / unit * unit;
+  const int top = (side - label.rows) / 2, left = (side - label.cols) / 2;
+  cv::copyMakeBorder(label, label, top, side - label.rows - top, left, side - label.cols - left, cv::BORDER_CONSTANT,
+                     cv::Scalar(kAbyss));
+  cv::copyMakeBorder(sub, sub, top, side - sub.rows - top, left, side - sub.cols - left, cv::BORDER_CONSTANT,
+                     cv::Scalar(0.f));
+  return {left, top};
+}
+
+// The coarse pass of one large island (its pixels: mask) over h, in place.
+void add_large_forms(model::GeneratorFile& g, const cv::Mat1b& label, const cv::Mat1f& sub, const cv::Mat1b& mask,
+                     const cv::Rect& box, double radius_px, const InferOptions& o, cv::Mat1f& h) {
+  const double f = kCoarseIslandRadiusPx / radius_px;
+  // The island's box grown by a quarter of its size: some sea round it.
+  const cv::Rect crop = (box + cv::Size(box.width / 2, box.height / 2) - cv::Point(box.width / 4, box.height / 4)) &
+                        cv::Rect(0, 0, label.cols, label.rows);
+  const cv::Size small(std::max(1, int(std::lround(crop.width * f))), std::max(1, int(std::lround(crop.height * f))));
+  cv::Mat1b l;
+  cv::Mat1f s;
+  cv::resize(label(crop), l, small, 0, 0, cv::INTER_NEAREST);
+  cv::resize(sub(crop), s, small, 0, 0, cv::INTER_AREA);
+  const cv::Point at = pad_square(l, s, 1 << g.g->options().depth);
+  cv::Mat1f coarse;
+  cv::resize(forward_heights(g, l, s, o)(cv::Rect(at, small)), coarse, crop.size(), 0, 0, cv::INTER_CUBIC);
+  cv::Mat1f weight;
+  mask(crop).convertTo(weight, CV_32F, 1.0 / 255);
+  cv::GaussianBlur(weight, weight, cv::Size(0, 0), kLargeFormSigmaPx / 2, kLargeFormSigmaPx / 2, cv::BORDER_CONSTANT);
+  // Faded in over the first half of the radius past the limit.
+  const float size_w = float(std::clamp((radius_px - kLargeIslandRadiusPx) / (0.5 * kLargeIslandRadiusPx), 0.0, 1.0));
+  cv::Mat1f region = h(crop);
+  for (int y = 0; y < crop.height; ++y)
+    for (int x = 0; x < crop.width; ++x) region(y, x) += size_w * weight(y, x) * (coarse(y, x) - region(y, x));
+  cv::min(cv::max(h, g.range.lo_m), g.range.hi_m, h);
+}
+
+// Every painted island larger than kLargeIslandRadiusPx gets its coarse pass.
+void add_large_islands(model::GeneratorFile& g, const cv::Mat1b& label, const cv::Mat1f& sub, const InferOptions& o,
+                       cv::Mat1f& h) {
+  cv::Mat1i comp;
+  cv::Mat stats, centroids;
+  const int n = cv::connectedComponentsWithStats(cv::Mat1b(label != uint8_t(kAbyss)), comp, stats, centroids, 8, CV_32S);
+  for (int c = 1; c < n; ++c) {
+    const double radius = std::sqrt(stats.at<int>(c, cv::CC_STAT_AREA) / M_PI);
+    if (radius <= kLargeIslandRadiusPx) continue;
+    const cv::Rect box(stats.at<int>(c, cv::CC_STAT_LEFT), stats.at<int>(c, cv::CC_STAT_TOP),
+                       stats.at<int>(c, cv::CC_STAT_WIDTH), stats.at<int>(c, cv::CC_STAT_HEIGHT));
+    add_large_forms(g, label, sub, cv::Mat1b(comp == c), box, radius, o, h);
+  }
+}
+}  // namespace
+
+cv::Mat1f world_model_heights(model::GeneratorFile& g, const DecodedSketch& sketch, double sketch_metres_per_px,
+                              const InferOptions& o) {
+  if (!(sketch_metres_per_px > 0) || !std::isfinite(sketch_metres_per_px))
+    throw Error("world: metres per pixel must be a positive number");
+  const DecodedSketch s = at_model_scale(sketch, sketch_metres_per_px);
+  const int W = s.label.cols, H = s.label.rows, M = kWorldMarginPx;
+  const int unit = 1 << g.g->options().depth;
+  const int side = (std::max(W, H) + 2 * M + unit - 1) / unit * unit;
+  if (side > kMaxWorldPassPx)
+    throw Error("world: the sketch is " + std::to_string(W) + "×" + std::to_string(H) +
+                " px at the model's scale; one pass takes up to " + std::to_string(kMaxWorldPassPx - 2 * M) +
+                " px a side: use a smaller sketch or a larger --metres-per-px");
+  // Reflect the margin (at most the sketch's own size: a tiny sketch takes
+  // what it has), then bright abyss up to the square side.
+  const int my = std::min(M, H - 1), mx = std::min(M, W - 1);
+  cv::Mat1b label;
+  cv::Mat1f sub;
+  cv::copyMakeBorder(s.label, label, my, my, mx, mx, cv::BORDER_REFLECT_101);
+  cv::copyMakeBorder(s.subsidence, sub, my, my, mx, mx, cv::BORDER_REFLECT_101);
+  cv::Mat1b label_sq = label.clone();
+  cv::Mat1f sub_sq = sub.clone();
+  const cv::Point at = pad_square(label_sq, sub_sq, unit);
+
+  c10::InferenceMode inference;
+  g.g->train(!o.running_stats);
+  g.g->set_dropout_enabled(o.stochastic);
+  if (o.stochastic) torch::manual_seed(derive_seed(o.seed, 0, "infer-dropout"));
+  cv::Mat1f h = forward_heights(g, label_sq, sub_sq, o)(cv::Rect(at, label.size())).clone();
+  add_large_islands(g, label, sub, o, h);
+  return h(cv::Rect(mx, my, W, H)).clone();
+}
+
+}  // namespace reefgen::infer
