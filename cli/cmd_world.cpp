@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 #include "reefgen/io.hpp"
 #include "reefgen/model/shipped.hpp"
+#include "reefgen/parallel.hpp"
 #include "reefgen/train/fused_adam.hpp"
 
 namespace reefgen {
@@ -45,9 +46,9 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--world-size", a->world_size_m, "Width of the whole sketch, m (instead of --metres-per-px)")
       ->check(finite_in(1, 1e8));
   sub->add_option("--size", a->size,
-                  "Output side in pixels (a square world; default: the sketch's side at the model's scale). Larger: "
-                  "amplified (erosion and detail at each finer level, docs/EROSION.md)")
-      ->check(CLI::Range(kMinInferSidePx, kMaxSidePx));
+                  "Output side in pixels, up to 16385 (a square world; default: the sketch's side at the model's "
+                  "scale). Larger: amplified (erosion and detail at each finer level, docs/WORLDS.md)")
+      ->check(CLI::Range(kMinInferSidePx, infer::kMaxWorldSidePx));
   sub->add_option("--seed", a->seed, "The amplification's detail noise")->capture_default_str()->check(seed_value());
   sub->add_flag("--raw", a->raw, "The network's bare answer: no clean-up, no amplification");
   sub->add_option("--precision", a->precision, "fp32, bf16 or auto (as infer)")->capture_default_str();
@@ -79,11 +80,12 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
             if (!a->raw) {
               const int N = a->size > 0 ? a->size : h.cols;
               cv::Mat1b label;
-              // The painted regions at the output's side (amplify_heights
-              // takes them to the model's side itself).
-              cv::resize(s.label, label, cv::Size(N, N), 0, 0, cv::INTER_NEAREST);
               const auto t1 = std::chrono::steady_clock::now();
-              out = infer::amplify_heights(h, label, world_m, a->seed, io.erosion);
+              if (!g.quiet) std::fprintf(stderr, "world: amplifying to %d² ...\n", N);
+              Progress progress("world: last level, bands", size_t((N + infer::kWorldBandRowsPx - 1) / infer::kWorldBandRowsPx),
+                                g.quiet);
+              out = infer::amplify_world(h, s.label, N, world_m, a->seed, io.erosion,
+                                         [&](int done, int) { progress.tick(size_t(done)); });
               cv::min(cv::max(out, gen.range.lo_m), gen.range.hi_m, out);
               if (!g.quiet)
                 std::fprintf(stderr, "world: amplified to %d² in %.1f s\n", out.cols,

@@ -659,3 +659,32 @@ TEST(Realism, SeamScoreFindsOneSteppedColumn) {
   EXPECT_DOUBLE_EQ(terrain::seam_score(rows, false), 0.0) << "no step along columns: nothing to compare";
   EXPECT_DOUBLE_EQ(terrain::seam_score(cv::Mat1f(6, 8, -5.f), true), 0.0) << "no land";
 }
+
+// amplify_world past its whole-field side (issue 38): the last doubling in
+// bands of rows is a function of position (band size does not show), drained
+// and seamless; up to the whole-field side it is amplify_heights.
+TEST(Erosion, WorldBandsAreInvisible) {
+  const cv::Mat1f h = cone(96, 300.f, 2.f, 4);
+  cv::Mat1b label(96, 96, uint8_t(kAbyss));
+  label.setTo(uint8_t(kIsland), h > 0);
+  const double world_m = 96 * kModelMetresPerPx;
+  const WorldBands small{200, 64, 16};
+  const cv::Mat1f a = amplify_world(h, label, 385, world_m, 5, {}, {}, small);
+  ASSERT_EQ(a.size(), cv::Size(385, 385));
+  // Bands of 64 and of 100 rows: equal but where a band's pit draining saw
+  // a depression crossing its halo (none here).
+  const cv::Mat1f b = amplify_world(h, label, 385, world_m, 5, {}, {}, WorldBands{200, 100, 16});
+  EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0);
+  const RealismStats st = realism_stats(a, world_m / 385);
+  EXPECT_LE(st.pits, 0.01);
+  EXPECT_LT(st.seams_rows, 2.5) << "the bands' borders run along rows";
+  EXPECT_GT(st.max_height_m, 0.75 * 300);
+  // Up to whole_max_px: amplify_heights itself.
+  cv::Mat1b label_180;
+  cv::resize(label, label_180, cv::Size(180, 180), 0, 0, cv::INTER_NEAREST);
+  EXPECT_EQ(cv::norm(amplify_world(h, label, 180, world_m, 5, {}, {}, small),
+                     amplify_heights(h, label_180, world_m, 5), cv::NORM_INF),
+            0.0);
+  EXPECT_THROW(amplify_world(h, label, 50, world_m, 5), Error);
+  EXPECT_THROW(amplify_world(h, label, 20000, world_m, 5), Error);
+}

@@ -141,17 +141,18 @@ cv::Mat1f resampled(const cv::Mat1f& m, int size, int interpolation) {
   return out;
 }
 
-cv::Mat1f fractal_detail(int L, const cv::Mat1f& up, double world_size_m, uint64_t seed) {
+cv::Mat1f fractal_detail(int L, const cv::Mat1f& up, double world_size_m, uint64_t seed, cv::Point origin) {
   const NoiseTile& tile = NoiseTile::get(3);
   Rng rng(seed, static_cast<uint64_t>(L), "refine-detail");
   const float u0 = float(rng.uniform(0, NoiseTile::kSize)), v0 = float(rng.uniform(0, NoiseTile::kSize));
-  cv::Mat1f d(L, L, 0.f);
+  cv::Mat1f d(up.size(), 0.f);
   const float amp = static_cast<float>(0.4 * world_size_m / L);
   const float texels_per_cell = float(NoiseTile::kBaseCell) / 4.f;  // a base feature every 4 cells
-  for (int y = 0; y < L; ++y)
-    for (int x = 0; x < L; ++x)
+  for (int y = 0; y < up.rows; ++y)
+    for (int x = 0; x < up.cols; ++x)
       if (up(y, x) > 0)
-        d(y, x) = amp * std::min(1.f, up(y, x) / 5.f) * tile.sample(x * texels_per_cell + u0, y * texels_per_cell + v0);
+        d(y, x) = amp * std::min(1.f, up(y, x) / 5.f) *
+                  tile.sample(float(origin.x + x) * texels_per_cell + u0, float(origin.y + y) * texels_per_cell + v0);
   return d;
 }
 

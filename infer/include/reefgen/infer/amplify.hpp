@@ -3,6 +3,7 @@
 // ponds of sea inside land raised, pits drained, and above the model's side
 // the answer amplified with the generator's refinement. LibTorch-free.
 #include <cstdint>
+#include <functional>
 
 #include <opencv2/core.hpp>
 
@@ -22,5 +23,40 @@ namespace reefgen::infer {
 // size×size.
 cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, double world_size_m, uint64_t seed,
                           const terrain::ErosionParams& p = {});
+
+}  // namespace reefgen::infer
+
+namespace reefgen::infer {
+
+// The largest side amplify_heights refines in one piece, px: its working
+// copies and flow graph peak at 5.2 GB at 8192² (docs/WORLDS.md).
+inline constexpr int kMaxWholeAmplifySidePx = 8192;
+// A world's last doubling is refined in bands of this many rows, with
+// kWorldBandHaloPx rows of halo above and below for the pit draining: memory
+// stays a band's, whatever the side.
+inline constexpr int kWorldBandRowsPx = 1024;
+inline constexpr int kWorldBandHaloPx = 64;
+// The largest side amplify_world makes, px: 16385² float32 is 1.07 GB, the
+// whole world stays in memory once (docs/WORLDS.md).
+inline constexpr int kMaxWorldSidePx = 16385;
+
+// A world (a square model-scale answer, world_model_heights) amplified to
+// size×size. Up to kMaxWholeAmplifySidePx this is amplify_heights. Beyond,
+// amplify_heights refines the whole world to the last refinement level
+// below `size` (erosion and routing on the whole field, so rivers cross any
+// later tile border), then the last doubling is made in bands of rows: the
+// bicubic upsampling and the fractal detail are functions of a cell's
+// position only, and each band's closed depressions are drained with a halo
+// of kWorldBandHaloPx rows. label: the regions at the model's scale (any
+// side; resampled). progress(done, total) is called after each band.
+// The sizes amplify_world switches and bands at (tests use tiny ones).
+struct WorldBands {
+  int whole_max_px = kMaxWholeAmplifySidePx;  // amplify_heights in one piece up to this side
+  int rows_px = kWorldBandRowsPx;             // rows of a band of the last doubling, ≥ 1
+  int halo_px = kWorldBandHaloPx;             // rows of halo a band's pit draining sees, ≥ 0
+};
+cv::Mat1f amplify_world(const cv::Mat1f& coarse_m, const cv::Mat1b& label, int size, double world_size_m,
+                        uint64_t seed, const terrain::ErosionParams& p = {},
+                        const std::function<void(int, int)>& progress = {}, const WorldBands& bands = {});
 
 }  // namespace reefgen::infer

@@ -153,7 +153,9 @@ cv::Mat1f resampled(const cv::Mat1f& m, int side, int interpolation);
 // fractal terrain), faded in over the first 5 m above the sea so that
 // coastlines stay where they were. The erosion that follows turns it into
 // the heads of small valleys instead of leaving it as noise.
-cv::Mat1f fractal_detail(int L, const cv::Mat1f& up, double world_size_m, uint64_t seed);
+// `up` may be a block of the level whose top-left cell is `origin` (a world
+// refined in strips): the detail is a function of the level's coordinates.
+cv::Mat1f fractal_detail(int L, const cv::Mat1f& up, double world_size_m, uint64_t seed, cv::Point origin = {0, 0});
 
 // Resistance ρ per region id (0 island … 4 abyss) where only a label map is
 // known (a painted sketch): hard volcanic core, soft beach and lagoon, like

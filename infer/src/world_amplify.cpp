@@ -1,0 +1,69 @@
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+#include "reefgen/error.hpp"
+#include "reefgen/infer/amplify.hpp"
+#include "reefgen/terrain/pits.hpp"
+
+namespace reefgen::infer {
+
+using namespace reefgen::terrain;
+
+namespace {
+// Rows [y0, y1) of `fine` (side N): `level` (side M) sampled bicubically at
+// each cell's centre, as cv::resize maps half-pixel centres, plus the level's
+// fractal detail on land.
+cv::Mat1f band_of(const cv::Mat1f& level, int N, int y0, int y1, double world_size_m, uint64_t seed,
+                  const ErosionParams& p) {
+  const int M = level.cols, rows = y1 - y0;
+  const float scale = float(M) / float(N);
+  cv::Mat1f mx(rows, N), my(rows, N);
+  for (int y = 0; y < rows; ++y)
+    for (int x = 0; x < N; ++x) {
+      mx(y, x) = (float(x) + 0.5f) * scale - 0.5f;
+      my(y, x) = (float(y0 + y) + 0.5f) * scale - 0.5f;
+    }
+  cv::Mat1f up;
+  cv::remap(level, up, mx, my, cv::INTER_CUBIC, cv::BORDER_REPLICATE);
+  const cv::Mat1f d = fractal_detail(N, up, world_size_m, seed, {0, y0});
+  const float s = float(p.refine_detail_scale);
+  for (int y = 0; y < rows; ++y)
+    for (int x = 0; x < N; ++x)
+      if (up(y, x) > 0) up(y, x) = std::max(up(y, x) + s * d(y, x), kLandFloorM);
+  return up;
+}
+}  // namespace
+
+cv::Mat1f amplify_world(const cv::Mat1f& coarse_m, const cv::Mat1b& label, int size, double world_size_m,
+                        uint64_t seed, const ErosionParams& p, const std::function<void(int, int)>& progress,
+                        const WorldBands& wb) {
+  if (coarse_m.empty() || coarse_m.rows != coarse_m.cols)
+    throw Error("world: amplifying needs a square world (the sketch at the model's scale)");
+  if (size < coarse_m.cols || size > kMaxWorldSidePx)
+    throw Error("world: --size must be in [" + std::to_string(coarse_m.cols) + ", " + std::to_string(kMaxWorldSidePx) +
+                "] for this sketch");
+  auto at = [&](int side) {
+    cv::Mat1b l;
+    cv::resize(label, l, cv::Size(side, side), 0, 0, cv::INTER_NEAREST);
+    return l;
+  };
+  if (size <= wb.whole_max_px) return amplify_heights(coarse_m, at(size), world_size_m, seed, p);
+  const std::vector<int> levels = refinement_levels(coarse_m.cols, size);
+  const int M = levels.size() >= 2 ? levels[levels.size() - 2] : coarse_m.cols;
+  const cv::Mat1f level = amplify_heights(coarse_m, at(M), world_size_m, seed, p);
+  cv::Mat1f out(size, size);
+  const int bands = (size + wb.rows_px - 1) / wb.rows_px;
+  for (int b = 0; b < bands; ++b) {
+    const int y0 = b * wb.rows_px, y1 = std::min(size, y0 + wb.rows_px);
+    const int h0 = std::max(0, y0 - wb.halo_px), h1 = std::min(size, y1 + wb.halo_px);
+    cv::Mat1f band = band_of(level, size, h0, h1, world_size_m, seed, p);
+    drain_pits(band, kPitDepthM, float(p.pit_breach_m));
+    band(cv::Rect(0, y0 - h0, size, y1 - y0)).copyTo(out(cv::Rect(0, y0, size, y1 - y0)));
+    if (progress) progress(b + 1, bands);
+  }
+  return out;
+}
+
+}  // namespace reefgen::infer
