@@ -1,19 +1,24 @@
 // reefgen world: a sketch of a whole sea at the model's own scale → one
-// drained height field (docs/WORLDS.md). Thin: flags → infer's world → files.
+// drained height field, its layers and engine bundles (docs/WORLDS.md).
+// Thin: flags → infer's world functions → the writers generate and infer use.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <optional>
 
+#include <opencv2/imgproc.hpp>
+
 #include "app.hpp"
+#include "finish.hpp"
 #include "reefgen/constants.hpp"
+#include "reefgen/heightfile.hpp"
 #include "reefgen/infer/amplify.hpp"
 #include "reefgen/infer/world.hpp"
-
-#include <opencv2/imgproc.hpp>
 #include "reefgen/io.hpp"
 #include "reefgen/model/shipped.hpp"
 #include "reefgen/parallel.hpp"
 #include "reefgen/train/fused_adam.hpp"
+#include "reefgen/version.hpp"
 
 namespace reefgen {
 
@@ -23,23 +28,95 @@ struct WorldArgs {
   double metres_per_px = 0, world_size_m = 0;
   int size = 0;
   uint64_t seed = 0;
-  bool raw = false;
+  bool raw = false, png16 = false, r16 = false, preview = false;
+  FinishFlags finish;
   std::string precision = "fp32", engine = "auto";
   std::optional<int> threads;
 };
+
+double seconds_since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+// Every file the world may write, refused when one is the sketch.
+void refuse_world_over_sketch(const WorldArgs& a, const fs::path& prefix) {
+  std::vector<fs::path> outs;
+  for (const char* ext : {".height.exr", ".height.png", ".r16", ".preview.png", ".json"})
+    outs.push_back(prefix.string() + ext);
+  for (const auto& ext : terrain::layer_file_suffixes()) outs.push_back(prefix.string() + ext);
+  for (const auto& ext : gis::geotiff_suffixes()) outs.push_back(prefix.string() + ext);
+  refuse_output_over_input({fs::path(a.sketch)}, outs);
+}
+
+// Past kMaxWholeAmplifySidePx a world is made in bands and its layers are
+// not (yet): the bundles that carry material weights are refused before any
+// work, the heights' own files (EXR, GeoTIFF, the gis bundle's tiles) are not.
+void check_world_finish(const WorldArgs& a, const FinishFlags::Parsed& fin, int side) {
+  if (side <= infer::kMaxWholeAmplifySidePx) return;
+  const std::string why = ": a world past " + std::to_string(infer::kMaxWholeAmplifySidePx) + "² has no layers yet (" +
+                          std::to_string(side) + "² asked); use --size " + std::to_string(infer::kMaxWholeAmplifySidePx) +
+                          ", or --for gis / --geotiff for its heights";
+  if (a.finish.layers) throw Error("--layers" + why);
+  for (const auto e : fin.bundles)
+    if (e != engines::Engine::Gis) throw Error("--for " + std::string(engines::to_string(e)) + why);
+}
+
+// The gis bundle of a world wider than one GeoTIFF tile: tiles and a VRT.
+nlohmann::json stage_gis_tiles(StagedOutputs& staged, const fs::path& prefix, const cv::Mat1f& h, double mpp,
+                               const gis::GeoReference& geo, int threads) {
+  const fs::path dir = prefix.string() + ".gis";
+  const std::string name = prefix.filename().string();
+  nlohmann::json j = gis::stage_geotiff_tiles(staged, dir, name, h, mpp, geo, threads);
+  const std::string readme =
+      "reefgen world for GIS: " + std::to_string(h.cols) + "x" + std::to_string(h.rows) + " float32 heights in metres, " +
+      std::to_string(mpp) + " m a pixel, in " + std::to_string(j["tiles"].size()) +
+      " GeoTIFF tiles NAME_xI_yJ.height.tif (I east, J south, no overlap)\nand one mosaic " + name +
+      ".height.vrt that GDAL and QGIS open as the whole world:\n  gdalinfo " + name + ".height.vrt\n  gdaldem hillshade " +
+      name + ".height.vrt hillshade.tif\n";
+  staged.write(dir / "README.txt", [&](const fs::path& t) { write_text_atomic(t, readme); });
+  j["engine"] = "gis";
+  return j;
+}
+
+// The world's layers, GeoTIFFs and bundles, staged beside its heights.
+void stage_world_finish(StagedOutputs& staged, const WorldArgs& a, const FinishFlags::Parsed& fin,
+                        const std::string& prefix, const cv::Mat1f& h, const cv::Mat1f& model_h,
+                        const cv::Mat1b& region_model, double mpp, int threads, nlohmann::json& side) {
+  std::vector<engines::Engine> bundles = fin.bundles;
+  const auto gis = std::find(bundles.begin(), bundles.end(), engines::Engine::Gis);
+  if (gis != bundles.end() && h.cols > gis::kGeoTiffTileMaxPx) {
+    side["bundles"]["gis"] = stage_gis_tiles(staged, prefix, h, mpp, fin.geo, threads);
+    bundles.erase(gis);
+  }
+  if (!fin.need_layers && !a.finish.geotiff && bundles.empty()) return;
+  cv::Mat1b region;
+  cv::resize(region_model, region, h.size(), 0, 0, cv::INTER_NEAREST);
+  cv::Mat1f before;
+  cv::resize(model_h, before, h.size(), 0, 0, cv::INTER_CUBIC);
+  std::optional<terrain::Layers> L;
+  if (fin.need_layers && (a.finish.layers || !bundles.empty())) L = terrain::compute_layers(h, before, region, mpp, fin.rules, threads);
+  before.release();
+  if (a.finish.layers)
+    terrain::add_layers_to_sidecar(side, terrain::stage_layer_files(staged, prefix, *L, mpp, fin.rules, threads));
+  if (a.finish.geotiff)
+    side["geotiff"] = gis::stage_geotiff_files(staged, prefix, h, a.finish.layers ? &*L : nullptr, mpp, fin.geo, threads);
+  if (!bundles.empty())
+    side["bundles"].update(engines::stage_bundles(staged, prefix, bundles, {h, L ? &*L : nullptr, mpp, fin.geo}, threads));
+}
 }  // namespace
 
 Command add_world_command(CLI::App& app, const GlobalOptions& g) {
   auto a = std::make_shared<WorldArgs>();
   auto* sub = app.add_subcommand(
       "world",
-      "A sketch of a whole sea, read at the model's own scale (23.4 m a pixel), into one height field\n\n"
+      "A sketch of a whole sea, read at the model's own scale (23.4 m a pixel), into one drained height field\n\n"
       "Examples:\n"
       "  reefgen sketch random --size 2048x2048 --seed 1 -o sea.png\n"
-      "  reefgen world sea.png -o out/sea                        # 48 km across\n"
-      "  reefgen world painted.png --world-size 30000 -o out/w   # the sketch's width is 30 km\n");
-  sub->add_option("sketch", a->sketch, "Sketch image (any size and aspect)")->required();
-  sub->add_option("-o,--output,--out", a->out, "Output prefix: PREFIX.height.exr")->required();
+      "  reefgen world sea.png -o out/sea --size 8192 --preview      # 48 km across, 5.9 m a pixel\n"
+      "  reefgen world sea.png -o out/sea --size 16385 --for unity,unreal,gis\n"
+      "  reefgen world painted.png --world-size 30000 --raw -o out/w # the sketch's width is 30 km\n");
+  sub->add_option("sketch", a->sketch, "Sketch image (any size and aspect; square to amplify)")->required();
+  sub->add_option("-o,--output,--out", a->out, "Output prefix: PREFIX.height.exr, PREFIX.json, ...")->required();
   sub->add_option("-m,--model", a->model, "Generator (default: the shipped model)");
   sub->add_option("--metres-per-px", a->metres_per_px, "Ground of one sketch pixel, m (default 23.4: the model's)")
       ->check(finite_in(1e-3, 1e4));
@@ -50,52 +127,86 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
                   "scale). Larger: amplified (erosion and detail at each finer level, docs/WORLDS.md)")
       ->check(CLI::Range(kMinInferSidePx, infer::kMaxWorldSidePx));
   sub->add_option("--seed", a->seed, "The amplification's detail noise")->capture_default_str()->check(seed_value());
-  sub->add_flag("--raw", a->raw, "The network's bare answer: no clean-up, no amplification");
+  sub->add_flag("--raw", a->raw, "The network's bare answer at the model's scale: no clean-up, no amplification");
+  sub->add_flag("--png16", a->png16, "Also PREFIX.height.png: 16-bit linear, range in the sidecar");
+  sub->add_flag("--r16", a->r16, "Also PREFIX.r16: little-endian RAW");
+  sub->add_flag("--preview", a->preview, "Also PREFIX.preview.png: coloured, hill-shaded");
+  add_finish_flags(sub, a->finish);
   sub->add_option("--precision", a->precision, "fp32, bf16 or auto (as infer)")->capture_default_str();
   sub->add_option("--engine", a->engine, "onednn, torch or auto (as infer)")->capture_default_str();
-  sub->add_option("--threads", a->threads, "LibTorch threads (default: all cores)")->check(CLI::Range(1, 256));
+  sub->add_option("--threads", a->threads, "Threads (default: all cores)")->check(CLI::Range(1, 256));
   return {sub, [a, &g]() -> int {
-            torch::set_num_threads(a->threads.value_or(default_threads()));
+            const int threads = a->threads.value_or(default_threads());
+            torch::set_num_threads(threads);
             train::keep_freed_memory();
             if (a->metres_per_px > 0 && a->world_size_m > 0)
               throw Error("--metres-per-px and --world-size say the same thing; give one");
+            if (a->raw && a->size > 0) throw Error("--raw keeps the model's scale; drop --size or --raw");
+            const FinishFlags::Parsed fin = a->finish.parse();
+            const fs::path prefix(a->out);
+            refuse_world_over_sketch(*a, prefix);
             if (!fs::is_regular_file(a->sketch)) throw Error(a->sketch + ": no such sketch file");
             const DecodedSketch s = read_sketch(a->sketch);
             if (!a->raw && s.label.rows != s.label.cols)
               throw Error(a->sketch + ": amplifying a world needs a square sketch for now; use --raw for any aspect");
-            const double mpp = a->world_size_m > 0   ? a->world_size_m / s.label.cols
-                               : a->metres_per_px > 0 ? a->metres_per_px
-                                                      : kModelMetresPerPx;
-            model::GeneratorFile gen = model::load_generator(model::resolve_model_path(a->model).string());
+            check_world_finish(*a, fin, a->size);
+            ensure_writable_dir(prefix.has_parent_path() ? prefix.parent_path() : fs::path("."));
+            const double mpp_sketch = a->world_size_m > 0   ? a->world_size_m / s.label.cols
+                                      : a->metres_per_px > 0 ? a->metres_per_px
+                                                             : kModelMetresPerPx;
+            const std::string model_path = model::resolve_model_path(a->model).string();
+            model::GeneratorFile gen = model::load_generator(model_path);
             infer::InferOptions io;
             io.precision = infer::precision_from_string(a->precision);
             io.engine = infer::engine_from_string(a->engine);
-            const auto t0 = std::chrono::steady_clock::now();
-            const cv::Mat1f h = infer::world_model_heights(gen, s, mpp, io);
-            const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-            if (!g.quiet) std::fprintf(stderr, "world: %dx%d px at %.1f m, model pass %.1f s\n", h.cols, h.rows,
-                                       kModelMetresPerPx, secs);
-            const double world_m = h.cols * kModelMetresPerPx;
-            cv::Mat1f out = h;
+            io.seed = a->seed;
+            auto t = std::chrono::steady_clock::now();
+            const cv::Mat1f model_h = infer::world_model_heights(gen, s, mpp_sketch, io);
+            if (!g.quiet)
+              std::fprintf(stderr, "world: %dx%d px at %.1f m (%.1f km across), model pass %.1f s\n", model_h.cols,
+                           model_h.rows, kModelMetresPerPx, model_h.cols * kModelMetresPerPx / 1000, seconds_since(t));
+            const double world_m = model_h.cols * kModelMetresPerPx;
+            cv::Mat1b region_model;
+            cv::resize(s.label, region_model, model_h.size(), 0, 0, cv::INTER_NEAREST);
+            cv::Mat1f h = model_h;
             if (!a->raw) {
-              const int N = a->size > 0 ? a->size : h.cols;
-              cv::Mat1b label;
-              const auto t1 = std::chrono::steady_clock::now();
+              const int N = a->size > 0 ? a->size : model_h.cols;
+              if (fin.bundles.size()) note_bundle_sizes(fin, N, g.quiet);
+              t = std::chrono::steady_clock::now();
               if (!g.quiet) std::fprintf(stderr, "world: amplifying to %d² ...\n", N);
-              Progress progress("world: last level, bands", size_t((N + infer::kWorldBandRowsPx - 1) / infer::kWorldBandRowsPx),
-                                g.quiet);
-              out = infer::amplify_world(h, s.label, N, world_m, a->seed, io.erosion,
-                                         [&](int done, int) { progress.tick(size_t(done)); });
-              cv::min(cv::max(out, gen.range.lo_m), gen.range.hi_m, out);
-              if (!g.quiet)
-                std::fprintf(stderr, "world: amplified to %d² in %.1f s\n", out.cols,
-                             std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count());
+              Progress progress("world: last level, bands",
+                                size_t((N + infer::kWorldBandRowsPx - 1) / infer::kWorldBandRowsPx), g.quiet);
+              h = infer::amplify_world(model_h, region_model, N, world_m, a->seed, io.erosion,
+                                       [&](int done, int) { progress.tick(size_t(done)); });
+              cv::min(cv::max(h, gen.range.lo_m), gen.range.hi_m, h);
+              if (!g.quiet) std::fprintf(stderr, "world: amplified to %d² in %.1f s\n", h.cols, seconds_since(t));
             }
-            const fs::path exr = a->out + ".height.exr";
-            refuse_output_over_input({fs::path(a->sketch)}, {exr});
-            if (exr.has_parent_path()) ensure_writable_dir(exr.parent_path());
-            write_exr_height(exr, out, {{"reefgen:metres_per_pixel", std::to_string(world_m / out.cols)}});
-            std::printf("%s\n", exr.c_str());
+            const double mpp = world_m / h.cols;
+            double hmin, hmax;
+            cv::minMaxLoc(h, &hmin, &hmax);
+            nlohmann::json side = {{"reefgen_version", kVersion},
+                                   {"sketch", fs::absolute(a->sketch).string()},
+                                   {"model", {{"path", fs::absolute(model_path).string()}, {"train_step", gen.train_step}}},
+                                   {"world", {{"sketch_metres_per_px", mpp_sketch},
+                                              {"model_metres_per_px", kModelMetresPerPx},
+                                              {"model_side_px", {model_h.cols, model_h.rows}},
+                                              {"raw", a->raw},
+                                              {"seed", a->seed}}},
+                                   {"size_px", {h.cols, h.rows}},
+                                   {"metres_per_px", mpp},
+                                   {"height_range_m", {hmin, hmax}}};
+            HeightFiles hf;
+            hf.png16 = a->png16;
+            hf.r16 = a->r16;
+            hf.preview = a->preview;
+            t = std::chrono::steady_clock::now();
+            StagedOutputs staged;
+            side.update(stage_height_files(staged, prefix, h, mpp, hf));
+            stage_world_finish(staged, *a, fin, prefix.string(), h, model_h, region_model, mpp, threads, side);
+            staged.write(prefix.string() + ".json", [&](const fs::path& tmp) { write_json_atomic(tmp, side); });
+            staged.commit();
+            if (!g.quiet) std::fprintf(stderr, "world: files written in %.1f s\n", seconds_since(t));
+            for (const auto& f : staged.finals()) std::printf("%s\n", f.c_str());
             return 0;
           }};
 }

@@ -640,6 +640,9 @@ assert r['size_px'] == [1025, 1025] and r['pits'] <= 0.01 and r['seams_rows'] <=
 else bad "world --size 1025: $(cat "$T/err")"; fi
 expect_error "amplifying a world needs a square sketch" world "$T/w/sea.png" -o "$T/w/x"
 expect_error "no such sketch file" world "$T/w/none.png" -o "$T/w/x"
+expect_error "--layers: a world past 8192² has no layers yet" world "$T/w/big.png" --size 9000 --layers -o "$T/e/x"
+expect_error "--for unity: a world past 8192² has no layers yet" world "$T/w/big.png" --size 9000 --for unity -o "$T/e/x"
+expect_error "say the same thing" world "$T/w/big.png" --world-size 9000 --metres-per-px 20 -o "$T/e/x"
 [ ! -e "$T/w/x.height.exr" ] && ok || bad "a failed world wrote its output"
 
 # 7. --version, --help with examples.

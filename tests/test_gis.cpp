@@ -68,3 +68,27 @@ TEST(Heightmap, RawIsLittleEndianRowZeroFirst) {
   write_text_atomic(d / "c.xyz", "1");
   test::expect_error_naming([&] { read_heightmap(d / "c.xyz", u); }, "unknown heightmap format");
 }
+
+// A world's GeoTIFF tiles (issue 38): they partition the field, each placed
+// by its own geotransform, and GDAL opens the VRT mosaic as the whole field,
+// bit for bit.
+TEST(GeoTiff, TilesAndTheirMosaicAreTheWholeField) {
+  const fs::path d = test::temp_dir("gis_tiles");
+  cv::Mat1f h(230, 250);
+  cv::randu(h, -100.f, 500.f);
+  StagedOutputs staged;
+  const GeoReference geo{"EPSG:32706", 500000.0, 8000000.0};
+  const nlohmann::json j = stage_geotiff_tiles(staged, d / "w.gis", "w", h, 12.5, geo, 2, 100);
+  staged.commit();
+  EXPECT_EQ(j["tiles"].size(), 9u);  // 3 × 3 tiles of 84 × 77
+  EXPECT_EQ(j["tile_px"], nlohmann::json({84, 77}));
+  const GeoRaster mosaic = read_geotiff(d / "w.gis" / "w.height.vrt");
+  ASSERT_EQ(mosaic.band.size(), h.size());
+  EXPECT_EQ(cv::norm(mosaic.band, h, cv::NORM_INF), 0.0);
+  EXPECT_DOUBLE_EQ(mosaic.metres_per_px, 12.5);
+  EXPECT_NE(mosaic.crs_wkt.find("UTM zone 6S"), std::string::npos) << mosaic.crs_wkt;
+  // The south-east tile: the remainder, where its geotransform says.
+  const GeoRaster last = read_geotiff(d / "w.gis" / "w_x2_y2.height.tif");
+  ASSERT_EQ(last.band.size(), cv::Size(250 - 168, 230 - 154));
+  EXPECT_EQ(cv::norm(last.band, h(cv::Rect(168, 154, 82, 76)), cv::NORM_INF), 0.0);
+}

@@ -77,3 +77,21 @@ std::vector<std::string> geotiff_suffixes();
 void parse_origin(const std::string& text, GeoReference& geo);
 
 }  // namespace reefgen::gis
+
+namespace reefgen::gis {
+
+// Past this side a world's GeoTIFF is written in tiles (docs/WORLDS.md): GIS
+// tools and web tilers read tiles of a few thousand pixels at a time.
+inline constexpr int kGeoTiffTileMaxPx = 4096;
+
+// Stages a world's heights as TILE×TILE float32 GeoTIFFs NAME_x{i}_y{j}.height.tif
+// in `dir` (i east, j south from the north-west tile; no overlap: the tiles
+// partition the field; tiles per axis = ⌈side / kGeoTiffTileMaxPx⌉, the
+// last tile the remainder) and one VRT mosaic NAME.height.vrt that GDAL
+// opens as the whole field. Same pixel size, CRS and origin rules as
+// write_geotiff. Returns the sidecar's object (files, tile size, VRT).
+nlohmann::json stage_geotiff_tiles(StagedOutputs& staged, const std::filesystem::path& dir, const std::string& name,
+                                   const cv::Mat1f& height_m, double metres_per_px, const GeoReference& geo,
+                                   int threads = 1, int tile_max_px = kGeoTiffTileMaxPx);
+
+}  // namespace reefgen::gis
