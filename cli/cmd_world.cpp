@@ -115,7 +115,7 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
       "  reefgen world sea.png -o out/sea --size 8192 --preview      # 48 km across, 5.9 m a pixel\n"
       "  reefgen world sea.png -o out/sea --size 16385 --for unity,unreal,gis\n"
       "  reefgen world painted.png --world-size 30000 --raw -o out/w # the sketch's width is 30 km\n");
-  sub->add_option("sketch", a->sketch, "Sketch image (any size and aspect; square to amplify)")->required();
+  sub->add_option("sketch", a->sketch, "Sketch image (any size and aspect)")->required();
   sub->add_option("-o,--output,--out", a->out, "Output prefix: PREFIX.height.exr, PREFIX.json, ...")->required();
   sub->add_option("-m,--model", a->model, "Generator (default: the shipped model)");
   sub->add_option("--metres-per-px", a->metres_per_px, "Ground of one sketch pixel, m (default 23.4: the model's)")
@@ -123,7 +123,7 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--world-size", a->world_size_m, "Width of the whole sketch, m (instead of --metres-per-px)")
       ->check(finite_in(1, 1e8));
   sub->add_option("--size", a->size,
-                  "Output side in pixels, up to 16385 (a square world; default: the sketch's side at the model's "
+                  "Output size in pixels along the longer side, up to 16385 (default: the sketch's at the model's "
                   "scale). Larger: amplified (erosion and detail at each finer level, docs/WORLDS.md)")
       ->check(CLI::Range(kMinInferSidePx, infer::kMaxWorldSidePx));
   sub->add_option("--seed", a->seed, "The amplification's detail noise")->capture_default_str()->check(seed_value());
@@ -147,8 +147,6 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
             refuse_world_over_sketch(*a, prefix);
             if (!fs::is_regular_file(a->sketch)) throw Error(a->sketch + ": no such sketch file");
             const DecodedSketch s = read_sketch(a->sketch);
-            if (!a->raw && s.label.rows != s.label.cols)
-              throw Error(a->sketch + ": amplifying a world needs a square sketch for now; use --raw for any aspect");
             check_world_finish(*a, fin, a->size);
             ensure_writable_dir(prefix.has_parent_path() ? prefix.parent_path() : fs::path("."));
             const double mpp_sketch = a->world_size_m > 0   ? a->world_size_m / s.label.cols
@@ -170,7 +168,7 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
             cv::resize(s.label, region_model, model_h.size(), 0, 0, cv::INTER_NEAREST);
             cv::Mat1f h = model_h;
             if (!a->raw) {
-              const int N = a->size > 0 ? a->size : model_h.cols;
+              const int N = a->size > 0 ? a->size : std::max(model_h.cols, model_h.rows);
               if (fin.bundles.size()) note_bundle_sizes(fin, N, g.quiet);
               t = std::chrono::steady_clock::now();
               if (!g.quiet) std::fprintf(stderr, "world: amplifying to %d² ...\n", N);

@@ -604,7 +604,7 @@ expect_error "--for cryengine: use unity, unreal, godot, blender or gis" generat
 expect_error "--for: one island at a time" generate --random 1 --size 64 --out "$T/e" --for unity
 
 # 6f. Worlds (docs/WORLDS.md): an archipelago sketch at the model's scale
-# keeps its size (any aspect with --raw); an island larger than the model's
+# keeps its size and aspect; an island larger than the model's
 # islands gets one massif whose summit is in its painted mountain; --size
 # amplifies a square world, drained and without a measurable seam.
 if "$BIN" -q sketch random --size 768x512 --islands 8 --seed 3 -o "$T/w/sea.png" >/dev/null 2>"$T/err" \
@@ -638,7 +638,13 @@ r = json.load(sys.stdin)
 assert r['size_px'] == [1025, 1025] and r['pits'] <= 0.01 and r['seams_rows'] <= 2.5 and r['seams_cols'] <= 2.5, r
 " && ok || bad "world --size 1025: not drained or seamed"
 else bad "world --size 1025: $(cat "$T/err")"; fi
-expect_error "amplifying a world needs a square sketch" world "$T/w/sea.png" -o "$T/w/x"
+if "$BIN" -q world "$T/w/sea.png" --size 1024 -o "$T/w/sea1024" >/dev/null 2>"$T/err"; then
+  "$BIN" realism "$T/w/sea1024.height.exr" --json | "$PY" -c "
+import json, sys
+r = json.load(sys.stdin)
+assert r['size_px'] == [1024, 683] and r['pits'] <= 0.01 and r['seams_rows'] <= 2.5 and r['seams_cols'] <= 2.5, r
+" && ok || bad "world --size 1024 of a 768×512 sketch: not 1024×683, drained and seamless"
+else bad "world --size on a sketch that is not square: $(cat "$T/err")"; fi
 expect_error "no such sketch file" world "$T/w/none.png" -o "$T/w/x"
 expect_error "--layers: a world past 8192² has no layers yet" world "$T/w/big.png" --size 9000 --layers -o "$T/e/x"
 expect_error "--for unity: a world past 8192² has no layers yet" world "$T/w/big.png" --size 9000 --for unity -o "$T/e/x"

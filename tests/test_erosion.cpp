@@ -678,6 +678,29 @@ TEST(Erosion, WorldBandsAreInvisible) {
   const RealismStats st = realism_stats(a, world_m / 385);
   EXPECT_LE(st.pits, 0.01);
   EXPECT_LT(st.seams_rows, 2.5) << "the bands' borders run along rows";
+  // Rivers cross the bands' borders: on the filled surface no land cell next
+  // to a border sits in a depression deeper than the pits drained, and the
+  // river with the most water crossing a border reaches the sea.
+  const FloodRoute fr = flood_route(a, sea_and_edge_roles(a));
+  std::vector<float> area(a.total(), 1.f);
+  for (auto it = fr.order.rbegin(); it != fr.order.rend(); ++it)
+    if (fr.receiver[size_t(*it)] != *it) area[size_t(fr.receiver[size_t(*it)])] += area[size_t(*it)];
+  int river = -1;
+  for (int border = 64; border < 385; border += 64)
+    for (int y = border - 1; y <= border; ++y)
+      for (int x = 0; x < 385; ++x) {
+        if (a(y, x) <= 0) continue;
+        EXPECT_LE(fr.filled(y, x) - a(y, x), kPitDepthM) << "a depression on the band border at (" << x << ", " << y << ")";
+        const int i = y * 385 + x;
+        const int below = fr.receiver[size_t(i)];
+        const bool crosses = (y == border - 1 && below / 385 == border) || (y == border && below / 385 == border - 1);
+        if (crosses && (river < 0 || area[size_t(i)] > area[size_t(river)])) river = i;
+      }
+  ASSERT_GE(river, 0) << "no flow crosses a band border";
+  EXPECT_GT(area[size_t(river)], 50.f) << "the largest crossing is a river, not a rill";
+  int steps = 0, at = river;
+  while (a(at / 385, at % 385) > 0 && fr.receiver[size_t(at)] != at && steps < 385 * 385) at = fr.receiver[size_t(at)], ++steps;
+  EXPECT_LE(a(at / 385, at % 385), 0.f) << "the river that crosses a border ends in the sea";
   EXPECT_GT(st.max_height_m, 0.75 * 300);
   // Up to whole_max_px: amplify_heights itself.
   cv::Mat1b label_180;

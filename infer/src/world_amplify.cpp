@@ -36,14 +36,35 @@ cv::Mat1f band_of(const cv::Mat1f& level, int N, int y0, int y1, double world_si
 }
 }  // namespace
 
+namespace {
+// A world that is not square: its last row or column repeated at the bottom
+// or right up to a square (with the sea there, the bicubic upsampling pulled
+// the world's last rows 57 m down: a seam score of 13), amplified with
+// `size` for its longer side, and cropped back.
+cv::Mat1f amplify_oblong(const cv::Mat1f& coarse_m, const cv::Mat1b& label, int size, double world_size_m,
+                         uint64_t seed, const ErosionParams& p, const std::function<void(int, int)>& progress,
+                         const WorldBands& wb) {
+  const int W = coarse_m.cols, H = coarse_m.rows, S = std::max(W, H);
+  cv::Mat1f sq;
+  cv::copyMakeBorder(coarse_m, sq, 0, S - H, 0, S - W, cv::BORDER_REPLICATE);
+  cv::Mat1b l;
+  cv::resize(label, l, coarse_m.size(), 0, 0, cv::INTER_NEAREST);
+  cv::copyMakeBorder(l, l, 0, S - H, 0, S - W, cv::BORDER_REPLICATE);
+  const cv::Mat1f out = amplify_world(sq, l, size, world_size_m * S / W, seed, p, progress, wb);
+  const cv::Size keep(int(std::lround(double(W) * size / S)), int(std::lround(double(H) * size / S)));
+  return out(cv::Rect(cv::Point(0, 0), keep)).clone();
+}
+}  // namespace
+
 cv::Mat1f amplify_world(const cv::Mat1f& coarse_m, const cv::Mat1b& label, int size, double world_size_m,
                         uint64_t seed, const ErosionParams& p, const std::function<void(int, int)>& progress,
                         const WorldBands& wb) {
-  if (coarse_m.empty() || coarse_m.rows != coarse_m.cols)
-    throw Error("world: amplifying needs a square world (the sketch at the model's scale)");
-  if (size < coarse_m.cols || size > kMaxWorldSidePx)
-    throw Error("world: --size must be in [" + std::to_string(coarse_m.cols) + ", " + std::to_string(kMaxWorldSidePx) +
+  if (coarse_m.empty()) throw Error("world: nothing to amplify");
+  const int S = std::max(coarse_m.rows, coarse_m.cols);
+  if (size < S || size > kMaxWorldSidePx)
+    throw Error("world: --size must be in [" + std::to_string(S) + ", " + std::to_string(kMaxWorldSidePx) +
                 "] for this sketch");
+  if (coarse_m.rows != coarse_m.cols) return amplify_oblong(coarse_m, label, size, world_size_m, seed, p, progress, wb);
   auto at = [&](int side) {
     cv::Mat1b l;
     cv::resize(label, l, cv::Size(side, side), 0, 0, cv::INTER_NEAREST);

@@ -40,8 +40,9 @@ inline constexpr int kWorldBandHaloPx = 64;
 // whole world stays in memory once (docs/WORLDS.md).
 inline constexpr int kMaxWorldSidePx = 16385;
 
-// A world (a square model-scale answer, world_model_heights) amplified to
-// size×size. Up to kMaxWholeAmplifySidePx this is amplify_heights. Beyond,
+// A world (a model-scale answer, world_model_heights) amplified to `size`
+// samples along its longer side (a world that is not square is padded with
+// open sea to a square and cropped back). Up to kMaxWholeAmplifySidePx this is amplify_heights. Beyond,
 // amplify_heights refines the whole world to the last refinement level
 // below `size` (erosion and routing on the whole field, so rivers cross any
 // later tile border), then the last doubling is made in bands of rows: the
