@@ -51,7 +51,13 @@ void refuse_world_over_sketch(const WorldArgs& a, const fs::path& prefix) {
 // Past kMaxWholeAmplifySidePx a world is made in bands and its layers are
 // not (yet): the bundles that carry material weights are refused before any
 // work, the heights' own files (EXR, GeoTIFF, the gis bundle's tiles) are not.
-void check_world_finish(const WorldArgs& a, const FinishFlags::Parsed& fin, int side) {
+void check_world_finish(const WorldArgs& a, const FinishFlags::Parsed& fin, int side, bool square) {
+  if (!square)
+    for (const auto e : fin.bundles)
+      if (e != engines::Engine::Gis)
+        throw Error("--for " + std::string(engines::to_string(e)) +
+                    ": the engine bundles take square worlds (the sketch is not square); use a square sketch, or "
+                    "--for gis (GeoTIFF tiles of any shape)");
   if (side <= infer::kMaxWholeAmplifySidePx) return;
   const std::string why = ": a world past " + std::to_string(infer::kMaxWholeAmplifySidePx) + "² has no layers yet (" +
                           std::to_string(side) + "² asked); use --size " + std::to_string(infer::kMaxWholeAmplifySidePx) +
@@ -61,7 +67,7 @@ void check_world_finish(const WorldArgs& a, const FinishFlags::Parsed& fin, int 
     if (e != engines::Engine::Gis) throw Error("--for " + std::string(engines::to_string(e)) + why);
 }
 
-// The gis bundle of a world wider than one GeoTIFF tile: tiles and a VRT.
+// The gis bundle of a world wider than one GeoTIFF tile, or not square: tiles and a VRT.
 nlohmann::json stage_gis_tiles(StagedOutputs& staged, const fs::path& prefix, const cv::Mat1f& h, double mpp,
                                const gis::GeoReference& geo, int threads) {
   const fs::path dir = prefix.string() + ".gis";
@@ -84,7 +90,7 @@ void stage_world_finish(StagedOutputs& staged, const WorldArgs& a, const FinishF
                         const cv::Mat1b& region_model, double mpp, int threads, nlohmann::json& side) {
   std::vector<engines::Engine> bundles = fin.bundles;
   const auto gis = std::find(bundles.begin(), bundles.end(), engines::Engine::Gis);
-  if (gis != bundles.end() && h.cols > gis::kGeoTiffTileMaxPx) {
+  if (gis != bundles.end() && (h.cols > gis::kGeoTiffTileMaxPx || h.rows != h.cols)) {
     side["bundles"]["gis"] = stage_gis_tiles(staged, prefix, h, mpp, fin.geo, threads);
     bundles.erase(gis);
   }
@@ -147,7 +153,7 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
             refuse_world_over_sketch(*a, prefix);
             if (!fs::is_regular_file(a->sketch)) throw Error(a->sketch + ": no such sketch file");
             const DecodedSketch s = read_sketch(a->sketch);
-            check_world_finish(*a, fin, a->size);
+            check_world_finish(*a, fin, a->size, s.label.rows == s.label.cols);
             ensure_writable_dir(prefix.has_parent_path() ? prefix.parent_path() : fs::path("."));
             const double mpp_sketch = a->world_size_m > 0   ? a->world_size_m / s.label.cols
                                       : a->metres_per_px > 0 ? a->metres_per_px
