@@ -12,6 +12,8 @@ namespace reefgen::infer {
 using namespace reefgen::terrain;
 
 namespace {
+constexpr float kBandDiffusion = 0.15f;
+
 // Rows [y0, y1) of `fine` (side N): `level` (side M) sampled bicubically at
 // each cell's centre, as cv::resize maps half-pixel centres, plus the level's
 // fractal detail on land.
@@ -32,6 +34,13 @@ cv::Mat1f band_of(const cv::Mat1f& level, int N, int y0, int y1, double world_si
   for (int y = 0; y < rows; ++y)
     for (int x = 0; x < N; ++x)
       if (up(y, x) > 0) up(y, x) = std::max(up(y, x) + s * d(y, x), kLandFloorM);
+  // One explicit diffusion step on land (h += k·∇²h, k = kBandDiffusion):
+  // the level below was eroded and diffused, this one is not.
+  cv::Mat1f lap;
+  cv::Laplacian(up, lap, CV_32F, 1, 1.0, 0.0, cv::BORDER_REPLICATE);
+  for (int y = 0; y < rows; ++y)
+    for (int x = 0; x < N; ++x)
+      if (up(y, x) > 0) up(y, x) = std::max(up(y, x) + kBandDiffusion * lap(y, x), kLandFloorM);
   return up;
 }
 }  // namespace
