@@ -119,8 +119,10 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
             if (!a->erosion.empty()) io.erosion = terrain::erosion_params_from_json(read_json(a->erosion), a->erosion);
             Progress progress("infer", job.inputs.files.size(), g.quiet);
             const infer::InferResult r = infer::infer_files(gen, job, [&](size_t k) { progress.tick(k); });
-            if (!g.quiet)
+            if (!g.quiet) {
               for (const auto& n : r.r16_notes) std::fprintf(stderr, "%s", n.c_str());
+              for (const auto& n : r.world_notes) std::fprintf(stderr, "note: %s\n", n.c_str());
+            }
             for (const auto& h : r.heights) std::printf("%s\n", h.c_str());
             return 0;
           }};

@@ -647,6 +647,8 @@ assert r['size_px'] == [1024, 683] and r['pits'] <= 0.01 and r['seams_rows'] <= 
   "$BIN" -q world "$T/w/sea.png" --size 1024 -o "$T/w/sea1024t1" --threads 1 >/dev/null 2>"$T/err" \
     && cmp -s "$T/w/sea1024.height.exr" "$T/w/sea1024t1.height.exr" && ok || bad "world: other bytes with --threads 1 $(cat "$T/err")"
 else bad "world --size on a sketch that is not square: $(cat "$T/err")"; fi
+"$BIN" infer "$T/w/sea.png" -o "$T/w/as-island" 2>&1 >/dev/null | grep -q "note: .*sea.png: 768x512 read as one 6 km island.*reefgen world" \
+  && ok || bad "infer of a 768x512 sketch does not point to reefgen world"
 expect_error "the engine bundles take square worlds" world "$T/w/sea.png" --size 1024 --for unity -o "$T/e/x"
 expect_error "no such sketch file" world "$T/w/none.png" -o "$T/w/x"
 expect_error "--layers: a world past 8192² has no layers yet" world "$T/w/big.png" --size 9000 --layers -o "$T/e/x"

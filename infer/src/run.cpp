@@ -1,5 +1,6 @@
 #include "reefgen/infer/run.hpp"
 
+#include <cmath>
 #include <map>
 
 #include <opencv2/core.hpp>
@@ -118,7 +119,16 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
   for (size_t i = 0; i < inputs.size(); ++i) {
     if (i % kChunk == 0) {
       std::vector<DecodedSketch> sketches;
-      for (size_t k = i; k < std::min(inputs.size(), i + kChunk); ++k) sketches.push_back(read_sketch(inputs[k]));
+      for (size_t k = i; k < std::min(inputs.size(), i + kChunk); ++k) {
+        sketches.push_back(read_sketch(inputs[k]));
+        const cv::Size sz = sketches.back().label.size();
+        if (std::max(sz.width, sz.height) > kWorldHintSidePx)
+          r.world_notes.push_back(inputs[k].string() + ": " + std::to_string(sz.width) + "x" + std::to_string(sz.height) +
+                                  " read as one " + std::to_string(int(io.world_size_m / 1000)) +
+                                  " km island (resized to the model's " + std::to_string(gen.size_px) +
+                                  "²); `reefgen world` reads it at the model's scale, " +
+                                  std::to_string(int(std::lround(sz.width * kModelMetresPerPx / 1000))) + " km across");
+      }
       before.clear();
       labels.clear();
       for (const auto& s : sketches) labels.push_back(s.label);

@@ -41,7 +41,12 @@ struct InferJob {
 struct InferResult {
   std::vector<fs::path> heights;       // the EXR of each sketch, in input order
   std::vector<std::string> r16_notes;  // R16 import notes (with --r16), one per sketch
+  // One per sketch much larger than the model's side (kWorldHintSidePx): it
+  // was read as one 6 km island; `reefgen world` reads it at the model's scale.
+  std::vector<std::string> world_notes;
 };
+// A sketch wider or taller than this is likely a world, not one island, px.
+inline constexpr int kWorldHintSidePx = 2 * kModelSidePx;
 // Refuses, before writing anything: an output that is an input, two sketches
 // with one result name, a mesh path for several sketches, a model without
 // dropout for a stochastic run. Infers 32 sketches at a time (memory bounded
