@@ -119,7 +119,8 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
       "Examples:\n"
       "  reefgen sketch random --size 2048x2048 --seed 1 -o sea.png\n"
       "  reefgen world sea.png -o out/sea --size 8192 --preview      # 48 km across, 5.9 m a pixel\n"
-      "  reefgen world sea.png -o out/sea --size 16385 --for unity,unreal,gis\n"
+      "  reefgen world sea.png -o out/sea --size 8192 --for unity,unreal --layers\n"
+      "  reefgen world sea.png -o out/sea --size 16385 --for gis        # GeoTIFF tiles + a VRT mosaic\n"
       "  reefgen world painted.png --world-size 30000 --raw -o out/w # the sketch's width is 30 km\n");
   sub->add_option("sketch", a->sketch, "Sketch image (any size and aspect)")->required();
   sub->add_option("-o,--output,--out", a->out, "Output prefix: PREFIX.height.exr, PREFIX.json, ...")->required();

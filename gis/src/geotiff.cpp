@@ -33,7 +33,16 @@ std::string gdal_message() {
   return (m && *m) ? m : "GDAL gave no reason";
 }
 
-// The CRS as WKT, or an Error naming it.
+struct Origin {
+  double x, y;
+};
+Origin origin_of(const GeoReference& geo, int width, int height, double mpp) {
+  return {std::isnan(geo.origin_x) ? -0.5 * width * mpp : geo.origin_x,
+          std::isnan(geo.origin_y) ? 0.5 * height * mpp : geo.origin_y};
+}
+
+}  // namespace
+
 std::string crs_wkt(const std::string& crs) {
   OGRSpatialReferenceH srs = OSRNewSpatialReference(nullptr);
   char* wkt = nullptr;
@@ -44,16 +53,6 @@ std::string crs_wkt(const std::string& crs) {
   if (out.empty()) throw Error("--crs " + crs + ": GDAL does not know this CRS; use e.g. EPSG:32706 (UTM 6S) or a WKT string");
   return out;
 }
-
-struct Origin {
-  double x, y;
-};
-Origin origin_of(const GeoReference& geo, int width, int height, double mpp) {
-  return {std::isnan(geo.origin_x) ? -0.5 * width * mpp : geo.origin_x,
-          std::isnan(geo.origin_y) ? 0.5 * height * mpp : geo.origin_y};
-}
-
-}  // namespace
 
 void check_crs(const std::string& crs) {
   init_gdal();

@@ -1,10 +1,6 @@
 #include <cstdio>
 #include <sstream>
 
-#include <gdal.h>
-#include <ogr_srs_api.h>
-#include <cpl_conv.h>
-
 #include "reefgen/error.hpp"
 #include "reefgen/gis/geotiff.hpp"
 #include "reefgen/io.hpp"
@@ -12,20 +8,6 @@
 namespace reefgen::gis {
 
 namespace {
-// The CRS as WKT for the VRT's <SRS> ("" for none).
-std::string wkt_of(const std::string& crs) {
-  if (crs.empty()) return "";
-  check_crs(crs);
-  OGRSpatialReferenceH srs = OSRNewSpatialReference(nullptr);
-  char* wkt = nullptr;
-  OSRSetFromUserInput(srs, crs.c_str());
-  OSRExportToWkt(srs, &wkt);
-  std::string out = wkt ? wkt : "";
-  CPLFree(wkt);
-  OSRDestroySpatialReference(srs);
-  return out;
-}
-
 std::string xml_escaped(const std::string& s) {
   std::string o;
   for (char c : s) o += c == '<' ? "&lt;" : c == '>' ? "&gt;" : c == '&' ? "&amp;" : c == '"' ? "&quot;" : std::string(1, c);
@@ -48,7 +30,8 @@ nlohmann::json stage_geotiff_tiles(StagedOutputs& staged, const std::filesystem:
   const int tw = (W + nx - 1) / nx, th = (H + ny - 1) / ny;
   const double ox = std::isnan(geo.origin_x) ? -0.5 * W * mpp : geo.origin_x;
   const double oy = std::isnan(geo.origin_y) ? 0.5 * H * mpp : geo.origin_y;
-  const std::string wkt = wkt_of(geo.crs);
+  check_crs(geo.crs);  // GDAL set up, the CRS known
+  const std::string wkt = geo.crs.empty() ? "" : crs_wkt(geo.crs);
   std::ostringstream vrt;
   vrt.precision(17);
   vrt << "<VRTDataset rasterXSize=\"" << W << "\" rasterYSize=\"" << H << "\">\n";

@@ -50,6 +50,8 @@ nlohmann::json geo_json(const GeoReference& geo, int width, int height, double m
 
 // Throws reefgen::Error unless GDAL knows `crs` (checked before any file is written).
 void check_crs(const std::string& crs);
+// `crs` (anything GDAL's SetFromUserInput takes) as WKT; throws reefgen::Error naming it.
+std::string crs_wkt(const std::string& crs);
 
 }  // namespace reefgen::gis
 
