@@ -27,8 +27,10 @@ inline constexpr double kLargeIslandRadiusPx = 100;
 // The radius a large island is shrunk to for its coarse pass, px: a typical
 // training island, so the model draws one massif with its summit in the core.
 inline constexpr double kCoarseIslandRadiusPx = 75;
-// What "large forms" are, px at the model's scale (750 m): below it the
-// whole-sketch pass's valleys and coasts stay.
+// How far the coarse answer fades into the whole-sketch pass round a large
+// island, px at the model's scale: its mask is blurred by half of this (16
+// px, 375 m). (Named for a first try that swapped the two answers'
+// low-passes at σ = 750 m; docs/WORLDS.md, "What was tried".)
 inline constexpr double kLargeFormSigmaPx = 32;
 
 // The generator's heights (m) over the whole sketch, at the model's scale:
@@ -36,11 +38,11 @@ inline constexpr double kLargeFormSigmaPx = 32;
 // sketch is resampled to that scale (regions by nearest neighbour,
 // subsidence bilinear), given a reflected margin, padded with bright abyss to
 // a square multiple of 2^depth, answered in one forward and cropped back.
-// An island larger than kLargeIslandRadiusPx takes its large forms from a
-// coarse pass of the island alone at kCoarseIslandRadiusPx (the whole-sketch
-// pass draws it as a plateau ringed by ridges, with no summit): the two
-// answers' low-passes (σ = kLargeFormSigmaPx) are swapped over the island,
-// faded in with its size (docs/WORLDS.md).
+// An island larger than kLargeIslandRadiusPx is answered by a coarse pass
+// of the island alone at kCoarseIslandRadiusPx (the whole-sketch pass draws
+// it as a plateau ringed by ridges, with no summit): the coarse answer,
+// upsampled, replaces the first one over the island's blurred mask, faded in
+// with the island's size (docs/WORLDS.md).
 // The answer is the network's (no clean-up); o's engine, precision and
 // modes apply. Throws reefgen::Error past kMaxWorldPassPx.
 cv::Mat1f world_model_heights(model::GeneratorFile& g, const DecodedSketch& sketch, double sketch_metres_per_px,
