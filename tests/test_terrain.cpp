@@ -10,15 +10,18 @@
 #include <vector>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <string>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "reefgen/terrain/drainage.hpp"
 #include "reefgen/terrain/eroders.hpp"
 #include "reefgen/terrain/erosion.hpp"
 #include "reefgen/terrain/flow.hpp"
 #include "reefgen/terrain/layers.hpp"
+#include "reefgen/terrain/world_layers.hpp"
 #include "reefgen/cpu.hpp"
 #include "reefgen/error.hpp"
 #include "reefgen/rng.hpp"
@@ -244,6 +247,91 @@ TEST(Layers, NormalsReadNorthUpwards) {
   const Layers L = compute_layers(h, cv::Mat1f(), cv::Mat1b(), 1.0);
   EXPECT_LT(L.normal(16, 16)[1], -0.8f);
   EXPECT_NEAR(L.normal(16, 16)[0], 0.f, 1e-6f);
+}
+
+namespace {
+// Every map of `a` equals the same rectangle of `b`, bit for bit.
+::testing::AssertionResult same_layers(const Layers& a, const Layers& b, const cv::Rect& r) {
+  auto same = [&](const cv::Mat& x, const cv::Mat& y, const char* what) -> bool {
+    const cv::Mat yr = y(r);
+    for (int row = 0; row < x.rows; ++row)
+      if (std::memcmp(x.ptr(row), yr.ptr(row), x.cols * x.elemSize()) != 0) {
+        std::fprintf(stderr, "%s differs in row %d of tile (%d,%d)\n", what, row, r.x, r.y);
+        return false;
+      }
+    return true;
+  };
+  bool ok = same(a.flow_area_m2, b.flow_area_m2, "flow") && same(a.slope_deg, b.slope_deg, "slope") &&
+            same(a.wear_m, b.wear_m, "wear") && same(a.deposit_m, b.deposit_m, "deposit") &&
+            same(a.normal, b.normal, "normal");
+  for (int m = 0; m < kNumMaterials && ok; ++m) ok = same(a.weight[size_t(m)], b.weight[size_t(m)], material_name(m));
+  return ok ? ::testing::AssertionSuccess() : ::testing::AssertionFailure() << "tile " << r;
+}
+}  // namespace
+
+// A world's layers, tile by tile (terrain/world_layers.hpp): any tiling gives
+// the same bytes as one tile over the whole field, whatever the threads; the
+// inputs may come at another resolution; and they agree with the whole-field
+// layers (compute_layers) on what matters to a texture artist.
+TEST(WorldLayers, AnyTilingGivesTheSameBytesAndFollowsTheWholeField) {
+  const int W = 320;
+  const auto isl = eroded_island(W);
+  const double dx = 6000.0 / W;
+  // The uneroded heights and the regions at half the resolution, as a world
+  // has them at the model's scale.
+  cv::Mat1f before;
+  cv::Mat1b region;
+  cv::resize(isl.uneroded_m, before, cv::Size(W / 2, W / 2), 0, 0, cv::INTER_AREA);
+  cv::resize(isl.label, region, cv::Size(W / 2, W / 2), 0, 0, cv::INTER_NEAREST);
+  const WorldLayerField f = world_layer_field(isl.height_m, before, region, dx);
+  ASSERT_EQ(f.flow_area_m2.cols, (W + kWorldLayerCoarsening - 1) / kWorldLayerCoarsening);
+  const cv::Rect all(0, 0, W, W);
+  const Layers whole = world_layers_tile(isl.height_m, f, all);
+  EXPECT_TRUE(same_layers(world_layers_tile(isl.height_m, f, all, {}, 2), whole, all));
+  const int cuts[] = {0, 97, 211, W};
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) {
+      const cv::Rect r(cuts[i], cuts[j], cuts[i + 1] - cuts[i], cuts[j + 1] - cuts[j]);
+      EXPECT_TRUE(same_layers(world_layers_tile(isl.height_m, f, r), whole, r));
+    }
+  // Weights sum to one; the sea drains nothing.
+  for (int y = 0; y < W; ++y)
+    for (int x = 0; x < W; ++x) {
+      float s = 0;
+      for (const auto& w : whole.weight) s += w(y, x);
+      ASSERT_NEAR(s, 1.f, 1e-5f);
+      if (isl.height_m(y, x) <= 0) {
+        ASSERT_EQ(whole.flow_area_m2(y, x), 0.f);
+      }
+    }
+  // Against the whole field's layers at full resolution: the same material
+  // leads on most pixels, and where the full-resolution drainage carries a
+  // river, the coarse copy's does too.
+  const Layers ref = compute_layers(isl.height_m, isl.uneroded_m, isl.label, dx);
+  int same_lead = 0, rivers = 0, rivers_kept = 0;
+  for (int y = 0; y < W; ++y)
+    for (int x = 0; x < W; ++x) {
+      int a = 0, b = 0;
+      for (int m = 1; m < kNumMaterials; ++m) {
+        if (whole.weight[size_t(m)](y, x) > whole.weight[size_t(a)](y, x)) a = m;
+        if (ref.weight[size_t(m)](y, x) > ref.weight[size_t(b)](y, x)) b = m;
+      }
+      same_lead += a == b;
+      if (ref.flow_area_m2(y, x) > LayerParams{}.river_area_m2) {
+        ++rivers;
+        // Within two pixels of this one, the coarse copy carries at least a fifth of it.
+        float best = 0;
+        for (int v = std::max(0, y - 2); v <= std::min(W - 1, y + 2); ++v)
+          for (int u = std::max(0, x - 2); u <= std::min(W - 1, x + 2); ++u) best = std::max(best, whole.flow_area_m2(v, u));
+        rivers_kept += best >= 0.2f * ref.flow_area_m2(y, x);
+      }
+    }
+  std::printf("lead material agrees on %.1f %% of pixels; rivers kept %d of %d\n", 100.0 * same_lead / (W * W),
+              rivers_kept, rivers);
+  EXPECT_GE(same_lead, 0.85 * W * W);
+  ASSERT_GT(rivers, 50);
+  EXPECT_GE(rivers_kept, 0.8 * rivers);
+  EXPECT_THROW(world_layers_tile(isl.height_m, f, cv::Rect(W - 10, 0, 20, 10)), reefgen::Error);
 }
 
 TEST(Layers, RulesRoundTripAndRefuseBadValues) {

@@ -37,19 +37,23 @@ std::vector<std::string> layer_file_suffixes() {
 }
 
 nlohmann::json stage_layer_files(StagedOutputs& staged, const std::string& prefix, const Layers& L, double dx,
-                                 const LayerParams& params, int threads) {
+                                 const LayerParams& params, int threads, const LayerScales* scales) {
   const int H = L.slope_deg.rows, W = L.slope_deg.cols;
   const double cell_m2 = dx * dx;
   // Flow: v = 65535 · log10(A / a) / log10(A_max / a) on land, 0 at sea and
   // where a cell drains only itself.
-  const double log_max = std::max(1e-6, std::log10(scale_of(L.flow_area_m2, cell_m2) / cell_m2));
+  const double flow_max = scales ? std::max(scales->flow_area_m2, cell_m2) : scale_of(L.flow_area_m2, cell_m2);
+  const double log_max = std::max(1e-6, std::log10(flow_max / cell_m2));
   cv::Mat1w flow(H, W);
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
       const double a = L.flow_area_m2(y, x);
       flow(y, x) = a > 0 ? cv::saturate_cast<uint16_t>(65535.0 * std::log10(std::max(1.0, a / cell_m2)) / log_max) : 0;
     }
-  const double wear_scale = scale_of(L.wear_m, 0.01), deposit_scale = scale_of(L.deposit_m, 0.01);
+  // An all-zero layer still gets a scale.
+  constexpr double kMinScaleM = 0.01;
+  const double wear_scale = scales ? std::max(scales->wear_m, kMinScaleM) : scale_of(L.wear_m, kMinScaleM);
+  const double deposit_scale = scales ? std::max(scales->deposit_m, kMinScaleM) : scale_of(L.deposit_m, kMinScaleM);
   // Each file is prepared and encoded in its own job: the jobs run together.
   std::vector<StagedOutputs::Job> jobs;
   nlohmann::json files = nlohmann::json::object();

@@ -10,10 +10,11 @@
 #include "reefgen/parallel.hpp"
 #include "reefgen/terrain/drainage.hpp"
 #include "reefgen/terrain/flow.hpp"
+#include "layers_parts.hpp"
 
 namespace reefgen::terrain {
 
-namespace {
+namespace detail {
 
 constexpr double kRadToDeg = 180.0 / M_PI;
 
@@ -129,7 +130,43 @@ void check_inputs(const cv::Mat1f& h, const cv::Mat1f& before, const cv::Mat1b& 
   if (!cv::checkRange(h)) throw Error("layers: the height field holds NaN or infinite values");
 }
 
-}  // namespace
+}  // namespace detail
+
+using namespace detail;
+
+void material_weights(const PixelFacts& f, const LayerParams& p, float w[kNumMaterials]) {
+  const double v = f.height_m, slope = f.slope_deg;
+  // Water and land share a half-metre band at the coast.
+  const float sea = 1.f - smoothstep(-0.25, 0.25, v), land = 1.f - sea;
+  // Under water: deep sea floor where painted abyss or deep, else reef
+  // cover on the reef region, lagoon sand elsewhere.
+  const float deep = smoothstep(0.6 * p.deep_sea_m, p.deep_sea_m, -v);
+  const float open = std::clamp(f.abyss + (1.f - f.abyss) * deep, 0.f, 1.f);
+  w[kDeepSeaFloor] = sea * open;
+  w[kReefCover] = sea * (1.f - open) * std::clamp(f.reef, 0.f, 1.f);
+  w[kLagoonSand] = sea * (1.f - open) * (1.f - std::clamp(f.reef, 0.f, 1.f));
+  // On land, each cover takes its share of what the ones before it left:
+  // rock on cliffs, riverbeds, scree (steep or on talus), beach, vegetation.
+  const double log_river = std::log10(p.river_area_m2);
+  const float cliff = smoothstep(p.cliff_deg, p.cliff_deg + 6, slope);
+  const float river = smoothstep(log_river, log_river + 1, std::log10(std::max(1e-6f, f.flow_area_m2)));
+  const float scree = std::max(smoothstep(p.scree_deg, p.scree_deg + 4, slope),
+                               smoothstep(0, p.scree_deposit_m, f.deposit_m) * smoothstep(10, 15, slope));
+  // Beach sand on low land; the beach region (painted, or the generator's
+  // band, which climbs a young volcano's flank) only where it is low too.
+  const float low = 1.f - smoothstep(0.5 * p.beach_top_m, p.beach_top_m, v);
+  const float painted = std::clamp(f.beach, 0.f, 1.f) * (1.f - smoothstep(p.beach_top_m, 3 * p.beach_top_m, v));
+  const float shore = std::max(low, painted);
+  float left = land;
+  w[kRockCliff] = left * cliff, left -= w[kRockCliff];
+  w[kRiverbed] = left * river, left -= w[kRiverbed];
+  w[kScree] = left * scree, left -= w[kScree];
+  w[kBeachSand] = left * shore, left -= w[kBeachSand];
+  w[kVegetation] = std::max(0.f, left);
+  float sum = 0.f;
+  for (int m = 0; m < kNumMaterials; ++m) sum += w[m];
+  for (int m = 0; m < kNumMaterials; ++m) w[m] /= sum;
+}
 
 const char* material_name(int m) {
   static constexpr const char* kNames[kNumMaterials] = {"deep_sea_floor", "lagoon_sand", "reef",  "beach_sand",
@@ -179,40 +216,13 @@ Layers compute_layers(const cv::Mat1f& h, const cv::Mat1f& before, const cv::Mat
   const cv::Mat1f abyss = region_share(region, kAbyss, sigma_px), reef = region_share(region, kReef, sigma_px),
                   beach = region_share(region, kBeach, sigma_px);
   for (auto& w : L.weight) w.create(H, W);
-  const double log_river = std::log10(p.river_area_m2);
   for_rows(H, threads, [&](int y) {
     for (int x = 0; x < W; ++x) {
-      const double v = h(y, x), slope = L.slope_deg(y, x);
-      // Water and land share a half-metre band at the coast.
-      const float sea = 1.f - smoothstep(-0.25, 0.25, v), land = 1.f - sea;
-      // Under water: deep sea floor where painted abyss or deep, else reef
-      // cover on the reef region, lagoon sand elsewhere.
-      const float deep = smoothstep(0.6 * p.deep_sea_m, p.deep_sea_m, -v);
-      const float open = std::clamp(abyss(y, x) + (1.f - abyss(y, x)) * deep, 0.f, 1.f);
       float w[kNumMaterials];
-      w[kDeepSeaFloor] = sea * open;
-      w[kReefCover] = sea * (1.f - open) * std::clamp(reef(y, x), 0.f, 1.f);
-      w[kLagoonSand] = sea * (1.f - open) * (1.f - std::clamp(reef(y, x), 0.f, 1.f));
-      // On land, each cover takes its share of what the ones before it left:
-      // rock on cliffs, riverbeds, scree (steep or on talus), beach, vegetation.
-      const float cliff = smoothstep(p.cliff_deg, p.cliff_deg + 6, slope);
-      const float river = smoothstep(log_river, log_river + 1, std::log10(std::max(1e-6f, L.flow_area_m2(y, x))));
-      const float scree = std::max(smoothstep(p.scree_deg, p.scree_deg + 4, slope),
-                                   smoothstep(0, p.scree_deposit_m, L.deposit_m(y, x)) * smoothstep(10, 15, slope));
-      // Beach sand on low land; the beach region (painted, or the generator's
-      // band, which climbs a young volcano's flank) only where it is low too.
-      const float low = 1.f - smoothstep(0.5 * p.beach_top_m, p.beach_top_m, v);
-      const float painted = std::clamp(beach(y, x), 0.f, 1.f) * (1.f - smoothstep(p.beach_top_m, 3 * p.beach_top_m, v));
-      const float shore = std::max(low, painted);
-      float left = land;
-      w[kRockCliff] = left * cliff, left -= w[kRockCliff];
-      w[kRiverbed] = left * river, left -= w[kRiverbed];
-      w[kScree] = left * scree, left -= w[kScree];
-      w[kBeachSand] = left * shore, left -= w[kBeachSand];
-      w[kVegetation] = std::max(0.f, left);
-      float sum = 0.f;
-      for (const float e : w) sum += e;
-      for (int m = 0; m < kNumMaterials; ++m) L.weight[size_t(m)](y, x) = w[m] / sum;
+      material_weights({h(y, x), L.slope_deg(y, x), L.flow_area_m2(y, x), L.deposit_m(y, x), abyss(y, x), reef(y, x),
+                        beach(y, x)},
+                       p, w);
+      for (int m = 0; m < kNumMaterials; ++m) L.weight[size_t(m)](y, x) = w[m];
     }
   });
   return L;

@@ -68,6 +68,14 @@ struct Layers {
   std::array<cv::Mat1f, kNumMaterials> weight;  // per material, [0, 1], summing to 1 at every pixel
 };
 
+// What the material rules read at one pixel.
+struct PixelFacts {
+  float height_m, slope_deg, flow_area_m2, deposit_m;
+  float abyss, reef, beach;  // the painted regions' blended shares, [0, 1]
+};
+// The eight material weights of one pixel (docs/LAYERS.md), summing to 1.
+void material_weights(const PixelFacts& f, const LayerParams& p, float w[kNumMaterials]);
+
 // height_m: the finished heights (sea level 0, row 0 north); before_m: the
 // same field before erosion (same size; empty = no erosion: wear and
 // deposit 0); region: region ids 0..4 (labels.hpp) at the same size, or
@@ -102,6 +110,11 @@ class StagedOutputs;
 
 namespace reefgen::terrain {
 
+// The largest drainage area (m²), wear and deposit (m) the layer files encode.
+struct LayerScales {
+  double flow_area_m2 = 0, wear_m = 0, deposit_m = 0;
+};
+
 // Stages the layer files of PREFIX (nothing is in place before
 // staged.commit()) and returns what the sidecar says about them: each
 // file, its encoding and scale, the materials in splat order, the rules.
@@ -113,8 +126,11 @@ namespace reefgen::terrain {
 //   PREFIX.materials.png RGB8 colour map (materials hill-shaded)
 // The files are prepared and encoded on `threads` threads (same bytes
 // whatever the count).
+// scales: the flow, wear and deposit encodings' full values; null = this
+// field's own maxima (tiles of one world share the world's instead).
 nlohmann::json stage_layer_files(StagedOutputs& staged, const std::string& prefix, const Layers& layers,
-                                 double metres_per_px, const LayerParams& params, int threads = 1);
+                                 double metres_per_px, const LayerParams& params, int threads = 1,
+                                 const LayerScales* scales = nullptr);
 
 // Puts what stage_layer_files returned into an island's sidecar: its files
 // beside the others under "files", the rest under "layers".
