@@ -11,6 +11,7 @@
 #include "app.hpp"
 #include "finish.hpp"
 #include "reefgen/constants.hpp"
+#include "reefgen/engines/world_bundle.hpp"
 #include "reefgen/heightfile.hpp"
 #include "reefgen/infer/amplify.hpp"
 #include "reefgen/infer/world.hpp"
@@ -48,10 +49,10 @@ void refuse_world_over_sketch(const WorldArgs& a, const fs::path& prefix) {
   refuse_output_over_input({fs::path(a.sketch)}, outs);
 }
 
-// Past kMaxWholeAmplifySidePx a world is made in bands and its layers are
-// not (yet): the bundles that carry material weights are refused before any
-// work, the heights' own files (EXR, GeoTIFF, the gis bundle's tiles) are not.
-void check_world_finish(const WorldArgs& a, const FinishFlags::Parsed& fin, int side, bool square) {
+// Past kMaxWholeAmplifySidePx a world is made in bands and written in tiles
+// (engines/world_bundle.hpp): the bundles without a tiled form are refused
+// before any work, as are the engine bundles of a world that is not square.
+void check_world_finish(const FinishFlags::Parsed& fin, int side, bool square) {
   if (!square)
     for (const auto e : fin.bundles)
       if (e != engines::Engine::Gis)
@@ -59,39 +60,56 @@ void check_world_finish(const WorldArgs& a, const FinishFlags::Parsed& fin, int 
                     ": the engine bundles take square worlds (the sketch is not square); use a square sketch, or "
                     "--for gis (GeoTIFF tiles of any shape)");
   if (side <= infer::kMaxWholeAmplifySidePx) return;
-  const std::string why = ": a world past " + std::to_string(infer::kMaxWholeAmplifySidePx) + "² has no layers yet (" +
-                          std::to_string(side) + "² asked); use --size " + std::to_string(infer::kMaxWholeAmplifySidePx) +
-                          ", or --for gis / --geotiff for its heights";
-  if (a.finish.layers) throw Error("--layers" + why);
   for (const auto e : fin.bundles)
-    if (e != engines::Engine::Gis) throw Error("--for " + std::string(engines::to_string(e)) + why);
+    if (!engines::has_world_bundle(e))
+      throw Error("--for " + std::string(engines::to_string(e)) + ": a world past " +
+                  std::to_string(infer::kMaxWholeAmplifySidePx) + "² is written in tiles, and " + engines::to_string(e) +
+                  " takes one file (" + std::to_string(side) + "² asked); use --size " +
+                  std::to_string(infer::kMaxWholeAmplifySidePx) + ", or --for unity, unreal or gis");
 }
 
-// The gis bundle of a world wider than one GeoTIFF tile, or not square: tiles and a VRT.
-nlohmann::json stage_gis_tiles(StagedOutputs& staged, const fs::path& prefix, const cv::Mat1f& h, double mpp,
-                               const gis::GeoReference& geo, int threads) {
-  const fs::path dir = prefix.string() + ".gis";
-  const std::string name = prefix.filename().string();
-  nlohmann::json j = gis::stage_geotiff_tiles(staged, dir, name, h, mpp, geo, threads);
-  const std::string readme =
-      "reefgen world for GIS: " + std::to_string(h.cols) + "x" + std::to_string(h.rows) + " float32 heights in metres, " +
-      std::to_string(mpp) + " m a pixel, in " + std::to_string(j["tiles"].size()) +
-      " GeoTIFF tiles NAME_xI_yJ.height.tif (I east, J south, no overlap)\nand one mosaic " + name +
-      ".height.vrt that GDAL and QGIS open as the whole world:\n  gdalinfo " + name + ".height.vrt\n  gdaldem hillshade " +
-      name + ".height.vrt hillshade.tif\n";
-  staged.write(dir / "README.txt", [&](const fs::path& t) { write_text_atomic(t, readme); });
-  j["engine"] = "gis";
-  return j;
+// A world past one file per layer: its layers and bundles in tiles, each
+// tile's layers made from one field of the whole world as it is written.
+void stage_world_tiles(StagedOutputs& staged, const WorldArgs& a, const FinishFlags::Parsed& fin,
+                       const std::string& prefix, const cv::Mat1f& h, const cv::Mat1f& model_h,
+                       const cv::Mat1b& region_model, double mpp, int threads, bool quiet, nlohmann::json& side) {
+  std::optional<terrain::WorldLayerField> field;
+  if (fin.need_layers) {
+    const auto t = std::chrono::steady_clock::now();
+    field = terrain::world_layer_field(h, model_h, region_model, mpp, fin.rules, threads);
+    if (!quiet) std::fprintf(stderr, "world: layer field (drainage, sediment, regions) in %.1f s\n", seconds_since(t));
+  }
+  const std::string name = fs::path(prefix).filename().string();
+  const engines::WorldInput in{h, field ? &*field : nullptr, mpp, fin.geo, fin.rules};
+  if (a.finish.layers) {
+    if (!quiet) std::fprintf(stderr, "world: layers in tiles ...\n");
+    side["layers"] = engines::stage_world_layers(staged, prefix + ".layers", name, in, a.finish.geotiff, threads);
+    side["files"]["layers"] = fs::path(prefix + ".layers").filename().string();
+  }
+  if (a.finish.geotiff) side["geotiff"] = gis::stage_geotiff_files(staged, prefix, h, nullptr, mpp, fin.geo, threads);
+  for (const auto e : fin.bundles) {
+    if (!quiet) std::fprintf(stderr, "world: %s bundle in tiles ...\n", engines::to_string(e));
+    engines::WorldInput bin = in;
+    // The gis bundle carries the float layers when the layers are asked for.
+    if (e == engines::Engine::Gis && !a.finish.layers) bin.field = nullptr;
+    side["bundles"][engines::to_string(e)] =
+        engines::stage_world_bundle(staged, prefix + "." + engines::to_string(e), name, e, bin, threads);
+  }
 }
 
-// The world's layers, GeoTIFFs and bundles, staged beside its heights.
+// The world's layers, GeoTIFFs and bundles, staged beside its heights: one
+// file per layer up to kMaxWholeAmplifySidePx, tiles past it.
 void stage_world_finish(StagedOutputs& staged, const WorldArgs& a, const FinishFlags::Parsed& fin,
                         const std::string& prefix, const cv::Mat1f& h, const cv::Mat1f& model_h,
-                        const cv::Mat1b& region_model, double mpp, int threads, nlohmann::json& side) {
+                        const cv::Mat1b& region_model, double mpp, int threads, bool quiet, nlohmann::json& side) {
+  if (std::max(h.cols, h.rows) > infer::kMaxWholeAmplifySidePx)
+    return stage_world_tiles(staged, a, fin, prefix, h, model_h, region_model, mpp, threads, quiet, side);
   std::vector<engines::Engine> bundles = fin.bundles;
   const auto gis = std::find(bundles.begin(), bundles.end(), engines::Engine::Gis);
   if (gis != bundles.end() && (h.cols > gis::kGeoTiffTileMaxPx || h.rows != h.cols)) {
-    side["bundles"]["gis"] = stage_gis_tiles(staged, prefix, h, mpp, fin.geo, threads);
+    const engines::WorldInput in{h, nullptr, mpp, fin.geo, fin.rules};
+    side["bundles"]["gis"] = engines::stage_world_bundle(staged, prefix + ".gis", fs::path(prefix).filename().string(),
+                                                         engines::Engine::Gis, in, threads);
     bundles.erase(gis);
   }
   if (!fin.need_layers && !a.finish.geotiff && bundles.empty()) return;
@@ -154,7 +172,7 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
             refuse_world_over_sketch(*a, prefix);
             if (!fs::is_regular_file(a->sketch)) throw Error(a->sketch + ": no such sketch file");
             const DecodedSketch s = read_sketch(a->sketch);
-            check_world_finish(*a, fin, a->size, s.label.rows == s.label.cols);
+            check_world_finish(fin, a->size, s.label.rows == s.label.cols);
             ensure_writable_dir(prefix.has_parent_path() ? prefix.parent_path() : fs::path("."));
             const double mpp_sketch = a->world_size_m > 0   ? a->world_size_m / s.label.cols
                                       : a->metres_per_px > 0 ? a->metres_per_px
@@ -176,7 +194,11 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
             cv::Mat1f h = model_h;
             if (!a->raw) {
               const int N = a->size > 0 ? a->size : std::max(model_h.cols, model_h.rows);
-              if (fin.bundles.size()) note_bundle_sizes(fin, N, g.quiet);
+              if (N <= infer::kMaxWholeAmplifySidePx) note_bundle_sizes(fin, N, g.quiet);
+              else if (!g.quiet)
+                for (const auto e : fin.bundles)
+                  if (const auto note = engines::world_size_note(e, N); !note.empty())
+                    std::fprintf(stderr, "note: %s\n", note.c_str());
               t = std::chrono::steady_clock::now();
               if (!g.quiet) std::fprintf(stderr, "world: amplifying to %d² ...\n", N);
               Progress progress("world: last level, bands",
@@ -207,7 +229,7 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
             t = std::chrono::steady_clock::now();
             StagedOutputs staged;
             side.update(stage_height_files(staged, prefix, h, mpp, hf));
-            stage_world_finish(staged, *a, fin, prefix.string(), h, model_h, region_model, mpp, threads, side);
+            stage_world_finish(staged, *a, fin, prefix.string(), h, model_h, region_model, mpp, threads, g.quiet, side);
             staged.write(prefix.string() + ".json", [&](const fs::path& tmp) { write_json_atomic(tmp, side); });
             staged.commit();
             if (!g.quiet) std::fprintf(stderr, "world: files written in %.1f s\n", seconds_since(t));

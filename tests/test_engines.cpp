@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "reefgen/engines/bundle.hpp"
+#include "reefgen/engines/world_bundle.hpp"
 #include "reefgen/error.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/mesh.hpp"
@@ -328,4 +329,152 @@ TEST(Engines, BlenderNormalTextureRedIsEastGreenIsNorth) {
     EXPECT_NEAR(v[1], axis == 1 ? want : 128, 1) << "green, axis " << axis;
     fs::remove_all(dir);
   }
+}
+
+// ---- A world's tiled bundles (engines/world_bundle.hpp), at small tile sizes ----
+
+namespace {
+
+// An island on the west half of a 129² world: a cone whose valley runs east
+// along row 64 across the middle of the world (and so across tile borders)
+// to the sea. 10 m a sample.
+cv::Mat1f valley_world(int n = 129) {
+  cv::Mat1f h(n, n);
+  for (int r = 0; r < n; ++r)
+    for (int c = 0; c < n; ++c) {
+      const double d = std::hypot(r - 64.0, c - 40.0);
+      const double valley = c > 40 ? 12.0 * std::exp(-std::pow((r - 64.0) / 5.0, 2)) : 0.0;
+      h(r, c) = float(120.0 * (1.0 - d / 75.0) - valley + 0.3 * std::sin(0.7 * r) * std::cos(0.5 * c));
+    }
+  return h;
+}
+
+struct World {
+  cv::Mat1f h = valley_world();
+  terrain::WorldLayerField field = terrain::world_layer_field(h, cv::Mat1f(), cv::Mat1b(), 10.0);
+};
+
+}  // namespace
+
+TEST(WorldBundles, UnityTilesShareEdgesAndCarryTheirOwnSplats) {
+  const World w;
+  WorldTiling t;
+  t.unity_tile_side = 65;
+  const fs::path dir = test::temp_dir("world-unity");
+  StagedOutputs staged;
+  const auto j = stage_world_bundle(staged, dir / "w.unity", "w", Engine::Unity, {w.h, &w.field, 10.0, {}, {}, t});
+  staged.commit();
+  ASSERT_EQ(j["tiles_per_axis"], 2);
+  ASSERT_EQ(j["side_px"], 129);  // no resampling: 2 · 64 + 1
+  const int s = 65;
+  auto sample = [&](int x, int z, int row, int col) {  // row 0 = south in the RAW
+    const auto v = bytes_of(dir / "w.unity" / ("w_" + std::to_string(x) + "_" + std::to_string(z) + ".raw"));
+    const size_t i = 2 * (size_t(row) * s + col);
+    return int(v[i]) | int(v[i + 1]) << 8;
+  };
+  for (int i = 0; i < s; ++i) {
+    ASSERT_EQ(sample(0, 0, i, s - 1), sample(1, 0, i, 0)) << i;
+    ASSERT_EQ(sample(0, 0, s - 1, i), sample(0, 1, 0, i)) << i;
+  }
+  for (const char* stem : {"w_0_0", "w_1_1"})
+    expect_splats_sum_to_255(dir / "w.unity" / (std::string(stem) + ".splat0.png"),
+                             dir / "w.unity" / (std::string(stem) + ".splat1.png"), s - 1);
+  fs::remove_all(dir);
+}
+
+TEST(WorldBundles, UnrealTilesMakeOneLandscapeWithTiledWeightLayers) {
+  const World w;
+  WorldTiling t;
+  t.unreal_tile_px = 64, t.unreal_tiles_per_axis = 2;  // 128 = 127 quads + 1: one section per axis
+  const fs::path dir = test::temp_dir("world-unreal");
+  StagedOutputs staged;
+  const auto j = stage_world_bundle(staged, dir / "w.unreal", "w", Engine::Unreal, {w.h, &w.field, 10.0, {}, {}, t});
+  staged.commit();
+  ASSERT_EQ(j["side_px"], 128);
+  EXPECT_EQ(j["components_per_axis"], 1);
+  // The tiles side by side are the heights resampled to 128², 16-bit.
+  const cv::Mat1f want = resample_corners(w.h, 128);
+  const double lo = j["range_m"][0], hi = j["range_m"][1];
+  for (int ty = 0; ty < 2; ++ty)
+    for (int tx = 0; tx < 2; ++tx) {
+      const std::string xy = "_x" + std::to_string(tx) + "_y" + std::to_string(ty) + ".png";
+      const cv::Mat png = cv::imread((dir / "w.unreal" / ("w" + xy)).string(), cv::IMREAD_UNCHANGED);
+      ASSERT_EQ(png.type(), CV_16UC1) << xy;
+      ASSERT_EQ(png.cols, 64);
+      for (int r = 0; r < 64; ++r)
+        for (int c = 0; c < 64; ++c)
+          ASSERT_NEAR(lo + png.at<uint16_t>(r, c) * (hi - lo) / 65535.0, want(ty * 64 + r, tx * 64 + c),
+                      (hi - lo) / 65535.0)
+              << xy << " " << r << "," << c;
+      cv::Mat1i sum(64, 64, 0);
+      for (int m = 0; m < terrain::kNumMaterials; ++m) {
+        const cv::Mat wl = cv::imread((dir / "w.unreal" / ("w_" + std::string(terrain::material_name(m)) + xy)).string(),
+                                      cv::IMREAD_UNCHANGED);
+        ASSERT_EQ(wl.type(), CV_8UC1) << terrain::material_name(m) << xy;
+        cv::Mat1i wi;
+        wl.convertTo(wi, CV_32S);
+        sum += wi;
+      }
+      EXPECT_EQ(cv::countNonZero(sum != 255), 0) << xy;
+    }
+  fs::remove_all(dir);
+}
+
+// The gis bundle's layers are tiled like its heights, and each layer's VRT
+// mosaic is the world's layer bit for bit: the drainage keeps flowing across
+// tile borders (the valley crosses two of them).
+TEST(WorldBundles, GisLayerTilesMosaicToTheWholeWorld) {
+  const World w;
+  WorldTiling t;
+  t.gis_tile_max_px = 40;  // 4 × 4 tiles of 33 (the last 30)
+  const fs::path dir = test::temp_dir("world-gis");
+  StagedOutputs staged;
+  const auto j = stage_world_bundle(staged, dir / "w.gis", "w", Engine::Gis, {w.h, &w.field, 10.0, {}, {}, t});
+  staged.commit();
+  EXPECT_EQ(j["tiles_per_axis"], nlohmann::json({4, 4}));
+  const terrain::Layers whole = terrain::world_layers_tile(w.h, w.field, cv::Rect(0, 0, 129, 129));
+  const cv::Mat1f flow = gis::read_geotiff(dir / "w.gis" / "w.flow.vrt").band;
+  EXPECT_EQ(cv::norm(gis::read_geotiff(dir / "w.gis" / "w.height.vrt").band, w.h, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(flow, whole.flow_area_m2, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(gis::read_geotiff(dir / "w.gis" / "w.deposit.vrt").band, whole.deposit_m, cv::NORM_INF), 0.0);
+  // The valley's drainage on both sides of the borders at columns 66 and 99
+  // (land ends near column 107): growing downstream, no jump at a border.
+  for (const int border : {66, 99}) {
+    const float west = flow(64, border - 1), east = flow(64, border);
+    EXPECT_GT(west, 50 * 100.f) << border;  // fifty cells drain through it at least
+    EXPECT_GE(east, west) << border;
+    EXPECT_LT(east, 1.25f * west) << border;
+  }
+  fs::remove_all(dir);
+}
+
+TEST(WorldBundles, LayerTilesShareTheWorldsScales) {
+  const World w;
+  WorldTiling t;
+  t.gis_tile_max_px = 70;  // 2 × 2 tiles of 65 and 64
+  const fs::path dir = test::temp_dir("world-layers");
+  StagedOutputs staged;
+  const auto j = stage_world_layers(staged, dir / "w.layers", "w", {w.h, &w.field, 10.0, {}, {}, t}, false);
+  staged.commit();
+  ASSERT_EQ(j["layer_tiles"].size(), 4u);
+  const double log_max = j["layers"]["flow"]["log10_max"];
+  double flow_max = 0;
+  cv::minMaxLoc(w.field.flow_area_m2, nullptr, &flow_max);
+  EXPECT_NEAR(log_max, std::log10(flow_max / 100.0), 1e-9);
+  for (const auto& tile : j["layer_tiles"]) {
+    const std::string s0 = tile["files"]["splat0"], s1 = tile["files"]["splat1"];
+    const int side = tile["x"] == 0 ? 65 : 64;
+    expect_splats_sum_to_255(dir / "w.layers" / s0, dir / "w.layers" / s1, side);
+  }
+  // The flow is encoded on the world's scale: across the border at column
+  // 65, the valley's code changes as little as its area does.
+  const cv::Mat a = cv::imread((dir / "w.layers" / "w_x0_y0.flow.png").string(), cv::IMREAD_UNCHANGED);
+  const cv::Mat b = cv::imread((dir / "w.layers" / "w_x1_y0.flow.png").string(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(a.type(), CV_16UC1);
+  EXPECT_NEAR(a.at<uint16_t>(64, 64), b.at<uint16_t>(64, 0), 0.02 * 65535);
+  EXPECT_GT(a.at<uint16_t>(64, 64), 0.4 * 65535);
+  EXPECT_FALSE(fs::exists(dir / "w.layers" / "w_x0_y0.flow.tif"));
+  EXPECT_THROW(stage_world_bundle(staged, dir / "w.godot", "w", Engine::Godot, {w.h, &w.field, 10.0, {}, {}, t}),
+               reefgen::Error);
+  fs::remove_all(dir);
 }

@@ -60,14 +60,16 @@ cv::Mat1b weight_layer(const std::array<cv::Mat4b, 2>& splat, int m) {
 using detail::fmt;
 using detail::stage_text;
 
-nlohmann::json stage_unity(StagedOutputs& staged, const fs::path& dir, const std::string& name, const BundleInput& in) {
-  const int n = in.height_m.cols, tiles = unity_tiles(n);
-  const int side = tiles == 1 ? unity_side(n) : tiles * kUnityTileCells + 1;
-  const cv::Mat1f h = side == n ? in.height_m : resample_corners(in.height_m, side);
-  const double mpp = in.metres_per_px * (n - 1) / (side - 1);
+}  // namespace
+
+namespace detail {
+
+nlohmann::json stage_unity_tiles(StagedOutputs& staged, const fs::path& dir, const std::string& name,
+                                 const cv::Mat1f& h, int resampled_from, double mpp, int max_tile_side,
+                                 const UnitySplats& splat_of) {
+  const int side = h.cols, tiles = side <= max_tile_side ? 1 : (side - 1) / (max_tile_side - 1);
   const HeightRange r = export_range(h);
-  const int tile_side = tiles == 1 ? side : kUnityMaxSide, alpha = tile_side - 1;
-  const auto splat = splats_at(*in.layers, tiles * alpha);
+  const int tile_side = tiles == 1 ? side : max_tile_side, alpha = tile_side - 1;
   nlohmann::json files = nlohmann::json::array();
   // Tile (X, Z): X east, Z north, 0 at the south-west; neighbours share
   // their edge samples, so the edges are equal by construction.
@@ -75,12 +77,12 @@ nlohmann::json stage_unity(StagedOutputs& staged, const fs::path& dir, const std
     for (int tx = 0; tx < tiles; ++tx) {
       const std::string stem = tiles == 1 ? name : name + "_" + std::to_string(tx) + "_" + std::to_string(tz);
       const int row0 = (tiles - 1 - tz) * (tile_side - 1), col0 = tx * (tile_side - 1);
-      const cv::Mat1f t = h(cv::Rect(col0, row0, tile_side, tile_side));
-      const std::vector<uint8_t> raw = unity_raw_bytes(t, r);
+      const cv::Rect rect(col0, row0, tile_side, tile_side);
+      const std::vector<uint8_t> raw = unity_raw_bytes(h(rect), r);
       staged.write(dir / (stem + ".raw"), [&](const fs::path& p) { write_file_atomic(p, raw.data(), raw.size()); });
-      const int arow0 = (tiles - 1 - tz) * alpha, acol0 = tx * alpha;
+      const std::array<cv::Mat4b, 2> splat = splat_of(rect, alpha);
       for (int s = 0; s < 2; ++s) {
-        const cv::Mat4b cut = splat[size_t(s)](cv::Rect(acol0, arow0, alpha, alpha)).clone();
+        const cv::Mat4b cut = splat[size_t(s)];
         staged.write(dir / (stem + ".splat" + std::to_string(s) + ".png"), [cut](const fs::path& p) { write_png(p, cut); });
       }
       files.push_back({{"raw", stem + ".raw"}, {"splat", {stem + ".splat0.png", stem + ".splat1.png"}}, {"x", tx}, {"z", tz}});
@@ -91,7 +93,7 @@ nlohmann::json stage_unity(StagedOutputs& staged, const fs::path& dir, const std
       "Heights: " + std::to_string(tile_side) + "x" + std::to_string(tile_side) +
       " samples per tile, 16-bit little-endian RAW, southern row first (no flip needed).\n"
       "Range: " + fmt("%.1f", r.lo_m) + " m ... " + fmt("%.1f", r.hi_m) + " m -> 0 ... 65535 (linear).\n" +
-      (side != n ? "Resampled from " + std::to_string(n) + " to " + std::to_string(side) +
+      (side != resampled_from ? "Resampled from " + std::to_string(resampled_from) + " to " + std::to_string(side) +
                        " samples a side (Unity takes 2^n+1 up to 4097; larger terrains are tiled).\n"
                  : std::string()) +
       "\nFor each tile NAME_X_Z.raw (X east, Z north; one file when there is no suffix):\n"
@@ -110,8 +112,27 @@ nlohmann::json stage_unity(StagedOutputs& staged, const fs::path& dir, const std
   readme += "\n";
   stage_text(staged, dir / "README.txt", readme);
   return {{"engine", "unity"}, {"tiles", files}, {"tiles_per_axis", tiles}, {"tile_side_px", tile_side},
-          {"alphamap_px", alpha}, {"resampled_from_px", n}, {"side_px", side}, {"range_m", {r.lo_m, r.hi_m}},
+          {"alphamap_px", alpha}, {"resampled_from_px", resampled_from}, {"side_px", side}, {"range_m", {r.lo_m, r.hi_m}},
           {"terrain_size_m", {width_m, height_m, width_m}}, {"position_y_m", r.lo_m}, {"row_order", "south first"}};
+}
+
+
+}  // namespace detail
+
+namespace {
+
+nlohmann::json stage_unity(StagedOutputs& staged, const fs::path& dir, const std::string& name, const BundleInput& in) {
+  const int n = in.height_m.cols, tiles = unity_tiles(n);
+  const int side = tiles == 1 ? unity_side(n) : tiles * kUnityTileCells + 1;
+  const cv::Mat1f h = side == n ? in.height_m : resample_corners(in.height_m, side);
+  const double mpp = in.metres_per_px * (n - 1) / (side - 1);
+  const int alpha = (tiles == 1 ? side : kUnityMaxSide) - 1;
+  // The island's weights resampled once to the whole alphamap, then cut.
+  const auto splat = splats_at(*in.layers, tiles * alpha);
+  return detail::stage_unity_tiles(staged, dir, name, h, n, mpp, kUnityMaxSide, [&](const cv::Rect& rect, int a) {
+    const cv::Rect cut(rect.x / (rect.width - 1) * a, rect.y / (rect.height - 1) * a, a, a);
+    return std::array<cv::Mat4b, 2>{splat[0](cut).clone(), splat[1](cut).clone()};
+  });
 }
 
 nlohmann::json stage_unreal(StagedOutputs& staged, const fs::path& dir, const std::string& name, const BundleInput& in) {

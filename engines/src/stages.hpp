@@ -1,6 +1,8 @@
 #pragma once
 // Pieces the bundle writers share (engines/src only).
+#include <array>
 #include <filesystem>
+#include <functional>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -28,5 +30,16 @@ nlohmann::json stage_godot(StagedOutputs& staged, const std::filesystem::path& d
                            const BundleInput& in, int threads);
 nlohmann::json stage_blender(StagedOutputs& staged, const std::filesystem::path& dir, const std::string& name,
                              const BundleInput& in, int threads);
+
+// A Unity tile's two splat maps (RGBA8, alphamap_px a side) for the heights'
+// rectangle `rect` (its samples, corner to corner).
+using UnitySplats = std::function<std::array<cv::Mat4b, 2>(const cv::Rect& rect, int alphamap_px)>;
+// Unity's bundle of heights `h` already at Unity's sides (2ⁿ + 1 up to
+// tile_side, or tiles · (tile_side − 1) + 1: NAME_X_Z tiles whose shared
+// edges are equal), each tile's splat maps from splat_of, made as the tile
+// is written.
+nlohmann::json stage_unity_tiles(StagedOutputs& staged, const std::filesystem::path& dir, const std::string& name,
+                                 const cv::Mat1f& h, int resampled_from, double metres_per_px, int tile_side,
+                                 const UnitySplats& splat_of);
 
 }  // namespace reefgen::engines::detail

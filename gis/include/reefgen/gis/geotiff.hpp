@@ -5,6 +5,7 @@
 // (gdalinfo, gdaldem, gdal_contour, QGIS) read them unscaled. LibTorch-free.
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -86,12 +87,36 @@ namespace reefgen::gis {
 // tools and web tilers read tiles of a few thousand pixels at a time.
 inline constexpr int kGeoTiffTileMaxPx = 4096;
 
-// Stages a world's heights as TILE×TILE float32 GeoTIFFs NAME_x{i}_y{j}.height.tif
-// in `dir` (i east, j south from the north-west tile; no overlap: the tiles
-// partition the field; tiles per axis = ⌈side / kGeoTiffTileMaxPx⌉, the
-// last tile the remainder) and one VRT mosaic NAME.height.vrt that GDAL
-// opens as the whole field. Same pixel size, CRS and origin rules as
-// write_geotiff. Returns the sidecar's object (files, tile size, VRT).
+// How a world is cut into GeoTIFF tiles: nx × ny tiles of tw × th pixels
+// (the last row and column the remainder), tiles per axis ⌈side / max⌉.
+struct TileGrid {
+  int nx = 1, ny = 1, tw = 0, th = 0;
+  cv::Size size;
+  cv::Rect rect(int i, int j) const;  // tile (i east, j south) in the world
+};
+TileGrid tile_grid(cv::Size world, int tile_max_px = kGeoTiffTileMaxPx);
+
+// One raster of a tiled world: files NAME_x{i}_y{j}<suffix>.tif and the
+// mosaic NAME<suffix>.vrt, float32, `units` and `description` in each.
+struct TiledBand {
+  std::string suffix;  // ".height", ".flow", …
+  std::string units, description;
+};
+// The pixels of every band of one tile, in the order of the bands.
+using TileBands = std::function<std::vector<cv::Mat1f>(const cv::Rect& tile)>;
+
+// Stages a world's bands as float32 GeoTIFF tiles in `dir` (the grid of
+// tile_grid: i east, j south from the north-west tile, no overlap) and one
+// VRT mosaic per band that GDAL opens as the whole field. Same pixel size,
+// CRS and origin rules as write_geotiff. Tiles are made one at a time by
+// `tile` (bounded memory) and written as they come. Returns the sidecar's
+// object (files per band, tile size, mosaics).
+nlohmann::json stage_geotiff_band_tiles(StagedOutputs& staged, const std::filesystem::path& dir, const std::string& name,
+                                        cv::Size world, double metres_per_px, const GeoReference& geo,
+                                        const std::vector<TiledBand>& bands, const TileBands& tile, int threads = 1,
+                                        int tile_max_px = kGeoTiffTileMaxPx);
+
+// The heights alone: NAME_x{i}_y{j}.height.tif and NAME.height.vrt.
 nlohmann::json stage_geotiff_tiles(StagedOutputs& staged, const std::filesystem::path& dir, const std::string& name,
                                    const cv::Mat1f& height_m, double metres_per_px, const GeoReference& geo,
                                    int threads = 1, int tile_max_px = kGeoTiffTileMaxPx);

@@ -1,0 +1,217 @@
+#include "reefgen/engines/world_bundle.hpp"
+
+#include <algorithm>
+
+#include "reefgen/error.hpp"
+#include "reefgen/io.hpp"
+#include "stages.hpp"
+
+namespace reefgen::engines {
+
+namespace fs = std::filesystem;
+using detail::fmt;
+using detail::stage_text;
+
+namespace {
+
+std::string tile_stem(const std::string& name, int i, int j) {
+  return name + "_x" + std::to_string(i) + "_y" + std::to_string(j);
+}
+
+// The float layers a GIS reads, in the GeoTIFF files' order and units.
+const std::vector<gis::TiledBand>& float_layer_bands() {
+  static const std::vector<gis::TiledBand> bands = {{".flow", "square metre", "drainage area"},
+                                                    {".slope", "degree", "steepest slope"},
+                                                    {".wear", "metre", "material the erosion removed"},
+                                                    {".deposit", "metre", "material laid down"}};
+  return bands;
+}
+
+std::vector<cv::Mat1f> float_layers(const terrain::Layers& L) {
+  return {L.flow_area_m2, L.slope_deg, L.wear_m, L.deposit_m};
+}
+
+const terrain::WorldLayerField& need_field(const WorldInput& in, Engine e) {
+  if (!in.field) throw Error("internal: the " + std::string(to_string(e)) + " world bundle needs the layers");
+  return *in.field;
+}
+
+nlohmann::json stage_unity_world(StagedOutputs& staged, const fs::path& dir, const std::string& name,
+                                 const WorldInput& in, int threads) {
+  const terrain::WorldLayerField& f = need_field(in, Engine::Unity);
+  const int n = in.height_m.cols, cells = in.tiling.unity_tile_side - 1;
+  const int tiles = std::max(1, (n - 1 + cells - 1) / cells), side = tiles * cells + 1;
+  const cv::Mat1f h = side == n ? in.height_m : resample_corners(in.height_m, side);
+  const double mpp = in.metres_per_px * (n - 1) / (side - 1);
+  return detail::stage_unity_tiles(staged, dir, name, h, n, mpp, in.tiling.unity_tile_side, [&](const cv::Rect& rect, int alpha) {
+    const terrain::Layers L = terrain::world_layers_tile(h, f, rect, in.rules, threads);
+    return terrain::splat_maps(detail::weights_at(L, alpha));
+  });
+}
+
+nlohmann::json stage_unreal_world(StagedOutputs& staged, const fs::path& dir, const std::string& name,
+                                  const WorldInput& in, int threads) {
+  const terrain::WorldLayerField& f = need_field(in, Engine::Unreal);
+  const WorldTiling& t = in.tiling;
+  const int n = in.height_m.cols, per_axis = t.unreal_tiles_per_axis, tile_px = t.unreal_tile_px;
+  const int side = per_axis * tile_px, quads = t.unreal_section_quads;
+  if ((side - 1) % quads != 0) throw Error("internal: the Unreal world's side is not whole sections");
+  const cv::Mat1f h = side == n ? in.height_m : resample_corners(in.height_m, side);
+  const double mpp = in.metres_per_px * (n - 1) / (side - 1);
+  const HeightRange r = export_range(h);
+  nlohmann::json tiles = nlohmann::json::array();
+  for (int j = 0; j < per_axis; ++j)
+    for (int i = 0; i < per_axis; ++i) {
+      const cv::Rect rect(i * tile_px, j * tile_px, tile_px, tile_px);
+      const std::string stem = tile_stem(name, i, j);
+      const terrain::Layers L = terrain::world_layers_tile(h, f, rect, in.rules, threads);
+      const std::array<cv::Mat4b, 2> splat = terrain::splat_maps(L);
+      std::vector<StagedOutputs::Job> jobs;
+      const cv::Mat1f ht = h(rect);
+      jobs.emplace_back(dir / (stem + ".png"), [ht, r](const fs::path& p) { write_png16(p, ht, r.lo_m, r.hi_m); });
+      nlohmann::json layer_files = nlohmann::json::object();
+      for (int m = 0; m < terrain::kNumMaterials; ++m) {
+        cv::Mat1b w;
+        cv::extractChannel(splat[size_t(m / 4)], w, m % 4);
+        const std::string file = name + "_" + terrain::material_name(m) + "_x" + std::to_string(i) + "_y" + std::to_string(j) + ".png";
+        jobs.emplace_back(dir / file, [w](const fs::path& p) { write_png(p, w); });
+        layer_files[terrain::material_name(m)] = file;
+      }
+      staged.write_all(jobs, threads);
+      tiles.push_back({{"x", i}, {"y", j}, {"heightmap", stem + ".png"}, {"weight_layers", layer_files}});
+    }
+  // Unreal maps the 16 bits to 512 m at Z scale 100 %, centred on code 32768.
+  const double scale_z = (r.hi_m - r.lo_m) * 100.0 / 512.0, scale_xy = mpp * 100.0;
+  const double loc_z = (r.lo_m + r.hi_m) / 2 * 100.0, half = (side - 1) / 2.0 * scale_xy;
+  const int components = (side - 1) / quads;
+  std::string readme =
+      "reefgen world for Unreal Engine 5 (Landscape, World Partition), " + std::to_string(per_axis * per_axis) +
+      " tiles\n\n"
+      "Heights: " + name + "_x<i>_y<j>.png, " + std::to_string(per_axis) + " x " + std::to_string(per_axis) + " tiles of " +
+      std::to_string(tile_px) + "x" + std::to_string(tile_px) +
+      " 16-bit greyscale, no overlap: one Landscape of " + std::to_string(side) + "x" + std::to_string(side) +
+      " samples.\nTile x<i> is the i-th from the west, y<j> the j-th from the north (row 0 = north, the -Y side).\n"
+      "Range: " + fmt("%.1f", r.lo_m) + " m ... " + fmt("%.1f", r.hi_m) + " m -> 0 ... 65535 (linear), the same in every tile.\n" +
+      (side != n ? "Resampled from " + std::to_string(n) + " to " + std::to_string(side) + " samples a side (corner to corner).\n"
+                 : std::string()) +
+      "\n1. A World Partition level; Landscape mode > Manage > New > Import from File: Heightmap File " + name +
+      "_x0_y0.png\n   (the importer finds every _x<i>_y<j> tile and places tile (i, j) at (" +
+      std::to_string(tile_px) + " i, " + std::to_string(tile_px) + " j)).\n"
+      "2. Section Size " + std::to_string(quads) + "x" + std::to_string(quads) +
+      " Quads, Sections Per Component 1x1, Number of Components " + std::to_string(components) + " x " +
+      std::to_string(components) + " (" + std::to_string(side - 1) + " = " + std::to_string(quads) +
+      " x " + std::to_string(components) + " quads: no resampling in Unreal).\n"
+      "3. Location X " + fmt("%.1f", -half) + ", Y " + fmt("%.1f", -half) + ", Z " + fmt("%.1f", loc_z) +
+      " (sea level at Z = 0); Scale X " + fmt("%.4f", scale_xy) + ", Y " + fmt("%.4f", scale_xy) + ", Z " +
+      fmt("%.4f", scale_z) + ".\n"
+      "4. Layers: a Landscape material with these weight-blended layers; for each, pick its _x0_y0 tile:\n";
+  for (int m = 0; m < terrain::kNumMaterials; ++m)
+    readme += std::string("   ") + terrain::material_name(m) + ": " + name + "_" + terrain::material_name(m) + "_x0_y0.png\n";
+  readme += "   (8-bit greyscale, tiled as the heights; the eight sum to 255 at every pixel)\n";
+  stage_text(staged, dir / "README.txt", readme);
+  return {{"engine", "unreal"}, {"tiles", tiles}, {"tiles_per_axis", per_axis}, {"tile_px", tile_px},
+          {"side_px", side}, {"resampled_from_px", n}, {"section_quads", quads},
+          {"components_per_axis", components}, {"range_m", {r.lo_m, r.hi_m}},
+          {"scale_cm", {scale_xy, scale_xy, scale_z}}, {"location_cm", {-half, -half, loc_z}}};
+}
+
+nlohmann::json stage_gis_world(StagedOutputs& staged, const fs::path& dir, const std::string& name,
+                               const WorldInput& in, int threads) {
+  std::vector<gis::TiledBand> bands = {{".height", "metre", "height above sea level"}};
+  if (in.field) bands.insert(bands.end(), float_layer_bands().begin(), float_layer_bands().end());
+  const cv::Mat1f& h = in.height_m;
+  nlohmann::json j = gis::stage_geotiff_band_tiles(
+      staged, dir, name, h.size(), in.metres_per_px, in.geo, bands,
+      [&](const cv::Rect& r) {
+        std::vector<cv::Mat1f> out = {h(r)};
+        if (in.field) {
+          const auto more = float_layers(terrain::world_layers_tile(h, *in.field, r, in.rules, threads));
+          out.insert(out.end(), more.begin(), more.end());
+        }
+        return out;
+      },
+      threads, in.tiling.gis_tile_max_px);
+  const std::string readme =
+      "reefgen world for GIS: " + std::to_string(h.cols) + "x" + std::to_string(h.rows) + " float32 heights in metres, " +
+      fmt("%.6f", in.metres_per_px) + " m a pixel, in GeoTIFF tiles NAME_xI_yJ.height.tif (I east, J south, no overlap)\n"
+      "and one mosaic " + name + ".height.vrt that GDAL and QGIS open as the whole world" +
+      (in.field ? "; the float layers (flow in m^2, slope in degrees, wear and deposit in m) tiled the same way,\n"
+                  "each with its own mosaic NAME.<layer>.vrt"
+                : "") +
+      ":\n  gdalinfo " + name + ".height.vrt\n  gdaldem hillshade " + name + ".height.vrt hillshade.tif\n";
+  stage_text(staged, dir / "README.txt", readme);
+  j["engine"] = "gis";
+  return j;
+}
+
+}  // namespace
+
+std::string world_size_note(Engine e, int side, const WorldTiling& t) {
+  const int unreal_side = t.unreal_tiles_per_axis * t.unreal_tile_px;
+  if (e != Engine::Unreal) return size_note(e, side);
+  if (side == unreal_side) return "";
+  return "--for unreal: " + std::to_string(side) + "² resampled to " + std::to_string(unreal_side) + "² in " +
+         std::to_string(t.unreal_tiles_per_axis) + "×" + std::to_string(t.unreal_tiles_per_axis) +
+         " World Partition tiles of " + std::to_string(t.unreal_tile_px) + "² (use --size " +
+         std::to_string(unreal_side) + " to avoid it)";
+}
+
+bool has_world_bundle(Engine e) { return e == Engine::Unity || e == Engine::Unreal || e == Engine::Gis; }
+
+nlohmann::json stage_world_layers(StagedOutputs& staged, const fs::path& dir, const std::string& name,
+                                  const WorldInput& in, bool geotiff, int threads) {
+  if (!in.field) throw Error("internal: the world's layers need their field");
+  const cv::Mat1f& h = in.height_m;
+  const terrain::LayerScales scales = terrain::world_layer_scales(h, *in.field);
+  nlohmann::json encoding;
+  nlohmann::json files = nlohmann::json::array();
+  // Each tile's layer files are staged as the tile is made; its float layers
+  // go to the GeoTIFF tiles (none without --geotiff).
+  const std::vector<gis::TiledBand> bands = geotiff ? float_layer_bands() : std::vector<gis::TiledBand>{};
+  nlohmann::json j = gis::stage_geotiff_band_tiles(
+      staged, dir, name, h.size(), in.metres_per_px, in.geo, bands,
+      [&](const cv::Rect& r) {
+        const gis::TileGrid g = gis::tile_grid(h.size(), in.tiling.gis_tile_max_px);
+        const std::string stem = tile_stem(name, r.x / g.tw, r.y / g.th);
+        const terrain::Layers L = terrain::world_layers_tile(h, *in.field, r, in.rules, threads);
+        encoding = terrain::stage_layer_files(staged, (dir / stem).string(), L, in.metres_per_px, in.rules, threads, &scales);
+        files.push_back({{"x", r.x / g.tw}, {"y", r.y / g.th}, {"files", encoding["files"]}});
+        return geotiff ? float_layers(L) : std::vector<cv::Mat1f>{};
+      },
+      threads, in.tiling.gis_tile_max_px);
+  encoding.erase("files");
+  const std::string readme =
+      "reefgen world layers: " + std::to_string(h.cols) + "x" + std::to_string(h.rows) + " samples in " +
+      std::to_string(files.size()) + " tiles NAME_x<i>_y<j>.<layer>.png (i east, j south, no overlap; tile size in the\n"
+      "sidecar). Every tile has flow, slope, wear, deposit, normal, splat0 + splat1 (8 material weights summing to 255)\n"
+      "and materials; the encodings and their scales are the whole world's, the same in every tile (docs/LAYERS.md)." +
+      (geotiff ? std::string("\nThe float layers are also GeoTIFF tiles, each layer with a VRT mosaic NAME.<layer>.vrt.") : "") +
+      "\n";
+  stage_text(staged, dir / "README.txt", readme);
+  j["layer_tiles"] = files;
+  j["layers"] = encoding;
+  j["scales"] = {{"flow_area_m2", scales.flow_area_m2}, {"wear_m", scales.wear_m}, {"deposit_m", scales.deposit_m}};
+  j["coarse_px"] = {in.field->flow_area_m2.cols, in.field->flow_area_m2.rows};
+  if (!geotiff) {
+    j.erase("tiles");
+    j.erase("mosaics");
+  }
+  return j;
+}
+
+nlohmann::json stage_world_bundle(StagedOutputs& staged, const fs::path& dir, const std::string& name, Engine e,
+                                  const WorldInput& in, int threads) {
+  if (!has_world_bundle(e))
+    throw Error("--for " + std::string(to_string(e)) + ": a world past one file per layer has no " + to_string(e) +
+                " bundle (use unity, unreal or gis, or a world of at most 8192²)");
+  if (e != Engine::Gis && in.height_m.rows != in.height_m.cols) throw Error("bundle: the height field must be square");
+  ensure_writable_dir(dir);
+  nlohmann::json j = e == Engine::Unity    ? stage_unity_world(staged, dir, name, in, threads)
+                     : e == Engine::Unreal ? stage_unreal_world(staged, dir, name, in, threads)
+                                           : stage_gis_world(staged, dir, name, in, threads);
+  j["folder"] = dir.filename().string();
+  j["readme"] = "README.txt";
+  return j;
+}
+
+}  // namespace reefgen::engines
