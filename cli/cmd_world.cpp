@@ -18,6 +18,7 @@
 #include "reefgen/io.hpp"
 #include "reefgen/model/shipped.hpp"
 #include "reefgen/parallel.hpp"
+#include "reefgen/sha256.hpp"
 #include "reefgen/train/fused_adam.hpp"
 #include "reefgen/version.hpp"
 
@@ -47,6 +48,68 @@ void refuse_world_over_sketch(const WorldArgs& a, const fs::path& prefix) {
   for (const auto& ext : terrain::layer_file_suffixes()) outs.push_back(prefix.string() + ext);
   for (const auto& ext : gis::geotiff_suffixes()) outs.push_back(prefix.string() + ext);
   refuse_output_over_input({fs::path(a.sketch)}, outs);
+}
+
+// An interrupted world's finished work, kept beside it in PREFIX.partial/ for
+// the same command to resume: the model's answer and the amplified heights,
+// and every output file written so far (a resumable StagedOutputs). A
+// different command (another sketch, size, seed, model or finishing flag)
+// starts again.
+class WorldCheckpoint {
+ public:
+  WorldCheckpoint(const fs::path& prefix, const nlohmann::json& key, bool quiet)
+      : dir_(prefix.string() + ".partial") {
+    std::error_code ec;
+    const fs::path key_file = dir_ / "key.json";
+    if (fs::is_regular_file(key_file, ec)) {
+      try {
+        resumed_ = read_json(key_file) == key;
+      } catch (const Error&) {
+        resumed_ = false;
+      }
+      if (!resumed_ && !quiet)
+        std::fprintf(stderr, "note: %s holds another world's work; starting again\n", dir_.c_str());
+    }
+    if (!resumed_) {
+      fs::remove_all(dir_, ec);
+      ensure_writable_dir(dir_);
+      write_json_atomic(key_file, key);
+    }
+  }
+  bool resumed() const { return resumed_; }
+  const fs::path& dir() const { return dir_; }
+  // A field saved by an earlier run of this command, if any.
+  std::optional<cv::Mat1f> load(const std::string& name) const {
+    std::error_code ec;
+    if (!resumed_ || !fs::is_regular_file(dir_ / name, ec)) return std::nullopt;
+    return read_exr_height(dir_ / name);
+  }
+  // Uncompressed: a 16385² field is written in seconds.
+  void save(const std::string& name, const cv::Mat1f& field) const { write_exr_height(dir_ / name, field, {}, 0); }
+
+ private:
+  fs::path dir_;
+  bool resumed_ = false;
+};
+
+// What a world's bytes depend on: a checkpoint is resumed only by the same.
+nlohmann::json world_key(const WorldArgs& a, const std::string& model_path, int64_t train_step) {
+  const std::string sketch = read_text(a.sketch, size_t(256) << 20);
+  std::string rules;
+  if (!a.finish.layer_rules.empty()) rules = read_text(a.finish.layer_rules, size_t(1) << 20);
+  return {{"sketch_sha256", sha256_hex(sketch.data(), sketch.size())},
+          {"model", fs::absolute(model_path).string()},
+          {"train_step", train_step},
+          {"size", a.size},
+          {"metres_per_px", a.metres_per_px},
+          {"world_size_m", a.world_size_m},
+          {"seed", a.seed},
+          {"raw", a.raw},
+          {"precision", a.precision},
+          {"engine", a.engine},
+          {"files", {a.png16, a.r16, a.preview, a.finish.layers, a.finish.geotiff, a.finish.crs, a.finish.origin,
+                     a.finish.engines, sha256_hex(rules.data(), rules.size())}},
+          {"version", kVersion}};
 }
 
 // Past kMaxWholeAmplifySidePx a world is made in bands and written in tiles
@@ -127,18 +190,104 @@ void stage_world_finish(StagedOutputs& staged, const WorldArgs& a, const FinishF
   if (!bundles.empty())
     side["bundles"].update(engines::stage_bundles(staged, prefix, bundles, {h, L ? &*L : nullptr, mpp, fin.geo}, threads));
 }
+// The world's fields: the model's answer at its scale, the regions there,
+// and the finished heights (amplified unless --raw). Each is taken from the
+// checkpoint when an earlier run of this command made it.
+struct WorldFields {
+  cv::Mat1f model_h, h;
+  cv::Mat1b region_model;
+  double world_m = 0;
+};
+
+WorldFields world_fields(const WorldArgs& a, const FinishFlags::Parsed& fin, model::GeneratorFile& gen,
+                         const DecodedSketch& s, double mpp_sketch, const infer::InferOptions& io,
+                         const WorldCheckpoint& checkpoint, bool quiet) {
+  WorldFields w;
+  auto t = std::chrono::steady_clock::now();
+  const std::optional<cv::Mat1f> saved_model = checkpoint.load("model.exr");
+  w.model_h = saved_model ? *saved_model : infer::world_model_heights(gen, s, mpp_sketch, io);
+  if (!saved_model) checkpoint.save("model.exr", w.model_h);
+  if (!quiet)
+    std::fprintf(stderr, "world: %dx%d px at %.1f m (%.1f km across), model pass %.1f s%s\n", w.model_h.cols,
+                 w.model_h.rows, kModelMetresPerPx, w.model_h.cols * kModelMetresPerPx / 1000, seconds_since(t),
+                 saved_model ? " (resumed)" : "");
+  w.world_m = w.model_h.cols * kModelMetresPerPx;
+  cv::resize(s.label, w.region_model, w.model_h.size(), 0, 0, cv::INTER_NEAREST);
+  w.h = w.model_h;
+  if (a.raw) return w;
+  if (auto saved = checkpoint.load("heights.exr")) {
+    w.h = *saved;
+    if (!quiet) std::fprintf(stderr, "world: amplified heights resumed from %s\n", checkpoint.dir().c_str());
+    return w;
+  }
+  const int N = a.size > 0 ? a.size : std::max(w.model_h.cols, w.model_h.rows);
+  if (N <= infer::kMaxWholeAmplifySidePx) note_bundle_sizes(fin, N, quiet);
+  else if (!quiet)
+    for (const auto e : fin.bundles)
+      if (const auto note = engines::world_size_note(e, N); !note.empty()) std::fprintf(stderr, "note: %s\n", note.c_str());
+  t = std::chrono::steady_clock::now();
+  if (!quiet) std::fprintf(stderr, "world: amplifying to %d² ...\n", N);
+  Progress progress("world: last level, bands", size_t((N + infer::kWorldBandRowsPx - 1) / infer::kWorldBandRowsPx), quiet);
+  w.h = infer::amplify_world(w.model_h, w.region_model, N, w.world_m, a.seed, io.erosion,
+                             [&](int done, int) { progress.tick(size_t(done)); });
+  cv::min(cv::max(w.h, gen.range.lo_m), gen.range.hi_m, w.h);
+  if (!quiet) std::fprintf(stderr, "world: amplified to %d² in %.1f s\n", w.h.cols, seconds_since(t));
+  checkpoint.save("heights.exr", w.h);
+  return w;
+}
+
+// Every file of the world, staged in the checkpoint (kept there if the run
+// stops) and moved into place together; then the checkpoint goes.
+void write_world(const WorldArgs& a, const FinishFlags::Parsed& fin, const WorldFields& w, const fs::path& prefix,
+                 const std::string& model_path, int64_t train_step, double mpp_sketch, const WorldCheckpoint& checkpoint,
+                 int threads, bool quiet) {
+  const cv::Mat1f& h = w.h;
+  const double mpp = w.world_m / h.cols;
+  double hmin, hmax;
+  cv::minMaxLoc(h, &hmin, &hmax);
+  nlohmann::json side = {{"reefgen_version", kVersion},
+                         {"sketch", fs::absolute(a.sketch).string()},
+                         {"model", {{"path", fs::absolute(model_path).string()}, {"train_step", train_step}}},
+                         {"world", {{"sketch_metres_per_px", mpp_sketch},
+                                    {"model_metres_per_px", kModelMetresPerPx},
+                                    {"model_side_px", {w.model_h.cols, w.model_h.rows}},
+                                    {"raw", a.raw},
+                                    {"seed", a.seed}}},
+                         {"size_px", {h.cols, h.rows}},
+                         {"metres_per_px", mpp},
+                         {"height_range_m", {hmin, hmax}}};
+  HeightFiles hf;
+  hf.png16 = a.png16;
+  hf.r16 = a.r16;
+  hf.preview = a.preview;
+  const auto t = std::chrono::steady_clock::now();
+  StagedOutputs staged(checkpoint.dir() / "files", prefix.has_parent_path() ? prefix.parent_path() : fs::path("."));
+  side.update(stage_height_files(staged, prefix, h, mpp, hf));
+  stage_world_finish(staged, a, fin, prefix.string(), h, w.model_h, w.region_model, mpp, threads, quiet, side);
+  staged.write(prefix.string() + ".json", [&](const fs::path& tmp) { write_json_atomic(tmp, side); });
+  staged.commit();
+  std::error_code ec;
+  fs::remove_all(checkpoint.dir(), ec);
+  if (!quiet)
+    std::fprintf(stderr, "world: files written in %.1f s%s\n", seconds_since(t),
+                 staged.resumed_count() ? (" (" + std::to_string(staged.resumed_count()) + " resumed)").c_str() : "");
+  for (const auto& f : staged.finals()) std::printf("%s\n", f.c_str());
+}
 }  // namespace
 
 Command add_world_command(CLI::App& app, const GlobalOptions& g) {
   auto a = std::make_shared<WorldArgs>();
   auto* sub = app.add_subcommand(
       "world",
-      "A sketch of a whole sea, read at the model's own scale (23.4 m a pixel), into one drained height field\n\n"
+      "A sketch of a whole sea, read at the model's own scale (23.4 m a pixel), into one drained height field.\n"
+      "Past 8192² the layers and bundles come in tiles. An interrupted run (Ctrl-C, a full disk) keeps its\n"
+      "finished work in PREFIX.partial/: the same command resumes it.\n\n"
       "Examples:\n"
       "  reefgen sketch random --size 2048x2048 --seed 1 -o sea.png\n"
       "  reefgen world sea.png -o out/sea --size 8192 --preview      # 48 km across, 5.9 m a pixel\n"
       "  reefgen world sea.png -o out/sea --size 8192 --for unity,unreal --layers\n"
       "  reefgen world sea.png -o out/sea --size 16385 --for gis        # GeoTIFF tiles + a VRT mosaic\n"
+      "  reefgen world sea.png -o out/sea --size 16385 --layers --for unity,unreal   # layers and engine tiles\n"
       "  reefgen world painted.png --world-size 30000 --raw -o out/w # the sketch's width is 30 km\n");
   sub->add_option("sketch", a->sketch, "Sketch image (any size and aspect)")->required();
   sub->add_option("-o,--output,--out", a->out, "Output prefix: PREFIX.height.exr, PREFIX.json, ...")->required();
@@ -183,57 +332,14 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
             io.precision = infer::precision_from_string(a->precision);
             io.engine = infer::engine_from_string(a->engine);
             io.seed = a->seed;
-            auto t = std::chrono::steady_clock::now();
-            const cv::Mat1f model_h = infer::world_model_heights(gen, s, mpp_sketch, io);
-            if (!g.quiet)
-              std::fprintf(stderr, "world: %dx%d px at %.1f m (%.1f km across), model pass %.1f s\n", model_h.cols,
-                           model_h.rows, kModelMetresPerPx, model_h.cols * kModelMetresPerPx / 1000, seconds_since(t));
-            const double world_m = model_h.cols * kModelMetresPerPx;
-            cv::Mat1b region_model;
-            cv::resize(s.label, region_model, model_h.size(), 0, 0, cv::INTER_NEAREST);
-            cv::Mat1f h = model_h;
-            if (!a->raw) {
-              const int N = a->size > 0 ? a->size : std::max(model_h.cols, model_h.rows);
-              if (N <= infer::kMaxWholeAmplifySidePx) note_bundle_sizes(fin, N, g.quiet);
-              else if (!g.quiet)
-                for (const auto e : fin.bundles)
-                  if (const auto note = engines::world_size_note(e, N); !note.empty())
-                    std::fprintf(stderr, "note: %s\n", note.c_str());
-              t = std::chrono::steady_clock::now();
-              if (!g.quiet) std::fprintf(stderr, "world: amplifying to %d² ...\n", N);
-              Progress progress("world: last level, bands",
-                                size_t((N + infer::kWorldBandRowsPx - 1) / infer::kWorldBandRowsPx), g.quiet);
-              h = infer::amplify_world(model_h, region_model, N, world_m, a->seed, io.erosion,
-                                       [&](int done, int) { progress.tick(size_t(done)); });
-              cv::min(cv::max(h, gen.range.lo_m), gen.range.hi_m, h);
-              if (!g.quiet) std::fprintf(stderr, "world: amplified to %d² in %.1f s\n", h.cols, seconds_since(t));
+            const WorldCheckpoint checkpoint(prefix, world_key(*a, model_path, gen.train_step), g.quiet);
+            try {
+              const WorldFields w = world_fields(*a, fin, gen, s, mpp_sketch, io, checkpoint, g.quiet);
+              write_world(*a, fin, w, prefix, model_path, gen.train_step, mpp_sketch, checkpoint, threads, g.quiet);
+            } catch (const Error& e) {
+              throw Error(std::string(e.what()) + " (the work so far is kept in " + checkpoint.dir().string() +
+                          ": the same command resumes it)");
             }
-            const double mpp = world_m / h.cols;
-            double hmin, hmax;
-            cv::minMaxLoc(h, &hmin, &hmax);
-            nlohmann::json side = {{"reefgen_version", kVersion},
-                                   {"sketch", fs::absolute(a->sketch).string()},
-                                   {"model", {{"path", fs::absolute(model_path).string()}, {"train_step", gen.train_step}}},
-                                   {"world", {{"sketch_metres_per_px", mpp_sketch},
-                                              {"model_metres_per_px", kModelMetresPerPx},
-                                              {"model_side_px", {model_h.cols, model_h.rows}},
-                                              {"raw", a->raw},
-                                              {"seed", a->seed}}},
-                                   {"size_px", {h.cols, h.rows}},
-                                   {"metres_per_px", mpp},
-                                   {"height_range_m", {hmin, hmax}}};
-            HeightFiles hf;
-            hf.png16 = a->png16;
-            hf.r16 = a->r16;
-            hf.preview = a->preview;
-            t = std::chrono::steady_clock::now();
-            StagedOutputs staged;
-            side.update(stage_height_files(staged, prefix, h, mpp, hf));
-            stage_world_finish(staged, *a, fin, prefix.string(), h, model_h, region_model, mpp, threads, g.quiet, side);
-            staged.write(prefix.string() + ".json", [&](const fs::path& tmp) { write_json_atomic(tmp, side); });
-            staged.commit();
-            if (!g.quiet) std::fprintf(stderr, "world: files written in %.1f s\n", seconds_since(t));
-            for (const auto& f : staged.finals()) std::printf("%s\n", f.c_str());
             return 0;
           }};
 }

@@ -651,6 +651,22 @@ else bad "world --size on a sketch that is not square: $(cat "$T/err")"; fi
   && ok || bad "infer of a 768x512 sketch does not point to reefgen world"
 expect_error "the engine bundles take square worlds" world "$T/w/sea.png" --size 1024 --for unity -o "$T/e/x"
 expect_error "no such sketch file" world "$T/w/none.png" -o "$T/w/x"
+# A world stopped part way (here an output path that is a folder; Ctrl-C
+# keeps the same) leaves nothing in place but its work in PREFIX.partial/;
+# the same command resumes it and makes the bytes of an uninterrupted run.
+mkdir -p "$T/w/r1/x.unity/x.splat1.png"
+"$BIN" -q world "$T/w/big.png" --size 1025 --layers --for unity -o "$T/w/r1/x" >/dev/null 2>"$T/err" \
+  && bad "world over a folder succeeded" \
+  || { grep -q "x.partial: the same command resumes it" "$T/err" && [ -f "$T/w/r1/x.partial/heights.exr" ] \
+       && [ ! -e "$T/w/r1/x.height.exr" ] && ok || bad "an interrupted world: $(cat "$T/err")"; }
+rmdir "$T/w/r1/x.unity/x.splat1.png"
+if "$BIN" world "$T/w/big.png" --size 1025 --layers --for unity -o "$T/w/r1/x" 2>"$T/err" >/dev/null \
+   && "$BIN" -q world "$T/w/big.png" --size 1025 --layers --for unity -o "$T/w/r2/x" >/dev/null 2>&1; then
+  grep -q "amplified heights resumed" "$T/err" && grep -q "resumed)" "$T/err" && [ ! -e "$T/w/r1/x.partial" ] \
+    && (cd "$T/w/r1" && find . -type f ! -name '*.json' | sort | xargs sha256sum) > "$T/w/r1.sha" \
+    && (cd "$T/w/r2" && find . -type f ! -name '*.json' | sort | xargs sha256sum) > "$T/w/r2.sha" \
+    && cmp -s "$T/w/r1.sha" "$T/w/r2.sha" && ok || bad "a resumed world differs from an uninterrupted one: $(cat "$T/err")"
+else bad "world resume: $(cat "$T/err")"; fi
 expect_error "--for godot: a world past 8192² is written in tiles" world "$T/w/big.png" --size 9000 --for godot -o "$T/e/x"
 expect_error "--for blender: a world past 8192² is written in tiles" world "$T/w/big.png" --size 9000 --for blender -o "$T/e/x"
 # Past 8192² the layers come in tiles on the GeoTIFF grid, with the world's

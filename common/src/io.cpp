@@ -125,13 +125,38 @@ void write_file_atomic(const fs::path& path, const void* data, size_t size) {
   commit_temp(tmp, path);
 }
 
+StagedOutputs::StagedOutputs(fs::path work_dir, fs::path base)
+    : work_(fs::absolute(work_dir).lexically_normal()), base_(fs::absolute(base).lexically_normal()) {}
+
 StagedOutputs::~StagedOutputs() {
-  if (committed_) return;
+  // A resumable run keeps what it staged for the next run.
+  if (committed_ || !work_.empty()) return;
   std::error_code ec;
   for (const auto& t : temps_) fs::remove(t, ec);
 }
 
-void StagedOutputs::write(const fs::path& final_path, const std::function<void(const fs::path&)>& writer) {
+fs::path StagedOutputs::kept_path(const fs::path& final_path) const {
+  const fs::path rel = fs::absolute(final_path).lexically_normal().lexically_relative(base_);
+  if (rel.empty() || *rel.begin() == "..")
+    throw Error("internal: " + final_path.string() + " lies outside the resumable run's folder " + base_.string());
+  return work_ / rel;
+}
+
+bool StagedOutputs::resumed(const fs::path& final_path) const {
+  std::error_code ec;
+  return !work_.empty() && fs::is_regular_file(kept_path(final_path), ec);
+}
+
+namespace {
+// The writer names the temporary file; the user knows the final one.
+std::string named_after_final(std::string what, const fs::path& tmp, const fs::path& final_path) {
+  const std::string t = tmp.string(), f = final_path.string();
+  for (size_t at = what.find(t); at != std::string::npos; at = what.find(t, at + f.size())) what.replace(at, t.size(), f);
+  return what.empty() ? "cannot write " + f : what;
+}
+}  // namespace
+
+fs::path StagedOutputs::stage(const fs::path& final_path) {
   if (committed_) throw Error("internal: " + final_path.string() + " staged after commit");
   std::error_code ec;
   if (const size_t n = final_path.filename().string().size(); n > kNameMaxBytes)
@@ -151,39 +176,72 @@ void StagedOutputs::write(const fs::path& final_path, const std::function<void(c
     remove_stale_temps(dir);
     swept_dirs_.push_back(dir);
   }
-  const fs::path tmp = temp_path_for(final_path);
-  temps_.push_back(tmp);
   finals_.push_back(final_path);
+  if (work_.empty()) {
+    temps_.push_back(temp_path_for(final_path));
+    return temps_.back();
+  }
+  const fs::path kept = kept_path(final_path);
+  temps_.push_back(kept);
+  // Temporaries a killed run left in work_dir go too (finished files stay).
+  if (std::find(swept_dirs_.begin(), swept_dirs_.end(), kept.parent_path()) == swept_dirs_.end() &&
+      fs::is_directory(kept.parent_path(), ec)) {
+    remove_stale_temps(kept.parent_path());
+    swept_dirs_.push_back(kept.parent_path());
+  }
+  if (fs::is_regular_file(kept, ec)) {
+    ++resumed_count_;
+    return {};
+  }
+  fs::create_directories(kept.parent_path(), ec);
+  if (ec) throw Error("cannot write " + kept.parent_path().string() + ": " + ec.message() + " (is the disk full?)");
+  return temp_path_for(kept);
+}
+
+void StagedOutputs::settle(const fs::path& tmp, const fs::path& final_path) {
+  if (work_.empty() || tmp.empty()) return;
+  commit_temp(tmp, kept_path(final_path));
+}
+
+void StagedOutputs::write(const fs::path& final_path, const std::function<void(const fs::path&)>& writer) {
+  const fs::path tmp = stage(final_path);
+  if (tmp.empty()) return;
   try {
     writer(tmp);
   } catch (const std::exception& e) {
-    // The writer names the temporary file; the user knows the final one.
-    std::string what = e.what();
-    const std::string t = tmp.string(), f = final_path.string();
-    for (size_t at = what.find(t); at != std::string::npos; at = what.find(t, at + f.size()))
-      what.replace(at, t.size(), f);
-    throw Error(what);
+    if (!work_.empty()) {
+      std::error_code ec;
+      fs::remove(tmp, ec);
+    }
+    throw Error(named_after_final(e.what(), tmp, final_path));
   }
+  settle(tmp, final_path);
 }
 
 void StagedOutputs::write_all(const std::vector<Job>& jobs, int threads) {
   // Registered one by one (names checked, temporaries named), written together.
   std::vector<fs::path> tmps;
-  for (const auto& [final_path, writer] : jobs)
-    write(final_path, [&tmps](const fs::path& t) { tmps.push_back(t); });
+  for (const auto& job : jobs) tmps.push_back(stage(job.first));
   std::vector<std::string> errors(jobs.size());
   parallel_for(jobs.size(), threads, [&](size_t i) {
+    if (tmps[i].empty()) return;  // resumed
     try {
       jobs[i].second(tmps[i]);
     } catch (const std::exception& e) {
-      std::string what = e.what();
-      const std::string t = tmps[i].string(), f = jobs[i].first.string();
-      for (size_t at = what.find(t); at != std::string::npos; at = what.find(t, at + f.size())) what.replace(at, t.size(), f);
-      errors[i] = what.empty() ? "cannot write " + f : what;
+      errors[i] = named_after_final(e.what(), tmps[i], jobs[i].first);
     }
   });
-  for (const auto& e : errors)
-    if (!e.empty()) throw Error(e);
+  for (size_t i = 0; i < jobs.size(); ++i)
+    if (!errors[i].empty()) {
+      if (!work_.empty())
+        for (size_t k = 0; k < jobs.size(); ++k)
+          if (!tmps[k].empty()) {
+            std::error_code ec;
+            fs::remove(tmps[k], ec);
+          }
+      throw Error(errors[i]);
+    }
+  for (size_t i = 0; i < jobs.size(); ++i) settle(tmps[i], jobs[i].first);
 }
 
 void StagedOutputs::commit() {
@@ -196,6 +254,7 @@ void StagedOutputs::commit() {
   }
   for (size_t i = 0; i < temps_.size(); ++i) commit_temp(temps_[i], finals_[i]);
   committed_ = true;
+  if (!work_.empty()) fs::remove_all(work_, ec);
 }
 
 AtomicTextWriter::AtomicTextWriter(const fs::path& path) : path_(path), tmp_(temp_path_for(path)) {

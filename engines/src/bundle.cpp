@@ -78,12 +78,17 @@ nlohmann::json stage_unity_tiles(StagedOutputs& staged, const fs::path& dir, con
       const std::string stem = tiles == 1 ? name : name + "_" + std::to_string(tx) + "_" + std::to_string(tz);
       const int row0 = (tiles - 1 - tz) * (tile_side - 1), col0 = tx * (tile_side - 1);
       const cv::Rect rect(col0, row0, tile_side, tile_side);
-      const std::vector<uint8_t> raw = unity_raw_bytes(h(rect), r);
-      staged.write(dir / (stem + ".raw"), [&](const fs::path& p) { write_file_atomic(p, raw.data(), raw.size()); });
-      const std::array<cv::Mat4b, 2> splat = splat_of(rect, alpha);
+      staged.write(dir / (stem + ".raw"), [&](const fs::path& p) {
+        const std::vector<uint8_t> raw = unity_raw_bytes(h(rect), r);
+        write_file_atomic(p, raw.data(), raw.size());
+      });
+      const fs::path splat_files[2] = {dir / (stem + ".splat0.png"), dir / (stem + ".splat1.png")};
+      // A resumed run has them already: the tile's layers are not made again.
+      std::array<cv::Mat4b, 2> splat;
+      if (!staged.resumed(splat_files[0]) || !staged.resumed(splat_files[1])) splat = splat_of(rect, alpha);
       for (int s = 0; s < 2; ++s) {
         const cv::Mat4b cut = splat[size_t(s)];
-        staged.write(dir / (stem + ".splat" + std::to_string(s) + ".png"), [cut](const fs::path& p) { write_png(p, cut); });
+        staged.write(splat_files[s], [cut](const fs::path& p) { write_png(p, cut); });
       }
       files.push_back({{"raw", stem + ".raw"}, {"splat", {stem + ".splat0.png", stem + ".splat1.png"}}, {"x", tx}, {"z", tz}});
     }

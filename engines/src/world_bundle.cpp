@@ -31,6 +31,13 @@ std::vector<cv::Mat1f> float_layers(const terrain::Layers& L) {
   return {L.flow_area_m2, L.slope_deg, L.wear_m, L.deposit_m};
 }
 
+// True when a resumed run has every band file of tile `stem` already.
+bool resumed_bands(const StagedOutputs& staged, const fs::path& dir, const std::string& stem,
+                   const std::vector<gis::TiledBand>& bands) {
+  return std::all_of(bands.begin(), bands.end(),
+                     [&](const gis::TiledBand& b) { return staged.resumed(dir / (stem + b.suffix + ".tif")); });
+}
+
 const terrain::WorldLayerField& need_field(const WorldInput& in, Engine e) {
   if (!in.field) throw Error("internal: the " + std::string(to_string(e)) + " world bundle needs the layers");
   return *in.field;
@@ -64,18 +71,23 @@ nlohmann::json stage_unreal_world(StagedOutputs& staged, const fs::path& dir, co
     for (int i = 0; i < per_axis; ++i) {
       const cv::Rect rect(i * tile_px, j * tile_px, tile_px, tile_px);
       const std::string stem = tile_stem(name, i, j);
-      const terrain::Layers L = terrain::world_layers_tile(h, f, rect, in.rules, threads);
-      const std::array<cv::Mat4b, 2> splat = terrain::splat_maps(L);
+      nlohmann::json layer_files = nlohmann::json::object();
+      for (int m = 0; m < terrain::kNumMaterials; ++m)
+        layer_files[terrain::material_name(m)] =
+            name + "_" + terrain::material_name(m) + "_x" + std::to_string(i) + "_y" + std::to_string(j) + ".png";
+      // A resumed run has made this tile's weight layers already.
+      bool made = true;
+      for (const auto& [m, file] : layer_files.items()) made = made && staged.resumed(dir / file.get<std::string>());
+      std::array<cv::Mat4b, 2> splat;
+      if (!made) splat = terrain::splat_maps(terrain::world_layers_tile(h, f, rect, in.rules, threads));
       std::vector<StagedOutputs::Job> jobs;
       const cv::Mat1f ht = h(rect);
       jobs.emplace_back(dir / (stem + ".png"), [ht, r](const fs::path& p) { write_png16(p, ht, r.lo_m, r.hi_m); });
-      nlohmann::json layer_files = nlohmann::json::object();
       for (int m = 0; m < terrain::kNumMaterials; ++m) {
         cv::Mat1b w;
-        cv::extractChannel(splat[size_t(m / 4)], w, m % 4);
-        const std::string file = name + "_" + terrain::material_name(m) + "_x" + std::to_string(i) + "_y" + std::to_string(j) + ".png";
-        jobs.emplace_back(dir / file, [w](const fs::path& p) { write_png(p, w); });
-        layer_files[terrain::material_name(m)] = file;
+        if (!made) cv::extractChannel(splat[size_t(m / 4)], w, m % 4);
+        jobs.emplace_back(dir / layer_files[terrain::material_name(m)].get<std::string>(),
+                          [w](const fs::path& p) { write_png(p, w); });
       }
       staged.write_all(jobs, threads);
       tiles.push_back({{"x", i}, {"y", j}, {"heightmap", stem + ".png"}, {"weight_layers", layer_files}});
@@ -124,10 +136,14 @@ nlohmann::json stage_gis_world(StagedOutputs& staged, const fs::path& dir, const
       staged, dir, name, h.size(), in.metres_per_px, in.geo, bands,
       [&](const cv::Rect& r) {
         std::vector<cv::Mat1f> out = {h(r)};
-        if (in.field) {
-          const auto more = float_layers(terrain::world_layers_tile(h, *in.field, r, in.rules, threads));
-          out.insert(out.end(), more.begin(), more.end());
+        if (!in.field) return out;
+        const gis::TileGrid g = gis::tile_grid(h.size(), in.tiling.gis_tile_max_px);
+        if (resumed_bands(staged, dir, tile_stem(name, r.x / g.tw, r.y / g.th), float_layer_bands())) {
+          out.resize(bands.size());  // written by an earlier run: nothing to make
+          return out;
         }
+        const auto more = float_layers(terrain::world_layers_tile(h, *in.field, r, in.rules, threads));
+        out.insert(out.end(), more.begin(), more.end());
         return out;
       },
       threads, in.tiling.gis_tile_max_px);
@@ -163,7 +179,6 @@ nlohmann::json stage_world_layers(StagedOutputs& staged, const fs::path& dir, co
   if (!in.field) throw Error("internal: the world's layers need their field");
   const cv::Mat1f& h = in.height_m;
   const terrain::LayerScales scales = terrain::world_layer_scales(h, *in.field);
-  nlohmann::json encoding;
   nlohmann::json files = nlohmann::json::array();
   // Each tile's layer files are staged as the tile is made; its float layers
   // go to the GeoTIFF tiles (none without --geotiff).
@@ -173,13 +188,21 @@ nlohmann::json stage_world_layers(StagedOutputs& staged, const fs::path& dir, co
       [&](const cv::Rect& r) {
         const gis::TileGrid g = gis::tile_grid(h.size(), in.tiling.gis_tile_max_px);
         const std::string stem = tile_stem(name, r.x / g.tw, r.y / g.th);
-        const terrain::Layers L = terrain::world_layers_tile(h, *in.field, r, in.rules, threads);
-        encoding = terrain::stage_layer_files(staged, (dir / stem).string(), L, in.metres_per_px, in.rules, threads, &scales);
-        files.push_back({{"x", r.x / g.tw}, {"y", r.y / g.th}, {"files", encoding["files"]}});
-        return geotiff ? float_layers(L) : std::vector<cv::Mat1f>{};
+        const std::vector<std::string> suffixes = terrain::layer_file_suffixes();
+        const bool made = resumed_bands(staged, dir, stem, bands) &&
+                          std::all_of(suffixes.begin(), suffixes.end(),
+                                      [&](const std::string& x) { return staged.resumed(dir / (stem + x)); });
+        // A resumed tile: its files are registered, not made again.
+        const terrain::Layers L = made ? terrain::Layers{} : terrain::world_layers_tile(h, *in.field, r, in.rules, threads);
+        if (made)
+          for (const auto& x : suffixes) staged.write(dir / (stem + x), [](const fs::path&) {});
+        else
+          terrain::stage_layer_files(staged, (dir / stem).string(), L, in.metres_per_px, in.rules, threads, &scales);
+        files.push_back({{"x", r.x / g.tw}, {"y", r.y / g.th}, {"files", terrain::layer_file_names((dir / stem).string())}});
+        return geotiff ? (made ? std::vector<cv::Mat1f>(bands.size()) : float_layers(L)) : std::vector<cv::Mat1f>{};
       },
       threads, in.tiling.gis_tile_max_px);
-  encoding.erase("files");
+  nlohmann::json encoding = terrain::layer_files_description(in.metres_per_px, in.rules, scales);
   const std::string readme =
       "reefgen world layers: " + std::to_string(h.cols) + "x" + std::to_string(h.rows) + " samples in " +
       std::to_string(files.size()) + " tiles NAME_x<i>_y<j>.<layer>.png (i east, j south, no overlap; tile size in the\n"

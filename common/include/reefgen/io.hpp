@@ -62,6 +62,13 @@ class AtomicTextWriter {
 class StagedOutputs {
  public:
   StagedOutputs() = default;
+  // Resumable (a long run, e.g. a world's tiles): each file is staged as
+  // work_dir / (its final path relative to `base`), renamed there as soon as
+  // it is written, and kept when the run stops before commit(): a later run
+  // with the same work_dir does not write it again (resumed() says so before
+  // the work that would make it) and commit() moves it into place, then
+  // removes work_dir. The caller keys work_dir to what the run makes.
+  StagedOutputs(fs::path work_dir, fs::path base);
   ~StagedOutputs();
   StagedOutputs(const StagedOutputs&) = delete;
   StagedOutputs& operator=(const StagedOutputs&) = delete;
@@ -77,8 +84,21 @@ class StagedOutputs {
   // last). Checks first that no destination has become a folder.
   void commit();
   const std::vector<fs::path>& finals() const { return finals_; }
+  // True when an earlier, interrupted run left `final_path` staged in work_dir.
+  bool resumed(const fs::path& final_path) const;
+  // Files this run found staged already (resumable only).
+  size_t resumed_count() const { return resumed_count_; }
 
  private:
+  // Checks and registers final_path; returns where its writer writes, or an
+  // empty path when it is resumed (nothing to write).
+  fs::path stage(const fs::path& final_path);
+  // After the writer: a resumable run renames the temporary into work_dir.
+  void settle(const fs::path& tmp, const fs::path& final_path);
+  fs::path kept_path(const fs::path& final_path) const;
+
+  fs::path work_, base_;
+  size_t resumed_count_ = 0;
   std::vector<fs::path> temps_, finals_;
   std::vector<fs::path> swept_dirs_;  // folders already cleared of stale temporaries
   bool committed_ = false;

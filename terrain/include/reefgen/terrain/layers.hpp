@@ -5,7 +5,9 @@
 // the regions (painted or generated), height, slope, flow and deposits.
 // Weights sum to 1 at every pixel by construction. Deterministic and
 // single-threaded: the same bytes whatever the thread count.
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -113,6 +115,16 @@ namespace reefgen::terrain {
 // The largest drainage area (m²), wear and deposit (m) the layer files encode.
 struct LayerScales {
   double flow_area_m2 = 0, wear_m = 0, deposit_m = 0;
+  // The encodings' full values: log10 of the largest area in cells (at least
+  // one cell's), and wear and deposit of at least kMinScaleM (an all-zero
+  // layer still gets a scale).
+  static constexpr double kMinScaleM = 0.01;
+  double flow_log10_max(double metres_per_px) const {
+    const double cell = metres_per_px * metres_per_px;
+    return std::max(1e-6, std::log10(std::max(flow_area_m2, cell) / cell));
+  }
+  double wear_scale_m() const { return std::max(wear_m, kMinScaleM); }
+  double deposit_scale_m() const { return std::max(deposit_m, kMinScaleM); }
 };
 
 // Stages the layer files of PREFIX (nothing is in place before
@@ -131,6 +143,11 @@ struct LayerScales {
 nlohmann::json stage_layer_files(StagedOutputs& staged, const std::string& prefix, const Layers& layers,
                                  double metres_per_px, const LayerParams& params, int threads = 1,
                                  const LayerScales* scales = nullptr);
+
+// {kind: file name} of PREFIX's layer files (flow, slope, …, materials).
+nlohmann::json layer_file_names(const std::string& prefix);
+// What the sidecar says about layer files encoded with `scales` (all but the files).
+nlohmann::json layer_files_description(double metres_per_px, const LayerParams& params, const LayerScales& scales);
 
 // Puts what stage_layer_files returned into an island's sidecar: its files
 // beside the others under "files", the rest under "layers".
