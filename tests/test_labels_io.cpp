@@ -208,6 +208,48 @@ TEST(Io, StagedOutputsAllOrNothing) {
   fs::remove_all(d);
 }
 
+// A resumable run (a world): what a stopped run staged stays in the work
+// folder, the next run with that folder does not write it again, and commit
+// moves everything into place and removes the work folder; the old files are
+// untouched until then.
+TEST(Io, ResumableStagingKeepsFinishedFilesForTheNextRun) {
+  const fs::path d = temp_dir("resumable"), work = d / "w.partial";
+  write_text_atomic(d / "a.txt", "old a");
+  int writes = 0;
+  auto writer = [&](const std::string& text) {
+    return [&writes, text](const fs::path& t) {
+      ++writes;
+      write_text_atomic(t, text);
+    };
+  };
+  {  // stopped after a.txt and sub/b.txt were written
+    StagedOutputs s(work, d);
+    s.write(d / "a.txt", writer("new a"));
+    s.write_all({{d / "sub" / "b.txt", writer("b")}}, 2);
+    expect_error_naming([&] { s.write(d / "c.txt", [](const fs::path&) { throw Error("disk full"); }); }, "disk full");
+  }
+  EXPECT_EQ(read_text(d / "a.txt"), "old a");
+  EXPECT_FALSE(fs::exists(d / "sub" / "b.txt"));
+  EXPECT_EQ(writes, 2);
+  {  // resumed: a and b are not written again, c is
+    StagedOutputs s(work, d);
+    EXPECT_TRUE(s.resumed(d / "a.txt"));
+    EXPECT_FALSE(s.resumed(d / "c.txt"));
+    s.write(d / "a.txt", writer("other a"));
+    s.write_all({{d / "sub" / "b.txt", writer("other b")}, {d / "c.txt", writer("c")}}, 2);
+    EXPECT_EQ(s.resumed_count(), 2u);
+    s.commit();  // makes sub/ for b.txt
+  }
+  EXPECT_EQ(writes, 3);
+  EXPECT_EQ(read_text(d / "a.txt"), "new a");
+  EXPECT_EQ(read_text(d / "sub" / "b.txt"), "b");
+  EXPECT_EQ(read_text(d / "c.txt"), "c");
+  EXPECT_FALSE(fs::exists(work));
+  StagedOutputs outside(work, d / "sub");
+  expect_error_naming([&] { outside.write(d / "a.txt", writer("x")); }, "outside");
+  fs::remove_all(d);
+}
+
 // Issue 36 item 6: a name that fits the filesystem (255 bytes) is written,
 // although NAME.tmp.PID.N would not fit; its temporary name is cut short.
 TEST(Io, LongestNamesAreWrittenThroughAShortenedTemporary) {

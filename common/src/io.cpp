@@ -252,7 +252,11 @@ void StagedOutputs::commit() {
     if (!fs::exists(temps_[i], ec))
       throw Error("cannot write " + finals_[i].string() + ": its staged copy " + temps_[i].string() + " vanished");
   }
-  for (size_t i = 0; i < temps_.size(); ++i) commit_temp(temps_[i], finals_[i]);
+  for (size_t i = 0; i < temps_.size(); ++i) {
+    // A resumed file's folder may not exist yet (it was made by the earlier run).
+    if (!work_.empty() && finals_[i].has_parent_path()) fs::create_directories(finals_[i].parent_path(), ec);
+    commit_temp(temps_[i], finals_[i]);
+  }
   committed_ = true;
   if (!work_.empty()) fs::remove_all(work_, ec);
 }
