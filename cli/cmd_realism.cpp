@@ -1,11 +1,13 @@
 // reefgen realism FILE... : the realism statistics of docs/REALISM.md (pits,
 // terraces, valleys) for height files, so users and tests measure the same thing.
 #include <cstdio>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 
 #include "app.hpp"
 #include "reefgen/io.hpp"
+#include "reefgen/labels.hpp"
 #include "reefgen/terrain/realism.hpp"
 
 namespace reefgen {
@@ -20,6 +22,7 @@ struct RealismArgs {
   double metres_per_px = 0;
   double world_size_m = 0;
   bool json = false;
+  std::string sketch;
 };
 
 // The cell size: the flag, else the file's own attribute (reefgen writes
@@ -40,14 +43,23 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                                  "Examples:\n"
                                  "  reefgen realism out/atoll.height.exr\n"
                                  "  reefgen realism out/*.height.exr --json > stats.jsonl\n"
-                                 "  reefgen realism dem.exr --metres-per-px 90");
+                                 "  reefgen realism dem.exr --metres-per-px 90\n"
+                                 "  reefgen realism out/sea.height.exr --sketch sea.png   # painted land above the sea, abyss deep");
   sub->add_option("files", a->files, "Height files (OpenEXR, metres, sea level 0)")->required();
   sub->add_option("--metres-per-px", a->metres_per_px, "Cell size in metres (default: the file's own)")
       ->check(finite_in(1e-6, 1e6));
   sub->add_option("--world-size", a->world_size_m, "Canvas width in metres (cell size = this / width)")
       ->check(finite_in(1e-3, 1e9));
   sub->add_flag("--json", a->json, "One JSON object per file on stdout");
+  sub->add_option("--sketch", a->sketch,
+                  "The sketch the heights were drawn from: also the painted land above the sea and the painted "
+                  "bright abyss below -20 m (any resolution over the same ground)");
   return {sub, [a] {
+            std::optional<DecodedSketch> sketch;
+            if (!a->sketch.empty()) {
+              if (!fs::is_regular_file(a->sketch)) throw Error(a->sketch + ": no such sketch file");
+              sketch = read_sketch(a->sketch);
+            }
             if (!a->json)
               std::printf("%-40s %7s %9s %9s %9s %9s %8s %10s %10s\n", "file", "size", "land", "max_m", "pits", "terraces",
                           "valleys", "seams_rows", "seams_cols");
@@ -63,6 +75,8 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                 throw Error(f + ": " + e.what());
               }
               const double land = double(st.land_cells) / double(h.total());
+              std::optional<terrain::SketchAgreement> agree;
+              if (sketch) agree = terrain::sketch_agreement(h, sketch->label, sketch->subsidence);
               if (a->json) {
                 nlohmann::json j = {{"file", f},          {"size_px", {h.cols, h.rows}},
                                     {"metres_per_px", mpp}, {"land_share", land},
@@ -70,11 +84,19 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                                     {"pits", st.pits},    {"terraces", st.terraces},
                                     {"valleys", st.valleys}, {"seams_rows", st.seams_rows},
                                     {"seams_cols", st.seams_cols}};
+                if (agree) {
+                  j["painted_land_above_sea"] = agree->land_above_sea;
+                  j["painted_abyss_below_20m"] = agree->abyss_below_bar;
+                }
                 std::printf("%s\n", j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
               } else {
                 std::printf("%-40s %4dx%-4d %8.1f%% %9.1f %8.2f%% %8.2f%% %8.3f %10.2f %10.2f\n", f.c_str(), h.cols, h.rows,
                             100 * land, st.max_height_m, 100 * st.pits, 100 * st.terraces, st.valleys, st.seams_rows,
                             st.seams_cols);
+                if (agree)
+                  std::printf("%-40s painted land above sea %.2f%% (%lld cells), bright abyss below -20 m %.2f%% (%lld cells)\n",
+                              "", 100 * agree->land_above_sea, (long long)agree->land_cells, 100 * agree->abyss_below_bar,
+                              (long long)agree->abyss_cells);
               }
             }
             return 0;

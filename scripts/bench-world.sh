@@ -25,4 +25,4 @@ for r in $(seq 1 "$runs"); do
 done
 median=$(printf '%s\n' "${times[@]}" | sort -g | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}')
 echo "median of $runs: ${median} s"
-$B realism "$out/world.height.exr"
+$B realism "$out/world.height.exr" --sketch "$out/sea.png"

@@ -1,5 +1,6 @@
 #include "reefgen/infer/world.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -7,6 +8,7 @@
 
 #include "reefgen/constants.hpp"
 #include "reefgen/error.hpp"
+#include "reefgen/labels.hpp"
 #include "reefgen/rng.hpp"
 
 namespace reefgen::infer {
@@ -113,7 +115,28 @@ cv::Mat1f world_model_heights(model::GeneratorFile& g, const DecodedSketch& sket
   if (o.stochastic) torch::manual_seed(derive_seed(o.seed, 0, "infer-dropout"));
   cv::Mat1f h = forward_heights(g, label_sq, sub_sq, o)(cv::Rect(at, label.size())).clone();
   add_large_islands(g, label, sub, o, h);
-  return h(cv::Rect(mx, my, W, H)).clone();
+  cv::Mat1f out = h(cv::Rect(mx, my, W, H)).clone();
+  keep_painted_land(out, s.label);
+  return out;
+}
+
+void keep_painted_land(cv::Mat1f& h, const cv::Mat1b& label) {
+  if (h.size() != label.size()) throw Error("internal: painted land and heights differ in size");
+  cv::Mat1b land(label.size());
+  for (int y = 0; y < label.rows; ++y)
+    for (int x = 0; x < label.cols; ++x) land(y, x) = label(y, x) == kIsland || label(y, x) == kBeach ? 255 : 0;
+  // Distance to the nearest painted water (1 on the coast). A canvas without
+  // water has none: every cell is far inland.
+  cv::Mat1f d;
+  if (cv::countNonZero(land) == int(land.total())) d = cv::Mat1f(land.size(), float(1 + kPaintedLandRampPx));
+  else cv::distanceTransform(land, d, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x) {
+      if (!land(y, x)) continue;
+      const double t = std::clamp((d(y, x) - 1.0) / kPaintedLandRampPx, 0.0, 1.0);
+      const float floor_m = kPaintedCoastFloorM + (kPaintedLandFloorM - kPaintedCoastFloorM) * float(t * t * (3 - 2 * t));
+      h(y, x) = std::max(h(y, x), floor_m);
+    }
 }
 
 }  // namespace reefgen::infer

@@ -1,5 +1,7 @@
 #include "reefgen/terrain/realism.hpp"
 
+#include "reefgen/labels.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -138,6 +140,30 @@ double seam_score(const cv::Mat1f& h, bool along_rows) {
     if (ref > 0) score = std::max(score, p[r] / ref);
   }
   return score;
+}
+
+SketchAgreement sketch_agreement(const cv::Mat1f& h, const cv::Mat1b& region, const cv::Mat1f& lambda) {
+  if (region.empty() || lambda.size() != region.size()) throw Error("sketch agreement: regions and λ differ in size");
+  SketchAgreement a;
+  int64_t land_up = 0, abyss_deep = 0;
+  for (int y = 0; y < h.rows; ++y) {
+    const int sy = std::min(region.rows - 1, int((y + 0.5) * region.rows / h.rows));
+    for (int x = 0; x < h.cols; ++x) {
+      const int sx = std::min(region.cols - 1, int((x + 0.5) * region.cols / h.cols));
+      const int r = region(sy, sx);
+      const float v = h(y, x);
+      if (r == kIsland || r == kBeach) {
+        ++a.land_cells;
+        land_up += v > 0;
+      } else if (r == kAbyss && lambda(sy, sx) < kBrightAbyssMaxLambda) {
+        ++a.abyss_cells;
+        abyss_deep += v < -kAbyssBarDepthM;
+      }
+    }
+  }
+  a.land_above_sea = a.land_cells ? double(land_up) / double(a.land_cells) : 1.0;
+  a.abyss_below_bar = a.abyss_cells ? double(abyss_deep) / double(a.abyss_cells) : 1.0;
+  return a;
 }
 
 }  // namespace reefgen::terrain

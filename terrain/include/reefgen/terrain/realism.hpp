@@ -46,4 +46,18 @@ RealismStats realism_stats(const cv::Mat1f& height_m, double metres_per_px);
 // central differences, on heights already smoothed by the caller.
 void plan_curvature(const cv::Mat1f& smooth_m, double metres_per_px, cv::Mat1f& curvature, cv::Mat1f& gradient);
 
+// How far heights keep to the sketch they were drawn from (issue 38's bars,
+// docs/REALISM.md): the painted land (island and beach regions) above the
+// sea, and the painted bright abyss (abyss with λ below kBrightAbyssMaxLambda)
+// deeper than kAbyssBarDepthM. The sketch's regions and λ may come at any
+// resolution over the same ground (read by position, nearest).
+inline constexpr double kBrightAbyssMaxLambda = 0.5;
+inline constexpr float kAbyssBarDepthM = 20.f;
+struct SketchAgreement {
+  int64_t land_cells = 0, abyss_cells = 0;  // painted, at the heights' resolution
+  double land_above_sea = 0;                // share of land_cells with h > 0 (1 when there are none)
+  double abyss_below_bar = 0;               // share of abyss_cells with h < −kAbyssBarDepthM (1 when none)
+};
+SketchAgreement sketch_agreement(const cv::Mat1f& height_m, const cv::Mat1b& region, const cv::Mat1f& subsidence);
+
 }  // namespace reefgen::terrain
