@@ -612,6 +612,11 @@ if "$BIN" -q sketch random --size 768x512 --islands 8 --seed 3 -o "$T/w/sea.png"
   "$PY" -c "import cv2,sys; a=cv2.imread(sys.argv[1]); assert a.shape[:2]==(512,768), a.shape" "$T/w/sea.png" && ok || bad "sketch random --size 768x512 is not 768×512"
   OPENCV_IO_ENABLE_OPENEXR=1 "$PY" -c "import cv2,sys; h=cv2.imread(sys.argv[1], cv2.IMREAD_UNCHANGED); assert h.shape==(512,768), h.shape" \
     "$T/w/sea.height.exr" && ok || bad "world --raw of a 768×512 sketch is not 768×512"
+  "$BIN" realism "$T/w/sea.height.exr" --sketch "$T/w/sea.png" --json | "$PY" -c "
+import json, sys
+r = json.load(sys.stdin)
+assert r['painted_land_above_sea'] >= 0.97 and r['painted_abyss_below_20m'] >= 0.97, r
+" && ok || bad "world --raw: painted land not above the sea, or bright abyss not deep (realism --sketch)"
 else bad "sketch random WxH / world --raw: $(cat "$T/err")"; fi
 "$PY" - "$T/w/big.png" <<'PYEOF'
 import cv2, numpy as np, sys

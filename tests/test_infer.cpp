@@ -586,3 +586,37 @@ TEST(World, ScaleSizeAndLocality) {
   const DecodedSketch huge{cv::Mat1b(8, 5000, uint8_t(kAbyss)), cv::Mat1f(8, 5000, 0.f), 0};
   test::expect_error_naming([&] { world_model_heights(g, huge, kModelMetresPerPx, io); }, "one pass takes up to");
 }
+
+// Painted land stays land (docs/WORLDS.md): a sunk island is raised to the
+// floor, from 0.3 m on its painted coast to 1 m inland with no step at the
+// coast; land already higher and the painted water are untouched; the
+// realism --sketch numbers see it.
+TEST(World, PaintedLandStaysLand) {
+  cv::Mat1b label(64, 64, uint8_t(kAbyss));
+  cv::circle(label, {32, 32}, 20, cv::Scalar(kLagoon), -1);
+  cv::circle(label, {32, 32}, 12, cv::Scalar(kBeach), -1);
+  cv::circle(label, {32, 32}, 8, cv::Scalar(kIsland), -1);
+  cv::Mat1f h(64, 64, -5.f);
+  h(32, 32) = 40.f;
+  const cv::Mat1f lambda(64, 64, 0.f);
+  EXPECT_EQ(terrain::sketch_agreement(h, label, lambda).land_above_sea, 1.0 / cv::countNonZero(label <= kBeach));
+  infer::keep_painted_land(h, label);
+  EXPECT_EQ(h(32, 32), 40.f);
+  EXPECT_EQ(h(32, 2), -5.f);                             // abyss
+  EXPECT_EQ(h(32, 32 - 15), -5.f);                       // lagoon
+  EXPECT_FLOAT_EQ(h(32, 32 - 12), infer::kPaintedCoastFloorM);  // the painted coast
+  EXPECT_FLOAT_EQ(h(32, 32 - 6), infer::kPaintedLandFloorM);    // inland
+  EXPECT_GT(h(32, 32 - 11), h(32, 32 - 12));
+  EXPECT_LT(h(32, 32 - 11), infer::kPaintedLandFloorM);
+  const terrain::SketchAgreement a = terrain::sketch_agreement(h, label, lambda);
+  EXPECT_EQ(a.land_above_sea, 1.0);
+  EXPECT_EQ(a.land_cells, cv::countNonZero(label <= kBeach));
+  EXPECT_EQ(a.abyss_below_bar, 0.0);  // the abyss is 5 m deep, not 20
+  // Read by position: the sketch at half the resolution counts a quarter of the cells.
+  cv::Mat1b half_label;
+  cv::resize(label, half_label, {32, 32}, 0, 0, cv::INTER_NEAREST);
+  const cv::Mat1f half_h(32, 32, 2.f);
+  EXPECT_EQ(terrain::sketch_agreement(half_h, half_label, cv::Mat1f(32, 32, 0.f)).land_cells,
+            cv::countNonZero(half_label <= kBeach));
+  EXPECT_THROW(infer::keep_painted_land(h, half_label), reefgen::Error);
+}
