@@ -128,7 +128,7 @@ void check_world_finish(const FinishFlags::Parsed& fin, int side, bool square) {
       throw Error("--for " + std::string(engines::to_string(e)) + ": a world past " +
                   std::to_string(infer::kMaxWholeAmplifySidePx) + "² is written in tiles, and " + engines::to_string(e) +
                   " takes one file (" + std::to_string(side) + "² asked); use --size " +
-                  std::to_string(infer::kMaxWholeAmplifySidePx) + ", or --for unity, unreal or gis");
+                  std::to_string(infer::kMaxWholeAmplifySidePx) + ", or --for unity, unreal, godot or gis");
 }
 
 // A world past one file per layer: its layers and bundles in tiles, each

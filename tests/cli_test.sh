@@ -672,7 +672,6 @@ if "$BIN" world "$T/w/big.png" --size 1025 --layers --for unity -o "$T/w/r1/x" 2
     && (cd "$T/w/r2" && find . -type f ! -name '*.json' | sort | xargs sha256sum) > "$T/w/r2.sha" \
     && cmp -s "$T/w/r1.sha" "$T/w/r2.sha" && ok || bad "a resumed world differs from an uninterrupted one: $(cat "$T/err")"
 else bad "world resume: $(cat "$T/err")"; fi
-expect_error "--for godot: a world past 8192² is written in tiles" world "$T/w/big.png" --size 9000 --for godot -o "$T/e/x"
 expect_error "--for blender: a world past 8192² is written in tiles" world "$T/w/big.png" --size 9000 --for blender -o "$T/e/x"
 # Past 8192² the layers come in tiles on the GeoTIFF grid, with the world's
 # scales in the sidecar and a VRT mosaic per float layer that GDAL opens.

@@ -474,7 +474,44 @@ TEST(WorldBundles, LayerTilesShareTheWorldsScales) {
   EXPECT_NEAR(a.at<uint16_t>(64, 64), b.at<uint16_t>(64, 0), 0.02 * 65535);
   EXPECT_GT(a.at<uint16_t>(64, 64), 0.4 * 65535);
   EXPECT_FALSE(fs::exists(dir / "w.layers" / "w_x0_y0.flow.tif"));
-  EXPECT_THROW(stage_world_bundle(staged, dir / "w.godot", "w", Engine::Godot, {w.h, &w.field, 10.0, {}, {}, t}),
+  EXPECT_THROW(stage_world_bundle(staged, dir / "w.blender", "w", Engine::Blender, {w.h, &w.field, 10.0, {}, {}, t}),
                reefgen::Error);
+  fs::remove_all(dir);
+}
+
+// Terrain3D: tiles of whole regions, each with its height (metres), control
+// and colour maps and an import position at its centre; side by side they
+// are the world resampled to the tiles' side.
+TEST(WorldBundles, GodotTilesAreWholeRegionsImportedAtTheirCentres) {
+  const World w;
+  WorldTiling t;
+  t.godot_region_px = 32, t.godot_tile_px = 64, t.godot_tiles_per_axis = 2;
+  const fs::path dir = test::temp_dir("world-godot");
+  StagedOutputs staged;
+  const auto j = stage_world_bundle(staged, dir / "w.godot", "w", Engine::Godot, {w.h, &w.field, 10.0, {}, {}, t});
+  staged.commit();
+  ASSERT_EQ(j["side_px"], 128);
+  ASSERT_EQ(j["tiles"].size(), 4u);
+  const cv::Mat1f want = resample_corners(w.h, 128);
+  const double spacing = j["vertex_spacing_m"];
+  EXPECT_NEAR(spacing, 10.0 * 128 / 127, 1e-9);
+  for (const auto& tile : j["tiles"]) {
+    const int i = tile["x"], y = tile["y"];
+    const cv::Mat1f ht = read_exr_height(dir / "w.godot" / tile["heightmap"].get<std::string>());
+    ASSERT_EQ(ht.cols, 64);
+    EXPECT_EQ(cv::norm(ht, want(cv::Rect(i * 64, y * 64, 64, 64)), cv::NORM_INF), 0.0);
+    const cv::Mat1f control = read_exr_height(dir / "w.godot" / tile["control_map"].get<std::string>());
+    for (int r = 0; r < 64; ++r)
+      for (int c = 0; c < 64; ++c) {
+        uint32_t bits;
+        std::memcpy(&bits, &control(r, c), sizeof bits);
+        const Terrain3DControl d = terrain3d_decode(bits);
+        ASSERT_LT(d.base, terrain::kNumMaterials);
+        ASSERT_LT(d.overlay, terrain::kNumMaterials);
+      }
+    EXPECT_DOUBLE_EQ(tile["import_position_m"][0].get<double>(), (i * 64 + 32 - 64) * spacing);
+    EXPECT_DOUBLE_EQ(tile["import_position_m"][2].get<double>(), (y * 64 + 32 - 64) * spacing);
+    EXPECT_TRUE(fs::exists(dir / "w.godot" / tile["color_map"].get<std::string>()));
+  }
   fs::remove_all(dir);
 }

@@ -42,4 +42,15 @@ nlohmann::json stage_unity_tiles(StagedOutputs& staged, const std::filesystem::p
                                  const cv::Mat1f& h, int resampled_from, double metres_per_px, int tile_side,
                                  const UnitySplats& splat_of);
 
+// Terrain3D's maps of a world in tiles of whole regions, each imported at its
+// own position (stage_godot_world).
+struct GodotWorldLayout {
+  int region_px, tile_px, tiles_per_axis;
+};
+// The layers of `rect` of heights `h` (a world's tile, made as it is written).
+using TileLayers = std::function<terrain::Layers(const cv::Mat1f& h, const cv::Rect& rect)>;
+nlohmann::json stage_godot_world(StagedOutputs& staged, const std::filesystem::path& dir, const std::string& name,
+                                 const cv::Mat1f& height_m, double metres_per_px, const GodotWorldLayout& layout,
+                                 const TileLayers& layers_of);
+
 }  // namespace reefgen::engines::detail

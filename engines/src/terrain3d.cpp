@@ -126,6 +126,67 @@ nlohmann::json stage_godot(StagedOutputs& staged, const fs::path& dir, const std
            }()}};
 }
 
+nlohmann::json stage_godot_world(StagedOutputs& staged, const fs::path& dir, const std::string& name,
+                                 const cv::Mat1f& height_m, double metres_per_px, const GodotWorldLayout& layout,
+                                 const TileLayers& layers_of) {
+  const int n = height_m.cols, tile = layout.tile_px, per_axis = layout.tiles_per_axis, side = tile * per_axis;
+  const cv::Mat1f h = side == n ? height_m : resample_corners(height_m, side);
+  const double mpp = metres_per_px * (n - 1) / (side - 1);
+  nlohmann::json tiles = nlohmann::json::array();
+  std::string positions;
+  for (int j = 0; j < per_axis; ++j)
+    for (int i = 0; i < per_axis; ++i) {
+      const cv::Rect rect(i * tile, j * tile, tile, tile);
+      const std::string stem = name + "_x" + std::to_string(i) + "_y" + std::to_string(j);
+      const fs::path files[3] = {dir / (stem + ".height.exr"), dir / (stem + ".control.exr"), dir / (stem + ".color.png")};
+      // A resumed run has made this tile's maps already.
+      const bool made = staged.resumed(files[0]) && staged.resumed(files[1]) && staged.resumed(files[2]);
+      cv::Mat1f control;
+      cv::Mat4b colour;
+      if (!made) {
+        const terrain::Layers L = layers_of(h, rect);
+        control = bits_as_floats(terrain3d_control(L));
+        cv::cvtColor(terrain::material_colour_map(L, false), colour, cv::COLOR_BGR2BGRA);
+        colour.forEach([](cv::Vec4b& p, const int*) { p[3] = kNeutralRoughness; });
+      }
+      const cv::Mat1f ht = h(rect).clone();  // the EXR writer takes whole rows
+      staged.write_all({{files[0], [ht](const fs::path& p) { write_exr_channel(p, ht, "R", {}, kExrZipLevel); }},
+                        {files[1], [control](const fs::path& p) { write_exr_channel(p, control, "R", {}, kExrZipLevel); }},
+                        {files[2], [colour](const fs::path& p) { write_png(p, colour); }}},
+                       3);
+      // Terrain3D centres an imported map on its Import Position: the tile's centre, the world's at (0, 0).
+      const double x = (i * tile + tile / 2.0 - side / 2.0) * mpp, z = (j * tile + tile / 2.0 - side / 2.0) * mpp;
+      tiles.push_back({{"x", i}, {"y", j}, {"heightmap", stem + ".height.exr"}, {"control_map", stem + ".control.exr"},
+                       {"color_map", stem + ".color.png"}, {"import_position_m", {x, 0.0, z}}});
+      positions += "   " + stem + ": (" + fmt("%.3f", x) + ", 0, " + fmt("%.3f", z) + ")\n";
+    }
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(h, &lo, &hi);
+  std::string readme =
+      "reefgen world for Godot 4 with Terrain3D (1.0 or later), " + std::to_string(per_axis * per_axis) + " tiles\n\n"
+      "Maps: " + std::to_string(per_axis) + " x " + std::to_string(per_axis) + " tiles NAME_x<i>_y<j> of " +
+      std::to_string(tile) + "x" + std::to_string(tile) + " samples (" + std::to_string(tile / layout.region_px) + " x " +
+      std::to_string(tile / layout.region_px) + " regions of " + std::to_string(layout.region_px) + " each), x<i> from the west, y<j> from the north;\n"
+      "one world of " + std::to_string(side) + "x" + std::to_string(side) + " samples" +
+      (side != n ? " (resampled corner to corner from " + std::to_string(n) + ")" : std::string()) + ".\n"
+      "  .height.exr   float32 metres, sea level 0 (" + fmt("%.1f", lo) + " ... " + fmt("%.1f", hi) + " m)\n"
+      "  .control.exr  Terrain3D's control map: uint32 bits in a float32 EXR (base texture, overlay, blend)\n"
+      "  .color.png    colour map: RGB tints the textures, alpha 0.5 (roughness unchanged)\n\n"
+      "1. Terrain3D node: Region Size " + std::to_string(layout.region_px) + ", Vertex Spacing " + fmt("%.4f", mpp) +
+      " (metres between samples).\n"
+      "2. Texture list: add 8 textures, ids in this order:\n";
+  for (int m = 0; m < terrain::kNumMaterials; ++m) readme += "   " + std::to_string(m) + " " + terrain::material_name(m) + "\n";
+  readme +=
+      "3. For each tile, in addons/terrain_3d/tools/importer.tscn select Importer: its Height, Control and Color files,\n"
+      "   Import Scale 1, Height Offset 0, and this Import Position (the tile's centre; the world is centred on 0, 0),\n"
+      "   then Run Import:\n" + positions +
+      "4. Save the Terrain3D data.\n";
+  stage_text(staged, dir / "README.txt", readme);
+  return {{"engine", "godot"}, {"tiles", tiles}, {"tiles_per_axis", per_axis}, {"tile_px", tile},
+          {"region_side_px", layout.region_px}, {"side_px", side}, {"resampled_from_px", n},
+          {"vertex_spacing_m", mpp}, {"control_bits", "base id << 27 | overlay id << 22 | blend << 14"}};
+}
+
 }  // namespace detail
 
 }  // namespace reefgen::engines

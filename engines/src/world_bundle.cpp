@@ -127,6 +127,17 @@ nlohmann::json stage_unreal_world(StagedOutputs& staged, const fs::path& dir, co
           {"scale_cm", {scale_xy, scale_xy, scale_z}}, {"location_cm", {-half, -half, loc_z}}};
 }
 
+nlohmann::json stage_godot_world(StagedOutputs& staged, const fs::path& dir, const std::string& name,
+                                 const WorldInput& in, int threads) {
+  const terrain::WorldLayerField& f = need_field(in, Engine::Godot);
+  const WorldTiling& t = in.tiling;
+  return detail::stage_godot_world(staged, dir, name, in.height_m, in.metres_per_px,
+                                   {t.godot_region_px, t.godot_tile_px, t.godot_tiles_per_axis},
+                                   [&](const cv::Mat1f& h, const cv::Rect& rect) {
+                                     return terrain::world_layers_tile(h, f, rect, in.rules, threads);
+                                   });
+}
+
 nlohmann::json stage_gis_world(StagedOutputs& staged, const fs::path& dir, const std::string& name,
                                const WorldInput& in, int threads) {
   std::vector<gis::TiledBand> bands = {{".height", "metre", "height above sea level"}};
@@ -163,6 +174,14 @@ nlohmann::json stage_gis_world(StagedOutputs& staged, const fs::path& dir, const
 }  // namespace
 
 std::string world_size_note(Engine e, int side, const WorldTiling& t) {
+  if (e == Engine::Godot) {
+    const int godot_side = t.godot_tiles_per_axis * t.godot_tile_px;
+    if (side == godot_side) return "";
+    return "--for godot: " + std::to_string(side) + "² resampled to " + std::to_string(godot_side) + "² in " +
+           std::to_string(t.godot_tiles_per_axis) + "×" + std::to_string(t.godot_tiles_per_axis) +
+           " Terrain3D tiles of " + std::to_string(t.godot_tile_px) + "² (regions of " + std::to_string(t.godot_region_px) +
+           "; use --size " + std::to_string(godot_side) + " to avoid it)";
+  }
   const int unreal_side = t.unreal_tiles_per_axis * t.unreal_tile_px;
   if (e != Engine::Unreal) return size_note(e, side);
   if (side == unreal_side) return "";
@@ -172,7 +191,7 @@ std::string world_size_note(Engine e, int side, const WorldTiling& t) {
          std::to_string(unreal_side) + " to avoid it)";
 }
 
-bool has_world_bundle(Engine e) { return e == Engine::Unity || e == Engine::Unreal || e == Engine::Gis; }
+bool has_world_bundle(Engine e) { return e != Engine::Blender; }
 
 nlohmann::json stage_world_layers(StagedOutputs& staged, const fs::path& dir, const std::string& name,
                                   const WorldInput& in, bool geotiff, int threads) {
@@ -226,11 +245,12 @@ nlohmann::json stage_world_bundle(StagedOutputs& staged, const fs::path& dir, co
                                   const WorldInput& in, int threads) {
   if (!has_world_bundle(e))
     throw Error("--for " + std::string(to_string(e)) + ": a world past one file per layer has no " + to_string(e) +
-                " bundle (use unity, unreal or gis, or a world of at most 8192²)");
+                " bundle (use unity, unreal, godot or gis, or a world of at most 8192²)");
   if (e != Engine::Gis && in.height_m.rows != in.height_m.cols) throw Error("bundle: the height field must be square");
   ensure_writable_dir(dir);
   nlohmann::json j = e == Engine::Unity    ? stage_unity_world(staged, dir, name, in, threads)
                      : e == Engine::Unreal ? stage_unreal_world(staged, dir, name, in, threads)
+                     : e == Engine::Godot  ? stage_godot_world(staged, dir, name, in, threads)
                                            : stage_gis_world(staged, dir, name, in, threads);
   j["folder"] = dir.filename().string();
   j["readme"] = "README.txt";

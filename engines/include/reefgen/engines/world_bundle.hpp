@@ -10,8 +10,10 @@
 //   unreal  World Partition's tiled import: NAME_x{i}_y{j}.png tiles of
 //           4096² making one 16384² Landscape, weight layers
 //           NAME_<material>_x{i}_y{j}.png
+//   godot   Terrain3D maps NAME_x{i}_y{j}.{height.exr,control.exr,color.png}
+//           in 4 × 4 tiles of 4 × 4 regions of 1024, each imported at its centre
 //   gis     NAME_x{i}_y{j}.height.tif (+ the float layers) and VRT mosaics
-// Terrain3D and Blender take worlds up to one file (their bundles say why).
+// Blender takes worlds up to one file (a mesh of 268 M vertices is no asset).
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -35,11 +37,15 @@ struct WorldTiling {
   // per_axis · tile_px samples a side, 16384 = 16383 quads + 1 = 129
   // components of one 127-quad section, so Unreal does not resample it.
   int unreal_tile_px = 4096, unreal_tiles_per_axis = 4, unreal_section_quads = 127;
+  // Terrain3D: per_axis² tiles of tile_px² samples, each region_px regions a
+  // side, imported one by one at their centres: 16384² is 16 × 16 regions of
+  // 1024, within Terrain3D's 32 × 32.
+  int godot_region_px = 1024, godot_tile_px = 4096, godot_tiles_per_axis = 4;
   // GeoTIFF and layer tiles: at most this many pixels a side.
   int gis_tile_max_px = gis::kGeoTiffTileMaxPx;
 };
 
-// True for the engines whose bundle a world gets in tiles (unity, unreal, gis).
+// True for the engines whose bundle a world gets in tiles (all but blender).
 bool has_world_bundle(Engine e);
 
 struct WorldInput {
