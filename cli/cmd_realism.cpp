@@ -22,6 +22,7 @@ struct RealismArgs {
   double metres_per_px = 0;
   double world_size_m = 0;
   bool json = false;
+  bool stream = false;
   std::string sketch;
 };
 
@@ -32,6 +33,40 @@ double cell_size(const RealismArgs& a, const ExrAttributes& attrs, int width, co
   if (a.world_size_m > 0) return a.world_size_m / width;
   if (const double v = exr_metres_per_px(attrs); v > 0) return v;
   throw Error(file + ": no metres per pixel in the file; pass --metres-per-px M or --world-size M");
+}
+
+// Past this many cells a file is read in bands of rows (a world larger than
+// memory): 16385² read whole takes 9.6 GB.
+constexpr int64_t kRealismWholeMaxCells = int64_t(16385) * 16385;
+
+struct FileStats {
+  RealismStats st;
+  cv::Size size;
+  double metres_per_px = 0;
+  std::optional<terrain::SketchAgreement> agree;
+};
+
+// The statistics (and the sketch's agreement) of `file`: whole, or a band of rows at a time.
+FileStats stats_of(const std::string& file, const RealismArgs& a, const std::optional<DecodedSketch>& sketch) {
+  ExrRowReader reader(file);
+  FileStats r;
+  r.size = reader.size();
+  r.metres_per_px = cell_size(a, reader.attributes(), r.size.width, file);
+  if (sketch) r.agree = terrain::SketchAgreement{};
+  if (a.stream || int64_t(r.size.area()) > kRealismWholeMaxCells) {
+    const terrain::StreamBands bands;
+    for (int y0 = 0; y0 < r.size.height && sketch; y0 += bands.band_rows) {
+      const int n = std::min(bands.band_rows, r.size.height - y0);
+      terrain::add_sketch_agreement(*r.agree, reader.rows(y0, n), y0, r.size, sketch->label, sketch->subsidence);
+    }
+    r.st = terrain::realism_stats_streamed([&](int y0, int n) { return reader.rows(y0, n); }, r.size,
+                                           r.metres_per_px, bands);
+    return r;
+  }
+  const cv::Mat1f h = reader.rows(0, r.size.height);
+  if (sketch) r.agree = terrain::sketch_agreement(h, sketch->label, sketch->subsidence);
+  r.st = realism_stats(h, r.metres_per_px);
+  return r;
 }
 
 }  // namespace
@@ -51,6 +86,9 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
   sub->add_option("--world-size", a->world_size_m, "Canvas width in metres (cell size = this / width)")
       ->check(finite_in(1e-3, 1e9));
   sub->add_flag("--json", a->json, "One JSON object per file on stdout");
+  sub->add_flag("--stream", a->stream,
+                "Read the file a band of rows at a time (memory of a few bands; automatic past 16385²; "
+                "docs/REALISM.md \"Streamed\")");
   sub->add_option("--sketch", a->sketch,
                   "The sketch the heights were drawn from: also the painted land above the sea and the painted "
                   "bright abyss below -20 m (any resolution over the same ground)");
@@ -65,20 +103,21 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                           "valleys", "seams_rows", "seams_cols");
             for (const auto& f : a->files) {
               if (!fs::is_regular_file(f)) throw Error(f + ": no such file (expected an OpenEXR height file)");
-              ExrAttributes attrs;
-              const cv::Mat1f h = read_exr_height(f, &attrs);
-              const double mpp = cell_size(*a, attrs, h.cols, f);
-              RealismStats st;
+              FileStats r;
               try {
-                st = realism_stats(h, mpp);
+                r = stats_of(f, *a, sketch);
               } catch (const Error& e) {
-                throw Error(f + ": " + e.what());
+                // The statistics' own errors do not name the file; the reader's do.
+                const std::string what = e.what();
+                throw Error(what.find(f) == std::string::npos ? f + ": " + what : what);
               }
-              const double land = double(st.land_cells) / double(h.total());
-              std::optional<terrain::SketchAgreement> agree;
-              if (sketch) agree = terrain::sketch_agreement(h, sketch->label, sketch->subsidence);
+              const RealismStats& st = r.st;
+              const cv::Size size = r.size;
+              const double mpp = r.metres_per_px;
+              const auto& agree = r.agree;
+              const double land = double(st.land_cells) / double(size.area());
               if (a->json) {
-                nlohmann::json j = {{"file", f},          {"size_px", {h.cols, h.rows}},
+                nlohmann::json j = {{"file", f},          {"size_px", {size.width, size.height}},
                                     {"metres_per_px", mpp}, {"land_share", land},
                                     {"max_height_m", st.max_height_m}, {"flank_cells", st.flank_cells},
                                     {"pits", st.pits},    {"terraces", st.terraces},
@@ -90,7 +129,7 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                 }
                 std::printf("%s\n", j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
               } else {
-                std::printf("%-40s %4dx%-4d %8.1f%% %9.1f %8.2f%% %8.2f%% %8.3f %10.2f %10.2f\n", f.c_str(), h.cols, h.rows,
+                std::printf("%-40s %4dx%-4d %8.1f%% %9.1f %8.2f%% %8.2f%% %8.3f %10.2f %10.2f\n", f.c_str(), size.width, size.height,
                             100 * land, st.max_height_m, 100 * st.pits, 100 * st.terraces, st.valleys, st.seams_rows,
                             st.seams_cols);
                 if (agree)

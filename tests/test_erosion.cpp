@@ -660,6 +660,55 @@ TEST(Realism, SeamScoreFindsOneSteppedColumn) {
   EXPECT_DOUBLE_EQ(terrain::seam_score(cv::Mat1f(6, 8, -5.f), true), 0.0) << "no land";
 }
 
+// The streamed statistics (a field larger than memory, read in bands of
+// rows) against the whole field's: flank, terraces, valleys and the row
+// seams equal; pits equal when the halo holds every depression's spill path
+// and never more than the whole field's; the column seams within 1 % (their
+// medians come from histograms). An EXR read back in bands gives the same.
+TEST(Realism, StreamedBandsAgreeWithTheWholeField) {
+  IslandSpec spec = random_spec(3, 1);
+  RenderOptions ro;
+  ro.size_px = 300;
+  cv::Mat1f h = generate(spec, ro).height_m;
+  const double mpp = 6000.0 / 300;
+  // A pit dug 30 m deep round the summit.
+  cv::Point top;
+  cv::minMaxLoc(h, nullptr, nullptr, nullptr, &top);
+  for (int y = top.y - 1; y <= top.y + 1; ++y)
+    for (int x = top.x - 1; x <= top.x + 1; ++x) h(y, x) = std::max(1.f, h(y, x) - 30.f);
+  const RealismStats whole = realism_stats(h, mpp);
+  ASSERT_GT(whole.pits, 0.0);
+  auto rows = [&](int y0, int n) { return cv::Mat1f(h.rowRange(y0, y0 + n).clone()); };
+  for (const StreamBands b : {StreamBands{37, 20}, StreamBands{64, 400}, StreamBands{300, 2}}) {
+    const RealismStats st = realism_stats_streamed(rows, h.size(), mpp, b);
+    EXPECT_EQ(st.land_cells, whole.land_cells);
+    EXPECT_EQ(st.flank_cells, whole.flank_cells);
+    EXPECT_EQ(st.terraces, whole.terraces) << b.band_rows;
+    EXPECT_EQ(st.valleys, whole.valleys) << b.band_rows;
+    EXPECT_EQ(st.seams_rows, whole.seams_rows) << b.band_rows;
+    EXPECT_NEAR(st.seams_cols, whole.seams_cols, 0.01 * whole.seams_cols) << b.band_rows;
+    EXPECT_LE(st.pits, whole.pits) << b.band_rows;
+    if (b.halo_rows >= h.rows || b.band_rows >= h.rows) {
+      EXPECT_EQ(st.pits, whole.pits) << b.band_rows;
+    }
+  }
+  ASSERT_GT(whole.valleys, 0.0);
+  const fs::path dir = test::temp_dir("realism-stream");
+  write_exr_height(dir / "h.exr", h);
+  ExrRowReader reader(dir / "h.exr");
+  ASSERT_EQ(reader.size(), h.size());
+  const RealismStats from_file = realism_stats_streamed(
+      [&](int y0, int n) { return reader.rows(y0, n); }, reader.size(), mpp, StreamBands{50, 400});
+  EXPECT_EQ(from_file.valleys, whole.valleys);
+  EXPECT_EQ(from_file.pits, whole.pits);
+  cv::Mat1f nan = h.clone();
+  nan(150, 150) = NAN;
+  EXPECT_THROW(realism_stats_streamed([&](int y0, int n) { return cv::Mat1f(nan.rowRange(y0, y0 + n).clone()); },
+                                      nan.size(), mpp),
+               Error);
+  fs::remove_all(dir);
+}
+
 // amplify_world past its whole-field side (issue 38): the last doubling in
 // bands of rows is a function of position (band size does not show), drained
 // and seamless; up to the whole-field side it is amplify_heights.

@@ -567,6 +567,54 @@ cv::Mat1f read_exr_height(const fs::path& path, ExrAttributes* attrs) {
   }
 }
 
+struct ExrRowReader::File {
+  explicit File(const fs::path& p) : in(p.c_str()) {}
+  Imf::InputFile in;
+  std::string channel = "Y";
+  Imath::Box2i dw;
+};
+
+ExrRowReader::ExrRowReader(const fs::path& path) : path_(path) {
+  if (!fs::is_regular_file(path)) throw Error("cannot read " + path.string() + ": no such file");
+  try {
+    file_ = std::make_unique<File>(path);
+    const auto& h = file_->in.header();
+    file_->dw = h.dataWindow();
+    size_ = cv::Size(file_->dw.max.x - file_->dw.min.x + 1, file_->dw.max.y - file_->dw.min.y + 1);
+    if (!h.channels().findChannel("Y")) {
+      auto it = h.channels().begin();
+      if (it == h.channels().end() || ++h.channels().begin() != h.channels().end())
+        throw Error(path.string() + ": no channel Y (expected a single-channel height EXR)");
+      file_->channel = it.name();
+    }
+    for (auto it = h.begin(); it != h.end(); ++it)
+      if (auto* s = dynamic_cast<const Imf::StringAttribute*>(&it.attribute())) attrs_[it.name()] = s->value();
+  } catch (const Error&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw Error("cannot read " + path.string() + " as EXR: " + e.what());
+  }
+}
+
+ExrRowReader::~ExrRowReader() = default;
+
+cv::Mat1f ExrRowReader::rows(int y0, int n) {
+  if (y0 < 0 || n < 1 || y0 + n > size_.height) throw Error("internal: rows outside " + path_.string());
+  try {
+    const int w = size_.width;
+    cv::Mat1f out(n, w);
+    Imf::FrameBuffer fb;
+    const long first = file_->dw.min.y + y0;
+    char* base = (char*)out.ptr<float>() - (file_->dw.min.x + first * (long)w) * (long)sizeof(float);
+    fb.insert(file_->channel, Imf::Slice(Imf::FLOAT, base, sizeof(float), sizeof(float) * w));
+    file_->in.setFrameBuffer(fb);
+    file_->in.readPixels(int(first), int(first) + n - 1);
+    return out;
+  } catch (const std::exception& e) {
+    throw Error("cannot read " + path_.string() + " as EXR: " + e.what());
+  }
+}
+
 std::string file_checksum(const fs::path& path) {
   const std::string bytes = read_text(path);
   uint64_t h = 0xCBF29CE484222325ull;

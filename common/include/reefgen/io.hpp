@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -137,6 +138,25 @@ void write_exr_channel(const fs::path& path, const cv::Mat1f& values, const std:
 // Reads channel "Y" (or the only channel) of an EXR file; attributes of string
 // type are returned in `attrs` when not null.
 cv::Mat1f read_exr_height(const fs::path& path, ExrAttributes* attrs = nullptr);
+// The same field read a band of rows at a time (a world larger than memory):
+// size and attributes from the header, rows(y0, n) the rows y0 … y0 + n − 1.
+class ExrRowReader {
+ public:
+  explicit ExrRowReader(const fs::path& path);
+  ~ExrRowReader();
+  ExrRowReader(const ExrRowReader&) = delete;
+  ExrRowReader& operator=(const ExrRowReader&) = delete;
+  cv::Size size() const { return size_; }
+  const ExrAttributes& attributes() const { return attrs_; }
+  cv::Mat1f rows(int y0, int n);
+
+ private:
+  struct File;
+  std::unique_ptr<File> file_;
+  fs::path path_;
+  cv::Size size_;
+  ExrAttributes attrs_;
+};
 // The ground size of a pixel an EXR states (reefgen:metres_per_pixel, or
 // reefgen:metres_per_px as infer wrote it before 2026-11-23); 0 when it
 // states none or no positive finite number.

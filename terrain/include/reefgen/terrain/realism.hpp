@@ -3,6 +3,8 @@
 // docs/REALISM.md). LibTorch-free, deterministic, single-threaded.
 #include <cstdint>
 
+#include <functional>
+
 #include <opencv2/core.hpp>
 
 namespace reefgen::terrain {
@@ -41,6 +43,25 @@ double seam_score(const cv::Mat1f& height_m, bool along_rows);
 // non-finite field or a non-positive cell size.
 RealismStats realism_stats(const cv::Mat1f& height_m, double metres_per_px);
 
+// The same statistics read a band of rows at a time, for a field larger than
+// memory (docs/REALISM.md "Streamed"): rows(y0, n) gives rows y0 … y0 + n − 1
+// of a field of `size`. Each band is read with halo_rows more on each side:
+// terraces, valleys and the row seams are those of realism_stats exactly
+// (the σ = 60 m blur's kernel must fit in the halo: it is widened to fit);
+// pits are counted with the band's cut edges as outlets, so a depression is
+// found when its spill path stays within the halo (a lower bound, exact for
+// every depression smaller than the halo); the column seams take each
+// column's median from a histogram of kStreamStepBins logarithmic bins
+// (within 1 % of the exact median).
+struct StreamBands {
+  int band_rows = 1024;  // rows a band holds, ≥ 1
+  int halo_rows = 256;   // rows read on each side of a band, ≥ 2
+};
+inline constexpr int kStreamStepBins = 2048;
+using RowSource = std::function<cv::Mat1f(int y0, int rows)>;
+RealismStats realism_stats_streamed(const RowSource& rows, cv::Size size, double metres_per_px,
+                                    const StreamBands& bands = {});
+
 // Plan curvature −(h_xx h_y² − 2 h_xy h_x h_y + h_yy h_x²) / (h_x² + h_y²)^{3/2}
 // (1/m; negative = convergent, a valley) and gradient magnitude (m/m) by
 // central differences, on heights already smoothed by the caller.
@@ -55,9 +76,13 @@ inline constexpr double kBrightAbyssMaxLambda = 0.5;
 inline constexpr float kAbyssBarDepthM = 20.f;
 struct SketchAgreement {
   int64_t land_cells = 0, abyss_cells = 0;  // painted, at the heights' resolution
-  double land_above_sea = 0;                // share of land_cells with h > 0 (1 when there are none)
-  double abyss_below_bar = 0;               // share of abyss_cells with h < −kAbyssBarDepthM (1 when none)
+  int64_t land_up = 0, abyss_deep = 0;      // of those, above the sea / below −kAbyssBarDepthM
+  double land_above_sea = 1;                // land_up / land_cells (1 when there are none)
+  double abyss_below_bar = 1;               // abyss_deep / abyss_cells (1 when none)
 };
 SketchAgreement sketch_agreement(const cv::Mat1f& height_m, const cv::Mat1b& region, const cv::Mat1f& subsidence);
+// The same a band at a time: `band` is rows row0 … of a field of `size`.
+void add_sketch_agreement(SketchAgreement& a, const cv::Mat1f& band, int row0, cv::Size size, const cv::Mat1b& region,
+                          const cv::Mat1f& subsidence);
 
 }  // namespace reefgen::terrain
