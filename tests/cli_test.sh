@@ -642,6 +642,17 @@ import json, sys
 r = json.load(sys.stdin)
 assert r['size_px'] == [1025, 1025] and r['pits'] <= 0.01 and r['seams_rows'] <= 2.5 and r['seams_cols'] <= 2.5, r
 " && ok || bad "world --size 1025: not drained or seamed"
+  # Streamed (a band of rows at a time): the same statistics, the column
+  # seams within 1 % (their medians come from histograms).
+  "$BIN" realism "$T/w/big1025.height.exr" --json > "$T/w/whole.json" \
+    && "$BIN" realism "$T/w/big1025.height.exr" --json --stream > "$T/w/streamed.json" \
+    && "$PY" - "$T/w/whole.json" "$T/w/streamed.json" <<'PYEOF' && ok || bad "realism --stream differs from the whole field's"
+import json, sys
+a, b = (json.load(open(p)) for p in sys.argv[1:3])
+for k in ("land_share", "flank_cells", "terraces", "valleys", "seams_rows", "pits"):
+    assert a[k] == b[k], (k, a[k], b[k])
+assert abs(a["seams_cols"] - b["seams_cols"]) <= 0.01 * a["seams_cols"], (a["seams_cols"], b["seams_cols"])
+PYEOF
 else bad "world --size 1025: $(cat "$T/err")"; fi
 if "$BIN" -q world "$T/w/sea.png" --size 1024 -o "$T/w/sea1024" >/dev/null 2>"$T/err"; then
   "$BIN" realism "$T/w/sea1024.height.exr" --json | "$PY" -c "
