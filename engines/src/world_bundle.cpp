@@ -145,11 +145,10 @@ nlohmann::json stage_gis_world(StagedOutputs& staged, const fs::path& dir, const
   const cv::Mat1f& h = in.height_m;
   nlohmann::json j = gis::stage_geotiff_band_tiles(
       staged, dir, name, h.size(), in.metres_per_px, in.geo, bands,
-      [&](const cv::Rect& r) {
+      [&](const cv::Rect& r, int i, int j) {
         std::vector<cv::Mat1f> out = {h(r)};
         if (!in.field) return out;
-        const gis::TileGrid g = gis::tile_grid(h.size(), in.tiling.gis_tile_max_px);
-        if (resumed_bands(staged, dir, tile_stem(name, r.x / g.tw, r.y / g.th), float_layer_bands())) {
+        if (resumed_bands(staged, dir, tile_stem(name, i, j), float_layer_bands())) {
           out.resize(bands.size());  // written by an earlier run: nothing to make
           return out;
         }
@@ -204,9 +203,8 @@ nlohmann::json stage_world_layers(StagedOutputs& staged, const fs::path& dir, co
   const std::vector<gis::TiledBand> bands = geotiff ? float_layer_bands() : std::vector<gis::TiledBand>{};
   nlohmann::json j = gis::stage_geotiff_band_tiles(
       staged, dir, name, h.size(), in.metres_per_px, in.geo, bands,
-      [&](const cv::Rect& r) {
-        const gis::TileGrid g = gis::tile_grid(h.size(), in.tiling.gis_tile_max_px);
-        const std::string stem = tile_stem(name, r.x / g.tw, r.y / g.th);
+      [&](const cv::Rect& r, int i, int j) {
+        const std::string stem = tile_stem(name, i, j);
         const std::vector<std::string> suffixes = terrain::layer_file_suffixes();
         const bool made = resumed_bands(staged, dir, stem, bands) &&
                           std::all_of(suffixes.begin(), suffixes.end(),
@@ -217,7 +215,7 @@ nlohmann::json stage_world_layers(StagedOutputs& staged, const fs::path& dir, co
           for (const auto& x : suffixes) staged.write(dir / (stem + x), [](const fs::path&) {});
         else
           terrain::stage_layer_files(staged, (dir / stem).string(), L, in.metres_per_px, in.rules, threads, &scales);
-        files.push_back({{"x", r.x / g.tw}, {"y", r.y / g.th}, {"files", terrain::layer_file_names((dir / stem).string())}});
+        files.push_back({{"x", i}, {"y", j}, {"files", terrain::layer_file_names((dir / stem).string())}});
         return geotiff ? (made ? std::vector<cv::Mat1f>(bands.size()) : float_layers(L)) : std::vector<cv::Mat1f>{};
       },
       threads, in.tiling.gis_tile_max_px);

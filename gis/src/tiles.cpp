@@ -80,7 +80,7 @@ nlohmann::json stage_geotiff_band_tiles(StagedOutputs& staged, const std::filesy
   for (int j = 0; j < g.ny; ++j)
     for (int i = 0; i < g.nx; ++i) {
       const cv::Rect r = g.rect(i, j);
-      const std::vector<cv::Mat1f> pixels = tile(r);
+      const std::vector<cv::Mat1f> pixels = tile(r, i, j);
       if (pixels.size() != bands.size()) throw Error("internal: a world tile has the wrong number of bands");
       const GeoReference tile_geo{geo.crs, ox + r.x * mpp, oy - r.y * mpp};
       const std::string tile_id = std::to_string(i) + "," + std::to_string(j);
@@ -113,7 +113,7 @@ nlohmann::json stage_geotiff_tiles(StagedOutputs& staged, const std::filesystem:
   const std::vector<TiledBand> bands = {{".height", "metre", "height above sea level"}};
   // Views of the heights: the jobs copy headers, not pixels.
   nlohmann::json j = stage_geotiff_band_tiles(
-      staged, dir, name, h.size(), mpp, geo, bands, [&](const cv::Rect& r) { return std::vector<cv::Mat1f>{h(r)}; },
+      staged, dir, name, h.size(), mpp, geo, bands, [&](const cv::Rect& r, int, int) { return std::vector<cv::Mat1f>{h(r)}; },
       threads, tile_max_px);
   // The heights' own keys, as before the layers were tiled too.
   j["mosaic"] = j["mosaics"]["height"];

@@ -102,8 +102,8 @@ struct TiledBand {
   std::string suffix;  // ".height", ".flow", …
   std::string units, description;
 };
-// The pixels of every band of one tile, in the order of the bands.
-using TileBands = std::function<std::vector<cv::Mat1f>(const cv::Rect& tile)>;
+// The pixels of every band of tile (i, j), `rect` of the world, in the order of the bands.
+using TileBands = std::function<std::vector<cv::Mat1f>(const cv::Rect& rect, int i, int j)>;
 
 // Stages a world's bands as float32 GeoTIFF tiles in `dir` (the grid of
 // tile_grid: i east, j south from the north-west tile, no overlap) and one
