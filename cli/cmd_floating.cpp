@@ -7,6 +7,24 @@
 
 namespace reefgen {
 
+namespace {
+// The params of a built-in preset, or of a config file, or the defaults.
+islands::FloatingParams floating_params(const std::string& preset, const std::string& config) {
+  const auto& presets = builtin_floating_presets();
+  if (!preset.empty()) {
+    const auto it = presets.find(preset);
+    if (it == presets.end()) {
+      std::string names;
+      for (const auto& [n, t] : presets) names += (names.empty() ? "" : ", ") + n;
+      throw Error("--preset " + preset + ": unknown; use one of " + names);
+    }
+    return islands::floating_params_from_json(nlohmann::json::parse(it->second), "preset " + preset);
+  }
+  if (!config.empty()) return islands::floating_params_from_json(read_json(config), config);
+  return {};
+}
+}  // namespace
+
 Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
   auto* sub = app.add_subcommand(
       "floating",
@@ -59,18 +77,7 @@ Command add_floating_command(CLI::App& app, const GlobalOptions& g) {
             // Params: a preset, a file, or defaults (terrain-top for a height field alone).
             std::string preset = a->preset;
             if (preset.empty() && a->config.empty() && a->painting.empty()) preset = "terrain-top";
-            islands::FloatingParams p;
-            if (!preset.empty()) {
-              const auto it = presets.find(preset);
-              if (it == presets.end()) {
-                std::string names;
-                for (const auto& [n, t] : presets) names += (names.empty() ? "" : ", ") + n;
-                throw Error("--preset " + preset + ": unknown; use one of " + names);
-              }
-              p = islands::floating_params_from_json(nlohmann::json::parse(it->second), "preset " + preset);
-            } else if (!a->config.empty()) {
-              p = islands::floating_params_from_json(read_json(a->config), a->config);
-            }
+            islands::FloatingParams p = floating_params(preset, a->config);
             if (sub->count("--depth-stretch")) p.depth_stretch = a->depth_stretch;
             if (sub->count("--simplify")) p.simplify_px = a->simplify_px;
             islands::FloatingJob job;

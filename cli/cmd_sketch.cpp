@@ -46,6 +46,75 @@ bool parse_sketch_size(RandomArgs& a, bool islands_given) {
   a.world.islands = islands_given ? a.p.islands : procgen::ArchipelagoParams{}.islands;
   return true;
 }
+
+struct FromArgs {
+  std::string from, out, config;
+  uint64_t seed = 1;
+  int size = 256;
+  double subsidence = 0.0;
+  islands::SketchBands bands;
+};
+
+// `sketch --from KIND|H.exr -o FILE`: a terrain or height field cut into the five regions.
+int run_sketch_from(const FromArgs& f, bool size_given) {
+  procgen::Sketch s;
+  const bool terrain = f.from == "mapgen4" || f.from == "wilbur";
+  if (!f.config.empty() && !terrain)
+    throw Error("--config " + f.config + ": applies to --from mapgen4 or wilbur only");
+  if (terrain && !f.config.empty()) {
+    s = islands::height_to_sketch(islands::configured_terrain(f.from, read_json(f.config), f.config,
+                                                              size_given ? f.size : 0, f.seed),
+                                  f.subsidence, f.bands);
+  } else if (terrain) {
+    s = islands::height_to_sketch(islands::named_terrain(f.from, f.size, f.seed), f.subsidence, f.bands);
+  } else if (f.from == "noise") {
+    procgen::SketchParams sp;
+    sp.size_px = f.size;
+    sp.subsidence = f.subsidence;
+    s = procgen::random_sketch(sp, f.seed);
+  } else {
+    const fs::path exr(f.from);
+    if (exr.extension() != ".exr")
+      throw Error("--from " + f.from + ": use mapgen4, wilbur, noise, or a height field .exr");
+    refuse_output_over_input({exr}, {fs::path(f.out)});
+    const cv::Mat1f h = read_exr_height(exr);
+    if (cv::checkRange(h, true) == false)
+      throw Error(exr.string() + ": the height field holds NaN or infinite values; fix or regenerate it");
+    s = islands::height_to_sketch(h, f.subsidence, f.bands);
+  }
+  const fs::path path(f.out);
+  require_png_name(path);
+  if (path.has_parent_path()) ensure_writable_dir(path.parent_path());
+  write_png(path, encode_labels(s.label, s.subsidence));
+  std::printf("%s\n", path.c_str());
+  return 0;
+}
+
+// `sketch random`: noise sketches on one 6 km canvas, or an archipelago (--size WxH).
+int run_sketch_random(RandomArgs& a, bool islands_given) {
+  if (a.count < 1) throw Error("--count must be ≥ 1");
+  const bool archipelago = parse_sketch_size(a, islands_given);
+  auto make = [&](uint64_t seed) {
+    return archipelago ? procgen::archipelago_sketch(a.world, seed) : procgen::random_sketch(a.p, seed);
+  };
+  if (!archipelago) (void)procgen::random_sketch(a.p, a.seed);  // validate before writing
+  const bool many = a.count > 1;
+  if (!many) require_png_name(a.out);
+  if (many) ensure_writable_dir(a.out);
+  StagedOutputs staged;  // all or nothing: a failure keeps an earlier set as it was
+  for (int i = 0; i < a.count; ++i) {
+    const procgen::Sketch s = make(a.seed + uint64_t(i));
+    char name[32];
+    std::snprintf(name, sizeof name, "sketch_%04d.png", i);
+    const fs::path path = many ? fs::path(a.out) / name : fs::path(a.out);
+    if (!many && path.has_parent_path()) ensure_writable_dir(path.parent_path());
+    staged.write(path, [&](const fs::path& t) { write_png(t, encode_labels(s.label, s.subsidence)); });
+  }
+  staged.commit();
+  for (const auto& path : staged.finals()) std::printf("%s\n", path.c_str());
+  return 0;
+}
+
 }  // namespace
 
 Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
@@ -58,13 +127,6 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
       "  reefgen sketch --from mapgen4 --seed 2 -o m4.png       # a mapgen4-style island\n"
       "  reefgen sketch --from wilbur --config configs/terrains/wilbur-highlands.json -o hl.png\n"
       "  reefgen sketch --from out/atoll.height.exr -o atoll.png --subsidence 0.6\n");
-  struct FromArgs {
-    std::string from, out, config;
-    uint64_t seed = 1;
-    int size = 256;
-    double subsidence = 0.0;
-    islands::SketchBands bands;
-  };
   auto f = std::make_shared<FromArgs>();
   sub->add_option("--from", f->from, "mapgen4, wilbur, noise, or a height EXR (metres): its land/water and depth/elevation bands become the five regions");
   sub->add_option("-o,--output,--out", f->out, "PNG file (with --from)");
@@ -99,63 +161,11 @@ Command add_sketch_command(CLI::App& app, const GlobalOptions&) {
   rnd->add_option("--subsidence", a->p.subsidence, "λ in [0, 1] (darker colours); -1 = random per island")->capture_default_str()->check(finite_in(-1, 1));
   rnd->add_option("--roughness", a->p.roughness, "Outline noise amplitude [0, 1]")->capture_default_str();
   return {sub, [a, f, rnd, sub]() -> int {
-            if (!rnd->parsed()) {
-              if (f->from.empty() || f->out.empty())
-                throw Error("sketch: use `reefgen sketch random -o FILE` or `reefgen sketch --from mapgen4|wilbur|noise|H.exr -o FILE`");
-              procgen::Sketch s;
-              const bool terrain = f->from == "mapgen4" || f->from == "wilbur";
-              if (!f->config.empty() && !terrain)
-                throw Error("--config " + f->config + ": applies to --from mapgen4 or wilbur only");
-              if (terrain && !f->config.empty()) {
-                s = islands::height_to_sketch(islands::configured_terrain(f->from, read_json(f->config), f->config,
-                                                                          sub->count("--size") ? f->size : 0, f->seed),
-                                              f->subsidence, f->bands);
-              } else if (terrain) {
-                s = islands::height_to_sketch(islands::named_terrain(f->from, f->size, f->seed), f->subsidence, f->bands);
-              } else if (f->from == "noise") {
-                procgen::SketchParams sp;
-                sp.size_px = f->size;
-                sp.subsidence = f->subsidence;
-                s = procgen::random_sketch(sp, f->seed);
-              } else {
-                const fs::path exr(f->from);
-                if (exr.extension() != ".exr")
-                  throw Error("--from " + f->from + ": use mapgen4, wilbur, noise, or a height field .exr");
-                refuse_output_over_input({exr}, {fs::path(f->out)});
-                const cv::Mat1f h = read_exr_height(exr);
-                if (cv::checkRange(h, true) == false)
-                  throw Error(exr.string() + ": the height field holds NaN or infinite values; fix or regenerate it");
-                s = islands::height_to_sketch(h, f->subsidence, f->bands);
-              }
-              const fs::path path(f->out);
-              require_png_name(path);
-              if (path.has_parent_path()) ensure_writable_dir(path.parent_path());
-              write_png(path, encode_labels(s.label, s.subsidence));
-              std::printf("%s\n", path.c_str());
-              return 0;
-            }
-            if (a->count < 1) throw Error("--count must be ≥ 1");
-            const bool archipelago = parse_sketch_size(*a, rnd->count("--islands") > 0);
-            auto make = [&](uint64_t seed) {
-              return archipelago ? procgen::archipelago_sketch(a->world, seed) : procgen::random_sketch(a->p, seed);
-            };
-            if (!archipelago) (void)procgen::random_sketch(a->p, a->seed);  // validate before writing
-            const bool many = a->count > 1;
-            if (!many) require_png_name(a->out);
-            if (many) ensure_writable_dir(a->out);
-            StagedOutputs staged;  // all or nothing: a failure keeps an earlier set as it was
-            for (int i = 0; i < a->count; ++i) {
-              const procgen::Sketch s = make(a->seed + uint64_t(i));
-              char name[32];
-              std::snprintf(name, sizeof name, "sketch_%04d.png", i);
-              const fs::path path = many ? fs::path(a->out) / name : fs::path(a->out);
-              if (!many && path.has_parent_path()) ensure_writable_dir(path.parent_path());
-              staged.write(path, [&](const fs::path& t) { write_png(t, encode_labels(s.label, s.subsidence)); });
-            }
-            staged.commit();
-            for (const auto& path : staged.finals()) std::printf("%s\n", path.c_str());
-            return 0;
-          }};
+    if (rnd->parsed()) return run_sketch_random(*a, rnd->count("--islands") > 0);
+    if (f->from.empty() || f->out.empty())
+      throw Error("sketch: use `reefgen sketch random -o FILE` or `reefgen sketch --from mapgen4|wilbur|noise|H.exr -o FILE`");
+    return run_sketch_from(*f, sub->count("--size") > 0);
+  }};
 }
 
 }  // namespace reefgen
