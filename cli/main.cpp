@@ -123,6 +123,72 @@ std::vector<std::string> threads_after_command(const std::vector<std::string>& a
   out.insert(out.end(), moved.begin(), moved.end());
   return out;
 }
+
+// Every command this binary runs (the network commands in reefgen-torch only).
+std::vector<reefgen::Command> add_commands(CLI::App& app, reefgen::GlobalOptions& g) {
+  std::vector<reefgen::Command> commands;
+  for (auto add : {reefgen::add_generate_command, reefgen::add_presets_command, reefgen::add_dataset_command,
+                   reefgen::add_sketch_command, reefgen::add_terrain_command, reefgen::add_floating_command,
+                   reefgen::add_realism_command, reefgen::add_erode_command})
+    commands.push_back(add(app, g));
+#if REEFGEN_TORCH_COMMANDS
+  for (auto add : {reefgen::add_train_command, reefgen::add_infer_command, reefgen::add_world_command, reefgen::add_eval_command,
+                   reefgen::add_eval_sketches_command, reefgen::add_model_command, reefgen::add_studio_command,
+                   reefgen::add_bench_command})
+    commands.push_back(add(app, g));
+#endif
+  return commands;
+}
+
+// No command word (--help, --version, nothing): the full list of commands
+// lives in reefgen-torch, which this process becomes; -1 otherwise.
+int hand_help_to_torch([[maybe_unused]] int argc, [[maybe_unused]] char** argv) {
+#if !REEFGEN_TORCH_COMMANDS
+  bool has_command = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string w = argv[i];
+    if (w == "--threads") ++i;
+    else if (!w.empty() && w[0] != '-') has_command = true;
+  }
+  // Without LibTorch there is no other half: this binary prints its own list.
+  if (!has_command && REEFGEN_WITH_TORCH) return exec_torch_binary(argv, "--help");
+#endif
+  return -1;
+}
+
+// Parses `args`; a parse error is one line, as every other error. Returns the
+// exit code when the process is done (an error, --help, --version), else -1.
+int parse_command_line(CLI::App& app, const char* argv0, const std::vector<std::string>& args) {
+  try {
+    std::vector<const char*> av{argv0};
+    for (const auto& a : args) av.push_back(a.c_str());
+    app.parse(int(av.size()), av.data());
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    // The problem, then where to look.
+    std::string what = e.what();
+    for (auto& ch : what)
+      if (ch == '\n') ch = ' ';
+    std::fprintf(stderr, "reefgen: error: %s (see reefgen --help)\n", what.c_str());
+    return e.get_exit_code();
+  }
+  return -1;
+}
+
+// Runs the parsed command; an error is one line on stderr.
+int run_command(const std::vector<reefgen::Command>& commands) {
+  try {
+    for (const auto& c : commands)
+      if (c.sub->parsed()) return c.run();
+  } catch (const std::exception& e) {
+    // Library texts may span lines (LibTorch appends a stack trace): keep the first.
+    std::string what = e.what();
+    what = what.substr(0, what.find('\n'));
+    std::fprintf(stderr, "reefgen: error: %s\n", what.c_str());
+    return 1;
+  }
+  return 0;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -161,62 +227,17 @@ int main(int argc, char** argv) {
   int threads = 0;
   app.add_option("--threads", threads, "Worker threads (commands that compute in parallel; accepted by all)")
       ->check(CLI::Range(1, 256));
-  std::vector<reefgen::Command> commands;
-  for (auto add : {reefgen::add_generate_command, reefgen::add_presets_command, reefgen::add_dataset_command,
-                   reefgen::add_sketch_command, reefgen::add_terrain_command, reefgen::add_floating_command,
-                   reefgen::add_realism_command, reefgen::add_erode_command})
-    commands.push_back(add(app, g));
-#if REEFGEN_TORCH_COMMANDS
-  for (auto add : {reefgen::add_train_command, reefgen::add_infer_command, reefgen::add_world_command, reefgen::add_eval_command,
-                   reefgen::add_eval_sketches_command, reefgen::add_model_command, reefgen::add_studio_command,
-                   reefgen::add_bench_command})
-    commands.push_back(add(app, g));
-#endif
+  const std::vector<reefgen::Command> commands = add_commands(app, g);
   // An unknown command word is named, with the nearest known one.
   std::vector<std::string> names = kTorchCommands;
   for (const auto& c : commands) names.push_back(c.sub->get_name());
   if (const int rc = check_command_word(argc, argv, names); rc >= 0) return rc;
-#if !REEFGEN_TORCH_COMMANDS
-  // No command word (--help, --version, nothing): the full list of commands
-  // lives in reefgen-torch.
-  {
-    bool has_command = false;
-    for (int i = 1; i < argc; ++i) {
-      const std::string w = argv[i];
-      if (w == "--threads") ++i;
-      else if (!w.empty() && w[0] != '-') has_command = true;
-    }
-    // Without LibTorch there is no other half: this binary prints its own list.
-    if (!has_command && REEFGEN_WITH_TORCH) return exec_torch_binary(argv, "--help");
-  }
-#endif
+  if (const int rc = hand_help_to_torch(argc, argv); rc >= 0) return rc;
   const std::vector<std::string> args = threads_after_command(std::vector<std::string>(argv + 1, argv + argc));
-  try {
-    std::vector<const char*> av{argv[0]};
-    for (const auto& a : args) av.push_back(a.c_str());
-    app.parse(int(av.size()), av.data());
-  } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
-    // One line, as every other error: the problem, then where to look.
-    std::string what = e.what();
-    for (auto& ch : what)
-      if (ch == '\n') ch = ' ';
-    std::fprintf(stderr, "reefgen: error: %s (see reefgen --help)\n", what.c_str());
-    return e.get_exit_code();
-  }
+  if (const int rc = parse_command_line(app, argv[0], args); rc >= 0) return rc;
   if (threads > 0) cv::setNumThreads(threads);
   // REEFGEN_PARSE_ONLY=1: check the command line and stop (tests/doc_commands.sh
   // parses every command the docs show).
   if (const char* p = std::getenv("REEFGEN_PARSE_ONLY"); p && std::string(p) == "1") return 0;
-  try {
-    for (const auto& c : commands)
-      if (c.sub->parsed()) return c.run();
-  } catch (const std::exception& e) {
-    // Library texts may span lines (LibTorch appends a stack trace): keep the first.
-    std::string what = e.what();
-    what = what.substr(0, what.find('\n'));
-    std::fprintf(stderr, "reefgen: error: %s\n", what.c_str());
-    return 1;
-  }
-  return 0;
+  return run_command(commands);
 }
