@@ -14,6 +14,27 @@
 
 namespace reefgen::procgen {
 
+namespace {
+// The island's sidecar before its files' sizes and layers are known.
+nlohmann::json island_sidecar(const IslandSpec& spec, int W, double mpp, double hmin, double hmax,
+                              const nlohmann::json& files, const nlohmann::json& provenance) {
+  return {{"tool", "reefgen"},
+          {"version", kVersion},
+          {"kind", "island"},
+          {"size_px", W},
+          {"metres_per_pixel", mpp},
+          {"world_size_m", spec.world_size_m},
+          {"sea_level_m", 0.0},
+          {"height_range_m", {hmin, hmax}},
+          {"height_channel", "Y"},
+          {"subsidence", spec.subsidence},
+          {"label_encoding", "HSV: hue 60*(id+1) deg for island, beach, lagoon, reef; 0 deg abyss; V = 1 - 0.75*subsidence"},
+          {"files", files},
+          {"provenance", provenance},
+          {"spec", spec}};
+}
+}  // namespace
+
 WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFields& f, const IslandSpec& spec,
                            const nlohmann::json& provenance, bool preview, const std::filesystem::path& height_given,
                            const terrain::LayerParams* layers, int threads, const ExtraFiles& extra,
@@ -32,20 +53,7 @@ WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFiel
              json_path = name(".json");
   nlohmann::json files = {{"height", height_path.filename().string()}, {"label", label_path.filename().string()}};
   if (preview) files["preview"] = preview_path.filename().string();
-  out.sidecar = {{"tool", "reefgen"},
-                 {"version", kVersion},
-                 {"kind", "island"},
-                 {"size_px", W},
-                 {"metres_per_pixel", mpp},
-                 {"world_size_m", spec.world_size_m},
-                 {"sea_level_m", 0.0},
-                 {"height_range_m", {hmin, hmax}},
-                 {"height_channel", "Y"},
-                 {"subsidence", spec.subsidence},
-                 {"label_encoding", "HSV: hue 60*(id+1) deg for island, beach, lagoon, reef; 0 deg abyss; V = 1 - 0.75*subsidence"},
-                 {"files", files},
-                 {"provenance", provenance},
-                 {"spec", spec}};
+  out.sidecar = island_sidecar(spec, W, mpp, hmin, hmax, files, provenance);
 
   ExrAttributes attrs = {{"reefgen:version", kVersion},
                          {"reefgen:units", "metres, sea level 0"},

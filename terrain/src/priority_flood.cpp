@@ -53,6 +53,9 @@ void sort_by_height_key(std::vector<uint64_t>& keys) {
 
 }  // namespace
 
+// One function on purpose: the flood's state, its two queues and the
+// neighbour walk are touched for every cell in the hot loop; as separate
+// functions they would be passed around per cell. Its steps are marked below.
 FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role) {
   CV_Assert(height.size() == role.size() && height.isContinuous() && role.isContinuous());
   const int H = height.rows, W = height.cols, n = H * W;
