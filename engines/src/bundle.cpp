@@ -33,6 +33,17 @@ cv::Mat3f resample_corners3(const cv::Mat3f& f, int side) {
   return out;
 }
 
+UnrealPlacement unreal_placement(int side, double mpp, const HeightRange& r) {
+  const double scale_xy = mpp * 100.0;
+  return {scale_xy, (r.hi_m - r.lo_m) * 100.0 / 512.0, (r.lo_m + r.hi_m) / 2 * 100.0, (side - 1) / 2.0 * scale_xy};
+}
+
+std::string UnrealPlacement::readme_line() const {
+  return "Location X " + fmt("%.1f", -half_cm) + ", Y " + fmt("%.1f", -half_cm) + ", Z " + fmt("%.1f", location_z_cm) +
+         " (sea level at Z = 0); Scale X " + fmt("%.4f", scale_xy_cm) + ", Y " + fmt("%.4f", scale_xy_cm) + ", Z " +
+         fmt("%.4f", scale_z) + ".\n";
+}
+
 terrain::Layers weights_at(const terrain::Layers& L, int side) {
   terrain::Layers w;
   for (int m = 0; m < terrain::kNumMaterials; ++m) w.weight[size_t(m)] = resample_corners(L.weight[size_t(m)], side);
@@ -154,9 +165,7 @@ nlohmann::json stage_unreal(StagedOutputs& staged, const fs::path& dir, const st
     staged.write(dir / file, [w](const fs::path& p) { write_png(p, w); });
     layers[terrain::material_name(m)] = file;
   }
-  // Unreal maps the 16 bits to 512 m at Z scale 100 %, centred on code 32768.
-  const double scale_z = (r.hi_m - r.lo_m) * 100.0 / 512.0, scale_xy = mpp * 100.0;
-  const double loc_z = (r.lo_m + r.hi_m) / 2 * 100.0, half = (side - 1) / 2.0 * scale_xy;
+  const detail::UnrealPlacement at = detail::unreal_placement(side, mpp, r);
   std::string readme =
       "reefgen island for Unreal Engine (Landscape)\n\n"
       "Heights: " + name + ".png, " + std::to_string(side) + "x" + std::to_string(side) +
@@ -166,17 +175,15 @@ nlohmann::json stage_unreal(StagedOutputs& staged, const fs::path& dir, const st
                        " samples a side, the nearest Landscape size (505, 1009, 2017, 4033, 8129).\n"
                  : std::string()) +
       "\n1. Landscape mode > Manage > New > Import from File: Heightmap File " + name + ".png.\n"
-      "2. Location X " + fmt("%.1f", -half) + ", Y " + fmt("%.1f", -half) + ", Z " + fmt("%.1f", loc_z) +
-      " (sea level at Z = 0); Scale X " + fmt("%.4f", scale_xy) + ", Y " + fmt("%.4f", scale_xy) + ", Z " +
-      fmt("%.4f", scale_z) + ".\n"
+      "2. " + at.readme_line() +
       "3. Layers: create a Landscape material with these weight-blended layers and, for each, Import the file:\n";
   for (int m = 0; m < terrain::kNumMaterials; ++m)
     readme += std::string("   ") + terrain::material_name(m) + ": " + name + "_" + terrain::material_name(m) + ".png\n";
   readme += "   (8-bit greyscale, same size as the heights; the eight sum to 255 at every pixel)\n";
   stage_text(staged, dir / "README.txt", readme);
   return {{"engine", "unreal"}, {"heightmap", name + ".png"}, {"weight_layers", layers}, {"side_px", side},
-          {"resampled_from_px", n}, {"range_m", {r.lo_m, r.hi_m}}, {"scale_cm", {scale_xy, scale_xy, scale_z}},
-          {"location_cm", {-half, -half, loc_z}}};
+          {"resampled_from_px", n}, {"range_m", {r.lo_m, r.hi_m}}, {"scale_cm", at.scale_json()},
+          {"location_cm", at.location_json()}};
 }
 
 nlohmann::json stage_gis(StagedOutputs& staged, const fs::path& dir, const std::string& name, const BundleInput& in,

@@ -31,6 +31,18 @@ nlohmann::json stage_godot(StagedOutputs& staged, const std::filesystem::path& d
 nlohmann::json stage_blender(StagedOutputs& staged, const std::filesystem::path& dir, const std::string& name,
                              const BundleInput& in, int threads);
 
+// Where an Unreal Landscape of side² samples, mpp apart, with heights `r`
+// goes: Unreal maps the 16 bits to 512 m at Z scale 100 %, centred on code
+// 32768; X and Y in cm, the Landscape centred on (0, 0), sea level at Z = 0.
+struct UnrealPlacement {
+  double scale_xy_cm, scale_z, location_z_cm, half_cm;
+  // "Location X …, Y …, Z … (sea level at Z = 0); Scale X …, Y …, Z …." for the README.
+  std::string readme_line() const;
+  nlohmann::json scale_json() const { return {scale_xy_cm, scale_xy_cm, scale_z}; }
+  nlohmann::json location_json() const { return {-half_cm, -half_cm, location_z_cm}; }
+};
+UnrealPlacement unreal_placement(int side, double metres_per_px, const HeightRange& r);
+
 // A Unity tile's two splat maps (RGBA8, alphamap_px a side) for the heights'
 // rectangle `rect` (its samples, corner to corner).
 using UnitySplats = std::function<std::array<cv::Mat4b, 2>(const cv::Rect& rect, int alphamap_px)>;

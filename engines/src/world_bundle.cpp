@@ -92,9 +92,7 @@ nlohmann::json stage_unreal_world(StagedOutputs& staged, const fs::path& dir, co
       staged.write_all(jobs, threads);
       tiles.push_back({{"x", i}, {"y", j}, {"heightmap", stem + ".png"}, {"weight_layers", layer_files}});
     }
-  // Unreal maps the 16 bits to 512 m at Z scale 100 %, centred on code 32768.
-  const double scale_z = (r.hi_m - r.lo_m) * 100.0 / 512.0, scale_xy = mpp * 100.0;
-  const double loc_z = (r.lo_m + r.hi_m) / 2 * 100.0, half = (side - 1) / 2.0 * scale_xy;
+  const detail::UnrealPlacement at = detail::unreal_placement(side, mpp, r);
   const int components = (side - 1) / quads;
   std::string readme =
       "reefgen world for Unreal Engine 5 (Landscape, World Partition), " + std::to_string(per_axis * per_axis) +
@@ -113,9 +111,7 @@ nlohmann::json stage_unreal_world(StagedOutputs& staged, const fs::path& dir, co
       " Quads, Sections Per Component 1x1, Number of Components " + std::to_string(components) + " x " +
       std::to_string(components) + " (" + std::to_string(side - 1) + " = " + std::to_string(quads) +
       " x " + std::to_string(components) + " quads: no resampling in Unreal).\n"
-      "3. Location X " + fmt("%.1f", -half) + ", Y " + fmt("%.1f", -half) + ", Z " + fmt("%.1f", loc_z) +
-      " (sea level at Z = 0); Scale X " + fmt("%.4f", scale_xy) + ", Y " + fmt("%.4f", scale_xy) + ", Z " +
-      fmt("%.4f", scale_z) + ".\n"
+      "3. " + at.readme_line() +
       "4. Layers: a Landscape material with these weight-blended layers; for each, pick its _x0_y0 tile:\n";
   for (int m = 0; m < terrain::kNumMaterials; ++m)
     readme += std::string("   ") + terrain::material_name(m) + ": " + name + "_" + terrain::material_name(m) + "_x0_y0.png\n";
@@ -124,7 +120,7 @@ nlohmann::json stage_unreal_world(StagedOutputs& staged, const fs::path& dir, co
   return {{"engine", "unreal"}, {"tiles", tiles}, {"tiles_per_axis", per_axis}, {"tile_px", tile_px},
           {"side_px", side}, {"resampled_from_px", n}, {"section_quads", quads},
           {"components_per_axis", components}, {"range_m", {r.lo_m, r.hi_m}},
-          {"scale_cm", {scale_xy, scale_xy, scale_z}}, {"location_cm", {-half, -half, loc_z}}};
+          {"scale_cm", at.scale_json()}, {"location_cm", at.location_json()}};
 }
 
 nlohmann::json stage_godot_world(StagedOutputs& staged, const fs::path& dir, const std::string& name,
