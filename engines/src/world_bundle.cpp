@@ -18,19 +18,6 @@ std::string tile_stem(const std::string& name, int i, int j) {
   return name + "_x" + std::to_string(i) + "_y" + std::to_string(j);
 }
 
-// The float layers a GIS reads, in the GeoTIFF files' order and units.
-const std::vector<gis::TiledBand>& float_layer_bands() {
-  static const std::vector<gis::TiledBand> bands = {{".flow", "square metre", "drainage area"},
-                                                    {".slope", "degree", "steepest slope"},
-                                                    {".wear", "metre", "material the erosion removed"},
-                                                    {".deposit", "metre", "material laid down"}};
-  return bands;
-}
-
-std::vector<cv::Mat1f> float_layers(const terrain::Layers& L) {
-  return {L.flow_area_m2, L.slope_deg, L.wear_m, L.deposit_m};
-}
-
 // True when a resumed run has every band file of tile `stem` already.
 bool resumed_bands(const StagedOutputs& staged, const fs::path& dir, const std::string& stem,
                    const std::vector<gis::TiledBand>& bands) {
@@ -136,19 +123,19 @@ nlohmann::json stage_godot_world(StagedOutputs& staged, const fs::path& dir, con
 
 nlohmann::json stage_gis_world(StagedOutputs& staged, const fs::path& dir, const std::string& name,
                                const WorldInput& in, int threads) {
-  std::vector<gis::TiledBand> bands = {{".height", "metre", "height above sea level"}};
-  if (in.field) bands.insert(bands.end(), float_layer_bands().begin(), float_layer_bands().end());
+  std::vector<gis::TiledBand> bands = {gis::height_band()};
+  if (in.field) bands.insert(bands.end(), gis::layer_bands().begin(), gis::layer_bands().end());
   const cv::Mat1f& h = in.height_m;
   nlohmann::json j = gis::stage_geotiff_band_tiles(
       staged, dir, name, h.size(), in.metres_per_px, in.geo, bands,
       [&](const cv::Rect& r, int i, int j) {
         std::vector<cv::Mat1f> out = {h(r)};
         if (!in.field) return out;
-        if (resumed_bands(staged, dir, tile_stem(name, i, j), float_layer_bands())) {
+        if (resumed_bands(staged, dir, tile_stem(name, i, j), gis::layer_bands())) {
           out.resize(bands.size());  // written by an earlier run: nothing to make
           return out;
         }
-        const auto more = float_layers(terrain::world_layers_tile(h, *in.field, r, in.rules, threads));
+        const auto more = gis::layer_band_pixels(terrain::world_layers_tile(h, *in.field, r, in.rules, threads));
         out.insert(out.end(), more.begin(), more.end());
         return out;
       },
@@ -196,7 +183,7 @@ nlohmann::json stage_world_layers(StagedOutputs& staged, const fs::path& dir, co
   nlohmann::json files = nlohmann::json::array();
   // Each tile's layer files are staged as the tile is made; its float layers
   // go to the GeoTIFF tiles (none without --geotiff).
-  const std::vector<gis::TiledBand> bands = geotiff ? float_layer_bands() : std::vector<gis::TiledBand>{};
+  const std::vector<gis::TiledBand> bands = geotiff ? gis::layer_bands() : std::vector<gis::TiledBand>{};
   nlohmann::json j = gis::stage_geotiff_band_tiles(
       staged, dir, name, h.size(), in.metres_per_px, in.geo, bands,
       [&](const cv::Rect& r, int i, int j) {
@@ -212,7 +199,7 @@ nlohmann::json stage_world_layers(StagedOutputs& staged, const fs::path& dir, co
         else
           terrain::stage_layer_files(staged, (dir / stem).string(), L, in.metres_per_px, in.rules, threads, &scales);
         files.push_back({{"x", i}, {"y", j}, {"files", terrain::layer_file_names((dir / stem).string())}});
-        return geotiff ? (made ? std::vector<cv::Mat1f>(bands.size()) : float_layers(L)) : std::vector<cv::Mat1f>{};
+        return geotiff ? (made ? std::vector<cv::Mat1f>(bands.size()) : gis::layer_band_pixels(L)) : std::vector<cv::Mat1f>{};
       },
       threads, in.tiling.gis_tile_max_px);
   nlohmann::json encoding = terrain::layer_files_description(in.metres_per_px, in.rules, scales);

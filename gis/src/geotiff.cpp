@@ -141,6 +141,24 @@ GeoRaster read_geotiff(const std::filesystem::path& path) {
 
 namespace reefgen::gis {
 
+const TiledBand& height_band() {
+  static const TiledBand b{".height", "metre", "height above sea level, metres"};
+  return b;
+}
+
+const std::vector<TiledBand>& layer_bands() {
+  static const std::vector<TiledBand> bands = {
+      {".flow", "square metre", "drainage area, square metres (0 at sea)"},
+      {".slope", "degree", "slope, degrees"},
+      {".wear", "metre", "metres removed by erosion"},
+      {".deposit", "metre", "metres laid down (filled basins, settled sediment)"}};
+  return bands;
+}
+
+std::vector<cv::Mat1f> layer_band_pixels(const terrain::Layers& L) {
+  return {L.flow_area_m2, L.slope_deg, L.wear_m, L.deposit_m};
+}
+
 std::vector<std::string> geotiff_suffixes() {
   return {".height.tif", ".flow.tif", ".slope.tif", ".wear.tif", ".deposit.tif"};
 }
@@ -160,20 +178,17 @@ nlohmann::json stage_geotiff_files(StagedOutputs& staged, const std::string& pre
   nlohmann::json files = nlohmann::json::object();
   const std::map<std::string, std::string> meta = {{"reefgen_version", kVersion}, {"sea_level_m", "0"}};
   std::vector<StagedOutputs::Job> jobs;
-  auto put = [&](const char* kind, const char* suffix, const cv::Mat1f& band, const char* units, const char* what) {
-    const std::string path = prefix + suffix;
-    jobs.emplace_back(path, [&band, &geo, &meta, mpp, units, what](const std::filesystem::path& t) {
-      write_geotiff(t, band, mpp, geo, units, what, meta);
+  auto put = [&](const TiledBand& b, const cv::Mat1f& band) {
+    const std::string path = prefix + b.suffix + ".tif";
+    jobs.emplace_back(path, [&band, &geo, &meta, mpp, &b](const std::filesystem::path& t) {
+      write_geotiff(t, band, mpp, geo, b.units, b.description, meta);
     });
-    files[kind] = std::filesystem::path(path).filename().string();
+    files[b.suffix.substr(1)] = std::filesystem::path(path).filename().string();
   };
-  put("height", ".height.tif", height_m, "metre", "height above sea level, metres");
-  if (layers) {
-    put("flow", ".flow.tif", layers->flow_area_m2, "square metre", "drainage area, square metres (0 at sea)");
-    put("slope", ".slope.tif", layers->slope_deg, "degree", "slope, degrees");
-    put("wear", ".wear.tif", layers->wear_m, "metre", "metres removed by erosion");
-    put("deposit", ".deposit.tif", layers->deposit_m, "metre", "metres laid down (filled basins, settled sediment)");
-  }
+  put(height_band(), height_m);
+  // Headers of the layers' maps, alive until the jobs have run.
+  const std::vector<cv::Mat1f> pixels = layers ? layer_band_pixels(*layers) : std::vector<cv::Mat1f>{};
+  for (size_t k = 0; k < pixels.size(); ++k) put(layer_bands()[k], pixels[k]);
   staged.write_all(jobs, threads);
   nlohmann::json j = geo_json(geo, height_m.cols, height_m.rows, mpp);
   j["files"] = files;

@@ -110,7 +110,7 @@ nlohmann::json stage_geotiff_band_tiles(StagedOutputs& staged, const std::filesy
 nlohmann::json stage_geotiff_tiles(StagedOutputs& staged, const std::filesystem::path& dir, const std::string& name,
                                    const cv::Mat1f& h, double mpp, const GeoReference& geo, int threads,
                                    int tile_max_px) {
-  const std::vector<TiledBand> bands = {{".height", "metre", "height above sea level"}};
+  const std::vector<TiledBand> bands = {height_band()};
   // Views of the heights: the jobs copy headers, not pixels.
   nlohmann::json j = stage_geotiff_band_tiles(
       staged, dir, name, h.size(), mpp, geo, bands, [&](const cv::Rect& r, int, int) { return std::vector<cv::Mat1f>{h(r)}; },

@@ -102,6 +102,13 @@ struct TiledBand {
   std::string suffix;  // ".height", ".flow", …
   std::string units, description;
 };
+// The height band and the four float layers' bands (flow, slope, wear,
+// deposit), with the units and descriptions every GeoTIFF of them carries,
+// whole or tiled; layer_band_pixels gives the layers' pixels in that order.
+const TiledBand& height_band();
+const std::vector<TiledBand>& layer_bands();
+std::vector<cv::Mat1f> layer_band_pixels(const terrain::Layers& layers);
+
 // The pixels of every band of tile (i, j), `rect` of the world, in the order of the bands.
 using TileBands = std::function<std::vector<cv::Mat1f>(const cv::Rect& rect, int i, int j)>;
 
