@@ -550,166 +550,237 @@ void log_step(LogWindow& window, const Losses& l, double dt, double allreduce_s,
   window = {};
 }
 
-}  // namespace
 
-RunResult run_training(const TrainParams& requested, const RunOptions& run) {
+// One rank's job, opened in the order its guards run: the process group
+// (a bad environment fails before anything is read), the dataset, the
+// threads, the schedule, then rank 0's run folder.
+struct Job {
+  TrainParams params;  // precision "auto" resolved
+  std::unique_ptr<Comm> comm;
+  int rank = 0, world = 1;
+  bool lead = true;  // rank 0: the only rank that touches the run folder
+  DatasetInfo data;
+  StepPlan plan;
+  std::optional<DirLock> lock;
+  fs::path ckpt, log_csv, val_csv;
+};
+
+// The threads of this process: all cores by default, shared between the
+// ranks of this machine.
+void set_torch_threads(const TrainParams& params, const DistConfig& dist) {
+  const int all = std::max(1, int(std::thread::hardware_concurrency()) / std::max(1, dist.local_world_size));
+  torch::set_num_threads(params.threads > 0 ? params.threads : all);
+  at::globalContext().setDeterministicAlgorithms(params.deterministic, /*warn_only=*/true);
+  keep_freed_memory();
+}
+
+void open_job(Job& job, const TrainParams& requested, const RunOptions& run) {
   validate(requested, "training config");
   // precision "auto" decided once, here: run.json and the checkpoints record
   // what ran, so a resume on a CPU that would decide otherwise is refused.
-  TrainParams params = requested;
-  params.precision = resolved_precision(requested);
-  // Data-parallel: join the job first, so a bad environment or an
-  // unreachable master fails before anything is read or written.
-  std::unique_ptr<Comm> comm;
-  if (run.dist.world_size > 1) comm = Comm::connect(run.dist);
-  const int rank = run.dist.rank, world = run.dist.world_size;
-  const bool lead = rank == 0;  // the only rank that touches the run folder
+  job.params = requested;
+  job.params.precision = resolved_precision(requested);
+  if (run.dist.world_size > 1) job.comm = Comm::connect(run.dist);
+  job.rank = run.dist.rank;
+  job.world = run.dist.world_size;
+  job.lead = job.rank == 0;
   augment::ManifestCheck check;
   check.verify_checksums = run.verify_data;
   check.threads = torch::get_num_threads();
-  check.quiet = !lead || !run.on_log;
-  const DatasetInfo data = open_dataset(run.data, check);
-  if (data.size_px % (1 << params.depth))
-    throw Error(run.data.string() + ": pairs are " + std::to_string(data.size_px) + " px, not a multiple of 2^depth = " +
-                std::to_string(1 << params.depth) + "; lower depth or build the dataset at another size");
-  // All cores by default, shared between the ranks of this machine.
-  torch::set_num_threads(params.threads > 0 ? params.threads
-                                            : std::max(1, int(std::thread::hardware_concurrency()) /
-                                                              std::max(1, run.dist.local_world_size)));
-  at::globalContext().setDeterministicAlgorithms(params.deterministic, /*warn_only=*/true);
-  keep_freed_memory();
-
-  const StepPlan plan = plan_steps(params, int64_t(data.train.size()), world, run.max_steps);
-  const int64_t n = plan.n, B = plan.B, Bg = plan.Bg, end = plan.end;
-  check_run_apart_from_data(run);
-  const fs::path ckpt = run.out / "checkpoint.pt", log_csv = run.out / "log.csv", val_csv = run.out / "val.csv";
-  std::optional<DirLock> lock;
-  if (lead) open_run_folder(run, data, n, lock);
-
-  torch::manual_seed(params.seed);  // weight initialisation
-  Pix2Pix p(pix2pix_options(params));
-  LogWindow window;
-  int64_t step = lead ? restore_start(run, p, params, window, world, Bg) : 0;
-  const json run_json = {{"reefgen_version", kVersion},
-                         {"config", params},
-                         {"seed", params.seed},
-                         {"data", fs::absolute(run.data).string()},
-                         {"size_px", data.size_px},
-                         {"manifest_fnv64", file_checksum(run.data / "manifest.jsonl")},
-                         {"height_range_m", {data.range.lo_m, data.range.hi_m}},
-                         {"pairs", {{"train", n}, {"val", data.val.size()}}},
-                         {"steps", {{"per_epoch", plan.per_epoch}, {"constant", plan.constant},
-                                    {"decay", plan.decay}, {"total", plan.total}}},
-                         {"parameters", {{"G", model::count_parameters(*p.G())}, {"D", model::count_parameters(*p.D())}}},
-                         {"torch_threads", torch::get_num_threads()},
-                         {"world_size", world},
-                         {"global_batch", Bg}};
-  if (lead) write_json_atomic(run.out / "run.json", run_record(run_json, run));
-  if (comm) {
-    check_same_job(*comm,
-                   {{"config", comparable(params, world)},
-                    {"manifest_fnv64", run_json.at("manifest_fnv64")},
-                    {"pairs", run_json.at("pairs")}},
-                   rank, run);
-    sync_from_rank0(*comm, p, step);
-  }
-
-  const JitterOptions jitter{params.jitter, params.jitter_scale, params.flip};
-  auto make_batch = [&](int64_t s) -> Prefetcher::Batch {
-    std::vector<torch::Tensor> labels, heights;
-    for (int64_t b = 0; b < B; ++b) {
-      const int64_t q = s * Bg + rank * B + b;
-      const PairRef& ref = data.train[sample_at(params.seed, q, size_t(n))];
-      Sample smp = load_sample(data, ref, jitter, derive_seed(params.seed, uint64_t(q), "jitter"));
-      labels.push_back(smp.label);
-      heights.push_back(smp.height);
-    }
-    return {torch::stack(labels), torch::stack(heights)};  // {B,3,S,S}, {B,1,S,S}
-  };
-  Validator validate_on(p, data, lead, params, run.out);
-
-  RunResult result{step, plan.total, false};
-  auto export_generator = [&] {
-    try {
-      model::save_generator(run.out / "generator.pt", p.G(), data.range, data.size_px, step);
-    } catch (const std::exception& e) {
-      throw Error(e.what());
-    }
-  };
-  if (step >= end) {  // nothing left to train: the generator still matches the checkpoint
-    if (lead) export_generator();
-    return result;
-  }
-  // Said once everything is checked: what runs the step.
-  if (run.on_log && lead)
-    run.on_log("convolutions: " + params.engine + ", " + params.precision +
-               (requested.precision == "auto" ? " (auto on this CPU)" : "") + "; " +
-               std::to_string(torch::get_num_threads()) + " threads" +
-               (comm ? " per rank; " + std::to_string(world) + " ranks (" + run.dist.source + "), global batch " +
-                           std::to_string(Bg)
-                     : std::string()));
+  check.quiet = !job.lead || !run.on_log;
+  job.data = open_dataset(run.data, check);
+  const int multiple = 1 << job.params.depth;
+  if (job.data.size_px % multiple)
+    throw Error(run.data.string() + ": pairs are " + std::to_string(job.data.size_px) +
+                " px, not a multiple of 2^depth = " + std::to_string(multiple) +
+                "; lower depth or build the dataset at another size");
   if (!(run.bucket_mb > 0 && run.bucket_mb <= 1024))
     throw Error("--bucket-mb " + fmt(run.bucket_mb) + ": must be in (0, 1024]");
-  p.set_comm(comm.get(), run.bucket_mb);
-  Prefetcher loader(make_batch, step, end, params.loader_threads, params.prefetch);
-  // A pair that cannot be read mid-run (deleted, damaged): the weights after
-  // the last finished step are saved first, so --resume loses nothing.
+  set_torch_threads(job.params, run.dist);
+  job.plan = plan_steps(job.params, int64_t(job.data.train.size()), job.world, run.max_steps);
+  check_run_apart_from_data(run);
+  job.ckpt = run.out / "checkpoint.pt";
+  job.log_csv = run.out / "log.csv";
+  job.val_csv = run.out / "val.csv";
+  if (job.lead) open_run_folder(run, job.data, job.plan.n, job.lock);
+}
+
+// run.json's record of what runs: config, data, schedule, sizes.
+json describe_run(const Job& job, const RunOptions& run, Pix2Pix& p) {
+  const StepPlan& plan = job.plan;
+  return {{"reefgen_version", kVersion},
+          {"config", job.params},
+          {"seed", job.params.seed},
+          {"data", fs::absolute(run.data).string()},
+          {"size_px", job.data.size_px},
+          {"manifest_fnv64", file_checksum(run.data / "manifest.jsonl")},
+          {"height_range_m", {job.data.range.lo_m, job.data.range.hi_m}},
+          {"pairs", {{"train", plan.n}, {"val", job.data.val.size()}}},
+          {"steps", {{"per_epoch", plan.per_epoch}, {"constant", plan.constant}, {"decay", plan.decay}, {"total", plan.total}}},
+          {"parameters", {{"G", model::count_parameters(*p.G())}, {"D", model::count_parameters(*p.D())}}},
+          {"torch_threads", torch::get_num_threads()},
+          {"world_size", job.world},
+          {"global_batch", plan.Bg}};
+}
+
+// The step to start from, the same on every rank: rank 0 restores (resume
+// or --init) and records run.json; the others check they run the same job
+// and take rank 0's step, weights and optimizer states.
+int64_t start_step(Job& job, const RunOptions& run, Pix2Pix& p, LogWindow& window) {
+  int64_t step = job.lead ? restore_start(run, p, job.params, window, job.world, job.plan.Bg) : 0;
+  const json record = describe_run(job, run, p);
+  if (job.lead) write_json_atomic(run.out / "run.json", run_record(record, run));
+  if (job.comm) {
+    check_same_job(*job.comm,
+                   {{"config", comparable(job.params, job.world)},
+                    {"manifest_fnv64", record.at("manifest_fnv64")},
+                    {"pairs", record.at("pairs")}},
+                   job.rank, run);
+    sync_from_rank0(*job.comm, p, step);
+  }
+  return step;
+}
+
+// Global sample q = s·Bg + rank·B + b: the stream a one-process run with the
+// global batch would read, whatever the number of ranks.
+int64_t sample_index(const Job& job, int64_t step, int64_t b) {
+  return step * job.plan.Bg + job.rank * job.plan.B + b;
+}
+
+// Step s's batch for this rank, jittered per sample from its stream index.
+Prefetcher::Batch load_batch(const Job& job, int64_t s) {
+  const JitterOptions jitter{job.params.jitter, job.params.jitter_scale, job.params.flip};
+  const uint64_t seed = job.params.seed;
+  std::vector<torch::Tensor> labels, heights;
+  for (int64_t b = 0; b < job.plan.B; ++b) {
+    const int64_t q = sample_index(job, s, b);
+    const PairRef& ref = job.data.train[sample_at(seed, q, job.data.train.size())];
+    Sample smp = load_sample(job.data, ref, jitter, derive_seed(seed, uint64_t(q), "jitter"));
+    labels.push_back(smp.label);
+    heights.push_back(smp.height);
+  }
+  return {torch::stack(labels), torch::stack(heights)};  // {B,3,S,S}, {B,1,S,S}
+}
+
+// Dropout draws from torch's generator, reseeded per step, and each sample's
+// masks come from its stream index: a resumed run draws exactly what the
+// uninterrupted one would have, whatever batch or rank a sample lands in.
+void seed_dropout(const Job& job, Pix2Pix& p, int64_t step) {
+  torch::manual_seed(derive_seed(job.params.seed, uint64_t(step), "dropout"));
+  std::vector<uint64_t> seeds;
+  for (int64_t b = 0; b < job.plan.B; ++b)
+    seeds.push_back(derive_seed(job.params.seed, uint64_t(sample_index(job, step, b)), "dropout"));
+  p.G()->set_dropout_seeds(std::move(seeds));
+}
+
+void check_finite(const Losses& l, int64_t step, const fs::path& ckpt) {
+  if (!std::isfinite(l.g_gan + l.g_l1 + l.d_real + l.d_fake))
+    throw Error("training diverged at step " + std::to_string(step + 1) + " (a loss is NaN or infinite); "
+                "lower lr or resume from the last checkpoint in " + ckpt.string());
+}
+
+// Said once everything is checked: what runs the step.
+void say_engine(const Job& job, const TrainParams& requested, const RunOptions& run) {
+  if (!run.on_log || !job.lead) return;
+  std::string ranks;
+  if (job.comm)
+    ranks = " per rank; " + std::to_string(job.world) + " ranks (" + run.dist.source + "), global batch " +
+            std::to_string(job.plan.Bg);
+  run.on_log("convolutions: " + job.params.engine + ", " + job.params.precision +
+             (requested.precision == "auto" ? " (auto on this CPU)" : "") + "; " +
+             std::to_string(torch::get_num_threads()) + " threads" + ranks);
+}
+
+// The next batch; a pair that cannot be read mid-run (deleted, damaged)
+// first saves the weights after the last finished step, so --resume loses
+// nothing.
+Prefetcher::Batch next_batch_or_checkpoint(Prefetcher& loader, const Job& job, Pix2Pix& p, int64_t step,
+                                           const LogWindow& window, int64_t saved_step) {
+  try {
+    return loader.next();
+  } catch (const Error& e) {
+    const bool saves = job.lead && step > 0;
+    if (saves && saved_step != step) save_checkpoint(job.ckpt, p, job.params, step, window, job.world);
+    throw Error(std::string(e.what()) + (saves ? " [checkpoint saved at step " + std::to_string(step) +
+                                                     "; fix the dataset, then --resume]"
+                                               : ""));
+  }
+}
+
+// Rank 0 after step `step`: the validation grid, the epoch's validation
+// error, the checkpoint. Returns whether it wrote a checkpoint.
+bool validate_and_save(const Job& job, const RunOptions& run, Pix2Pix& p, Validator& val, const LogWindow& window,
+                       int64_t step, int64_t end, bool stopping) {
+  const StepPlan& plan = job.plan;
+  if (step % job.params.val_every == 0 || step == plan.total || step == end) val.write_grid(step);  // end: --max-steps too
+  if (step % plan.per_epoch == 0 || step == plan.total)
+    append_line(job.val_csv, "step,epoch,mae_m_batchstats,mae_m_running",
+                std::to_string(step) + "," + fmt(double(step) / double(plan.per_epoch)) + "," + fmt(val.mae_m(true)) +
+                    "," + fmt(val.mae_m(false)));
+  if (!(step % job.params.checkpoint_every == 0 || step == end || stopping)) return false;
+  save_checkpoint(job.ckpt, p, job.params, step, window, job.world);
+  if (run.on_log) run.on_log("checkpoint at step " + std::to_string(step) + ": " + job.ckpt.string());
+  return true;
+}
+
+// generator.pt beside the checkpoint: what `reefgen infer` loads.
+void export_generator(const Job& job, const RunOptions& run, Pix2Pix& p, int64_t step) {
+  try {
+    model::save_generator(run.out / "generator.pt", p.G(), job.data.range, job.data.size_px, step);
+  } catch (const std::exception& e) {
+    throw Error(e.what());
+  }
+}
+
+}  // namespace
+
+// pix2pix's loop (pytorch/examples' dcgan shape): each step takes a batch,
+// updates D on real and fake pairs and G on GAN + L1 (Pix2Pix::step), then
+// logs, validates and checkpoints. The loop ends at the end of the run, at
+// --max-steps or on a signal; every case leaves a usable generator.pt.
+RunResult run_training(const TrainParams& requested, const RunOptions& run) {
+  Job job;
+  open_job(job, requested, run);
+  torch::manual_seed(job.params.seed);  // weight initialisation
+  Pix2Pix p(pix2pix_options(job.params));
+  LogWindow window;
+  int64_t step = start_step(job, run, p, window);
+  const int64_t end = job.plan.end;
+  Validator validator(p, job.data, job.lead, job.params, run.out);
+  RunResult result{step, job.plan.total, false};
+  if (step >= end) {  // nothing left to train: the generator still matches the checkpoint
+    if (job.lead) export_generator(job, run, p, step);
+    return result;
+  }
+  say_engine(job, requested, run);
+  p.set_comm(job.comm.get(), run.bucket_mb);
+  Prefetcher loader([&job](int64_t s) { return load_batch(job, s); }, step, end, job.params.loader_threads,
+                    job.params.prefetch);
   int64_t saved_step = -1;
-  auto next_batch_or_checkpoint = [&](Prefetcher& l, int64_t at) {
-    try {
-      return l.next();
-    } catch (const Error& e) {
-      if (lead && at > 0 && saved_step != at) save_checkpoint(ckpt, p, params, at, window, world);
-      throw Error(std::string(e.what()) + (lead && at > 0 ? " [checkpoint saved at step " + std::to_string(at) +
-                                                                "; fix the dataset, then --resume]"
-                                                          : ""));
-    }
-  };
   using clock = std::chrono::steady_clock;
   while (step < end) {
     const auto t0 = clock::now();
-    const double lr = lr_at(params, step, plan.constant, plan.decay);
+    const double lr = lr_at(job.params, step, job.plan.constant, job.plan.decay);
     p.set_lr(lr);
-    auto [label, height] = next_batch_or_checkpoint(loader, step);
-    // Dropout draws from torch's generator, reseeded per step: a resumed run
-    // draws exactly what the uninterrupted one would have.
-    torch::manual_seed(derive_seed(params.seed, uint64_t(step), "dropout"));
-    // Each sample's dropout masks come from its position in the stream, so
-    // they do not depend on the batch or the rank it lands in.
-    std::vector<uint64_t> dropout_seeds;
-    for (int64_t b = 0; b < B; ++b) dropout_seeds.push_back(derive_seed(params.seed, uint64_t(step * Bg + rank * B + b), "dropout"));
-    p.G()->set_dropout_seeds(std::move(dropout_seeds));
+    auto [label, height] = next_batch_or_checkpoint(loader, job, p, step, window, saved_step);
+    seed_dropout(job, p, step);
     Losses l = p.step(label, height);
     bool stopping = run.stop && run.stop->load();
     double allreduce_s = 0;
-    if (comm) l = average_over_ranks(*comm, l, world, step, stopping, allreduce_s);
-    if (!std::isfinite(l.g_gan + l.g_l1 + l.d_real + l.d_fake))
-      throw Error("training diverged at step " + std::to_string(step + 1) + " (a loss is NaN or infinite); "
-                  "lower lr or resume from the last checkpoint in " + ckpt.string());
+    if (job.comm) l = average_over_ranks(*job.comm, l, job.world, step, stopping, allreduce_s);
+    check_finite(l, step, job.ckpt);
     ++step;
     const double dt = std::chrono::duration<double>(clock::now() - t0).count();
-    log_step(window, l, dt, allreduce_s, step, plan, lr, params, lead, log_csv);
-    if (lead && (step % params.val_every == 0 || step == plan.total || step == end)) validate_on.write_grid(step);  // end: --max-steps too
-    if (lead && (step % plan.per_epoch == 0 || step == plan.total)) {
-      append_line(val_csv, "step,epoch,mae_m_batchstats,mae_m_running",
-                  std::to_string(step) + "," + fmt(double(step) / double(plan.per_epoch)) + "," +
-                      fmt(validate_on.mae_m(true)) + "," + fmt(validate_on.mae_m(false)));
-    }
-    if (lead && (step % params.checkpoint_every == 0 || step == end || stopping)) {
-      save_checkpoint(ckpt, p, params, step, window, world);
-      saved_step = step;
-      if (run.on_log) run.on_log("checkpoint at step " + std::to_string(step) + ": " + ckpt.string());
-    }
-    if (run.on_step) run.on_step({step, plan.total, lr, dt, allreduce_s, l});
+    log_step(window, l, dt, allreduce_s, step, job.plan, lr, job.params, job.lead, job.log_csv);
+    if (job.lead && validate_and_save(job, run, p, validator, window, step, end, stopping)) saved_step = step;
+    if (run.on_step) run.on_step({step, job.plan.total, lr, dt, allreduce_s, l});
     if (stopping && step < end) {
       result.interrupted = true;
       break;
     }
   }
   result.step = step;
-  // The loop ends at the end of the run, at --max-steps or on a signal: every
-  // case leaves a usable generator next to the checkpoint.
-  if (lead) export_generator();
+  if (job.lead) export_generator(job, run, p, step);
   return result;
 }
 
