@@ -276,8 +276,9 @@ cv::Mat2f integrate_warp(const cv::Mat2f& phi, const cv::Mat1f& resistance, int 
 
 // ---------------------------------------------------------------- generate
 
-IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
-  validate(spec);
+namespace {
+
+void check_render_options(const RenderOptions& opt) {
   if (opt.size_px < kMinGenerateSidePx || opt.size_px > kMaxSidePx)
     throw Error("size = " + std::to_string(opt.size_px) + " is out of range; expected [" +
                 std::to_string(kMinGenerateSidePx) + ", " + std::to_string(kMaxSidePx) + "]");
@@ -287,86 +288,70 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
     throw Error("resistance_grid = " + std::to_string(opt.resistance_grid) + " is out of range; expected [4, 4096]");
   if (opt.wind_grid < 4 || opt.wind_grid > 1024)
     throw Error("wind_grid = " + std::to_string(opt.wind_grid) + " is out of range; expected [4, 1024]");
-  const int W = opt.size_px;
-  const OutlineTable outlines(spec.outlines, spec.min_gap);
+}
 
-  // Everything that depends on x̃ alone is tabulated once per island.
-  constexpr int kLut = 4097;
-  const float lut_scale = (kLut - 1) / 5.f;
-  std::vector<float> rho(kLut), hsub(kLut), coral(kLut), merged(kLut);
-  for (int j = 0; j < kLut; ++j) {
-    const double xt = 5.0 * j / (kLut - 1);
-    rho[j] = float(sample_curve(spec.resistance, xt / 5.0));
-    hsub[j] = float(subsided_height_m(sample_curve(spec.profile, xt / 5.0), spec.subsidence, spec.heights));
-    coral[j] = float(coral_height_m(xt - 3.0, spec.coral));
-    merged[j] = spec.coral.enabled ? float(smax(hsub[j], coral[j], spec.smax_k)) : hsub[j];
+// Everything that depends on x̃ alone, tabulated once per island at
+// kEntries points over [0, 5]: resistance ρ, subsided volcano h_sub, coral,
+// and their smooth maximum (the height without erosion or noise).
+struct ProfileTables {
+  static constexpr int kEntries = 4097;
+  const float scale = (kEntries - 1) / 5.f;  // entries per unit of x̃
+  std::vector<float> rho, hsub, coral, merged;
+
+  explicit ProfileTables(const IslandSpec& spec) : rho(kEntries), hsub(kEntries), coral(kEntries), merged(kEntries) {
+    for (int j = 0; j < kEntries; ++j) {
+      const double xt = 5.0 * j / (kEntries - 1);
+      rho[j] = float(sample_curve(spec.resistance, xt / 5.0));
+      hsub[j] = float(subsided_height_m(sample_curve(spec.profile, xt / 5.0), spec.subsidence, spec.heights));
+      coral[j] = float(coral_height_m(xt - 3.0, spec.coral));
+      merged[j] = spec.coral.enabled ? float(smax(hsub[j], coral[j], spec.smax_k)) : hsub[j];
+    }
   }
+};
 
+// The wind's displacement on the (warp_grid + 1)² nodes, or an empty field
+// when no stroke blows.
+cv::Mat2f displacement_field(const IslandSpec& spec, const RenderOptions& opt, const OutlineTable& outlines,
+                             const std::vector<float>& rho) {
   const bool warp = std::any_of(spec.wind.begin(), spec.wind.end(), [](const WindStroke& w) { return w.strength > 0; });
+  if (!warp) return {};
   const int n = opt.warp_grid;
-  cv::Mat2f D;
-  if (warp) {
-    const cv::Mat2f phi_coarse = wind_field(spec.wind, opt.wind_grid);
-    cv::Mat2f phi(n + 1, n + 1);
-    for (int r = 0; r <= n; ++r)
-      for (int c = 0; c <= n; ++c)
-        phi(r, c) = sample_nodes(phi_coarse, opt.wind_grid, -1.f + 2.f * c / n, 1.f - 2.f * r / n);
-    D = integrate_warp(phi, resistance_field(outlines, rho, opt.resistance_grid), spec.wind_substeps);
+  const cv::Mat2f phi_coarse = wind_field(spec.wind, opt.wind_grid);
+  cv::Mat2f phi(n + 1, n + 1);
+  for (int r = 0; r <= n; ++r)
+    for (int c = 0; c <= n; ++c)
+      phi(r, c) = sample_nodes(phi_coarse, opt.wind_grid, -1.f + 2.f * c / n, 1.f - 2.f * r / n);
+  return integrate_warp(phi, resistance_field(outlines, rho, opt.resistance_grid), spec.wind_substeps);
+}
+
+// Where each pixel's material came from: the displacement grid read
+// bilinearly at the pixel centre. The weights are separable, so they are
+// tabulated per column and per row.
+class SourceGrid {
+ public:
+  SourceGrid(const cv::Mat2f& D, int W, int n) : D_(D), cell_(W), frac_(W) {
+    for (int i = 0; i < W; ++i) {
+      const float g = (2.f * i + 1.f) / (2.f * W) * n;  // pixel centre in grid units
+      cell_[i] = std::min(static_cast<int>(g), n - 1);
+      frac_[i] = g - cell_[i];
+    }
   }
 
-  // Detail noise: the shared periodic tile, sampled at a seed-dependent offset
-  // and one of 8 orientations, in source coordinates so it moves with the wind.
-  const bool noisy = spec.noise.amplitude > 0;
-  const NoiseTile* tile = noisy ? &NoiseTile::get(spec.noise.octaves) : nullptr;
-  Rng noise_rng(spec.noise.seed, 0, "detail-noise-placement");
-  const float u0 = float(noise_rng.uniform(0, NoiseTile::kSize)), v0 = float(noise_rng.uniform(0, NoiseTile::kSize));
-  const int orient = static_cast<int>(noise_rng.uniform_int(0, 7));
-  const float texels = float(NoiseTile::kBaseCell / spec.noise.feature);
-  // Magnified (a texel wider than a pixel, e.g. above ~400² at the default
-  // feature), the tile is read bicubically: bilinear kinks would draw a grid
-  // of creases (docs/EROSION.md). At 256² (1.6 texels per pixel) the look-up
-  // stays bilinear, so the training data does not change.
-  const bool magnified = texels * 2.f / float(W) < 1.f;
-  auto detail = [&](float u, float v) { return magnified ? tile->sample_cubic(u, v) : tile->sample(u, v); };
-  const float amp = float(spec.noise.amplitude);
-  const SmoothMaxTable smax_table(spec.smax_k);
-
-  // Bilinear weights of the displacement grid are separable: per column and per row.
-  std::vector<int> cx(W), ry(W);
-  std::vector<float> fx(W), fy(W);
-  for (int i = 0; i < W; ++i) {
-    const float g = (2.f * i + 1.f) / (2.f * W) * n;  // pixel centre in grid units
-    const int c = std::min(static_cast<int>(g), n - 1);
-    cx[i] = ry[i] = c;
-    fx[i] = fy[i] = g - c;
-  }
-
-  IslandFields out{cv::Mat1f(W, W), cv::Mat1f(W, W), cv::Mat1b(W, W), cv::Mat1f()};
-  // With erosion, the volcano (h_sub + detail noise) is eroded on its own and
-  // coral grows after it (docs/EROSION.md): the pixel loop keeps the volcano,
-  // the coral height and the resistance apart, merged once the land has moved.
-  const bool eroded = spec.erosion.enabled;
-  cv::Mat1f coral_m, rho_px;
-  if (eroded) {
-    coral_m.create(W, W);
-    rho_px.create(W, W);
-  }
-  // Per row: where each pixel's material came from (the warp), then x̃ for
-  // the whole row on the CPU's vector path, then heights and labels.
-  std::vector<float> src_x(W), src_y(W), xt_row(W);
-  for (int y = 0; y < W; ++y) {
+  // Row y's source coordinates in [-1, 1]² (y up).
+  void row(int y, float* src_x, float* src_y) const {
+    const int W = int(cell_.size());
     const float py = 1.f - (2.f * y + 1.f) / W;
-    float* hrow = out.height_m.ptr<float>(y);
-    float* xrow = out.xt.ptr<float>(y);
-    uint8_t* lrow = out.label.ptr<uint8_t>(y);
-    const cv::Vec2f* d0 = warp ? D.ptr<cv::Vec2f>(ry[y]) : nullptr;
-    const cv::Vec2f* d1 = warp ? D.ptr<cv::Vec2f>(ry[y] + 1) : nullptr;
+    const cv::Vec2f* d0 = D_.empty() ? nullptr : D_.ptr<cv::Vec2f>(cell_[y]);
+    const cv::Vec2f* d1 = D_.empty() ? nullptr : D_.ptr<cv::Vec2f>(cell_[y] + 1);
+    const int* cell = cell_.data();
+    const float* frac = frac_.data();
+    const float b = frac[y];
     for (int x = 0; x < W; ++x) {
       const float px = -1.f + (2.f * x + 1.f) / W;
       float sx = px, sy = py;
-      if (warp) {
-        const int c = cx[x];
-        const float a = fx[x], b = fy[y];
+      if (d0) {
+        const int c = cell[x];
+        const float a = frac[x];
         const cv::Vec2f top = d0[c] + a * (d0[c + 1] - d0[c]);
         const cv::Vec2f bot = d1[c] + a * (d1[c + 1] - d1[c]);
         sx += top[0] + b * (bot[0] - top[0]);
@@ -375,35 +360,117 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
       src_x[x] = sx;
       src_y[x] = sy;
     }
+  }
+
+ private:
+  const cv::Mat2f& D_;
+  std::vector<int> cell_;
+  std::vector<float> frac_;
+};
+
+// Detail noise: the shared periodic tile, sampled at a seed-dependent offset
+// and one of 8 orientations, in source coordinates so it moves with the wind.
+class NoiseLookup {
+ public:
+  NoiseLookup(const DetailNoise& p, int W)
+      : tile_(p.amplitude > 0 ? &NoiseTile::get(p.octaves) : nullptr),
+        texels_(float(NoiseTile::kBaseCell / p.feature)),
+        // Magnified (a texel wider than a pixel, e.g. above ~400² at the
+        // default feature), the tile is read bicubically: bilinear kinks would
+        // draw a grid of creases (docs/EROSION.md). At 256² (1.6 texels per
+        // pixel) the look-up stays bilinear, so the training data does not change.
+        magnified_(texels_ * 2.f / float(W) < 1.f) {
+    Rng rng(p.seed, 0, "detail-noise-placement");
+    u0_ = float(rng.uniform(0, NoiseTile::kSize));
+    v0_ = float(rng.uniform(0, NoiseTile::kSize));
+    orient_ = static_cast<int>(rng.uniform_int(0, 7));
+  }
+
+  bool on() const { return tile_ != nullptr; }
+  // The noise in [-1, 1] at source point (sx, sy).
+  float at(float sx, float sy) const {
+    const float qa = (orient_ & 1) ? sy : sx, qb = (orient_ & 1) ? sx : sy;
+    const float u = ((orient_ & 2) ? -qa : qa) * texels_ + u0_, v = ((orient_ & 4) ? -qb : qb) * texels_ + v0_;
+    return magnified_ ? tile_->sample_cubic(u, v) : tile_->sample(u, v);
+  }
+
+ private:
+  const NoiseTile* tile_;
+  float texels_;
+  bool magnified_;
+  float u0_ = 0, v0_ = 0;
+  int orient_ = 0;
+};
+
+// With erosion, coral grows on the eroded volcano: the smooth maximum of
+// each pixel and its coral height (also on the uneroded copy, if kept).
+void grow_coral(IslandFields& out, const cv::Mat1f& coral_m, const SmoothMaxTable& smax_table) {
+  for (int y = 0; y < out.height_m.rows; ++y) {
+    float* h = out.height_m.ptr<float>(y);
+    const float* c = coral_m.ptr<float>(y);
+    for (int x = 0; x < out.height_m.cols; ++x) h[x] = smax_table(h[x], c[x]);
+    if (!out.uneroded_m.empty()) {
+      float* u = out.uneroded_m.ptr<float>(y);
+      for (int x = 0; x < out.height_m.cols; ++x) u[x] = smax_table(u[x], c[x]);
+    }
+  }
+}
+
+}  // namespace
+
+// The island in one pass over the pixels: each pixel's source point (the
+// wind's warp), its parametric distance x̃ to the outlines, then height and
+// label from the profile tables and the detail noise. With erosion, the
+// volcano (h_sub + detail noise) is eroded on its own and coral grows after
+// it (docs/EROSION.md): the pixel loop keeps the volcano, the coral height
+// and the resistance apart, merged once the land has moved.
+IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
+  validate(spec);
+  check_render_options(opt);
+  const int W = opt.size_px;
+  const OutlineTable outlines(spec.outlines, spec.min_gap);
+  const ProfileTables lut(spec);
+  const cv::Mat2f D = displacement_field(spec, opt, outlines, lut.rho);
+  const SourceGrid source(D, W, opt.warp_grid);
+  const NoiseLookup noise(spec.noise, W);
+  const SmoothMaxTable smax_table(spec.smax_k);
+  const bool noisy = noise.on(), eroded = spec.erosion.enabled;
+  const float amp = float(spec.noise.amplitude), lut_scale = lut.scale;
+  const float *rho = lut.rho.data(), *hsub = lut.hsub.data(), *coral = lut.coral.data(), *merged = lut.merged.data();
+  constexpr int kLast = ProfileTables::kEntries - 2;  // the last interval's first entry
+
+  IslandFields out{cv::Mat1f(W, W), cv::Mat1f(W, W), cv::Mat1b(W, W), cv::Mat1f()};
+  cv::Mat1f coral_m, rho_px;
+  if (eroded) {
+    coral_m.create(W, W);
+    rho_px.create(W, W);
+  }
+  // Per row: the source points, then x̃ for the whole row on the CPU's
+  // vector path, then heights and labels.
+  std::vector<float> src_x(W), src_y(W), xt_row(W);
+  for (int y = 0; y < W; ++y) {
+    source.row(y, src_x.data(), src_y.data());
     outlines.xt_row(src_x.data(), src_y.data(), W, xt_row.data());
+    float* hrow = out.height_m.ptr<float>(y);
+    float* xrow = out.xt.ptr<float>(y);
+    uint8_t* lrow = out.label.ptr<uint8_t>(y);
     for (int x = 0; x < W; ++x) {
-      const float sx = src_x[x], sy = src_y[x];  // where the material at this pixel came from
       const float xt = xt_row[x];
       const float g = xt * lut_scale;
-      const int j = std::min(static_cast<int>(g), kLut - 2);
+      const int j = std::min(static_cast<int>(g), kLast);
       const float f = g - j;
       float h;
-      if (eroded) {
-        float hs = hsub[j] + f * (hsub[j + 1] - hsub[j]);
-        if (noisy) {
-          const float qa = (orient & 1) ? sy : sx, qb = (orient & 1) ? sx : sy;
-          const float u = ((orient & 2) ? -qa : qa) * texels + u0, v = ((orient & 4) ? -qb : qb) * texels + v0;
-          hs *= 1.f + amp * detail(u, v);
-        }
-        h = hs;
-        coral_m(y, x) = coral[j] + f * (coral[j + 1] - coral[j]);
-        rho_px(y, x) = rho[j] + f * (rho[j + 1] - rho[j]);
-      } else if (!noisy) {
+      if (!eroded && !noisy) {
         h = merged[j] + f * (merged[j + 1] - merged[j]);
       } else {
-        float hs = hsub[j] + f * (hsub[j + 1] - hsub[j]);
-        const float qa = (orient & 1) ? sy : sx, qb = (orient & 1) ? sx : sy;
-        const float u = ((orient & 2) ? -qa : qa) * texels + u0, v = ((orient & 4) ? -qb : qb) * texels + v0;
-        hs *= 1.f + amp * detail(u, v);
-        if (spec.coral.enabled) {
-          h = smax_table(hs, coral[j] + f * (coral[j + 1] - coral[j]));
-        } else {
-          h = hs;
+        h = hsub[j] + f * (hsub[j + 1] - hsub[j]);
+        if (noisy) h *= 1.f + amp * noise.at(src_x[x], src_y[x]);
+        const float c = coral[j] + f * (coral[j + 1] - coral[j]);
+        if (eroded) {
+          coral_m(y, x) = c;
+          rho_px(y, x) = rho[j] + f * (rho[j + 1] - rho[j]);
+        } else if (spec.coral.enabled) {
+          h = smax_table(h, c);
         }
       }
       hrow[x] = h;
@@ -414,16 +481,7 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
   if (eroded) {
     if (opt.keep_uneroded) out.uneroded_m = out.height_m.clone();
     out.height_m = terrain::erode_island(out.height_m, rho_px, spec.world_size_m, spec.noise.seed, spec.erosion);
-    if (spec.coral.enabled)
-      for (int y = 0; y < W; ++y) {
-        float* h = out.height_m.ptr<float>(y);
-        const float* c = coral_m.ptr<float>(y);
-        for (int x = 0; x < W; ++x) h[x] = smax_table(h[x], c[x]);
-        if (!out.uneroded_m.empty()) {
-          float* u = out.uneroded_m.ptr<float>(y);
-          for (int x = 0; x < W; ++x) u[x] = smax_table(u[x], c[x]);
-        }
-      }
+    if (spec.coral.enabled) grow_coral(out, coral_m, smax_table);
   }
   return out;
 }
