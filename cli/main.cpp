@@ -49,7 +49,7 @@ int exec_torch_binary(char** argv, [[maybe_unused]] const std::string& command) 
   const std::filesystem::path torch = (ec ? std::filesystem::path(argv[0]) : self).parent_path() / "reefgen-torch";
   ::execv(torch.c_str(), argv);
 #if REEFGEN_WITH_TORCH
-  std::fprintf(stderr, "reefgen: error: cannot run %s (%s); build it with `cmake --build build` (scripts/build.sh)\n",
+  std::fprintf(stderr, "reefgen: error: cannot run %s (%s); build it with `cmake --build build --target programs` (scripts/build.sh)\n",
                torch.c_str(), std::strerror(errno));
 #else
   std::fprintf(stderr,

@@ -12,7 +12,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 what=${1:-all}; rounds=${2:-3}; shift $(( $# > 2 ? 2 : $# )) || true
-[ -x build/cli/reefgen ] || bash scripts/build.sh >&2
+[ -x build/cli/reefgen-torch ] || bash scripts/build.sh >&2
 py=/usr/bin/python3; [ -x "$py" ] || py=python3
 "$py" -c 'import torch' 2>/dev/null || { echo "bench-model: python3-torch missing (bash scripts/install-deps.sh)" >&2; exit 1; }
 run() {  # run WHAT KEY REPS

@@ -10,7 +10,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 n=${1:-40}; shift $(( $# > 0 ? 1 : 0 )) || true
-[ -x build/cli/reefgen ] || bash scripts/build.sh >&2
+[ -x build/cli/reefgen-torch ] || bash scripts/build.sh >&2
 source scripts/cpu-line.sh
 cpu_line build/cli/reefgen >&2
 bash tests/studio_test.sh build/cli/reefgen build/studio/npm/node_modules --strokes "$n" "$@"

@@ -10,7 +10,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 runs=${1:-3}; sketch=${2:-2048}; side=${3:-16385}; out=${4:-/tmp/reefgen-bench-world}; flags=${5:-}
-[ -x build/cli/reefgen ] || bash scripts/build.sh >&2
+[ -x build/cli/reefgen-torch ] || bash scripts/build.sh >&2
 source scripts/cpu-line.sh
 cpu_line build/cli/reefgen
 B=build/cli/reefgen

@@ -5,8 +5,14 @@
 # to end in miniature (a small dataset, a short training, inference) into ./out.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/build.sh reefgen   # the programs only; scripts/test.sh builds the tests
+# The torch-free half first (a third of the build): a curve island shows
+# before LibTorch's files compile. scripts/test.sh builds the tests.
+bash scripts/build.sh reefgen
 BIN=build/cli/reefgen
+mkdir -p out/first
+$BIN -q generate --preset young-volcano -o out/first/island --preview >/dev/null
+echo "first island after ${SECONDS} s: out/first/island.preview.png (heights: island.height.exr); building the network commands..." >&2
+bash scripts/build.sh programs
 # The main job: a painted sketch -> a terrain, no training needed.
 mkdir -p out/shipped
 $BIN -q infer docs/examples/painted-sketch.png -o out/shipped/island --preview --png16 --r16 --mesh glb >/dev/null
@@ -33,6 +39,7 @@ $BIN -q infer out/pipeline/sketch.png -m out/pipeline/run/generator.pt -o out/pi
 
 echo
 echo "Written to $(pwd)/out:"
+echo "  out/first/island.preview.png   the first island: the curve generator's young volcano"
 echo "  out/shipped/island.preview.png docs/examples/painted-sketch.png turned into an island by the shipped model"
 echo "                                 (island.height.exr metres, .height.png 16-bit, .r16, .glb); paint your own:"
 echo "                                 $BIN infer my-sketch.png -o out/mine --preview   (colours: docs/INFERENCE.md)"

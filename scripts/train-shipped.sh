@@ -11,7 +11,7 @@
 #                                                  # where bf16 is slow (docs/TRAINING.md); not the shipped recipe
 set -euo pipefail
 cd "$(dirname "$0")/.."
-[ -x build/cli/reefgen ] || bash scripts/build.sh >&2
+[ -x build/cli/reefgen-torch ] || bash scripts/build.sh >&2
 BIN=build/cli/reefgen
 WORK=${WORK:-../reefgen-work}
 mkdir -p "$WORK"

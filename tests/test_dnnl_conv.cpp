@@ -14,7 +14,7 @@ using namespace reefgen::model;
 
 namespace {
 
-struct Case {
+struct ConvCase {
   int64_t n, cin, cout, side, k, stride, pad;
   bool transposed, bias;
 };
@@ -27,7 +27,7 @@ double rel_err(const torch::Tensor& a, const torch::Tensor& b) {
 struct Grads {
   torch::Tensor y, dx, dw, db;
 };
-Grads run(const Case& c, bool dnnl, ConvPrecision prec = ConvPrecision::Fp32) {
+Grads run(const ConvCase& c, bool dnnl, ConvPrecision prec = ConvPrecision::Fp32) {
   torch::manual_seed(7);
   auto x = torch::randn({c.n, c.cin, c.side, c.side}).requires_grad_();
   auto w = (c.transposed ? torch::randn({c.cin, c.cout, c.k, c.k}) : torch::randn({c.cout, c.cin, c.k, c.k}))
@@ -48,7 +48,7 @@ Grads run(const Case& c, bool dnnl, ConvPrecision prec = ConvPrecision::Fp32) {
 TEST(DnnlConv, MatchesLibTorchForwardAndGradientsWithin1e4) {
   // Sides ≤ 8 positions per axis run on the plain (GEMM) layout, larger ones
   // on oneDNN's packed layouts: both are covered.
-  const std::vector<Case> cases = {
+  const std::vector<ConvCase> cases = {
       {1, 3, 8, 32, 4, 2, 1, false, true},    // G's first layer
       {2, 16, 32, 16, 4, 2, 1, false, false}, // encoder, batch 2, BatchNorm nets (no bias)
       {1, 32, 32, 2, 4, 2, 1, false, true},   // 2x2 -> 1x1 innermost
@@ -59,7 +59,7 @@ TEST(DnnlConv, MatchesLibTorchForwardAndGradientsWithin1e4) {
       {1, 16, 1, 16, 4, 2, 1, true, true},    // G's output layer
       {1, 12, 6, 16, 3, 1, 1, false, true},   // resize-convolution generator's 3x3
   };
-  for (const Case& c : cases) {
+  for (const ConvCase& c : cases) {
     const Grads a = run(c, false), b = run(c, true);
     const std::string what = std::string(c.transposed ? "transposed " : "") + std::to_string(c.cin) + "->" +
                              std::to_string(c.cout) + " k" + std::to_string(c.k) + " s" + std::to_string(c.stride) +
@@ -80,8 +80,8 @@ TEST(DnnlConv, Bf16StaysWithinBfloat16Rounding) {
   if (!bf16_convolution_available())
     GTEST_SKIP() << "no bf16 convolutions on this CPU (" << reefgen::cpu_summary() << "): bf16 needs AVX-512";
   // Packed (16x16 input) and plain (4x4 input: ≤ 64 positions) layers.
-  for (const Case& c : {Case{1, 64, 32, 16, 4, 2, 1, true, true}, Case{1, 64, 32, 4, 4, 2, 1, true, true},
-                        Case{1, 64, 32, 16, 4, 2, 1, false, true}}) {
+  for (const ConvCase& c : {ConvCase{1, 64, 32, 16, 4, 2, 1, true, true}, ConvCase{1, 64, 32, 4, 4, 2, 1, true, true},
+                        ConvCase{1, 64, 32, 16, 4, 2, 1, false, true}}) {
   const Grads a = run(c, false), b = run(c, true, ConvPrecision::Bf16);
   // bf16 keeps 8 bits of mantissa (relative rounding 2^-9 per operand); sums
   // of 256 terms in float32 stay within ~1 %.

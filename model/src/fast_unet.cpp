@@ -136,14 +136,21 @@ REEFGEN_CLONES void f32_to_bf16(const float* a, bf16_t* b, int64_t n) {
   for (int64_t i = 0; i < n; ++i) b[i] = to_bf16(a[i]);
 }
 
-struct Norm2 {
+}  // namespace
+
+// The engine's parts, held by FastUNet::Impl: a named namespace, because a
+// unity build (CMakeLists.txt) compiles this file inside another and a
+// member of an anonymous type would then have no linkage.
+namespace fast_unet_parts {
+
+struct NormState {
   Norm kind = Norm::None;
   std::vector<double> gamma, beta, running_mean, running_var;  // BatchNorm only
 };
 
 // One convolution on oneDNN: nhwc src (float32 or bf16) -> nhwc float32 dst,
 // weights packed once in oneDNN's preferred layout.
-struct Conv {
+struct OneDnnConv {
   dnnl::convolution_forward prim;
   dnnl::memory weights, bias;
   bool has_bias = false;
@@ -153,6 +160,12 @@ struct Conv {
     prim.execute(s, args);
   }
 };
+
+}  // namespace fast_unet_parts
+using fast_unet_parts::OneDnnConv;
+using fast_unet_parts::NormState;
+
+namespace {
 
 dnnl::memory::desc nhwc(int64_t n, int64_t c, int64_t side, dt t) {
   return dnnl::memory::desc({n, c, side, side}, t, tag::nhwc);
@@ -179,21 +192,21 @@ struct FastUNet::Impl {
   std::vector<dnnl::memory> dconv, act, cat, ups;
   std::vector<std::vector<dnnl::memory>> upout;
   dnnl::memory inner;
-  std::vector<Conv> down, up_convs_flat;
-  std::vector<std::vector<Conv*>> up;  // per level: 4 parity convs or 1 resize conv (k >= 1)
+  std::vector<OneDnnConv> down, up_convs_flat;
+  std::vector<std::vector<OneDnnConv*>> up;  // per level: 4 parity convs or 1 resize conv (k >= 1)
   std::vector<std::unique_ptr<ParityWinograd>> wino;  // per level: the parity convs as Winograd GEMMs, or null
-  std::vector<Norm2> down_norm, up_norm;
+  std::vector<NormState> down_norm, up_norm;
   torch::Tensor out_w, out_b;  // output layer: {out,kh,kw,C_in} float32, {out}
 
   void* ptr(dnnl::memory& m) { return m.get_data_handle(); }
 
-  Conv make_conv(const torch::Tensor& w_oihw, const torch::Tensor& b, int64_t side_in, dt src_t,
+  OneDnnConv make_conv(const torch::Tensor& w_oihw, const torch::Tensor& b, int64_t side_in, dt src_t,
                  int64_t stride, dnnl::memory::dims pad_l, dnnl::memory::dims pad_r) {
     const torch::Tensor w = w_oihw.to(torch::kFloat32).contiguous();
     const int64_t oc = w.size(0), ic = w.size(1), kh = w.size(2), kw = w.size(3);
     const int64_t side_out = (side_in + pad_l[0] + pad_r[0] - kh) / stride + 1;
     dnnl::memory::desc wd({oc, ic, kh, kw}, src_t, tag::any), bd({oc}, dt::f32, tag::x);
-    Conv c;
+    OneDnnConv c;
     c.has_bias = b.defined();
     dnnl::convolution_forward::primitive_desc pd;
     try {
@@ -228,7 +241,7 @@ struct FastUNet::Impl {
   // scale/shift {N or 1, C} for a norm over the given f32 planes (nhwc, each
   // N×side×side×C): statistics per image (instance), over the batch
   // (BatchNorm, batch statistics) or from the running averages.
-  void norm_coeffs(const Norm2& nm, const std::vector<float*>& planes, int64_t side_, int64_t C,
+  void norm_coeffs(const NormState& nm, const std::vector<float*>& planes, int64_t side_, int64_t C,
                    std::vector<float>& scale, std::vector<float>& shift, bool& per_image) {
     const int64_t N = o.batch;
     per_image = nm.kind == Norm::Instance;
@@ -287,7 +300,7 @@ struct FastUNet::Impl {
 
   // planes: 1 (dst side = side_) or 4 parity planes (dst side = 2 side_,
   // plane p = (py, px) lands on pixel (2i+py, 2j+px)).
-  void norm_act(const Norm2& nm, const std::vector<float*>& planes, int64_t side_, int64_t C, int act,
+  void norm_act(const NormState& nm, const std::vector<float*>& planes, int64_t side_, int64_t C, int act,
                 const Out& o1, const Out* o2) {
     std::vector<float> scale, shift;
     bool per_image = false;
@@ -467,7 +480,7 @@ FastUNet::FastUNet(UNetGeneratorImpl& g, const FastUNetOptions& options) : impl_
     return {};
   };
   auto norm_of = [&](const std::string& prefix) {
-    Norm2 n;
+    NormState n;
     n.kind = u.norm;
     auto vec = [&](const std::string& name) {
       torch::Tensor t = P(name);
@@ -508,7 +521,7 @@ FastUNet::FastUNet(UNetGeneratorImpl& g, const FastUNetOptions& options) : impl_
   for (int k = 0; k < D; ++k) {
     m.down.push_back(m.make_conv(P(lv(k) + ".down_conv.weight"), P(lv(k) + ".down_conv.bias"),
                                  k == 0 ? S : m.side(k - 1), ct, 2, {1, 1}, {1, 1}));
-    m.down_norm.push_back(k > 0 && k < D - 1 ? norm_of(lv(k) + ".down_norm") : Norm2{});
+    m.down_norm.push_back(k > 0 && k < D - 1 ? norm_of(lv(k) + ".down_norm") : NormState{});
   }
   // Decoder convolutions of levels 1..D-1.
   m.up.resize(size_t(D));
@@ -585,7 +598,7 @@ torch::Tensor FastUNet::forward(const torch::Tensor& x_) {
     std::vector<float*> plane{static_cast<float*>(m.ptr(m.dconv[size_t(k)]))};
     if (k == D - 1) {  // innermost: no norm, relu before the up path
       Impl::Out o{m.ptr(m.inner), bf, C, 0, false};
-      m.norm_act(Norm2{}, plane, s, C, kRelu, o, nullptr);
+      m.norm_act(NormState{}, plane, s, C, kRelu, o, nullptr);
     } else {
       Impl::Out a{m.ptr(m.act[size_t(k)]), bf, C, 0, false};
       Impl::Out c{m.ptr(m.cat[size_t(k)]), bf && k > 0, 2 * C, 0, true};

@@ -1,0 +1,1 @@
+// The translation unit that precompiles torch/torch.h (model/CMakeLists.txt).
