@@ -17,7 +17,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/stats.hpp"
 #include "reefgen/parallel.hpp"
 

@@ -6,7 +6,7 @@
 #include <cstdio>
 
 #include "app.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/islands/floating.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"

@@ -11,7 +11,7 @@
 
 #include "app.hpp"
 #include "reefgen/augment/build.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/parallel.hpp"
 
 namespace reefgen {

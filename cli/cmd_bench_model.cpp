@@ -6,7 +6,7 @@
 #include <cstdio>
 
 #include "app.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/model/fast_unet.hpp"
 #include "reefgen/train/pix2pix.hpp"
 

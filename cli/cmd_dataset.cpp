@@ -4,7 +4,7 @@
 
 #include "app.hpp"
 #include "reefgen/augment/build.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 
 namespace reefgen {
 

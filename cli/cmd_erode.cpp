@@ -10,7 +10,7 @@
 #include "reefgen/gis/geotiff.hpp"
 #include "reefgen/gis/heightmap.hpp"
 #include "reefgen/heightfile.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/terrain/erosion.hpp"
 #include "reefgen/terrain/layers.hpp"
 #include "reefgen/terrain/realism.hpp"

@@ -7,7 +7,7 @@
 #include "app.hpp"
 #include "reefgen/constants.hpp"
 #include "reefgen/infer/evaluate.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/model/shipped.hpp"
 #include "reefgen/train/data.hpp"
 #include "reefgen/train/fused_adam.hpp"

@@ -2,7 +2,7 @@
 #include <cstdio>
 
 #include "app.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/islands/floating.hpp"
 
 namespace reefgen {

@@ -7,7 +7,7 @@
 #include "reefgen/constants.hpp"
 #include "finish.hpp"
 #include "reefgen/gis/geotiff.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/procgen/output.hpp"
 #include "reefgen/procgen/random_spec.hpp"
 

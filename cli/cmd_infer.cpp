@@ -8,7 +8,7 @@
 #include "reefgen/constants.hpp"
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/infer/run.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/model/shipped.hpp"
 #include "reefgen/train/fused_adam.hpp"
 

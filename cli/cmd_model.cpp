@@ -5,7 +5,7 @@
 
 #include "app.hpp"
 #include "reefgen/cpu.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/model/dnnl_conv.hpp"
 #include "reefgen/model/generator_file.hpp"
 #include "reefgen/model/shipped.hpp"

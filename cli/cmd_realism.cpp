@@ -6,7 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/image_io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/terrain/realism.hpp"
 

@@ -10,7 +10,7 @@
 
 #include "app.hpp"
 #include "reefgen/install.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/model/shipped.hpp"
 #include "reefgen/studio/server.hpp"
 

@@ -6,7 +6,7 @@
 #include "app.hpp"
 #include "reefgen/constants.hpp"
 #include "reefgen/heightfile.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/islands/terrains.hpp"
 
 namespace reefgen {

@@ -10,7 +10,7 @@
 #include <unistd.h>
 
 #include "app.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/train/trainer.hpp"
 
 namespace reefgen {

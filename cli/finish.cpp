@@ -3,7 +3,7 @@
 #include <cstdio>
 
 #include "reefgen/error.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 
 namespace reefgen {
 

@@ -8,7 +8,7 @@
 #include "reefgen/augment/augment.hpp"
 #include "reefgen/augment/build.hpp"
 #include "reefgen/augment/dataset.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "test_util.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/generator.hpp"

@@ -13,7 +13,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "reefgen/io.hpp"
+#include "reefgen/image_io.hpp"
 #include "reefgen/constants.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/terrain/erosion.hpp"

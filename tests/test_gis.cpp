@@ -8,7 +8,7 @@
 
 #include "reefgen/gis/geotiff.hpp"
 #include "reefgen/gis/heightmap.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "test_util.hpp"
 
 using namespace reefgen;

@@ -9,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "reefgen/heightfile.hpp"
+#include "reefgen/image_io.hpp"
 #include "reefgen/sha256.hpp"
 #include "reefgen/stats.hpp"
 #include "test_util.hpp"

@@ -12,7 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "reefgen/cpu.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/terrain/noise.hpp"

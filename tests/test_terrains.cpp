@@ -1,7 +1,7 @@
 // Other island systems (issue 6): Wilbur-style islands and height-band sketches.
 #include <gtest/gtest.h>
 
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/islands/terrains.hpp"
 #include "test_util.hpp"

@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include "reefgen/image_io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/model/generator_file.hpp"
 #include "reefgen/procgen/generator.hpp"

@@ -13,7 +13,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/params_json.hpp"
 
 namespace reefgen::test {

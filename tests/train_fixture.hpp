@@ -3,6 +3,7 @@
 #include <string>
 
 #include "reefgen/constants.hpp"
+#include "reefgen/image_io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"

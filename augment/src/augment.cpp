@@ -4,7 +4,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/rng.hpp"

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/curves.hpp"
 #include "reefgen/terrain/erosion.hpp"

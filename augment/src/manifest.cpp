@@ -3,7 +3,7 @@
 #include <fstream>
 #include <unordered_map>
 
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/parallel.hpp"
 
 namespace reefgen::augment {

@@ -6,7 +6,7 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/parallel.hpp"
 
 namespace reefgen {

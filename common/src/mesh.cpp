@@ -11,7 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 
 namespace reefgen {
 

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "reefgen/error.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/terrain/layers.hpp"
 #include "reefgen/version.hpp"
 

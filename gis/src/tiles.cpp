@@ -5,7 +5,7 @@
 
 #include "reefgen/error.hpp"
 #include "reefgen/gis/geotiff.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 
 namespace reefgen::gis {
 

@@ -1,5 +1,5 @@
 #include "reefgen/infer/eval.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <chrono>
 
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/parallel.hpp"
 #include "reefgen/procgen/generator.hpp"

@@ -9,7 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "reefgen/params_json.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/terrain/noise.hpp"
 #include "reefgen/rng.hpp"
 

@@ -1,7 +1,7 @@
 #include <algorithm>
 #include <map>
 #include <cmath>
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include <vector>
 
 #include <opencv2/imgproc.hpp>

@@ -4,7 +4,7 @@
 #include <cmath>
 
 #include "reefgen/constants.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/terrain/erosion.hpp"
 #include "reefgen/terrain/noise.hpp"

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <vector>
 
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 
 #include "reefgen/labels.hpp"
 #include "reefgen/terrain/noise.hpp"

@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <sstream>
 
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 
 namespace reefgen::procgen {
 

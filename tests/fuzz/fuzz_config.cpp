@@ -10,7 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "reefgen/augment/dataset.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/terrain/erosion.hpp"
 #include "reefgen/islands/floating.hpp"
 #include "reefgen/procgen/spec.hpp"

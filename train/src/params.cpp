@@ -5,7 +5,7 @@
 #include "reefgen/json_read.hpp"
 
 
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 
 namespace reefgen::train {
 

@@ -9,7 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "reefgen/constants.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/mesh.hpp"
 
 namespace reefgen {

@@ -12,7 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 
 namespace reefgen {
 

@@ -27,7 +27,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/json_read.hpp"
 
 namespace reefgen {

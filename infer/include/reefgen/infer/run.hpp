@@ -12,7 +12,7 @@
 #include "reefgen/terrain/layers.hpp"
 #include "reefgen/heightfile.hpp"
 #include "reefgen/infer/infer.hpp"
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 
 namespace reefgen::infer {
 

@@ -13,7 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "reefgen/io.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/terrain/layers.hpp"
 
