@@ -23,7 +23,8 @@ PKGS=(
   libdnnl-dev            # oneDNN directly: the fast inference engine (model/src/fast_unet.cpp)
   libcpp-httplib-dev     # reefgen studio's local web server
   nodejs                 # npm fetches three.js (the studio's 3D view) and playwright-core at configure time
-  python3 python3-torch python3-numpy  # reference comparisons (scripts/reference)
+  python3 python3-torch python3-numpy  # reference comparisons (scripts/reference); reefgen.torch's datasets
+  python3-dev pybind11-dev             # the Python module `import reefgen` (python/)
   python3-opencv         # tests/cli_test.sh compares EXRs (bf16 vs fp32); scripts/paint_sketches.py
 )
 

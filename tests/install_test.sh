@@ -14,4 +14,10 @@ cd "$P"
 "$P/bin/reefgen" -q model info > info.json 2>err || { echo "FAIL: model info: $(cat err)"; fail=1; }
 grep -q "$P/share/reefgen/models/reef-256.pt" info.json || { echo "FAIL: the installed model is not the one used: $(head -c 300 info.json)"; fail=1; }
 "$P/bin/reefgen" -q generate --preset atoll --size 48 -o "$P/a" >/dev/null || { echo "FAIL: generate"; fail=1; }
+# The Python package in Debian's layout (PREFIX/lib/python3/dist-packages).
+if ls "$P"/lib/python3/dist-packages/reefgen/_reefgen*.so >/dev/null 2>&1; then
+  (cd / && PYTHONPATH="$P/lib/python3/dist-packages" /usr/bin/python3 -c \
+    "import reefgen; h, l = reefgen.generate('atoll', size=48); assert h.shape == (48, 48)") 2>err ||
+    { echo "FAIL: import reefgen from the install: $(tail -1 err)"; fail=1; }
+fi
 exit $fail

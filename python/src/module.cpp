@@ -1,0 +1,161 @@
+// reefgen's C++ core for Python (pybind11): islands, dataset pairs and the
+// realism statistics as numpy arrays (docs/PYTHON.md). The arrays own the
+// OpenCV buffers the C++ code wrote (no copy); the GIL is released while
+// C++ works; reefgen::Error becomes reefgen.Error with the same one line.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <cmath>
+#include <map>
+#include <string>
+
+#include <opencv2/imgproc.hpp>
+
+#include "reefgen/augment/dataset.hpp"
+#include "reefgen/constants.hpp"
+#include "reefgen/labels.hpp"
+#include "reefgen/procgen/generator.hpp"
+#include "reefgen/procgen/spec.hpp"
+#include "reefgen/terrain/realism.hpp"
+#include "reefgen/version.hpp"
+
+namespace py = pybind11;
+
+namespace reefgen {
+const std::map<std::string, std::string>& builtin_presets();  // cli/CMakeLists.txt's generated presets.cpp
+}
+
+namespace {
+
+using namespace reefgen;
+
+// One past the last pair index: DatasetParams::count's upper bound (1e8).
+constexpr int64_t kMaxPairIndex = 100000000;
+
+// A numpy array over the Mat's pixels, owning a reference to them.
+// Mat1f -> (H, W) float32; Mat3b -> (H, W, 3) uint8.
+template <class T>
+py::array_t<T> to_numpy(cv::Mat m) {
+  CV_Assert(m.isContinuous());
+  auto* owned = new cv::Mat(std::move(m));
+  py::capsule owner(owned, [](void* p) { delete static_cast<cv::Mat*>(p); });
+  const py::ssize_t H = owned->rows, W = owned->cols, C = owned->channels(), item = sizeof(T);
+  if (C == 1) return py::array_t<T>({H, W}, {W * item, item}, owned->ptr<T>(), owner);
+  return py::array_t<T>({H, W, C}, {W * C * item, C * item, item}, owned->ptr<T>(), owner);
+}
+
+// The label map as its PNG holds it, in RGB (what PIL and torchvision read).
+cv::Mat3b rgb_of(const cv::Mat3b& bgr) {
+  cv::Mat3b rgb;
+  cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
+  return rgb;
+}
+
+augment::DatasetParams dataset_params(const std::string& config_json) {
+  if (config_json.empty()) return {};
+  return augment::dataset_params_from_json(nlohmann::json::parse(config_json), "dataset config");
+}
+
+// `reefgen dataset build`'s pair `index` for (config, seed): heights in
+// metres and the label map, the same numbers as its files hold.
+py::tuple pair(const std::string& config_json, uint64_t seed, int64_t index) {
+  const augment::DatasetParams p = dataset_params(config_json);
+  // A pair does not depend on the dataset's count: index i is the pair any
+  // dataset of more than i pairs holds, up to the largest count allowed.
+  if (index < 0 || index >= kMaxPairIndex)
+    throw Error("pair index " + std::to_string(index) + " is outside [0, " + std::to_string(kMaxPairIndex) +
+                "), the pairs a dataset can hold");
+  cv::Mat1f height;
+  cv::Mat3b label;
+  {
+    py::gil_scoped_release free_python;
+    const augment::Pair pr = augment::make_pair(seed, index, p);
+    height = pr.height_m;
+    label = rgb_of(encode_labels(pr.label, pr.subsidence));
+  }
+  return py::make_tuple(to_numpy<float>(height), to_numpy<uint8_t>(label));
+}
+
+py::dict pair_info(const std::string& config_json, uint64_t seed, int64_t index) {
+  const augment::PairInfo info = augment::pair_info(seed, index, dataset_params(config_json));
+  py::dict d;
+  d["index"] = info.index;
+  d["configuration"] = info.configuration;
+  d["level"] = info.level;
+  d["subsidence"] = info.subsidence;
+  d["split"] = augment::split_name(info.split);
+  d["augmentation"] = info.augmentation.dump();
+  return d;
+}
+
+procgen::IslandSpec spec_of(const std::string& preset, const std::string& spec_json) {
+  if (!spec_json.empty()) return procgen::spec_from_json(nlohmann::json::parse(spec_json), "spec");
+  const auto& m = builtin_presets();
+  const auto it = m.find(preset);
+  if (it == m.end()) {
+    std::string names;
+    for (const auto& [k, v] : m) names += (names.empty() ? "" : ", ") + k;
+    throw Error("unknown preset \"" + preset + "\"; choose one of: " + names);
+  }
+  return procgen::spec_from_json(nlohmann::json::parse(it->second), "preset " + preset);
+}
+
+// `reefgen generate --preset NAME` (or a spec) at `size`: heights and labels.
+py::tuple generate(const std::string& preset, const std::string& spec_json, int size, py::object seed,
+                   double subsidence) {
+  procgen::IslandSpec spec = spec_of(preset, spec_json);
+  if (!seed.is_none()) spec.noise.seed = seed.cast<uint64_t>();
+  if (!std::isnan(subsidence)) spec.subsidence = subsidence;
+  procgen::RenderOptions opt;
+  opt.size_px = size;
+  cv::Mat1f height;
+  cv::Mat3b label;
+  {
+    py::gil_scoped_release free_python;
+    const procgen::IslandFields f = procgen::generate(spec, opt);
+    height = f.height_m;
+    label = rgb_of(encode_labels(f.label, spec.subsidence));
+  }
+  return py::make_tuple(to_numpy<float>(height), to_numpy<uint8_t>(label));
+}
+
+py::dict realism(py::array_t<float, py::array::c_style | py::array::forcecast> heights, double metres_per_px) {
+  if (heights.ndim() != 2) throw Error("realism: heights must be a 2-D array (H, W) of metres");
+  const cv::Mat1f h(int(heights.shape(0)), int(heights.shape(1)), const_cast<float*>(heights.data()));
+  terrain::RealismStats s;
+  {
+    py::gil_scoped_release free_python;
+    s = terrain::realism_stats(h, metres_per_px);
+  }
+  py::dict d;
+  d["pits"] = s.pits;
+  d["terraces"] = s.terraces;
+  d["valleys"] = s.valleys;
+  d["seams_rows"] = s.seams_rows;
+  d["seams_cols"] = s.seams_cols;
+  d["max_height_m"] = s.max_height_m;
+  d["land_cells"] = s.land_cells;
+  return d;
+}
+
+py::list presets() {
+  py::list names;
+  for (const auto& [k, v] : builtin_presets()) names.append(k);
+  return names;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_reefgen, m) {
+  m.doc() = "reefgen's C++ core: coral-reef islands, dataset pairs and realism statistics (docs/PYTHON.md)";
+  py::register_exception<reefgen::Error>(m, "Error", PyExc_RuntimeError);
+  // nlohmann's parse errors name the byte: the same one line as the CLI's.
+  py::register_exception<nlohmann::json::exception>(m, "ConfigError", PyExc_ValueError);
+  m.attr("__version__") = reefgen::kVersion;
+  m.def("pair", &pair, py::arg("config_json"), py::arg("seed"), py::arg("index"));
+  m.def("pair_info", &pair_info, py::arg("config_json"), py::arg("seed"), py::arg("index"));
+  m.def("generate", &generate, py::arg("preset"), py::arg("spec_json"), py::arg("size"), py::arg("seed"),
+        py::arg("subsidence"));
+  m.def("realism", &realism, py::arg("heights"), py::arg("metres_per_px"));
+  m.def("presets", &presets);
+}

@@ -1,0 +1,136 @@
+"""ctest python_module: the Python module against the files the CLI writes.
+
+usage: python3 test_module.py REEFGEN_BINARY   (PYTHONPATH holds build/python)
+"""
+import os
+import random
+import shutil
+import subprocess
+import sys
+import tempfile
+import unittest
+
+os.environ.setdefault("OPENCV_IO_ENABLE_OPENEXR", "1")
+import cv2  # noqa: E402
+import numpy as np  # noqa: E402
+import torch  # noqa: E402
+from torch.utils.data import DataLoader  # noqa: E402
+
+import reefgen  # noqa: E402
+import reefgen.torch as rtorch  # noqa: E402
+
+BIN = None
+CONFIG = {"count": 40, "size_px": 32, "levels": 2, "val_fraction": 0.2, "test_fraction": 0.1,
+          "p_affine": 0.5, "p_translate": 0.5, "p_paste": 0.5, "paste_scale": 0.5}
+SEED = 4
+
+
+def read_exr(path):
+    h = cv2.imread(path, cv2.IMREAD_UNCHANGED)
+    assert h is not None, path
+    return h
+
+
+class Module(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.mkdtemp(prefix="reefgen_py_")
+        cls.config = os.path.join(cls.tmp, "ds.json")
+        with open(cls.config, "w") as f:
+            import json
+            json.dump(CONFIG, f)
+        cls.data = os.path.join(cls.tmp, "data")
+        subprocess.run([BIN, "-q", "dataset", "build", "--config", cls.config, "--seed", str(SEED),
+                        "--out", cls.data], check=True, stdout=subprocess.DEVNULL)
+        import json
+        with open(os.path.join(cls.data, "manifest.jsonl")) as f:
+            cls.rows = {r["index"]: r for r in map(json.loads, f)}
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.tmp)
+
+    def test_pair_equals_the_dataset_files(self):
+        indices = random.Random(1).sample(range(CONFIG["count"]), 20)
+        for i in indices:
+            heights, labels = reefgen.pair(self.config, seed=SEED, index=i)
+            r = self.rows[i]
+            self.assertEqual(heights.dtype, np.float32)
+            self.assertTrue(np.array_equal(heights, read_exr(os.path.join(self.data, r["height"]))), i)
+            png = cv2.imread(os.path.join(self.data, r["label"]), cv2.IMREAD_COLOR)[:, :, ::-1]
+            self.assertTrue(np.array_equal(labels, png), i)
+            info = reefgen.pair_info(self.config, seed=SEED, index=i)
+            self.assertEqual((info["split"], info["subsidence"]), (r["split"], r["subsidence"]))
+
+    def test_generate_equals_the_cli(self):
+        prefix = os.path.join(self.tmp, "volcano")
+        subprocess.run([BIN, "-q", "generate", "--preset", "young-volcano", "--size", "64", "--seed", "9",
+                        "-o", prefix], check=True, stdout=subprocess.DEVNULL)
+        heights, labels = reefgen.generate("young-volcano", size=64, seed=9)
+        self.assertTrue(np.array_equal(heights, read_exr(prefix + ".height.exr")))
+        self.assertTrue(np.array_equal(labels, cv2.imread(prefix + ".label.png", cv2.IMREAD_COLOR)[:, :, ::-1]))
+        stats = reefgen.realism(heights, 6000.0 / 64)
+        self.assertGreater(stats["land_cells"], 0)
+        self.assertAlmostEqual(stats["max_height_m"], float(heights.max()), places=3)
+
+    def test_errors_are_one_line(self):
+        with self.assertRaises(reefgen.Error) as e:
+            reefgen.generate("no-such-preset")
+        self.assertIn("young-volcano", str(e.exception))
+        with self.assertRaises(reefgen.Error) as e:
+            reefgen.pair({"count": 0})
+        self.assertNotIn("\n", str(e.exception))
+        with self.assertRaises(reefgen.Error):
+            reefgen.pair(os.path.join(self.tmp, "missing.json"))
+
+    def stream(self, workers, **kw):
+        ds = rtorch.PairStream(self.config, seed=SEED, count=12, with_index=True, **kw)
+        out = []
+        for label, height, i in DataLoader(ds, batch_size=None, num_workers=workers):
+            out.append((int(i), label, height))
+        return out
+
+    def test_stream_is_the_same_whatever_the_workers(self):
+        runs = {w: self.stream(w) for w in (0, 1, 2)}
+        for w, run in runs.items():
+            self.assertEqual(sorted(i for i, _, _ in run), list(range(12)), w)  # each pair once
+            for (i, label, height), (j, label0, height0) in zip(run, runs[0]):
+                self.assertEqual(i, j)
+                self.assertTrue(torch.equal(label, label0) and torch.equal(height, height0), (w, i))
+        heights, labels = reefgen.pair(self.config, seed=SEED, index=5)
+        label, height = rtorch.to_tensors(heights, labels)
+        self.assertTrue(torch.equal(runs[2][5][1], label) and torch.equal(runs[2][5][2], height))
+
+    def test_stream_splits_across_ranks(self):
+        parts = [self.stream(2, rank=r, world_size=3) for r in range(3)]
+        seen = [i for part in parts for i, _, _ in part]
+        self.assertEqual(sorted(seen), list(range(12)))
+
+    def test_pair_folder_checks_the_manifest(self):
+        train = rtorch.PairFolder(self.data, "train")
+        n = sum(1 for r in self.rows.values() if r["split"] == "train")
+        self.assertEqual(len(train), n)
+        label, height = train[0]
+        self.assertEqual(tuple(label.shape), (3, 32, 32))
+        self.assertEqual(tuple(height.shape), (1, 32, 32))
+        copy = os.path.join(self.tmp, "copy")
+        shutil.copytree(self.data, copy)
+        first = next(r for r in self.rows.values() if r["split"] == "train")
+        with open(os.path.join(copy, first["label"]), "r+b") as f:
+            f.seek(40)
+            f.write(b"\x00\x01\x02")
+        with self.assertRaises(reefgen.Error) as e:
+            rtorch.PairFolder(copy, "train")
+        self.assertIn("checksum", str(e.exception))
+
+    def test_the_docs_example_trains(self):
+        example = os.path.join(os.path.dirname(__file__), "..", "..", "docs", "examples", "train_from_stream.py")
+        out = subprocess.run([sys.executable, example, "10"], check=True, capture_output=True, text=True).stdout
+        losses = [float(line.split()[-1]) for line in out.splitlines() if line.startswith("step")]
+        self.assertEqual(len(losses), 3, out)  # steps 1, 5, 10
+        self.assertLess(losses[-1], losses[0], out)
+
+
+if __name__ == "__main__":
+    BIN = sys.argv.pop(1)
+    unittest.main(verbosity=2)
