@@ -6,6 +6,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "reefgen/image_io.hpp"
 #include "reefgen/version.hpp"
 
 namespace reefgen::infer {
