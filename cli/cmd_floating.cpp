@@ -2,6 +2,7 @@
 #include <cstdio>
 
 #include "app.hpp"
+#include "reefgen/presets.hpp"
 #include "reefgen/files.hpp"
 #include "reefgen/islands/floating.hpp"
 
@@ -10,15 +11,9 @@ namespace reefgen {
 namespace {
 // The params of a built-in preset, or of a config file, or the defaults.
 islands::FloatingParams floating_params(const std::string& preset, const std::string& config) {
-  const auto& presets = builtin_floating_presets();
   if (!preset.empty()) {
-    const auto it = presets.find(preset);
-    if (it == presets.end()) {
-      std::string names;
-      for (const auto& [n, t] : presets) names += (names.empty() ? "" : ", ") + n;
-      throw Error("--preset " + preset + ": unknown; use one of " + names);
-    }
-    return islands::floating_params_from_json(nlohmann::json::parse(it->second), "preset " + preset);
+    const std::string& text = preset_text(builtin_floating_presets(), preset, "floating preset");
+    return islands::floating_params_from_json(nlohmann::json::parse(text), "preset " + preset);
   }
   if (!config.empty()) return islands::floating_params_from_json(read_json(config), config);
   return {};

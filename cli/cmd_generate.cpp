@@ -4,6 +4,7 @@
 #include <optional>
 
 #include "app.hpp"
+#include "reefgen/presets.hpp"
 #include "reefgen/constants.hpp"
 #include "finish.hpp"
 #include "reefgen/gis/geotiff.hpp"
@@ -34,14 +35,7 @@ struct GenerateArgs {
 
 IslandSpec load_spec(const GenerateArgs& a) {
   if (!a.preset.empty()) {
-    const auto& m = builtin_presets();
-    auto it = m.find(a.preset);
-    if (it == m.end()) {
-      std::string names;
-      for (const auto& [k, v] : m) names += (names.empty() ? "" : ", ") + k;
-      throw Error("unknown preset \"" + a.preset + "\"; choose one of: " + names);
-    }
-    return spec_from_json(nlohmann::json::parse(it->second), "preset " + a.preset);
+    return spec_from_json(nlohmann::json::parse(preset_text(builtin_presets(), a.preset)), "preset " + a.preset);
   }
   if (!fs::exists(a.spec_file)) throw Error("cannot read " + a.spec_file + ": no such file");
   return spec_from_json(read_json(a.spec_file), a.spec_file);

@@ -14,6 +14,7 @@
 #include "reefgen/augment/dataset.hpp"
 #include "reefgen/constants.hpp"
 #include "reefgen/labels.hpp"
+#include "reefgen/presets.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/spec.hpp"
 #include "reefgen/terrain/realism.hpp"
@@ -90,14 +91,7 @@ py::dict pair_info(const std::string& config_json, uint64_t seed, int64_t index)
 
 procgen::IslandSpec spec_of(const std::string& preset, const std::string& spec_json) {
   if (!spec_json.empty()) return procgen::spec_from_json(nlohmann::json::parse(spec_json), "spec");
-  const auto& m = builtin_presets();
-  const auto it = m.find(preset);
-  if (it == m.end()) {
-    std::string names;
-    for (const auto& [k, v] : m) names += (names.empty() ? "" : ", ") + k;
-    throw Error("unknown preset \"" + preset + "\"; choose one of: " + names);
-  }
-  return procgen::spec_from_json(nlohmann::json::parse(it->second), "preset " + preset);
+  return procgen::spec_from_json(nlohmann::json::parse(preset_text(builtin_presets(), preset)), "preset " + preset);
 }
 
 // `reefgen generate --preset NAME` (or a spec) at `size`: heights and labels.
