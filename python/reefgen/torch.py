@@ -104,13 +104,6 @@ class PairFolder(Dataset):
 
 
 def _check(path, expected):
-    """The file's FNV-1a 64 against the manifest's (the checksum `reefgen train` verifies)."""
-    if expected is None:
-        return
-    h = 0xCBF29CE484222325
-    with open(path, "rb") as f:
-        data = f.read()
-    for b in data:
-        h = ((h ^ b) * 0x100000001B3) & 0xFFFFFFFFFFFFFFFF
-    if f"{h:016x}" != expected:
+    """The file's checksum against the manifest's (reefgen's file_checksum, as `reefgen train` verifies)."""
+    if expected is not None and reefgen._reefgen.file_checksum(path) != expected:
         raise reefgen.Error(f"{path}: checksum differs from the manifest's; the file changed since `reefgen dataset build` wrote it: rebuild or resume the dataset")

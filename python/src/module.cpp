@@ -13,6 +13,7 @@
 
 #include "reefgen/augment/dataset.hpp"
 #include "reefgen/constants.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/presets.hpp"
 #include "reefgen/procgen/generator.hpp"
@@ -132,6 +133,12 @@ py::dict realism(py::array_t<float, py::array::c_style | py::array::forcecast> h
   return d;
 }
 
+// The manifest's checksum of a file (FNV-1a 64, hex), as `reefgen train` checks it.
+std::string checksum(const std::string& path) {
+  py::gil_scoped_release free_python;
+  return file_checksum(path);
+}
+
 py::list presets() {
   py::list names;
   for (const auto& [k, v] : builtin_presets()) names.append(k);
@@ -152,4 +159,5 @@ PYBIND11_MODULE(_reefgen, m) {
         py::arg("subsidence"));
   m.def("realism", &realism, py::arg("heights"), py::arg("metres_per_px"));
   m.def("presets", &presets);
+  m.def("file_checksum", &checksum, py::arg("path"));
 }
