@@ -25,6 +25,7 @@ PKGS=(
   nodejs                 # npm fetches three.js (the studio's 3D view) and playwright-core at configure time
   python3 python3-torch python3-numpy  # reference comparisons (scripts/reference); reefgen.torch's datasets
   python3-dev pybind11-dev             # the Python module `import reefgen` (python/)
+  python3-pil                          # tests: the pix2pix dataset opens as pix2pix opens it (PIL)
   python3-opencv         # tests/cli_test.sh compares EXRs (bf16 vs fp32); scripts/paint_sketches.py
 )
 

@@ -20,4 +20,14 @@ if ls "$P"/lib/python3/dist-packages/reefgen/_reefgen*.so >/dev/null 2>&1; then
     "import reefgen; h, l = reefgen.generate('atoll', size=48); assert h.shape == (48, 48)") 2>err ||
     { echo "FAIL: import reefgen from the install: $(tail -1 err)"; fail=1; }
 fi
+# reefgen.infer from the install: the installed model, not the source tree's.
+if ls "$P"/lib/python3/dist-packages/reefgen/_reefgen_infer*.so >/dev/null 2>&1; then
+  (cd / && PYTHONPATH="$P/lib/python3/dist-packages" /usr/bin/python3 -c "
+import reefgen
+assert reefgen.default_model() == '$P/share/reefgen/models/reef-256.pt', reefgen.default_model()
+_, l = reefgen.generate('young-volcano', size=64)
+h = reefgen.infer(l, size=64)
+assert h.shape == (64, 64) and h.max() > 0, (h.shape, h.max())") 2>err ||
+    { echo "FAIL: reefgen.infer from the install: $(tail -1 err)"; fail=1; }
+fi
 exit $fail

@@ -4,6 +4,7 @@
     heights, labels = reefgen.generate("young-volcano", size=256)    # float32 metres, uint8 RGB
     heights, labels = reefgen.pair(seed=1, index=7)                   # `reefgen dataset build`'s pair 7
     reefgen.realism(heights, metres_per_px=23.4)                     # pits, terraces, valleys, seams
+    heights = reefgen.infer(sketch_rgb, size=1024)                  # `reefgen infer`: a painted sketch to metres
 
 Arrays are numpy arrays over the C++ buffers (no copy). Errors raise
 reefgen.Error (a RuntimeError) with the command line's one-line message.
@@ -16,7 +17,7 @@ import os as _os
 from ._reefgen import Error, ConfigError, __version__
 from . import _reefgen
 
-__all__ = ["generate", "pair", "pair_info", "realism", "presets", "Error", "ConfigError", "__version__"]
+__all__ = ["generate", "pair", "pair_info", "infer", "default_model", "realism", "presets", "Error", "ConfigError", "__version__"]
 
 
 def _config_json(config):
@@ -64,6 +65,46 @@ def generate(spec="young-volcano", size=256, seed=None, subsidence=None):
         preset = str(spec)  # unknown: the C++ error lists the presets
     return _reefgen.generate(preset, spec_json, int(size), seed,
                              _math.nan if subsidence is None else float(subsidence))
+
+
+def default_model():
+    """The generator reefgen.infer loads without model=: $REEFGEN_MODEL, else the shipped
+    model of an installed reefgen (PREFIX/share/reefgen/models beside PREFIX/lib/python3),
+    else the source tree's models/ (a build tree); None when there is none."""
+    env = _os.environ.get("REEFGEN_MODEL")
+    if env:
+        return env
+    # PREFIX/lib/python3/dist-packages/reefgen/__init__.py -> PREFIX
+    prefix = _os.path.dirname(_os.path.dirname(_os.path.dirname(_os.path.dirname(_os.path.dirname(
+        _os.path.abspath(__file__))))))
+    installed = _os.path.join(prefix, "share", "reefgen", "models", "reef-256.pt")
+    return installed if _os.path.isfile(installed) else None
+
+
+def infer(sketch, size=0, model=None, seed=0, raw=False, precision="fp32", engine="auto",
+          stochastic=False, threads=None, world_size_m=None):
+    """(H, W) float32 metres of `reefgen infer`: the same numbers as its height.exr.
+
+    sketch: a painted label map, (H, W, 3) RGB or (H, W, 4) RGBA, uint8 or uint16
+    (np.asarray(PIL.Image.open(path)), or reefgen.generate's labels);
+    size: the output side (0 = the sketch's; larger sides are amplified);
+    model: a generator file (default: default_model(), the shipped model);
+    raw: the network's answer only resized (`--raw`); precision, engine, stochastic:
+    as the command's flags; threads: LibTorch's for this call (default: all cores);
+    world_size_m: the canvas width (default 6000 m).
+    Needs the LibTorch half of the build (libtorch-dev); the generator is loaded once.
+    """
+    try:
+        from . import _reefgen_infer
+    except ImportError as e:
+        raise Error("reefgen.infer needs the LibTorch half of reefgen (built with libtorch-dev: "
+                    f"bash scripts/install-deps.sh, then rebuild): {e}") from None
+    if model is None:
+        model = default_model() or ""  # "": the build's source tree (the C++ look-up names the fix)
+    return _reefgen_infer.infer(sketch, int(size), _os.fspath(model), int(seed),
+                                bool(raw), str(precision), str(engine), bool(stochastic),
+                                None if threads is None else int(threads),
+                                None if world_size_m is None else float(world_size_m))
 
 
 def realism(heights, metres_per_px):

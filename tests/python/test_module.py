@@ -1,6 +1,6 @@
 """ctest python_module: the Python module against the files the CLI writes.
 
-usage: python3 test_module.py REEFGEN_BINARY   (PYTHONPATH holds build/python)
+usage: python3 test_module.py REEFGEN_BINARY [REEFGEN_TORCH_BINARY]   (PYTHONPATH holds build/python)
 """
 import os
 import random
@@ -20,6 +20,7 @@ import reefgen  # noqa: E402
 import reefgen.torch as rtorch  # noqa: E402
 
 BIN = None
+TORCH_BIN = None  # reefgen-torch: reefgen.infer's checks need the LibTorch half
 CONFIG = {"count": 40, "size_px": 32, "levels": 2, "val_fraction": 0.2, "test_fraction": 0.1,
           "p_affine": 0.5, "p_translate": 0.5, "p_paste": 0.5, "paste_scale": 0.5}
 SEED = 4
@@ -83,6 +84,35 @@ class Module(unittest.TestCase):
         with self.assertRaises(reefgen.Error):
             reefgen.pair(os.path.join(self.tmp, "missing.json"))
 
+    def test_infer_equals_the_cli(self):
+        if not TORCH_BIN:
+            self.skipTest("built without LibTorch (no reefgen-torch): reefgen.infer is not there")
+        _, labels = reefgen.generate("barrier-reef", size=64, seed=3)
+        sketch = os.path.join(self.tmp, "sketch.png")
+        cv2.imwrite(sketch, labels[:, :, ::-1])
+        prefix = os.path.join(self.tmp, "inferred")
+        subprocess.run([TORCH_BIN, "-q", "infer", sketch, "--size", "128", "--seed", "2", "-o", prefix],
+                       check=True, stdout=subprocess.DEVNULL)
+        cli = read_exr(prefix + ".height.exr")
+        heights = reefgen.infer(labels, size=128, seed=2)
+        self.assertEqual((heights.shape, heights.dtype), ((128, 128), np.float32))
+        self.assertTrue(np.array_equal(heights, cli))
+        # RGBA, 16 bits and one thread: the same heights.
+        rgba = np.dstack([labels, np.full(labels.shape[:2], 255, np.uint8)])
+        self.assertTrue(np.array_equal(reefgen.infer(rgba, size=128, seed=2, threads=1), cli))
+        self.assertTrue(np.array_equal(reefgen.infer(labels.astype(np.uint16) * 257, size=128, seed=2), cli))
+        raw = reefgen.infer(labels, raw=True)
+        self.assertEqual(raw.shape, (64, 64))
+        self.assertFalse(np.array_equal(raw, reefgen.infer(labels)))  # --raw skips the clean-up
+        with self.assertRaises(reefgen.Error) as e:
+            reefgen.infer(labels, model=os.path.join(self.tmp, "missing.pt"))
+        self.assertIn("missing.pt", str(e.exception))
+        with self.assertRaises(reefgen.Error) as e:
+            reefgen.infer(np.zeros((8, 8, 3), np.uint8))
+        self.assertIn("region colour", str(e.exception))
+        with self.assertRaises(reefgen.Error):
+            reefgen.infer(labels.astype(np.float32))
+
     def stream(self, workers, **kw):
         ds = rtorch.PairStream(self.config, seed=SEED, count=12, with_index=True, **kw)
         out = []
@@ -133,4 +163,6 @@ class Module(unittest.TestCase):
 
 if __name__ == "__main__":
     BIN = sys.argv.pop(1)
+    if len(sys.argv) > 1 and not sys.argv[1].startswith("-"):
+        TORCH_BIN = sys.argv.pop(1)
     unittest.main(verbosity=2)

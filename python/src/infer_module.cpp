@@ -1,0 +1,154 @@
+// reefgen.infer for Python: a painted sketch (numpy) -> heights in metres
+// with an exported generator, the same numbers `reefgen infer` writes
+// (docs/PYTHON.md). A module of its own because it links LibTorch: `import
+// reefgen` stays light and works in a build without LibTorch; reefgen.infer
+// loads this one on first use. Python's torch (python3-torch) runs the same
+// Debian libtorch, so both live in one process.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <torch/torch.h>
+
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+
+#include <opencv2/imgproc.hpp>
+
+#include "reefgen/constants.hpp"
+#include "reefgen/error.hpp"
+#include "reefgen/infer/infer.hpp"
+#include "reefgen/labels.hpp"
+#include "reefgen/model/generator_file.hpp"
+#include "reefgen/model/shipped.hpp"
+#include "reefgen/parallel.hpp"
+
+namespace py = pybind11;
+
+namespace {
+
+using namespace reefgen;
+
+// A loaded generator and the lock its oneDNN plans need: two Python threads
+// may call infer at once with the GIL released.
+struct LoadedModel {
+  model::GeneratorFile gen;
+  std::filesystem::file_time_type written;
+  std::mutex busy;
+};
+
+// Generators by path, loaded once (a file rewritten since is loaded again).
+LoadedModel& loaded_model(const std::filesystem::path& path) {
+  static std::mutex table_lock;
+  static std::map<std::string, std::unique_ptr<LoadedModel>> table;
+  std::error_code ec;
+  const auto written = std::filesystem::last_write_time(path, ec);
+  const std::string key = std::filesystem::absolute(path, ec).string();
+  std::lock_guard<std::mutex> hold(table_lock);
+  auto& slot = table[key];
+  if (!slot || slot->written != written) {
+    auto m = std::make_unique<LoadedModel>();
+    m->gen = model::load_generator(path);
+    m->written = written;
+    slot = std::move(m);
+  }
+  return *slot;
+}
+
+// The sketch as OpenCV holds an image it read: (H, W) grey, (H, W, 3) RGB or
+// (H, W, 4) RGBA, 8 or 16 bits -> the same depth in BGR(A) for decode_sketch.
+cv::Mat bgr_of(const py::array& sketch) {
+  const bool u8 = py::isinstance<py::array_t<uint8_t>>(sketch), u16 = py::isinstance<py::array_t<uint16_t>>(sketch);
+  const int channels = sketch.ndim() == 2 ? 1 : sketch.ndim() == 3 ? int(sketch.shape(2)) : 0;
+  if (!(u8 || u16) || !(channels == 1 || channels == 3 || channels == 4))
+    throw Error("infer: the sketch must be a (H, W, 3) RGB or (H, W, 4) RGBA array of uint8 or uint16 "
+                "(a painted label map: PIL's np.asarray(Image.open(path)))");
+  const int rows = int(sketch.shape(0)), cols = int(sketch.shape(1));
+  if (rows > kMaxSketchSide || cols > kMaxSketchSide)
+    throw Error("infer: the sketch is " + std::to_string(cols) + "x" + std::to_string(rows) + "; at most " +
+                std::to_string(kMaxSketchSide) + " a side");
+  const py::array packed = py::array::ensure(sketch, py::array::c_style);
+  const cv::Mat view(rows, cols, CV_MAKETYPE(u8 ? CV_8U : CV_16U, channels), const_cast<void*>(packed.data()));
+  cv::Mat bgr;
+  if (channels == 3) cv::cvtColor(view, bgr, cv::COLOR_RGB2BGR);
+  else if (channels == 4) cv::cvtColor(view, bgr, cv::COLOR_RGBA2BGRA);
+  else bgr = view.clone();
+  return bgr;
+}
+
+infer::InferOptions options_for(const model::GeneratorFile& gen, int size, uint64_t seed, bool raw,
+                                const std::string& precision, const std::string& engine, bool stochastic,
+                                double world_size_m) {
+  infer::InferOptions o;
+  o.size_px = size;
+  o.seed = seed;
+  o.amplify = !raw;
+  o.stochastic = stochastic;
+  o.world_size_m = world_size_m;
+  try {
+    o.precision = infer::precision_from_string(precision);
+    o.engine = infer::engine_from_string(engine);
+    infer::resolve(o, gen);
+  } catch (const Error& e) {
+    throw Error("precision/engine: " + std::string(e.what()));
+  }
+  return o;
+}
+
+// `reefgen infer SKETCH --size SIZE --seed SEED [--raw]` -> (H, W) float32 metres.
+py::array_t<float> infer_sketch(const py::array& sketch, int size, const std::string& model_path, uint64_t seed,
+                                bool raw, const std::string& precision, const std::string& engine, bool stochastic,
+                                std::optional<int> threads, std::optional<double> world_size_m) {
+  if (size < 0 || size > 8192) throw Error("infer: size " + std::to_string(size) + " is outside [0, 8192] (0 = the sketch's)");
+  if (threads && (*threads < 1 || *threads > 256)) throw Error("infer: threads must be in [1, 256]");
+  if (world_size_m && !(*world_size_m >= 1 && *world_size_m <= 1e7))
+    throw Error("infer: world_size_m must be in [1, 1e7] metres (the canvas width, as --world-size)");
+  const cv::Mat image = bgr_of(sketch);
+  auto* heights = new cv::Mat1f();
+  py::capsule owner(heights, [](void* p) { delete static_cast<cv::Mat1f*>(p); });
+  {
+    py::gil_scoped_release free_python;
+    const DecodedSketch decoded = decode_sketch(image, "sketch");
+    LoadedModel& m = loaded_model(model::resolve_model_path(model_path));
+    std::lock_guard<std::mutex> hold(m.busy);
+    const infer::InferOptions o = options_for(m.gen, size, seed, raw, precision, engine, stochastic,
+                                                 world_size_m.value_or(kCanvasWorldSizeM));
+    // LibTorch's thread count is the process's: this call's, then the caller's again.
+    const int before = torch::get_num_threads();
+    torch::set_num_threads(threads.value_or(default_threads()));
+    try {
+      *heights = infer::infer_heights(m.gen, {decoded}, o).at(0);
+    } catch (...) {
+      torch::set_num_threads(before);
+      throw;
+    }
+    torch::set_num_threads(before);
+  }
+  const py::ssize_t H = heights->rows, W = heights->cols;
+  return py::array_t<float>({H, W}, {W * py::ssize_t(sizeof(float)), py::ssize_t(sizeof(float))}, heights->ptr<float>(),
+                            owner);
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_reefgen_infer, m) {
+  m.doc() = "reefgen.infer's LibTorch half: a sketch to heights with an exported generator (docs/PYTHON.md)";
+  // The same reefgen.Error as the core module: one exception type for users.
+  static py::handle error_type = py::object(py::module_::import("reefgen._reefgen").attr("Error")).release();
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const c10::Error& e) {
+      PyErr_SetString(error_type.ptr(), e.what_without_backtrace());
+    } catch (const std::runtime_error& e) {
+      // reefgen::Error and the model loader's errors: one line naming the file and the fix.
+      PyErr_SetString(error_type.ptr(), e.what());
+    }
+  });
+  m.def("infer", &infer_sketch, py::arg("sketch"), py::arg("size"), py::arg("model"), py::arg("seed"), py::arg("raw"),
+        py::arg("precision"), py::arg("engine"), py::arg("stochastic"), py::arg("threads"), py::arg("world_size_m"));
+}
