@@ -17,6 +17,7 @@ struct BuildArgs {
   augment::BuildOptions o;
   int64_t count = -1;
   bool count_given = false;
+  std::string format = "reefgen";
 };
 
 }  // namespace
@@ -28,6 +29,9 @@ Command add_dataset_command(CLI::App& app, const GlobalOptions& g) {
                                             "  reefgen dataset build --count 200 --seed 1 --out data/small\n"
                                             "  reefgen dataset build --config configs/dataset/paper.json --out data/p --shard 0/2\n"
                                             "  reefgen dataset build --count 100 --out data/layers --layers\n"
+                                            "  reefgen dataset build --count 1000 --out data/facades --format pix2pix   # junyanz's aligned A|B\n"
+                                            "  reefgen dataset build --count 100000 --out data/wds --format webdataset # tar shards of ~1 GB\n"
+                                            "  reefgen dataset build --count 1000 --out data/hf --format imagefolder    # Hugging Face datasets\n"
                                             "  reefgen dataset merge data/p\n"
                                             "  reefgen dataset stats data/p\n");
   sub->require_subcommand(1);
@@ -44,6 +48,12 @@ Command add_dataset_command(CLI::App& app, const GlobalOptions& g) {
   build->add_flag("--layers", a->o.layers,
                   "Also each pair's layers (docs/LAYERS.md): SPLIT/INDEX.flow.png, .slope.png, .splat0/1.png, ..., "
                   "listed with checksums in the manifest");
+  build->add_option("--format", a->format,
+                    "Files' layout: reefgen (what `reefgen train` reads), pix2pix (SPLIT/INDEX.png, A|B aligned), "
+                    "webdataset (SPLIT-NNNNNN.tar shards + SPLIT.index.json), imagefolder (SPLIT/INDEX.png + "
+                    ".height.npy + metadata.jsonl); docs/DATASET.md")
+      ->capture_default_str();
+  build->add_option("--tar-mb", a->o.tar_mb, "webdataset: MiB a shard holds at most (1..65536)")->capture_default_str();
   auto merge_dir = std::make_shared<std::string>();
   auto* merge = sub->add_subcommand("merge", "Join shard manifests into manifest.jsonl, verifying checksums");
   merge->add_option("dir", *merge_dir, "Dataset folder")->required();
@@ -73,6 +83,7 @@ Command add_dataset_command(CLI::App& app, const GlobalOptions& g) {
                 p.count = a->count;
               }
               a->o.quiet = g.quiet;
+              a->o.layout = augment::layout_from_string(a->format);
               const augment::BuildResult r = augment::build_dataset(p, a->o);
               if (!g.quiet)
                 std::fprintf(stderr, "dataset: %zu pairs (%zu already there) in %s, manifest %s\n", r.pairs, r.reused,

@@ -8,12 +8,17 @@
 #include "reefgen/augment/augment.hpp"
 #include "reefgen/augment/build.hpp"
 #include "reefgen/augment/dataset.hpp"
+#include "reefgen/augment/formats.hpp"
+#include "reefgen/augment/manifest.hpp"
 #include "reefgen/files.hpp"
 #include "test_util.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
 #include <algorithm>
+#include <cstring>
+#include <map>
+#include <opencv2/imgcodecs.hpp>
 
 using namespace reefgen;
 using namespace reefgen::augment;
@@ -289,6 +294,109 @@ TEST(DatasetBuild, ShardsMergedEqualOneBuildWhateverTheThreads) {
   EXPECT_TRUE(fs::is_regular_file(o.out / "contact_sheet.png"));
   test::expect_error_naming([&] { parse_shard("2/2"); }, "2/2");
   fs::remove_all(d);
+}
+
+// Every file of a folder with its bytes: two builds are compared whole.
+std::map<std::string, std::string> folder_bytes(const fs::path& dir) {
+  std::map<std::string, std::string> out;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.is_regular_file() && e.path().extension() != ".lock")
+      out[fs::relative(e.path(), dir).string()] = read_text(e.path());
+  return out;
+}
+
+// The layouts for other tools: same bytes whatever the threads, a resumed
+// build verifies and keeps every file, a damaged file is refused by name,
+// and reefgen's trainer refuses the folder, naming the layout.
+TEST(DatasetBuild, OtherLayoutsAreDeterministicAndResumable) {
+  const fs::path d = test::temp_dir("layouts");
+  DatasetParams p;
+  p.count = 7;
+  p.size_px = 32;
+  p.val_fraction = 0.3;
+  for (DatasetLayout layout : {DatasetLayout::Pix2pix, DatasetLayout::WebDataset, DatasetLayout::ImageFolder}) {
+    SCOPED_TRACE(to_string(layout));
+    BuildOptions o;
+    o.seed = 5;
+    o.quiet = true;
+    o.layout = layout;
+    o.tar_mb = 1;  // the smallest shards (71 samples of 32² each)
+    o.out = d / (std::string(to_string(layout)) + "-2");
+    o.threads = 2;
+    EXPECT_EQ(build_dataset(p, o).reused, 0u);
+    const auto two = folder_bytes(o.out);
+    o.out = d / (std::string(to_string(layout)) + "-1");
+    o.threads = 1;
+    build_dataset(p, o);
+    EXPECT_EQ(folder_bytes(o.out), two);
+    const BuildResult again = build_dataset(p, o);
+    EXPECT_EQ(again.reused, 7u);
+    EXPECT_EQ(folder_bytes(o.out), two);
+    test::expect_error_naming([&] { read_manifest(o.out, {}); }, std::string("the ") + to_string(layout) + " layout");
+    // A damaged file: the resumed build names it.
+    const std::string first = read_text(o.out / "manifest.jsonl").substr(0, read_text(o.out / "manifest.jsonl").find('\n'));
+    const nlohmann::json r = nlohmann::json::parse(first);
+    const fs::path victim = o.out / r.value("shard", r.value("ab", r.value("label", std::string())));
+    ASSERT_TRUE(fs::exists(victim)) << victim;
+    std::string bytes = read_text(victim);
+    bytes[bytes.size() / 2] ^= 0x5A;
+    write_text_atomic(victim, bytes);
+    test::expect_error_naming([&] { build_dataset(p, o); }, victim.string() + " is corrupt");
+  }
+  BuildOptions o;
+  o.out = d / "x";
+  o.layout = DatasetLayout::Pix2pix;
+  o.layers = true;
+  test::expect_error_naming([&] { build_dataset(p, o); }, "--layers is for reefgen's layout");
+  fs::remove_all(d);
+}
+
+// Small tar: one shard holds what its size allows, the sample bound is an
+// upper bound, and a member's header is ustar with a valid checksum.
+TEST(DatasetFormats, TarNpyAndAlignedPng) {
+  struct Bytes : ByteSink {
+    std::string s;
+    void put(const char* d, size_t n) override { s.append(d, n); }
+  } sink;
+  TarWriter tar(sink);
+  tar.add("00000001.json", "{}");
+  tar.finish();
+  ASSERT_EQ(sink.s.size(), 512u * 4);  // header, one data block, two end blocks
+  EXPECT_EQ(sink.s.substr(0, 13), "00000001.json");
+  EXPECT_EQ(sink.s.substr(257, 5), "ustar");
+  unsigned sum = 0;
+  for (int i = 0; i < 512; ++i) sum += (i >= 148 && i < 156) ? ' ' : static_cast<unsigned char>(sink.s[i]);
+  EXPECT_EQ(std::stoul(sink.s.substr(148, 6), nullptr, 8), sum);
+  EXPECT_EQ(sink.s.substr(512, 2), "{}");
+
+  cv::Mat1f h(3, 5);
+  for (int i = 0; i < 15; ++i) h(i / 5, i % 5) = float(i) - 0.5f;
+  const std::string npy = npy_bytes(h);
+  EXPECT_EQ(npy.substr(0, 8), std::string("\x93NUMPY\x01\x00", 8));
+  const size_t header = size_t(uint8_t(npy[8])) | size_t(uint8_t(npy[9])) << 8;
+  EXPECT_EQ((10 + header) % 64, 0u);
+  EXPECT_NE(npy.find("'shape': (3, 5)"), std::string::npos);
+  ASSERT_EQ(npy.size(), 10 + header + 15 * sizeof(float));
+  EXPECT_EQ(std::memcmp(npy.data() + 10 + header, h.ptr<float>(), 15 * sizeof(float)), 0);
+
+  const Pair pr = island_pair(2, 48);
+  const cv::Mat3b label = encode_labels(pr.label, pr.subsidence);
+  const std::string png = aligned_png16(label, pr.height_m, -100, 560);
+  const cv::Mat ab = cv::imdecode(std::vector<uchar>(png.begin(), png.end()), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(ab.type(), CV_16UC3);
+  ASSERT_EQ(ab.size(), cv::Size(96, 48));
+  cv::Mat a8;
+  ab(cv::Rect(0, 0, 48, 48)).convertTo(a8, CV_8U, 1.0 / 257);
+  EXPECT_TRUE(equal(a8, label));  // A: the label map exactly
+  double worst = 0;
+  for (int y = 0; y < 48; ++y)
+    for (int x = 0; x < 48; ++x) {
+      const cv::Vec3w b = ab.at<cv::Vec3w>(y, 48 + x);
+      EXPECT_TRUE(b[0] == b[1] && b[1] == b[2]);
+      worst = std::max(worst, std::abs(-100 + b[0] / 65535.0 * 660 - pr.height_m(y, x)));
+    }
+  EXPECT_LE(worst, 660 / 65535.0 / 2 + 1e-4);  // half a 16-bit step: 5 mm
+  EXPECT_GE(tar_sample_bound(32), 32u * 32 * 7);
 }
 
 // Every DatasetParams field, the nested erosion's too, survives the config

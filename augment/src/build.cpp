@@ -5,12 +5,14 @@
 // sharded and verified by rebuilding.
 #include "reefgen/augment/build.hpp"
 #include "reefgen/augment/manifest.hpp"
+#include "build_layouts.hpp"
 
 #include <array>
 #include <atomic>
 #include <cstdio>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <regex>
 #include <set>
@@ -110,38 +112,39 @@ json write_pair_layers(const fs::path& dir, const std::string& stem, const Pair&
 
 }  // namespace
 
-BuildResult build_dataset(const DatasetParams& p, const BuildOptions& a) {
-  if (a.threads < 1 || a.threads > 256) throw Error("--threads must be in 1..256");
-  const auto [shard_i, shard_n] = parse_shard(a.shard);
-  const fs::path dir = a.out;
-  // A folder that is not a dataset is refused unless empty: the build writes
-  // dataset.json, manifest.jsonl and split folders and would replace a user's
-  // file of the same name. Its own files (locks, splits) are fine: shards of
-  // one folder start side by side.
-  {
-    std::error_code ec;
-    if (fs::exists(dir, ec) && !fs::is_directory(dir, ec))
-      throw Error(dir.string() + ": exists and is not a folder; choose another --out");
-    if (fs::is_directory(dir, ec) && !fs::exists(dir / "dataset.json", ec)) {
-      for (const auto& e : fs::directory_iterator(dir, ec)) {
-        const std::string name = e.path().filename().string();
-        const bool own = name.rfind(".reefgen.shard-", 0) == 0 ||
-                         ((name == "train" || name == "val" || name == "test") && e.is_directory(ec));
-        if (!own)
-          throw Error(dir.string() + ": not a reefgen dataset and not empty (holds " + name +
-                      "); build into an empty or new folder");
-      }
-    }
-  }
-  ensure_writable_dir(dir);
-  for (auto s : {Split::kTrain, Split::kVal, Split::kTest}) ensure_writable_dir(dir / split_name(s));
-  // One builder per shard of a folder (shards of one folder may run side by
-  // side); a killed builder's temp files are dropped, its finished pairs kept.
-  const DirLock lock(dir, "dataset shard " + a.shard,
-                     ".reefgen.shard-" + std::to_string(shard_i) + "-of-" + std::to_string(shard_n) + ".lock");
-  remove_stale_temps(dir);
-  for (auto s : {Split::kTrain, Split::kVal, Split::kTest}) remove_stale_temps(dir / split_name(s));
+namespace {
 
+void check_build_options(const BuildOptions& a) {
+  if (a.threads < 1 || a.threads > 256) throw Error("--threads must be in 1..256");
+  if (a.tar_mb < 1 || a.tar_mb > 65536) throw Error("--tar-mb must be in 1..65536 (MiB a WebDataset shard holds)");
+  if (a.layout == DatasetLayout::Reefgen) return;
+  const std::string f = std::string("--format ") + to_string(a.layout);
+  if (a.layers) throw Error(f + ": --layers is for reefgen's layout only; drop one of them");
+  if (a.shard != "0/1")
+    throw Error(f + ": --shard is for reefgen's layout only (dataset merge joins those); build this layout on one machine");
+}
+
+// A folder that is not a dataset is refused unless empty: the build writes
+// dataset.json, manifest.jsonl and split folders and would replace a user's
+// file of the same name. Its own files (locks, splits) are fine: shards of
+// one folder start side by side.
+void refuse_foreign_folder(const fs::path& dir) {
+  std::error_code ec;
+  if (fs::exists(dir, ec) && !fs::is_directory(dir, ec))
+    throw Error(dir.string() + ": exists and is not a folder; choose another --out");
+  if (!fs::is_directory(dir, ec) || fs::exists(dir / "dataset.json", ec)) return;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    const bool own = name.rfind(".reefgen.shard-", 0) == 0 ||
+                     ((name == "train" || name == "val" || name == "test") && e.is_directory(ec));
+    if (!own)
+      throw Error(dir.string() + ": not a reefgen dataset and not empty (holds " + name +
+                  "); build into an empty or new folder");
+  }
+}
+
+// dataset.json: what a resumed build must match (seed, params, layout).
+void write_dataset_meta(const fs::path& dir, const DatasetParams& p, const BuildOptions& a) {
   json meta = {{"tool", "reefgen"},
                {"format", 1},
                {"seed", a.seed},
@@ -151,65 +154,105 @@ BuildResult build_dataset(const DatasetParams& p, const BuildOptions& a) {
                {"label_encoding", "HSV: hue 60*(id+1) deg for island, beach, lagoon, reef; 0 deg abyss; V = 1 - 0.75*subsidence"},
                {"files", "SPLIT/INDEX.label.png (RGB 8-bit) + SPLIT/INDEX.height.exr (float32, channel Y, metres)"}};
   if (a.layers) meta["layers"] = terrain::layer_file_suffixes();
+  if (a.layout != DatasetLayout::Reefgen) {
+    meta["layout"] = to_string(a.layout);
+    meta.update(layouts::layout_description(a.layout, p.size_px));
+    if (a.layout == DatasetLayout::WebDataset) meta["tar_mb"] = a.tar_mb;
+  }
   const fs::path meta_path = dir / "dataset.json";
   if (fs::exists(meta_path)) {
     json old = read_json(meta_path);
     old.erase("version");
-    if (old != meta) throw Error(meta_path.string() + " describes another dataset (seed, params or --layers differ); use an empty --out folder");
+    if (old != meta)
+      throw Error(meta_path.string() + " describes another dataset (seed, params, --layers, --format or --tar-mb differ); use an empty --out folder");
   }
   meta["version"] = kVersion;
   write_json_atomic(meta_path, meta);
+}
+
+// One pair in reefgen's layout: SPLIT/INDEX.label.png + .height.exr (and
+// the layer files), or the same files from an interrupted build, verified.
+layouts::PairFiles write_reefgen_pair(const fs::path& dir, const std::string& stem, const PairInfo& info,
+                                      const Pair& pair, bool with_layers) {
+  layouts::PairFiles out;
+  const fs::path label_path = dir / (stem + ".label.png"), height_path = dir / (stem + ".height.exr");
+  const cv::Mat3b label_bgr = encode_labels(pair.label, pair.subsidence);
+  out.reused = existing_matches(label_path, height_path, label_bgr, pair);
+  if (!out.reused) {
+    // Uncompressed EXR, zlib level 1 PNG: compressing cost more than
+    // generating the pair (noisy floats shrink by only ~20 %).
+    write_exr_height(height_path, pair.height_m, {{"reefgen:version", kVersion}}, 0);
+    write_png(label_path, label_bgr, 1);
+  }
+  out.record = layouts::pair_record(info, pair);
+  out.record.update({{"label", stem + ".label.png"},
+                     {"height", stem + ".height.exr"},
+                     {"label_fnv64", file_checksum(label_path)},
+                     {"height_fnv64", file_checksum(height_path)}});
+  if (with_layers) out.record.update(write_pair_layers(dir, stem, pair));
+  return out;
+}
+
+}  // namespace
+
+BuildResult build_dataset(const DatasetParams& p, const BuildOptions& a) {
+  check_build_options(a);
+  const auto [shard_i, shard_n] = parse_shard(a.shard);
+  const fs::path dir = a.out;
+  refuse_foreign_folder(dir);
+  ensure_writable_dir(dir);
+  const bool per_pair = a.layout != DatasetLayout::WebDataset;
+  const std::vector<Split> splits{Split::kTrain, Split::kVal, Split::kTest};
+  if (per_pair)
+    for (auto s : splits) ensure_writable_dir(dir / split_name(s));
+  // One builder per shard of a folder (shards of one folder may run side by
+  // side); a killed builder's temp files are dropped, its finished pairs kept.
+  const DirLock lock(dir, "dataset shard " + a.shard,
+                     ".reefgen.shard-" + std::to_string(shard_i) + "-of-" + std::to_string(shard_n) + ".lock");
+  remove_stale_temps(dir);
+  if (per_pair)
+    for (auto s : splits) remove_stale_temps(dir / split_name(s));
+  write_dataset_meta(dir, p, a);
 
   std::vector<int64_t> indices;
   for (int64_t i = shard_i; i < p.count; i += shard_n) indices.push_back(i);
+  Progress progress("dataset", indices.size(), a.quiet);
+  if (a.layout == DatasetLayout::WebDataset) return layouts::build_webdataset(p, a, progress);
   // Lines are streamed to the manifest's temporary file in index order as soon
   // as the pairs before them are done: memory holds only the few lines that
-  // finished out of order, whatever the dataset size.
+  // finished out of order, whatever the dataset size. imagefolder's
+  // SPLIT/metadata.jsonl likewise.
   AtomicTextWriter manifest(dir / manifest_name(shard_i, shard_n));
-  std::mutex manifest_mutex;
-  std::map<size_t, std::string> pending;
+  std::map<std::string, std::unique_ptr<AtomicTextWriter>> metadata;
+  if (a.layout == DatasetLayout::ImageFolder)
+    for (auto s : splits) metadata[split_name(s)] = std::make_unique<AtomicTextWriter>(dir / split_name(s) / "metadata.jsonl");
+  std::mutex order_mutex;
+  std::map<size_t, layouts::PairFiles> pending;
   size_t next_line = 0;
-  auto put_line = [&](size_t k, std::string line) {
-    std::lock_guard<std::mutex> lock(manifest_mutex);
-    pending.emplace(k, std::move(line));
-    for (auto it = pending.begin(); it != pending.end() && it->first == next_line; it = pending.erase(it), ++next_line)
-      manifest.write(it->second + "\n");
+  auto put_line = [&](size_t k, layouts::PairFiles f) {
+    std::lock_guard<std::mutex> hold(order_mutex);
+    pending.emplace(k, std::move(f));
+    for (auto it = pending.begin(); it != pending.end() && it->first == next_line; it = pending.erase(it), ++next_line) {
+      manifest.write(it->second.record.dump() + "\n");
+      if (!it->second.metadata_line.empty())
+        metadata.at(it->second.record.at("split").get<std::string>())->write(it->second.metadata_line + "\n");
+    }
   };
   std::atomic<size_t> reused{0};
-  Progress progress("dataset", indices.size(), a.quiet);
   parallel_for(
       indices.size(), a.threads,
       [&](size_t k) {
         PairInfo info;
         const Pair pair = make_pair(a.seed, indices[k], p, &info);
         const std::string stem = pair_stem(info);
-        const fs::path label_path = dir / (stem + ".label.png"), height_path = dir / (stem + ".height.exr");
-        const cv::Mat3b label_bgr = encode_labels(pair.label, pair.subsidence);
-        if (existing_matches(label_path, height_path, label_bgr, pair)) {
-          ++reused;
-        } else {
-          // Uncompressed EXR, zlib level 1 PNG: compressing cost more than
-          // generating the pair (noisy floats shrink by only ~20 %).
-          write_exr_height(height_path, pair.height_m, {{"reefgen:version", kVersion}}, 0);
-          write_png(label_path, label_bgr, 1);
-        }
-        double lo, hi;
-        cv::minMaxLoc(pair.height_m, &lo, &hi);
-        json record{{"index", info.index},
-                      {"split", split_name(info.split)},
-                      {"configuration", info.configuration},
-                      {"subsidence", info.subsidence},
-                      {"augmentation", info.augmentation},
-                      {"height_range_m", {lo, hi}},
-                      {"label", stem + ".label.png"},
-                      {"height", stem + ".height.exr"},
-                      {"label_fnv64", file_checksum(label_path)},
-                      {"height_fnv64", file_checksum(height_path)}};
-        if (a.layers) record.update(write_pair_layers(dir, stem, pair));
-        put_line(k, record.dump());
+        layouts::PairFiles f = a.layout == DatasetLayout::Reefgen ? write_reefgen_pair(dir, stem, info, pair, a.layers)
+                                                                  : layouts::write_pair(a.layout, dir, stem, info, pair);
+        if (f.reused) ++reused;
+        put_line(k, std::move(f));
       },
       [&](size_t d) { progress.tick(d); });
   if (next_line != indices.size()) throw Error(dir.string() + ": internal error: manifest incomplete");
+  for (auto& [split, writer] : metadata) writer->commit();
   manifest.commit();
   return {dir / manifest_name(shard_i, shard_n), indices.size(), size_t(reused)};
 }

@@ -81,8 +81,25 @@ void verify_files(const fs::path& dir, const fs::path& manifest, const std::vect
 
 }  // namespace
 
+namespace {
+
+// `dataset build --format pix2pix|webdataset|imagefolder` writes for other
+// tools; reefgen's trainer and stats read reefgen's layout.
+void refuse_foreign_layout(const fs::path& dir) {
+  std::error_code ec;
+  if (!fs::exists(dir / "dataset.json", ec)) return;
+  const nlohmann::json meta = read_json(dir / "dataset.json");
+  const std::string layout = meta.value("layout", "reefgen");
+  if (layout != "reefgen")
+    throw Error(dir.string() + ": a dataset in the " + layout + " layout (dataset build --format " + layout +
+                "), for other tools; reefgen reads its own layout: build one without --format");
+}
+
+}  // namespace
+
 std::vector<ManifestPair> read_manifest(const fs::path& dir, const ManifestCheck& check) {
   const fs::path manifest = dir / "manifest.jsonl";
+  refuse_foreign_layout(dir);
   if (!fs::exists(manifest))
     throw Error(manifest.string() + ": missing; finish the build (or `reefgen dataset merge` its shards)");
   std::vector<ManifestPair> pairs;

@@ -14,6 +14,7 @@
 #include <cstring>
 #include <fstream>
 #include <sstream>
+#include <vector>
 
 namespace reefgen {
 
@@ -291,7 +292,11 @@ void write_text_atomic(const fs::path& path, const std::string& text) {
   write_file_atomic(path, text.data(), text.size());
 }
 
-std::string read_text(const fs::path& path, size_t max_bytes) {
+namespace {
+
+// Reads `path` in blocks, handing each to `take`, at most max_bytes in all.
+template <class Take>
+void read_blocks(const fs::path& path, size_t max_bytes, Take take) {
   std::error_code ec;
   if (fs::is_directory(path, ec)) throw Error("cannot read " + path.string() + ": it is a folder, not a file");
   // O_NONBLOCK: opening a FIFO nobody writes to would block forever; opened
@@ -308,20 +313,28 @@ std::string read_text(const fs::path& path, size_t max_bytes) {
   if (S_ISSOCK(st.st_mode)) throw Error("cannot read " + path.string() + ": it is a socket, not a file");
   ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
   // Read in blocks up to the bound: /dev/zero or a FIFO has no size to check first.
-  std::string out;
-  char buf[1 << 16];
+  std::vector<char> buf(size_t(1) << 20);
+  size_t total = 0;
   for (;;) {
-    const ssize_t n = ::read(fd, buf, sizeof buf);
+    const ssize_t n = ::read(fd, buf.data(), buf.size());
     if (n < 0 && errno == EINTR) continue;
     if (n < 0) throw Error("cannot read " + path.string() + ": " + std::strerror(errno));
     if (n == 0) break;
-    out.append(buf, size_t(n));
-    if (out.size() > max_bytes)
+    total += size_t(n);
+    if (total > max_bytes)
       throw Error("cannot read " + path.string() + ": larger than " + std::to_string(max_bytes >> 20) +
                   " MiB, not a file reefgen reads (check the path)");
+    take(buf.data(), size_t(n));
   }
-  if (fifo && out.empty())
+  if (fifo && total == 0)
     throw Error("cannot read " + path.string() + ": a FIFO (named pipe) with nothing written to it; pass a regular file");
+}
+
+}  // namespace
+
+std::string read_text(const fs::path& path, size_t max_bytes) {
+  std::string out;
+  read_blocks(path, max_bytes, [&](const char* d, size_t n) { out.append(d, n); });
   return out;
 }
 
@@ -364,13 +377,34 @@ void ensure_writable_dir(const fs::path& dir) {
     throw Error("folder " + d.string() + " is not writable: " + std::strerror(errno));
 }
 
-std::string file_checksum(const fs::path& path) {
-  const std::string bytes = read_text(path);
-  uint64_t h = 0xCBF29CE484222325ull;
-  for (unsigned char c : bytes) { h ^= c; h *= 0x100000001B3ull; }
+namespace {
+
+constexpr uint64_t kFnvOffset = 0xCBF29CE484222325ull, kFnvPrime = 0x100000001B3ull;  // FNV-1a 64
+
+uint64_t fnv1a(uint64_t h, const char* data, size_t n) {
+  for (size_t i = 0; i < n; ++i) {
+    h ^= static_cast<unsigned char>(data[i]);
+    h *= kFnvPrime;
+  }
+  return h;
+}
+
+std::string hex64(uint64_t h) {
   char buf[17];
   std::snprintf(buf, sizeof buf, "%016llx", (unsigned long long)h);
   return buf;
+}
+
+}  // namespace
+
+std::string bytes_checksum(const std::string& bytes) { return hex64(fnv1a(kFnvOffset, bytes.data(), bytes.size())); }
+
+// Streamed: a WebDataset shard is ~1 GB. Bounded (64 GiB) like read_text,
+// for a link to /dev/zero.
+std::string file_checksum(const fs::path& path) {
+  uint64_t h = kFnvOffset;
+  read_blocks(path, size_t(64) << 30, [&](const char* d, size_t n) { h = fnv1a(h, d, n); });
+  return hex64(h);
 }
 
 

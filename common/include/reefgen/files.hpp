@@ -136,6 +136,8 @@ void refuse_output_over_input(const std::vector<fs::path>& inputs, const std::ve
 
 // A stable checksum for manifests: FNV-1a 64 of the file's bytes, as hex.
 std::string file_checksum(const fs::path& path);
+// The same checksum of bytes in memory (a tar member, a file about to be written).
+std::string bytes_checksum(const std::string& bytes);
 
 // `-o PREFIX` writes PREFIX.height.exr and its siblings PREFIX.json, ...;
 // `-o NAME.exr` (or NAME.height.exr) writes exactly that height file and its

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "reefgen/augment/dataset.hpp"
+#include "reefgen/augment/formats.hpp"
 
 namespace reefgen::augment {
 
@@ -22,6 +23,8 @@ struct BuildOptions {
   std::string shard = "0/1";  // build only the pairs with index % N == I
   bool quiet = false;         // no progress on stderr
   bool layers = false;        // also each pair's layer files (docs/LAYERS.md), listed with checksums in the manifest
+  DatasetLayout layout = DatasetLayout::Reefgen;  // the files' layout: reefgen's, or one other tools read
+  int tar_mb = 1024;          // webdataset: a shard's size at most, MiB, [1, 65536] (WebDataset's advice: ~1 GB)
 };
 struct BuildResult {
   std::filesystem::path manifest;  // manifest.jsonl, or manifest.shard-I-of-N.jsonl
