@@ -78,6 +78,7 @@ class PairFolder(Dataset):
         os.environ.setdefault("OPENCV_IO_ENABLE_OPENEXR", "1")
         self.root = os.fspath(root)
         manifest = os.path.join(self.root, "manifest.jsonl")
+        _refuse_other_layouts(self.root)
         try:
             with open(manifest, encoding="utf-8") as f:
                 rows = [json.loads(line) for line in f if line.strip()]
@@ -101,6 +102,18 @@ class PairFolder(Dataset):
         if bgr is None or heights is None:
             raise reefgen.Error(f"{self.root}: cannot read pair {r.get('index')}; rebuild the dataset")
         return to_tensors(heights.astype(np.float32), bgr[:, :, ::-1], self.height_range_m)
+
+
+def _refuse_other_layouts(root):
+    """`dataset build --format pix2pix|webdataset|imagefolder` folders are for other tools' readers."""
+    try:
+        with open(os.path.join(root, "dataset.json"), encoding="utf-8") as f:
+            layout = json.load(f).get("layout", "reefgen")
+    except (OSError, ValueError):
+        return  # the manifest's own checks name what is wrong
+    if layout != "reefgen":
+        raise reefgen.Error(f"{root}: a dataset in the {layout} layout (dataset build --format {layout}), for other "
+                            "tools; PairFolder reads reefgen's layout: build one without --format")
 
 
 def _check(path, expected):
