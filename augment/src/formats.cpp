@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "reefgen/error.hpp"
+#include "reefgen/image_io.hpp"
 
 namespace reefgen::augment {
 
@@ -71,11 +72,10 @@ std::string aligned_png16(const cv::Mat3b& label_bgr, const cv::Mat1f& height_m,
       out[W + x] = cv::Vec3w::all(uint16_t(v));
     }
   }
-  std::vector<uchar> png;
-  // zlib level 1, as reefgen's own layout: compressing cost more than generating.
-  if (!cv::imencode(".png", ab, png, {cv::IMWRITE_PNG_COMPRESSION, 1}))
-    throw Error("internal: OpenCV could not encode a 16-bit PNG");
-  return std::string(png.begin(), png.end());
+  // zlib level 1 with the Sub filter and RLE, as reefgen's own label maps:
+  // OpenCV's encoder (libpng's filter search) made this layout's build 1.7×
+  // slower than reefgen's.
+  return encode_png16(ab, 1);
 }
 
 void TarWriter::add(const std::string& name, const std::string& bytes) {

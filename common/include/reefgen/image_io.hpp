@@ -31,6 +31,8 @@ std::string image_damage(const std::string& bytes);
 void write_png(const fs::path& path, const cv::Mat& image, int level = 6);
 // The bytes of an 8-bit grey, BGR or BGRA PNG (what write_png writes for those).
 std::string encode_png8(const cv::Mat& image, int level = 6);
+// The same for 16-bit grey, BGR or BGRA (samples big-endian, as PNG stores them).
+std::string encode_png16(const cv::Mat& image, int level = 6);
 
 // Single-channel float32 OpenEXR with channel "Y" (heights in metres) and
 // string attributes (e.g. "reefgen:json" holding the sidecar). ZIP compressed
