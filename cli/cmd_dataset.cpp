@@ -53,7 +53,7 @@ Command add_dataset_command(CLI::App& app, const GlobalOptions& g) {
                     "webdataset (SPLIT-NNNNNN.tar shards + SPLIT.index.json), imagefolder (SPLIT/INDEX.png + "
                     ".height.npy + metadata.jsonl); docs/DATASET.md")
       ->capture_default_str();
-  build->add_option("--tar-mb", a->o.tar_mb, "webdataset: MiB a shard holds at most (1..65536)")->capture_default_str();
+  auto* tar_mb = build->add_option("--tar-mb", a->o.tar_mb, "webdataset: MiB a shard holds at most (1..65536)")->capture_default_str();
   auto merge_dir = std::make_shared<std::string>();
   auto* merge = sub->add_subcommand("merge", "Join shard manifests into manifest.jsonl, verifying checksums");
   merge->add_option("dir", *merge_dir, "Dataset folder")->required();
@@ -64,7 +64,7 @@ Command add_dataset_command(CLI::App& app, const GlobalOptions& g) {
   stats->add_option("--sheet", *sheet, "Pairs on the contact sheet (DIR/contact_sheet.png)")->capture_default_str();
   auto no_verify = std::make_shared<bool>(false);
   stats->add_flag("--no-verify", *no_verify, "Skip checking the pair files against the manifest's checksums");
-  return {sub, [a, merge_dir, build, merge, stats, stats_dir, sheet, no_verify, &g]() -> int {
+  return {sub, [a, merge_dir, build, merge, stats, stats_dir, sheet, no_verify, tar_mb, &g]() -> int {
             if (stats->parsed()) {
               const json st = augment::dataset_stats(*stats_dir, *sheet, g.quiet, !*no_verify);
               std::printf("%s\n", st.dump(2, ' ', false, json::error_handler_t::replace).c_str());
@@ -84,6 +84,8 @@ Command add_dataset_command(CLI::App& app, const GlobalOptions& g) {
               }
               a->o.quiet = g.quiet;
               a->o.layout = augment::layout_from_string(a->format);
+              if (tar_mb->count() > 0 && a->o.layout != augment::DatasetLayout::WebDataset)
+                throw Error("--tar-mb sizes WebDataset shards; add --format webdataset or drop --tar-mb");
               const augment::BuildResult r = augment::build_dataset(p, a->o);
               if (!g.quiet)
                 std::fprintf(stderr, "dataset: %zu pairs (%zu already there) in %s, manifest %s\n", r.pairs, r.reused,

@@ -226,6 +226,14 @@ lines = [json.loads(l) for l in open(sys.argv[1] + '/manifest.jsonl')]
 assert len(lines) == 12 and all(len(r['layers']) == 8 and set(r['layers']) == set(r['layers_fnv64']) for r in lines)
 assert all(os.path.exists(sys.argv[1] + '/' + f) for r in lines for f in r['layers'].values())
 " "$T/dl1" && ok || bad "dataset --layers: manifest does not list eight layer files per pair"
+# The layouts for other tools: errors in one line, nothing written.
+expect_error "use reefgen, pix2pix, webdataset or imagefolder" dataset build --count 2 --out "$T/e/x" --format tfrecord
+expect_error "add --format webdataset" dataset build --count 2 --out "$T/e/x" --format pix2pix --tar-mb 8
+expect_error "--shard is for reefgen's layout" dataset build --count 2 --out "$T/e/x" --format webdataset --shard 0/2
+expect_error "--tar-mb must be in" dataset build --count 2 --out "$T/e/x" --format webdataset --tar-mb 0
+"$BIN" -q dataset build --config "$T/ds.json" --seed 4 --out "$T/dw" --format webdataset >/dev/null || bad "dataset --format webdataset"
+"$BIN" -q dataset build --config "$T/ds.json" --seed 4 --out "$T/dw" --format pix2pix >/dev/null 2>"$T/err" && bad "a webdataset resumed as pix2pix" ||
+  { grep -q "format" "$T/err" && ok || bad "no word on --format: $(cat "$T/err")"; }
 "$BIN" -q dataset build --config "$T/ds.json" --seed 4 --out "$T/dl1" >/dev/null 2>"$T/err" && bad "a --layers dataset resumed without --layers" ||
   { grep -q "layers differ" "$T/err" && ok || bad "no word on --layers: $(cat "$T/err")"; }
 "$BIN" -q dataset stats "$T/d1" > "$T/stats.json" || bad "dataset stats"

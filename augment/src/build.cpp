@@ -164,7 +164,7 @@ void write_dataset_meta(const fs::path& dir, const DatasetParams& p, const Build
     json old = read_json(meta_path);
     old.erase("version");
     if (old != meta)
-      throw Error(meta_path.string() + " describes another dataset (seed, params, --layers, --format or --tar-mb differ); use an empty --out folder");
+      throw Error(meta_path.string() + " describes another dataset (its seed, params, --format, --tar-mb or --layers differ); use an empty --out folder");
   }
   meta["version"] = kVersion;
   write_json_atomic(meta_path, meta);
@@ -201,18 +201,20 @@ BuildResult build_dataset(const DatasetParams& p, const BuildOptions& a) {
   const fs::path dir = a.out;
   refuse_foreign_folder(dir);
   ensure_writable_dir(dir);
-  const bool per_pair = a.layout != DatasetLayout::WebDataset;
-  const std::vector<Split> splits{Split::kTrain, Split::kVal, Split::kTest};
-  if (per_pair)
-    for (auto s : splits) ensure_writable_dir(dir / split_name(s));
   // One builder per shard of a folder (shards of one folder may run side by
   // side); a killed builder's temp files are dropped, its finished pairs kept.
   const DirLock lock(dir, "dataset shard " + a.shard,
                      ".reefgen.shard-" + std::to_string(shard_i) + "-of-" + std::to_string(shard_n) + ".lock");
   remove_stale_temps(dir);
-  if (per_pair)
-    for (auto s : splits) remove_stale_temps(dir / split_name(s));
+  // Before any split folder: another dataset's folder is left as it was.
   write_dataset_meta(dir, p, a);
+  const bool per_pair = a.layout != DatasetLayout::WebDataset;
+  const std::vector<Split> splits{Split::kTrain, Split::kVal, Split::kTest};
+  if (per_pair)
+    for (auto s : splits) {
+      ensure_writable_dir(dir / split_name(s));
+      remove_stale_temps(dir / split_name(s));
+    }
 
   std::vector<int64_t> indices;
   for (int64_t i = shard_i; i < p.count; i += shard_n) indices.push_back(i);
