@@ -36,6 +36,7 @@ class Module(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         cls.tmp = tempfile.mkdtemp(prefix="reefgen_py_")
+        cls.addClassCleanup(shutil.rmtree, cls.tmp, True)  # also when the build below fails
         cls.config = os.path.join(cls.tmp, "ds.json")
         with open(cls.config, "w") as f:
             import json
@@ -46,10 +47,6 @@ class Module(unittest.TestCase):
         import json
         with open(os.path.join(cls.data, "manifest.jsonl")) as f:
             cls.rows = {r["index"]: r for r in map(json.loads, f)}
-
-    @classmethod
-    def tearDownClass(cls):
-        shutil.rmtree(cls.tmp)
 
     def test_pair_equals_the_dataset_files(self):
         indices = random.Random(1).sample(range(CONFIG["count"]), 100)  # the bar: 100 random indices
@@ -176,6 +173,7 @@ class Layouts(unittest.TestCase):
     def setUpClass(cls):
         import json
         cls.tmp = tempfile.mkdtemp(prefix="reefgen_layouts_")
+        cls.addClassCleanup(shutil.rmtree, cls.tmp, True)  # also when a build below fails
         cls.config = os.path.join(cls.tmp, "ds.json")
         with open(cls.config, "w") as f:
             json.dump(CONFIG, f)
@@ -184,10 +182,6 @@ class Layouts(unittest.TestCase):
             subprocess.run([BIN, "-q", "dataset", "build", "--config", cls.config, "--seed", str(SEED), "--out",
                             os.path.join(cls.tmp, layout), "--format", layout] + small_shards,
                            check=True, stdout=subprocess.DEVNULL)
-
-    @classmethod
-    def tearDownClass(cls):
-        shutil.rmtree(cls.tmp)
 
     def rows(self, layout):
         import json
