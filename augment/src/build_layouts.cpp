@@ -82,14 +82,15 @@ PairFiles write_pair(DatasetLayout layout, const fs::path& dir, const std::strin
   const std::string png = encode_png8(label_bgr, kLabelPngLevel), npy = npy_bytes(pair.height_m);
   const bool had_png = put_bytes(dir / (stem + ".png"), png), had_npy = put_bytes(dir / (stem + ".height.npy"), npy);
   out.reused = had_png && had_npy;
-  out.record["label"] = stem + ".png";
-  out.record["height"] = stem + ".height.npy";
-  out.record["label_fnv64"] = bytes_checksum(png);
-  out.record["height_fnv64"] = bytes_checksum(npy);
+  // metadata.jsonl: the pair's record with the names Hugging Face joins on.
   const std::string name = fs::path(stem).filename().string();
-  json meta = {{"file_name", name + ".png"}, {"height_file", name + ".height.npy"}};
-  meta.update(pair_record(info, pair));
+  json meta = out.record;
+  meta.update({{"file_name", name + ".png"}, {"height_file", name + ".height.npy"}});
   out.metadata_line = meta.dump();
+  out.record.update({{"label", stem + ".png"},
+                     {"height", stem + ".height.npy"},
+                     {"label_fnv64", bytes_checksum(png)},
+                     {"height_fnv64", bytes_checksum(npy)}});
   return out;
 }
 

@@ -26,6 +26,17 @@ CONFIG = {"count": 120, "size_px": 32, "levels": 2, "val_fraction": 0.2, "test_f
 SEED = 4
 
 
+def temp_with_config(cls, prefix):
+    """A temporary folder (removed after the class, also when its set-up fails) holding CONFIG as ds.json."""
+    import json
+    tmp = tempfile.mkdtemp(prefix=prefix)
+    cls.addClassCleanup(shutil.rmtree, tmp, True)
+    config = os.path.join(tmp, "ds.json")
+    with open(config, "w") as f:
+        json.dump(CONFIG, f)
+    return tmp, config
+
+
 def read_exr(path):
     h = cv2.imread(path, cv2.IMREAD_UNCHANGED)
     assert h is not None, path
@@ -35,12 +46,7 @@ def read_exr(path):
 class Module(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.tmp = tempfile.mkdtemp(prefix="reefgen_py_")
-        cls.addClassCleanup(shutil.rmtree, cls.tmp, True)  # also when the build below fails
-        cls.config = os.path.join(cls.tmp, "ds.json")
-        with open(cls.config, "w") as f:
-            import json
-            json.dump(CONFIG, f)
+        cls.tmp, cls.config = temp_with_config(cls, "reefgen_py_")
         cls.data = os.path.join(cls.tmp, "data")
         subprocess.run([BIN, "-q", "dataset", "build", "--config", cls.config, "--seed", str(SEED),
                         "--out", cls.data], check=True, stdout=subprocess.DEVNULL)
@@ -171,12 +177,7 @@ class Layouts(unittest.TestCase):
 
     @classmethod
     def setUpClass(cls):
-        import json
-        cls.tmp = tempfile.mkdtemp(prefix="reefgen_layouts_")
-        cls.addClassCleanup(shutil.rmtree, cls.tmp, True)  # also when a build below fails
-        cls.config = os.path.join(cls.tmp, "ds.json")
-        with open(cls.config, "w") as f:
-            json.dump(CONFIG, f)
+        cls.tmp, cls.config = temp_with_config(cls, "reefgen_layouts_")
         for layout in ("pix2pix", "webdataset", "imagefolder"):
             small_shards = ["--tar-mb", "1"] if layout == "webdataset" else []  # 71 pairs a shard: two shards
             subprocess.run([BIN, "-q", "dataset", "build", "--config", cls.config, "--seed", str(SEED), "--out",
