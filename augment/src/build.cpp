@@ -32,15 +32,6 @@ namespace reefgen::augment {
 
 using nlohmann::json;
 
-namespace {
-
-// Heights are normalised for training by this fixed range (docs/DESIGN.md §5: "a fixed
-// range stored with the model"). It bounds every generated height: M(0) =
-// -100 m (coral keeps the floor there) up to M(1) = 500 m × (1 + detail noise
-// 0.1) + smooth-max overshoot ≤ 1 m.
-constexpr double kNormFloorM = kAbyssFloorM, kNormPeakM = kHeightCeilingM;
-
-}  // namespace
 
 std::pair<int, int> parse_shard(const std::string& s) {
   std::smatch m;
@@ -149,7 +140,7 @@ void write_dataset_meta(const fs::path& dir, const DatasetParams& p, const Build
                {"format", 1},
                {"seed", a.seed},
                {"params", p},
-               {"height_normalisation_m", {kNormFloorM, kNormPeakM}},
+               {"height_normalisation_m", {layouts::kNormFloorM, layouts::kNormPeakM}},
                {"sea_level_m", 0.0},
                {"label_encoding", "HSV: hue 60*(id+1) deg for island, beach, lagoon, reef; 0 deg abyss; V = 1 - 0.75*subsidence"},
                {"files", "SPLIT/INDEX.label.png (RGB 8-bit) + SPLIT/INDEX.height.exr (float32, channel Y, metres)"}};

@@ -24,9 +24,6 @@ using nlohmann::json;
 
 namespace {
 
-// The fixed range heights are normalised by (build.cpp's dataset.json says
-// the same): every generated height lies inside it.
-constexpr double kFloorM = kAbyssFloorM, kPeakM = kHeightCeilingM;
 // zlib level of the label PNGs, as reefgen's own layout (the same bytes).
 constexpr int kLabelPngLevel = 1;
 
@@ -71,7 +68,7 @@ PairFiles write_pair(DatasetLayout layout, const fs::path& dir, const std::strin
   out.record = pair_record(info, pair);
   const cv::Mat3b label_bgr = encode_labels(pair.label, pair.subsidence);
   if (layout == DatasetLayout::Pix2pix) {
-    const std::string ab = aligned_png16(label_bgr, pair.height_m, kFloorM, kPeakM);
+    const std::string ab = aligned_png16(label_bgr, pair.height_m, kNormFloorM, kNormPeakM);
     out.reused = put_bytes(dir / (stem + ".png"), ab);
     out.record["ab"] = stem + ".png";
     out.record["ab_fnv64"] = bytes_checksum(ab);
@@ -95,7 +92,7 @@ PairFiles write_pair(DatasetLayout layout, const fs::path& dir, const std::strin
 }
 
 json layout_description(DatasetLayout layout, int size_px) {
-  const json range = {{"floor_m", kFloorM}, {"peak_m", kPeakM}};
+  const json range = {{"floor_m", kNormFloorM}, {"peak_m", kNormPeakM}};
   switch (layout) {
     case DatasetLayout::Pix2pix:
       return {{"files", "SPLIT/INDEX.png: A|B, " + std::to_string(2 * size_px) + "x" + std::to_string(size_px) +

@@ -8,9 +8,17 @@
 
 #include "reefgen/augment/build.hpp"
 #include "reefgen/augment/dataset.hpp"
+#include "reefgen/constants.hpp"
 #include "reefgen/parallel.hpp"
 
 namespace reefgen::augment::layouts {
+
+// Heights are normalised for training by this fixed range (docs/DESIGN.md §5:
+// "a fixed range stored with the model"); dataset.json records it and the
+// pix2pix layout's 16 bits span it. It bounds every generated height: M(0) =
+// -100 m (coral keeps the floor there) up to M(1) = 500 m × (1 + detail noise
+// 0.1) + smooth-max overshoot ≤ 1 m.
+inline constexpr double kNormFloorM = kAbyssFloorM, kNormPeakM = kHeightCeilingM;
 
 // The fields every layout's manifest line and sample record start with.
 nlohmann::json pair_record(const PairInfo& info, const Pair& pair);
