@@ -261,6 +261,10 @@ for f in run.json log.csv val.csv checkpoint.pt generator.pt; do [ -s "$T/t1/$f"
 grep -q '"G": [0-9]' "$T/t1/run.json" && ok || bad "run.json has no parameter counts"
 [ "$(head -1 "$T/t1/log.csv")" = "step,epoch,lr,G_GAN,G_L1,D_real,D_fake,s_per_iter,allreduce_s" ] && ok || bad "log.csv header"
 ls "$T/t1/val/"step-*.png >/dev/null 2>&1 && ok || bad "no validation grid"
+# Same run in another process: the same checkpoint, byte for byte (Adam's
+# state is stored by parameter position, not by memory address).
+"$BIN" -q train --config "$T/tr.json" $TR --out "$T/t1b" > /dev/null || bad "train again"
+cmp -s "$T/t1/checkpoint.pt" "$T/t1b/checkpoint.pt" && ok || bad "two identical runs wrote different checkpoint.pt"
 "$BIN" -q train --config "$T/tr.json" $TR --out "$T/t2" > /dev/null 2>&1 &
 pid=$!
 for _ in $(seq 1 200); do [ -s "$T/t2/log.csv" ] && [ "$(wc -l < "$T/t2/log.csv")" -ge 3 ] && break; sleep 0.05; done

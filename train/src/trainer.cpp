@@ -136,6 +136,58 @@ std::string checkpoint_sha256(Pix2Pix& p, int64_t step, const torch::Tensor& win
 
 }  // namespace
 
+namespace {
+
+// Adam's state by the parameter's position in the optimizer (LibTorch's own
+// save keys it by the parameters' memory addresses, so two identical runs
+// wrote different bytes): step_K, exp_avg_K, exp_avg_sq_K (max_exp_avg_sq_K
+// with amsgrad) and `params`, the count. Param-group options are not stored:
+// the run's config sets them and the learning rate is set every step.
+void save_adam(torch::optim::Adam& opt, torch::serialize::OutputArchive& out) {
+  int64_t k = 0;
+  for (auto& group : opt.param_groups())
+    for (auto& param : group.params()) {
+      const std::string key = std::to_string(k++);
+      auto it = opt.state().find(c10::guts::to_string(param.unsafeGetTensorImpl()));
+      if (it == opt.state().end()) continue;  // no step taken for it yet
+      auto& st = static_cast<torch::optim::AdamParamState&>(*it->second);
+      out.write("step_" + key, torch::tensor(st.step(), torch::kInt64));
+      out.write("exp_avg_" + key, st.exp_avg());
+      out.write("exp_avg_sq_" + key, st.exp_avg_sq());
+      if (st.max_exp_avg_sq().defined()) out.write("max_exp_avg_sq_" + key, st.max_exp_avg_sq());
+    }
+  out.write("params", c10::IValue(k));
+}
+
+// The inverse; checkpoints written before save_adam hold LibTorch's layout.
+void load_adam(torch::optim::Adam& opt, torch::serialize::InputArchive& in, const fs::path& path) {
+  c10::IValue count;
+  if (!in.try_read("params", count)) return opt.load(in);
+  int64_t k = 0;
+  opt.state().clear();
+  for (auto& group : opt.param_groups())
+    for (auto& param : group.params()) {
+      const std::string key = std::to_string(k++);
+      torch::Tensor step, m, v, vmax;
+      if (!in.try_read("step_" + key, step)) continue;
+      auto st = std::make_unique<torch::optim::AdamParamState>();
+      st->step(step.item<int64_t>());
+      in.read("exp_avg_" + key, m);
+      in.read("exp_avg_sq_" + key, v);
+      if (m.sizes() != param.sizes() || v.sizes() != param.sizes())
+        throw Error(path.string() + ": optimizer state " + key + " does not fit the network; start a new run");
+      st->exp_avg(m.clone());
+      st->exp_avg_sq(v.clone());
+      if (in.try_read("max_exp_avg_sq_" + key, vmax)) st->max_exp_avg_sq(vmax.clone());
+      opt.state()[c10::guts::to_string(param.unsafeGetTensorImpl())] = std::move(st);
+    }
+  if (count.toInt() != k)
+    throw Error(path.string() + ": optimizer state for " + std::to_string(count.toInt()) + " parameters, the network has " +
+                std::to_string(k) + "; start a new run");
+}
+
+}  // namespace
+
 void save_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& params, int64_t step,
                      const LogWindow& window, int world_size) {
   torch::serialize::OutputArchive a;
@@ -156,8 +208,8 @@ void save_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& params
   torch::serialize::OutputArchive g, d, og, od;
   p.G()->save(g);
   p.D()->save(d);
-  p.opt_G().save(og);
-  p.opt_D().save(od);
+  save_adam(p.opt_G(), og);
+  save_adam(p.opt_D(), od);
   a.write("G", g);
   a.write("D", d);
   a.write("opt_G", og);
@@ -217,8 +269,8 @@ int64_t load_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& par
     a.read("opt_D", od);
     p.G()->load(g);
     p.D()->load(d);
-    p.opt_G().load(og);
-    p.opt_D().load(od);
+    load_adam(p.opt_G(), og, path);
+    load_adam(p.opt_D(), od, path);
     at::Generator gen = at::detail::getDefaultCPUGenerator();
     gen.set_state(rng);
     if (window) {
