@@ -80,6 +80,15 @@ cv::Mat bgr_of(const py::array& sketch) {
   return bgr;
 }
 
+// The command's flags in a message, as this function's keywords.
+std::string python_words(std::string m) {
+  for (const auto& [flag, keyword] : {std::pair<std::string, std::string>{"--stochastic", "stochastic=True"},
+                                      {"--engine ", "engine="},
+                                      {"--precision ", "precision="}})
+    for (size_t at; (at = m.find(flag)) != std::string::npos;) m.replace(at, flag.size(), keyword);
+  return m;
+}
+
 infer::InferOptions options_for(const model::GeneratorFile& gen, int size, uint64_t seed, bool raw,
                                 const std::string& precision, const std::string& engine, bool stochastic,
                                 double world_size_m) {
@@ -94,7 +103,7 @@ infer::InferOptions options_for(const model::GeneratorFile& gen, int size, uint6
     o.engine = infer::engine_from_string(engine);
     infer::resolve(o, gen);
   } catch (const Error& e) {
-    throw Error("precision/engine: " + std::string(e.what()));
+    throw Error("precision/engine: " + python_words(e.what()));
   }
   return o;
 }

@@ -115,6 +115,9 @@ class Module(unittest.TestCase):
         self.assertIn("region colour", str(e.exception))
         with self.assertRaises(reefgen.Error):
             reefgen.infer(labels.astype(np.float32))
+        with self.assertRaises(reefgen.Error) as e:
+            reefgen.infer(labels, engine="onednn", stochastic=True)
+        self.assertIn("stochastic=True needs engine=torch", str(e.exception))  # its keywords, not the flags
 
     def stream(self, workers, **kw):
         ds = rtorch.PairStream(self.config, seed=SEED, count=12, with_index=True, **kw)
