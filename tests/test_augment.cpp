@@ -1,6 +1,7 @@
 // Augmentation: alignment of label and height, exactness of the simple
 // cases, wrap continuity, the IoU bound of copy-paste.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -348,6 +349,30 @@ TEST(DatasetBuild, OtherLayoutsAreDeterministicAndResumable) {
   o.layout = DatasetLayout::Pix2pix;
   o.layers = true;
   test::expect_error_naming([&] { build_dataset(p, o); }, "--layers is for reefgen's layout");
+  fs::remove_all(d);
+}
+
+// A FIFO in a finished shard's place: one line naming it, no hang (it used
+// to block in the comparison's read), and likewise in a per-pair layout.
+TEST(DatasetBuild, AFifoInPlaceOfAFileIsRefusedWithoutHanging) {
+  const fs::path d = test::temp_dir("fifo");
+  DatasetParams p;
+  p.count = 3;
+  p.size_px = 32;
+  for (DatasetLayout layout : {DatasetLayout::WebDataset, DatasetLayout::Pix2pix}) {
+    SCOPED_TRACE(to_string(layout));
+    BuildOptions o;
+    o.quiet = true;
+    o.layout = layout;
+    o.out = d / to_string(layout);
+    build_dataset(p, o);
+    const std::string first = read_text(o.out / "manifest.jsonl").substr(0, read_text(o.out / "manifest.jsonl").find('\n'));
+    const nlohmann::json r = nlohmann::json::parse(first);
+    const fs::path victim = o.out / r.value("shard", r.value("ab", std::string()));
+    fs::remove(victim);
+    ASSERT_EQ(::mkfifo(victim.c_str(), 0644), 0);
+    test::expect_error_naming([&] { build_dataset(p, o); }, victim.string());
+  }
   fs::remove_all(d);
 }
 

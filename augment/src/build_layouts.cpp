@@ -144,7 +144,12 @@ class FileSink : public ByteSink {
 // A shard an interrupted build finished: its bytes must be these.
 class CompareSink : public ByteSink {
  public:
-  explicit CompareSink(const fs::path& path) : path_(path), in_(path, std::ios::binary) {
+  explicit CompareSink(const fs::path& path) : path_(path) {
+    // A FIFO or a device in the shard's place would block the read or never end.
+    std::error_code ec;
+    if (!fs::is_regular_file(path, ec))
+      throw Error(path.string() + " is not a regular file (a folder, FIFO or device); delete it or build into an empty folder");
+    in_.open(path, std::ios::binary);
     if (!in_) throw Error("cannot read " + path.string() + ": " + std::strerror(errno));
   }
   void put(const char* data, size_t n) override {
