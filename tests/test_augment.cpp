@@ -306,6 +306,13 @@ std::map<std::string, std::string> folder_bytes(const fs::path& dir) {
   return out;
 }
 
+// The file (the shard, for webdataset) of the manifest's first pair.
+fs::path first_listed_file(const fs::path& dataset) {
+  const std::string manifest = read_text(dataset / "manifest.jsonl");
+  const nlohmann::json r = nlohmann::json::parse(manifest.substr(0, manifest.find('\n')));
+  return dataset / r.value("shard", r.value("ab", r.value("label", std::string())));
+}
+
 // The layouts for other tools: same bytes whatever the threads, a resumed
 // build verifies and keeps every file, a damaged file is refused by name,
 // and reefgen's trainer refuses the folder, naming the layout.
@@ -335,9 +342,7 @@ TEST(DatasetBuild, OtherLayoutsAreDeterministicAndResumable) {
     EXPECT_EQ(folder_bytes(o.out), two);
     test::expect_error_naming([&] { read_manifest(o.out, {}); }, std::string("the ") + to_string(layout) + " layout");
     // A damaged file: the resumed build names it.
-    const std::string first = read_text(o.out / "manifest.jsonl").substr(0, read_text(o.out / "manifest.jsonl").find('\n'));
-    const nlohmann::json r = nlohmann::json::parse(first);
-    const fs::path victim = o.out / r.value("shard", r.value("ab", r.value("label", std::string())));
+    const fs::path victim = first_listed_file(o.out);
     ASSERT_TRUE(fs::exists(victim)) << victim;
     std::string bytes = read_text(victim);
     bytes[bytes.size() / 2] ^= 0x5A;
@@ -366,9 +371,7 @@ TEST(DatasetBuild, AFifoInPlaceOfAFileIsRefusedWithoutHanging) {
     o.layout = layout;
     o.out = d / to_string(layout);
     build_dataset(p, o);
-    const std::string first = read_text(o.out / "manifest.jsonl").substr(0, read_text(o.out / "manifest.jsonl").find('\n'));
-    const nlohmann::json r = nlohmann::json::parse(first);
-    const fs::path victim = o.out / r.value("shard", r.value("ab", std::string()));
+    const fs::path victim = first_listed_file(o.out);
     fs::remove(victim);
     ASSERT_EQ(::mkfifo(victim.c_str(), 0644), 0);
     test::expect_error_naming([&] { build_dataset(p, o); }, victim.string());

@@ -111,34 +111,16 @@ json layout_description(DatasetLayout layout, int size_px) {
 
 namespace {
 
-// A new shard: a temporary file renamed into place by commit().
+// A new shard: a temporary file renamed into place by commit() (common's
+// AtomicTextWriter, which writes bytes as they are).
 class FileSink : public ByteSink {
  public:
-  explicit FileSink(fs::path path) : path_(std::move(path)), tmp_(detail::temp_path_for(path_)) {
-    f_ = std::fopen(tmp_.c_str(), "wb");
-    if (!f_) throw Error("cannot write " + path_.string() + ": " + std::strerror(errno));
-  }
-  ~FileSink() override {
-    if (f_) std::fclose(f_);
-    if (!committed_) fs::remove(tmp_, ec_);
-  }
-  void put(const char* data, size_t n) override {
-    if (std::fwrite(data, 1, n, f_) != n)
-      throw Error("cannot write " + path_.string() + ": " + std::strerror(errno) + " (disk full?)");
-  }
-  void commit() {
-    const bool ok = std::fclose(f_) == 0;
-    f_ = nullptr;
-    if (!ok) throw Error("cannot write " + path_.string() + ": " + std::strerror(errno) + " (disk full?)");
-    detail::commit_temp(tmp_, path_);
-    committed_ = true;
-  }
+  explicit FileSink(const fs::path& path) : file_(path) {}
+  void put(const char* data, size_t n) override { file_.write(data, n); }
+  void commit() { file_.commit(); }
 
  private:
-  fs::path path_, tmp_;
-  std::FILE* f_ = nullptr;
-  bool committed_ = false;
-  std::error_code ec_;
+  AtomicTextWriter file_;
 };
 
 // A shard an interrupted build finished: its bytes must be these.

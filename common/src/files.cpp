@@ -271,9 +271,9 @@ AtomicTextWriter::~AtomicTextWriter() {
   }
 }
 
-void AtomicTextWriter::write(const std::string& text) {
+void AtomicTextWriter::write(const char* data, size_t n) {
   if (!f_) throw Error("cannot write " + path_.string() + ": already committed");
-  if (std::fwrite(text.data(), 1, text.size(), f_) != text.size())
+  if (std::fwrite(data, 1, n, f_) != n)
     throw Error("cannot write " + path_.string() + ": " + std::strerror(errno) + " (disk full?)");
 }
 

@@ -26,6 +26,7 @@
 #include "reefgen/model/generator_file.hpp"
 #include "reefgen/model/shipped.hpp"
 #include "reefgen/parallel.hpp"
+#include "numpy_mat.hpp"
 
 namespace py = pybind11;
 
@@ -117,8 +118,7 @@ py::array_t<float> infer_sketch(const py::array& sketch, int size, const std::st
   if (world_size_m && !(*world_size_m >= 1 && *world_size_m <= 1e7))
     throw Error("infer: world_size_m must be in [1, 1e7] metres (the canvas width, as --world-size)");
   const cv::Mat image = bgr_of(sketch);
-  auto* heights = new cv::Mat1f();
-  py::capsule owner(heights, [](void* p) { delete static_cast<cv::Mat1f*>(p); });
+  cv::Mat1f heights;
   {
     py::gil_scoped_release free_python;
     const DecodedSketch decoded = decode_sketch(image, "sketch");
@@ -130,16 +130,14 @@ py::array_t<float> infer_sketch(const py::array& sketch, int size, const std::st
     const int before = torch::get_num_threads();
     torch::set_num_threads(threads.value_or(default_threads()));
     try {
-      *heights = infer::infer_heights(m.gen, {decoded}, o).at(0);
+      heights = infer::infer_heights(m.gen, {decoded}, o).at(0);
     } catch (...) {
       torch::set_num_threads(before);
       throw;
     }
     torch::set_num_threads(before);
   }
-  const py::ssize_t H = heights->rows, W = heights->cols;
-  return py::array_t<float>({H, W}, {W * py::ssize_t(sizeof(float)), py::ssize_t(sizeof(float))}, heights->ptr<float>(),
-                            owner);
+  return python::to_numpy<float>(heights);
 }
 
 }  // namespace

@@ -20,6 +20,7 @@
 #include "reefgen/procgen/spec.hpp"
 #include "reefgen/terrain/realism.hpp"
 #include "reefgen/version.hpp"
+#include "numpy_mat.hpp"
 
 namespace py = pybind11;
 
@@ -30,21 +31,10 @@ const std::map<std::string, std::string>& builtin_presets();  // cli/CMakeLists.
 namespace {
 
 using namespace reefgen;
+using python::to_numpy;
 
 // One past the last pair index: DatasetParams::count's upper bound (1e8).
 constexpr int64_t kMaxPairIndex = 100000000;
-
-// A numpy array over the Mat's pixels, owning a reference to them.
-// Mat1f -> (H, W) float32; Mat3b -> (H, W, 3) uint8.
-template <class T>
-py::array_t<T> to_numpy(cv::Mat m) {
-  CV_Assert(m.isContinuous());
-  auto* owned = new cv::Mat(std::move(m));
-  py::capsule owner(owned, [](void* p) { delete static_cast<cv::Mat*>(p); });
-  const py::ssize_t H = owned->rows, W = owned->cols, C = owned->channels(), item = sizeof(T);
-  if (C == 1) return py::array_t<T>({H, W}, {W * item, item}, owned->ptr<T>(), owner);
-  return py::array_t<T>({H, W, C}, {W * C * item, C * item, item}, owned->ptr<T>(), owner);
-}
 
 // The label map as its PNG holds it, in RGB (what PIL and torchvision read).
 cv::Mat3b rgb_of(const cv::Mat3b& bgr) {

@@ -40,7 +40,8 @@ class AtomicTextWriter {
   ~AtomicTextWriter();
   AtomicTextWriter(const AtomicTextWriter&) = delete;
   AtomicTextWriter& operator=(const AtomicTextWriter&) = delete;
-  void write(const std::string& text);
+  void write(const std::string& text) { write(text.data(), text.size()); }
+  void write(const char* data, size_t n);  // bytes too: the file is opened in binary mode
   void commit();
 
  private:
