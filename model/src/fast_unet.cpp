@@ -94,25 +94,42 @@ REEFGEN_CLONES void sums_row(const float* x, int64_t npix, int64_t C, double* su
     }
 }
 
-// Dot products with 16 independent partial sums: vectorises without
-// reassociating (the same order, hence the same bits, on every run).
-// out[t] = src · w[t*C .. t*C+C) for the T weight vectors of w.
-REEFGEN_CLONES void dots(const float* src, const float* w, int64_t T, int64_t C, float* out) {
-  for (int64_t t = 0; t < T; ++t) {
-    const float* b = w + t * C;
-    float acc[16] = {};
-    int64_t i = 0;
-    for (; i + 16 <= C; i += 16)
-      for (int l = 0; l < 16; ++l) acc[l] += src[i + l] * b[i + l];
-    float s = 0.f;
-    for (; i < C; ++i) s += src[i] * b[i];
-    for (int l = 0; l < 16; ++l) s += acc[l];
-    out[t] = s;
+// The output layer's taps of npix pixels: out[p·TT + t] = Σ_c src[p·C + c] ·
+// wt[c·TTp + t], each summed over c in order in one float, so every vector
+// width and every grouping of pixels gives the same bits. wt is {C, TTp}
+// (TTp a multiple of kTapLanes, zero-padded columns). Pixels go kTapPixels at
+// a time against one row of 16 weights: a broadcast and a multiply-add per
+// pixel, the accumulators held in registers (12 AVX2 registers).
+constexpr int kTapLanes = 16;
+constexpr int kTapPixels = 6;
+// Eight lanes: one AVX2 register (the widest type every clone handles well).
+typedef float Lanes8 __attribute__((vector_size(8 * sizeof(float))));
+REEFGEN_CLONES void taps_rows(const float* src, int64_t npix, int64_t C, const float* wt, int64_t TT, int64_t TTp,
+                              float* out) {
+  for (int64_t p0 = 0; p0 < npix; p0 += kTapPixels) {
+    const int64_t np = std::min<int64_t>(kTapPixels, npix - p0);
+    // Past the last pixel, repeat it (results not stored): no branch in the loop.
+    const float* row[kTapPixels];
+    for (int q = 0; q < kTapPixels; ++q) row[q] = src + (p0 + std::min<int64_t>(q, np - 1)) * C;
+    for (int64_t t0 = 0; t0 < TTp; t0 += kTapLanes) {
+      Lanes8 lo[kTapPixels] = {}, hi[kTapPixels] = {};
+      for (int64_t c = 0; c < C; ++c) {
+        Lanes8 wlo, whi;
+        std::memcpy(&wlo, wt + c * TTp + t0, sizeof wlo);
+        std::memcpy(&whi, wt + c * TTp + t0 + 8, sizeof whi);
+        for (int q = 0; q < kTapPixels; ++q) {
+          const float x = row[q][c];
+          lo[q] += x * wlo;
+          hi[q] += x * whi;
+        }
+      }
+      const int64_t nt = std::min<int64_t>(kTapLanes, TT - t0);
+      for (int64_t q = 0; q < np; ++q)
+        for (int64_t t = 0; t < nt; ++t) out[(p0 + q) * TT + t0 + t] = t < 8 ? lo[q][t] : hi[q][t - 8];
+    }
   }
 }
 
-// Bilinear (align_corners=false) or nearest ×2 of one output row, nhwc, as
-// PyTorch computes it: ((x00 w0x + x01 w1x) w0y + (x10 w0x + x11 w1x) w1y).
 REEFGEN_CLONES void upsample_row_f32(const float* r0, const float* r1, float wy0, float wy1, int64_t side_in,
                                      int64_t C, float* out, bool bilinear) {
   for (int64_t ox = 0; ox < 2 * side_in; ++ox) {
@@ -196,7 +213,7 @@ struct FastUNet::Impl {
   std::vector<std::vector<OneDnnConv*>> up;  // per level: 4 parity convs or 1 resize conv (k >= 1)
   std::vector<std::unique_ptr<ParityWinograd>> wino;  // per level: the parity convs as Winograd GEMMs, or null
   std::vector<NormState> down_norm, up_norm;
-  torch::Tensor out_w, out_b;  // output layer: {out,kh,kw,C_in} float32, {out}
+  torch::Tensor out_wt, out_b;  // output layer: {C_in, out·kh·kw padded to kTapLanes} float32, {out}
 
   void* ptr(dnnl::memory& m) { return m.get_data_handle(); }
 
@@ -375,11 +392,12 @@ struct FastUNet::Impl {
     const int64_t N = o.batch, S = o.size_px, s = S / 2, OC = u.out_channels;
     const bool tr = u.upsample == Upsample::Transpose;
     const int64_t T = tr ? 16 : 9;
-    const float* w = out_w.data_ptr<float>();
+    const float* wt = out_wt.data_ptr<float>();
     const float* b = out_b.data_ptr<float>();
-    std::vector<float> taps(size_t(N * s * s * OC * T));
+    const int64_t TT = OC * T, TTp = out_wt.size(1);
+    std::vector<float> taps(size_t(N * s * s * TT));
     at::parallel_for(0, N * s * s, 64, [&](int64_t b0, int64_t b1) {
-      for (int64_t p = b0; p < b1; ++p) dots(src + p * C, w, OC * T, C, &taps[size_t(p * OC * T)]);
+      taps_rows(src + b0 * C, b1 - b0, C, wt, TT, TTp, &taps[size_t(b0 * TT)]);
     });
     if (tr) {
       at::parallel_for(0, N * OC * S, kRowGrain, [&](int64_t b0, int64_t b1) {
@@ -557,10 +575,15 @@ FastUNet::FastUNet(UNetGeneratorImpl& g, const FastUNetOptions& options) : impl_
       m.upout[size_t(k)].push_back(dnnl::memory(nhwc(N, out, 2 * s, dt::f32), m.eng));
     }
   }
-  // Output layer, weights as {out, kh, kw, in} for channel-contiguous dots.
+  // Output layer, weights as {in, (out, kh, kw)}: a row of taps per input channel.
   {
-    const torch::Tensor w = P(lv(0) + ".up_conv.weight");
-    m.out_w = (u.upsample == Upsample::Transpose ? w.permute({1, 2, 3, 0}) : w.permute({0, 2, 3, 1})).contiguous();
+    const torch::Tensor w = P(lv(0) + ".up_conv.weight").to(torch::kFloat32);
+    // ConvTranspose2d holds {in, out, kh, kw} already; Conv2d {out, in, kh, kw}.
+    const torch::Tensor io = u.upsample == Upsample::Transpose ? w : w.transpose(0, 1);
+    const torch::Tensor rows = io.reshape({io.size(0), -1});
+    const int64_t tt = rows.size(1), ttp = (tt + kTapLanes - 1) / kTapLanes * kTapLanes;
+    m.out_wt = torch::zeros({rows.size(0), ttp});
+    m.out_wt.narrow(1, 0, tt).copy_(rows);
     m.out_b = P(lv(0) + ".up_conv.bias").contiguous();
   }
 }
