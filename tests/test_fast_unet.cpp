@@ -196,28 +196,47 @@ TEST(FastUNet, RefusesWhatItCannotRun) {
 }
 
 // The Winograd decoder (winograd_up.hpp) against oneDNN's direct parity
-// convolutions: a 256² input puts level 1 at side 64, where it is used. Equal
-// within float rounding (1e-5 of the output range), different bits (the path
-// ran), batched too, and the same bytes whatever the thread count.
+// convolutions: a 256² input puts levels 1-3 at sides 64, 32 and 16, where it
+// is used (16 with sgemm only). Equal within float rounding (1e-5 of the
+// output range), different bits (the path ran), batched too, and the same
+// bytes whatever the thread count, with either GEMM backend; a backend name
+// it does not know is refused by name.
 TEST(FastUNet, WinogradDecoderEqualsDirectConvolutions) {
   c10::InferenceMode im;
-  for (int batch : {1, 2}) {
-    UNetGenerator g = net(Upsample::Transpose, Norm::Batch, 8, 8, 11);
-    g->train(true);
-    g->set_dropout_enabled(false);
-    const torch::Tensor x = torch::rand({batch, 3, 256, 256}) * 2 - 1;
-    FastUNetOptions direct{batch, 256, FastPrecision::Fp32, false}, wino{batch, 256, FastPrecision::Fp32, true};
-    const torch::Tensor yd = FastUNet(*g, direct).forward(x);
-    torch::set_num_threads(1);
-    const torch::Tensor y1 = FastUNet(*g, wino).forward(x);
-    torch::set_num_threads(std::max(2, kCores));
-    const torch::Tensor yn = FastUNet(*g, wino).forward(x);
-    torch::set_num_threads(kCores);
-    EXPECT_LT(max_diff(yd, y1), 1e-5) << "batch " << batch;
-    EXPECT_GT(max_diff(yd, y1), 0.0) << "batch " << batch << ": the Winograd path did not run";
-    EXPECT_TRUE(torch::equal(y1, yn)) << "batch " << batch << ": thread count changed the bytes, max diff "
-                                      << max_diff(y1, yn);
-    // And LibTorch's own forward, the definition.
-    EXPECT_LT(max_diff(g->forward(x), y1), 1e-4) << "batch " << batch;
+  // Both GEMM backends on any CPU: this CPU's own and the other one, forced.
+  const char* was = std::getenv("REEFGEN_WINOGRAD_GEMM");
+  const std::string saved = was ? was : "";
+  for (const char* gemm : {"sgemm", "matmul"}) {
+    setenv("REEFGEN_WINOGRAD_GEMM", gemm, 1);
+    for (int batch : {1, 2}) {
+      UNetGenerator g = net(Upsample::Transpose, Norm::Batch, 8, 8, 11);
+      g->train(true);
+      g->set_dropout_enabled(false);
+      const torch::Tensor x = torch::rand({batch, 3, 256, 256}) * 2 - 1;
+      FastUNetOptions direct{batch, 256, FastPrecision::Fp32, false}, wino{batch, 256, FastPrecision::Fp32, true};
+      const torch::Tensor yd = FastUNet(*g, direct).forward(x);
+      torch::set_num_threads(1);
+      const torch::Tensor y1 = FastUNet(*g, wino).forward(x);
+      torch::set_num_threads(std::max(2, kCores));
+      const torch::Tensor yn = FastUNet(*g, wino).forward(x);
+      torch::set_num_threads(kCores);
+      const std::string what = std::string(gemm) + " batch " + std::to_string(batch);
+      EXPECT_LT(max_diff(yd, y1), 1e-5) << what;
+      EXPECT_GT(max_diff(yd, y1), 0.0) << what << ": the Winograd path did not run";
+      EXPECT_TRUE(torch::equal(y1, yn)) << what << ": thread count changed the bytes, max diff " << max_diff(y1, yn);
+      // And LibTorch's own forward, the definition.
+      EXPECT_LT(max_diff(g->forward(x), y1), 1e-4) << what;
+    }
   }
+  setenv("REEFGEN_WINOGRAD_GEMM", "blas", 1);
+  UNetGenerator g = net(Upsample::Transpose, Norm::Batch, 8, 8, 11);
+  g->set_dropout_enabled(false);
+  try {
+    FastUNet(*g, FastUNetOptions{1, 256, FastPrecision::Fp32, true});
+    ADD_FAILURE() << "REEFGEN_WINOGRAD_GEMM=blas was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("REEFGEN_WINOGRAD_GEMM='blas'"), std::string::npos) << e.what();
+  }
+  if (was) setenv("REEFGEN_WINOGRAD_GEMM", saved.c_str(), 1);
+  else unsetenv("REEFGEN_WINOGRAD_GEMM");
 }

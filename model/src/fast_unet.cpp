@@ -23,9 +23,6 @@ using bf16_t = uint16_t;  // oneDNN's bfloat16: the high half of a float32
 constexpr double kEps = 1e-5;      // BatchNorm2d / InstanceNorm2d default
 constexpr float kLeaky = 0.2f;     // pix2pix's LeakyReLU slope
 constexpr int64_t kRowGrain = 4;   // rows per parallel task (fixed: results do not depend on it)
-// Smallest decoder input side run through Winograd: below it the GEMMs have
-// too few tiles to beat oneDNN's direct kernels (measured in docs/BENCHMARKS.md).
-constexpr int64_t kWinogradMinSide = 64;
 
 // Hot loops below are compiled for AVX-512, AVX2 and baseline x86-64 and the
 // best one is picked at load time by the CPU's features (the build itself has
@@ -544,6 +541,8 @@ FastUNet::FastUNet(UNetGeneratorImpl& g, const FastUNetOptions& options) : impl_
   // Decoder convolutions of levels 1..D-1.
   m.up.resize(size_t(D));
   m.wino.resize(size_t(D));
+  const bool winograd = m.o.winograd && ct == dt::f32;
+  const WinogradGemm wgemm = winograd ? winograd_gemm() : WinogradGemm::Matmul;
   m.up_norm.resize(size_t(D));
   m.up_convs_flat.reserve(size_t(4 * D));
   for (int k = D - 1; k >= 1; --k) {
@@ -555,8 +554,8 @@ FastUNet::FastUNet(UNetGeneratorImpl& g, const FastUNetOptions& options) : impl_
       // {3,1} over input rows {m-1,m} (py = 0) or {2,0} over {m,m+1} (py = 1):
       // a 2×2 convolution padded on top (py = 0) or at the bottom (py = 1).
       // Levels large enough run all four as Winograd GEMMs instead.
-      if (m.o.winograd && ct == dt::f32 && s >= kWinogradMinSide)
-        m.wino[size_t(k)] = std::make_unique<ParityWinograd>(w, b, N, s, m.eng);
+      if (winograd && s >= winograd_min_side(wgemm))
+        m.wino[size_t(k)] = std::make_unique<ParityWinograd>(w, b, N, s, m.eng, wgemm);
       for (int py = 0; py < 2; ++py)
         for (int px = 0; px < 2; ++px) {
           m.upout[size_t(k)].push_back(dnnl::memory(nhwc(N, out, s, dt::f32), m.eng));

@@ -2,7 +2,12 @@
 
 #include <ATen/Parallel.h>
 
+#include <algorithm>
+#include <atomic>
+#include <cstdlib>
+#include <cstring>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace reefgen::model {
@@ -14,6 +19,7 @@ using tag = dnnl::memory::format_tag;
 
 constexpr int kPoints = 9;        // Winograd points of F(2×2, 2×2): a 3×3 tile
 constexpr int64_t kTileGrain = 8;  // tiles per parallel task (fixed: results do not depend on it)
+constexpr int64_t kSgemmCols = 64;  // output columns per sgemm task (measured: 64 beats 128 and 256 at 81 tiles)
 
 // Parity py of the transposed 4×4 kernel: rows {3, 1} over input rows
 // {m-1, m} (py = 0) or {2, 0} over {m, m+1} (py = 1).
@@ -64,29 +70,88 @@ REEFGEN_WINO_CLONES void add_rows_bias(const float* a, const float* b, const flo
 
 }  // namespace
 
+WinogradGemm winograd_gemm() {
+  if (const char* e = std::getenv("REEFGEN_WINOGRAD_GEMM")) {
+    const std::string v = e;
+    if (v == "matmul") return WinogradGemm::Matmul;
+    if (v == "sgemm") return WinogradGemm::Sgemm;
+    throw std::invalid_argument("REEFGEN_WINOGRAD_GEMM='" + v + "': use matmul or sgemm (or unset it)");
+  }
+  switch (dnnl::get_effective_cpu_isa()) {
+    case dnnl::cpu_isa::avx512_core:
+    case dnnl::cpu_isa::avx512_core_vnni:
+    case dnnl::cpu_isa::avx512_core_bf16:
+    case dnnl::cpu_isa::avx512_core_amx:
+      return WinogradGemm::Matmul;
+    default:
+      return WinogradGemm::Sgemm;
+  }
+}
+
+// Capped to AVX2, sides 16 and 32 run 2.2 and 2.8 ms faster per level than
+// the direct kernels; on AVX-512 side 32 gains ~2 ms and side 16 nothing
+// (docs/BENCHMARKS.md, "Winograd decoder").
+int64_t winograd_min_side(WinogradGemm gemm) { return gemm == WinogradGemm::Sgemm ? 16 : 32; }
+
 ParityWinograd::ParityWinograd(const torch::Tensor& w, const torch::Tensor& b, int64_t N, int64_t s,
-                               const dnnl::engine& eng)
-    : n_(N), s_(s), cin_(w.size(0)), cout_(w.size(1)), tiles_side_(s / 2 + 1), tiles_(N * (s / 2 + 1) * (s / 2 + 1)) {
+                               const dnnl::engine& eng, WinogradGemm gemm)
+    : n_(N), s_(s), cin_(w.size(0)), cout_(w.size(1)), tiles_side_(s / 2 + 1), tiles_(N * (s / 2 + 1) * (s / 2 + 1)),
+      gemm_kind_(gemm) {
   if (w.dim() != 4 || w.size(2) != 4 || w.size(3) != 4 || s < 2 || s % 2)
     throw std::invalid_argument("ParityWinograd: needs {Cin,Cout,4,4} weights and an even side");
   bias_ = b.defined() ? b.to(torch::kFloat32).contiguous() : torch::zeros({cout_});
   const dnnl::memory::dims src_d{kPoints, tiles_, cin_}, w_d{kPoints, cin_, 4 * cout_}, dst_d{kPoints, tiles_, 4 * cout_};
-  const dnnl::memory::desc src_md(src_d, dt::f32, tag::abc), w_any(w_d, dt::f32, tag::any), dst_md(dst_d, dt::f32, tag::abc);
+  const dnnl::memory::desc src_md(src_d, dt::f32, tag::abc), dst_md(dst_d, dt::f32, tag::abc);
+  v_ = dnnl::memory(src_md, eng);
+  m_ = dnnl::memory(dst_md, eng);
+  const torch::Tensor u = transformed_filters(w);  // {9, Cin, 4·Cout}
+  if (gemm == WinogradGemm::Sgemm) {
+    // Stored transposed, {9, 4·Cout, Cin}: the AVX2 sgemm kernel is fast on
+    // it whatever the buffer's alignment (it is not on {Cin, 4·Cout}).
+    const torch::Tensor ut = u.transpose(1, 2).contiguous();
+    u_ = dnnl::memory({{kPoints, 4 * cout_, cin_}, dt::f32, tag::abc}, eng);
+    std::memcpy(u_.get_data_handle(), ut.data_ptr<float>(), size_t(ut.numel()) * sizeof(float));
+    return;
+  }
   dnnl::matmul::primitive_desc pd;
   try {
+    const dnnl::memory::desc w_any(w_d, dt::f32, tag::any);
     pd = dnnl::matmul::primitive_desc(dnnl::matmul::desc(src_md, w_any, dst_md), eng);
   } catch (const dnnl::error& e) {
     throw std::runtime_error(std::string("oneDNN cannot build the Winograd decoder's matmul (") + e.what() + ")");
   }
   gemm_ = dnnl::matmul(pd);
-  v_ = dnnl::memory(src_md, eng);
-  m_ = dnnl::memory(dst_md, eng);
   u_ = dnnl::memory(pd.weights_desc(), eng);
-  torch::Tensor u = transformed_filters(w);
   dnnl::memory user({w_d, dt::f32, tag::abc}, eng, u.data_ptr());
   dnnl::stream strm(eng);
   dnnl::reorder(user, u_).execute(strm, user, u_);
   strm.wait();
+}
+
+void ParityWinograd::multiply(dnnl::stream& strm) {
+  if (gemm_kind_ == WinogradGemm::Matmul) {
+    gemm_.execute(strm, {{DNNL_ARG_SRC, v_}, {DNNL_ARG_WEIGHTS, u_}, {DNNL_ARG_DST, m_}});
+    strm.wait();
+    return;
+  }
+  const int64_t T = tiles_, C = cin_, Q = 4 * cout_, blocks = (Q + kSgemmCols - 1) / kSgemmCols;
+  const float* V = static_cast<const float*>(v_.get_data_handle());
+  const float* U = static_cast<const float*>(u_.get_data_handle());
+  float* M = static_cast<float*>(m_.get_data_handle());
+  // Tasks of fixed shape (a point, a block of columns), each one sgemm on its
+  // thread (oneDNN runs one thread inside a parallel region): the bytes do
+  // not depend on the thread count, which a threaded sgemm's do on AVX2.
+  std::atomic<int> failed{0};
+  at::parallel_for(0, kPoints * blocks, 1, [&](int64_t t0, int64_t t1) {
+    for (int64_t t = t0; t < t1; ++t) {
+      const int64_t k = t / blocks, q0 = (t % blocks) * kSgemmCols, nq = std::min(kSgemmCols, Q - q0);
+      // Row-major M[k][:, q0 .. q0+nq) = V[k] {T, C} × (U[k] rows q0 .. q0+nq, stored {Q, C})ᵀ.
+      const dnnl_status_t st = dnnl_sgemm('N', 'T', T, nq, C, 1.f, V + k * T * C, C, U + (k * Q + q0) * C, C, 0.f,
+                                          M + k * T * Q + q0, Q);
+      if (st != dnnl_success) failed = int(st);
+    }
+  });
+  if (failed) throw std::runtime_error("oneDNN's sgemm failed in the Winograd decoder (status " + std::to_string(failed.load()) + ")");
 }
 
 void ParityWinograd::run(const float* src, float* const dst[4], dnnl::stream& strm) {
@@ -121,8 +186,7 @@ void ParityWinograd::run(const float* src, float* const dst[4], dnnl::stream& st
       }
     }
   });
-  gemm_.execute(strm, {{DNNL_ARG_SRC, v_}, {DNNL_ARG_WEIGHTS, u_}, {DNNL_ARG_DST, m_}});
-  strm.wait();
+  multiply(strm);
   // Output transform: Y = Aᵀ M A, A = [[1,0],[1,1],[0,1]]; parity p keeps
   // z(r, c) at output (r - py, c - px) inside the s×s plane.
   const float* M = static_cast<const float*>(m_.get_data_handle());

@@ -19,6 +19,7 @@
 // differs from the direct convolution by float rounding alone (≤ 1e-5
 // relative, tested). Every value is computed by one thread in a fixed order:
 // the same bytes whatever the thread count.
+#include <cstdint>
 #include <memory>
 
 #include <oneapi/dnnl/dnnl.hpp>
@@ -26,18 +27,38 @@
 
 namespace reefgen::model {
 
+// Who multiplies the 9 GEMMs. oneDNN's matmul primitive runs brgemm kernels
+// from AVX-512 up; below that it falls back to a generic GEMM that splits the
+// batch of 9 over the threads, 1.4-1.9× slower at 289 or 81 tiles than nine
+// dnnl_sgemm calls with U stored transposed (docs/BENCHMARKS.md, "Winograd
+// decoder"). The choice is fixed by the CPU, so a machine always gives the
+// same bytes.
+enum class WinogradGemm { Matmul, Sgemm };
+// This CPU's backend: Matmul where oneDNN has AVX-512 (after
+// DNNL_MAX_CPU_ISA), else Sgemm. REEFGEN_WINOGRAD_GEMM=matmul|sgemm forces
+// one (tests cover both on any CPU); another value throws.
+WinogradGemm winograd_gemm();
+// Smallest decoder input side run as Winograd with that backend: below it the
+// tiles are too few for the GEMMs to beat oneDNN's direct kernels (measured).
+int64_t winograd_min_side(WinogradGemm gemm);
+
 class ParityWinograd {
  public:
   // w {Cin, Cout, 4, 4} (ConvTranspose2d's layout), b {Cout} or undefined;
   // N images of side s (even) in, four {N, s, s, Cout} parity planes out.
-  ParityWinograd(const torch::Tensor& w, const torch::Tensor& b, int64_t N, int64_t s, const dnnl::engine& eng);
+  ParityWinograd(const torch::Tensor& w, const torch::Tensor& b, int64_t N, int64_t s, const dnnl::engine& eng,
+                 WinogradGemm gemm);
   // src: nhwc float32 {N, s, s, Cin}; dst[2·py + px]: nhwc float32 {N, s, s, Cout}.
   void run(const float* src, float* const dst[4], dnnl::stream& strm);
 
  private:
+  // The 9 GEMMs M[ξ] = V[ξ] U[ξ] on the chosen backend.
+  void multiply(dnnl::stream& strm);
+
   int64_t n_, s_, cin_, cout_, tiles_side_, tiles_;
+  WinogradGemm gemm_kind_;
   torch::Tensor bias_;            // {Cout} float32 (zeros when the layer has none)
-  dnnl::memory v_, u_, m_;        // V {9, tiles, Cin}, U packed, M {9, tiles, 4·Cout}
+  dnnl::memory v_, u_, m_;        // V {9, tiles, Cin}, U packed (plain {9, 4·Cout, Cin} for sgemm), M {9, tiles, 4·Cout}
   dnnl::matmul gemm_;
 };
 
