@@ -7,6 +7,7 @@
 #include "reefgen/cpu.hpp"
 #include "reefgen/files.hpp"
 #include "reefgen/model/dnnl_conv.hpp"
+#include "reefgen/model/fast_unet.hpp"
 #include "reefgen/model/generator_file.hpp"
 #include "reefgen/model/shipped.hpp"
 
@@ -54,7 +55,8 @@ Command add_model_command(CLI::App& app, const GlobalOptions&) {
                               {"bf16_convolutions", model::bf16_convolution_available()},
                               {"native_bf16", model::cpu_has_native_bf16()},
                               {"auto_precision", model::cpu_has_native_bf16() ? "bf16" : "fp32"},
-                              {"vector_path", to_string(cpu_path())}};
+                              {"vector_path", to_string(cpu_path())},
+                              {"winograd_gemm", model::winograd_gemm_name()}};
               std::printf("%s\n", j.dump(1).c_str());
               return 0;
             }

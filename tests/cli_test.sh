@@ -493,6 +493,11 @@ REEFGEN_NO_BF16=1 "$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/nobf" >/dev/nu
   && ok || bad "auto precision with bf16 hidden"
 REEFGEN_NO_BF16=1 expect_error "cannot build a bf16 convolution on this CPU" infer "$T/s/one.png" -m "$M" -o "$T/e/nobf" --precision bf16
 [ ! -e "$T/e/nobf.height.exr" ] && ok || bad "a refused bf16 run wrote a file"
+# The Winograd decoder's GEMM backend (model cpu names it): forced by name on any CPU, an unknown name is one line.
+[ "$(REEFGEN_WINOGRAD_GEMM=sgemm "$BIN" -q model cpu | "$PY" -c 'import json,sys; print(json.load(sys.stdin)["winograd_gemm"])')" = sgemm ] \
+  && ok || bad "REEFGEN_WINOGRAD_GEMM=sgemm not honoured"
+REEFGEN_WINOGRAD_GEMM=blas expect_error "REEFGEN_WINOGRAD_GEMM='blas'" infer "$T/s/one.png" -m "$M" -o "$T/e/wg"
+[ ! -e "$T/e/wg.height.exr" ] && ok || bad "a refused Winograd backend wrote a file"
 # --raw: the network's bare answer; the default is cleaned (ponds raised, pits breached) at the model's side too.
 "$BIN" -q infer "$(dirname "$0")/data/painted/01-young-volcano.png" -o "$T/i/raw" --raw >/dev/null \
   && "$BIN" -q infer "$(dirname "$0")/data/painted/01-young-volcano.png" -o "$T/i/clean" >/dev/null \

@@ -127,6 +127,8 @@ REEFGEN_CLONES void taps_rows(const float* src, int64_t npix, int64_t C, const f
   }
 }
 
+// Bilinear (align_corners=false) or nearest ×2 of one output row, nhwc, as
+// PyTorch computes it: ((x00 w0x + x01 w1x) w0y + (x10 w0x + x11 w1x) w1y).
 REEFGEN_CLONES void upsample_row_f32(const float* r0, const float* r1, float wy0, float wy1, int64_t side_in,
                                      int64_t C, float* out, bool bilinear) {
   for (int64_t ox = 0; ox < 2 * side_in; ++ox) {
@@ -464,6 +466,8 @@ struct FastUNet::Impl {
     });
   }
 };
+
+std::string winograd_gemm_name() { return winograd_gemm() == WinogradGemm::Sgemm ? "sgemm" : "matmul"; }
 
 std::string fast_unet_unsupported(UNetGeneratorImpl& g) {
   const auto& u = g.options();

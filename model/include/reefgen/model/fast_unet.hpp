@@ -37,15 +37,20 @@ struct FastUNetOptions {
   int batch = 1;       // images per forward; [1, 64]
   int size_px = 256;   // input side; a multiple of 2^depth; [32, 4096]
   FastPrecision precision = FastPrecision::Fp32;
-  // float32 transposed decoder levels of side ≥ 16 through Winograd's
-  // F(2×2, 2×2) (winograd_up.hpp): 9/16 of the multiplications, same result
-  // within float rounding. false: oneDNN's direct convolutions (reference).
+  // float32 transposed decoder levels of side ≥ 16 (below AVX-512) or ≥ 32
+  // through Winograd's F(2×2, 2×2) (winograd_up.hpp): 9/16 of the
+  // multiplications, same result within float rounding. false: oneDNN's
+  // direct convolutions (reference).
   bool winograd = true;
 };
 
 // Why this generator cannot run on the engine in its current mode ("" if it
 // can): dropout switched on (stochastic inference) is the one case.
 std::string fast_unet_unsupported(UNetGeneratorImpl& g);
+
+// Who runs the Winograd decoder's GEMMs here: "matmul" (oneDNN's primitive,
+// AVX-512) or "sgemm" (below it); REEFGEN_WINOGRAD_GEMM forces one.
+std::string winograd_gemm_name();
 
 class FastUNet {
  public:
