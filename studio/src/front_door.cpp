@@ -27,6 +27,13 @@ using Clock = std::chrono::steady_clock;
 // A relayed connection idle this long in both directions is closed: the
 // library's own read timeout (10 s) has answered or dropped it by then.
 constexpr int kRelayIdleMs = 30000;
+// Out of file descriptors with no reserve left to answer with: the listening
+// socket stays readable, so it is left out of the poll this long rather than
+// spinning on accept's EMFILE.
+constexpr int kNoDescriptorPauseMs = 100;
+constexpr const char* kNoDescriptors = "the studio is out of file descriptors; retry shortly";
+
+bool out_of_descriptors(int err) { return err == EMFILE || err == ENFILE; }
 
 // Best effort: the client may be gone or not reading.
 void answer_and_close(int fd, int status, const char* reason, const std::string& why) {
@@ -155,6 +162,7 @@ void FrontDoor::run(int backend_port) {
   auto hand_off = [&](int fd) {
     if (*relays_ >= limits_.max_relays) return answer_and_close(fd, 503, "Service Unavailable", "too many connections; retry");
     const int backend = connect_loopback(backend_port);
+    if (backend < 0 && out_of_descriptors(errno)) return answer_and_close(fd, 503, "Service Unavailable", kNoDescriptors);
     if (backend < 0) return answer_and_close(fd, 502, "Bad Gateway", "studio backend not answering");
     ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
     // A client that does not read its answer cannot hold the relay forever.
@@ -166,13 +174,25 @@ void FrontDoor::run(int backend_port) {
       --*count;
     }).detach();
   };
+  // One descriptor held in reserve: when accept fails for want of
+  // descriptors it is freed to take the connection and answer it 503, so
+  // clients hear why instead of waiting in the backlog.
+  int reserve = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
+  Clock::time_point paused_until{};  // listening socket left out of the poll until then
   while (!stopping_) {
-    fds.assign({{listen_fd_, POLLIN, 0}, {wake_[0], POLLIN, 0}});
+    // Taken back as soon as a descriptor is free again.
+    if (reserve < 0) reserve = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
+    const bool paused = Clock::now() < paused_until;
+    fds.assign({{listen_fd_, short(paused ? 0 : POLLIN), 0}, {wake_[0], POLLIN, 0}});
     for (const Waiting& w : waiting) fds.push_back({w.fd, POLLIN | POLLRDHUP, 0});
     int timeout_ms = -1;
     if (!waiting.empty())
       timeout_ms = int(std::max<int64_t>(0, std::chrono::duration_cast<std::chrono::milliseconds>(
                                                 waiting.front().deadline - Clock::now()).count() + 1));
+    if (paused) {
+      const int pause_left = int(std::chrono::duration_cast<std::chrono::milliseconds>(paused_until - Clock::now()).count() + 1);
+      timeout_ms = timeout_ms < 0 ? pause_left : std::min(timeout_ms, pause_left);
+    }
     if (::poll(fds.data(), fds.size(), timeout_ms) < 0 && errno != EINTR)
       throw Error("studio: poll failed: " + std::string(std::strerror(errno)));
     if (fds[1].revents || stopping_) break;
@@ -204,6 +224,18 @@ void FrontDoor::run(int backend_port) {
     if (fds[0].revents)
       for (;;) {
         const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+        if (fd < 0 && out_of_descriptors(errno)) {
+          if (reserve < 0) {
+            paused_until = Clock::now() + std::chrono::milliseconds(kNoDescriptorPauseMs);
+            break;
+          }
+          ::close(reserve);
+          const int turned_away = ::accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC);
+          if (turned_away >= 0) answer_and_close(turned_away, 503, "Service Unavailable", kNoDescriptors);
+          reserve = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
+          if (turned_away < 0) break;
+          continue;
+        }
         if (fd < 0) break;
         const int one = 1;
         ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
@@ -215,6 +247,7 @@ void FrontDoor::run(int backend_port) {
       }
   }
   for (const Waiting& w : waiting) ::close(w.fd);
+  if (reserve >= 0) ::close(reserve);
 }
 
 }  // namespace reefgen::studio
