@@ -13,6 +13,7 @@
 #include <cerrno>
 #include <cstring>
 #include <memory>
+#include <system_error>
 #include <thread>
 #include <vector>
 
@@ -169,10 +170,17 @@ void FrontDoor::run(int backend_port) {
     const timeval send_timeout{10, 0};
     ::setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &send_timeout, sizeof send_timeout);
     ++*relays_;
-    std::thread([fd, backend, count = relays_] {
-      relay(fd, backend);
-      --*count;
-    }).detach();
+    try {
+      std::thread([fd, backend, count = relays_] {
+        relay(fd, backend);
+        --*count;
+      }).detach();
+    } catch (const std::system_error&) {
+      // No thread to be had (process or memory limits): refuse this one.
+      --*relays_;
+      ::close(backend);
+      answer_and_close(fd, 503, "Service Unavailable", "the studio cannot start another connection now; retry shortly");
+    }
   };
   // One descriptor held in reserve: when accept fails for want of
   // descriptors it is freed to take the connection and answer it 503, so
