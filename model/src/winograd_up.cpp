@@ -88,7 +88,7 @@ WinogradGemm winograd_gemm() {
   }
 }
 
-// Capped to AVX2, sides 16 and 32 run 2.2 and 2.8 ms faster per level than
+// Capped to AVX2, sides 32 and 16 run 2.8 and 2.3 ms faster per level than
 // the direct kernels; on AVX-512 side 32 gains ~2 ms and side 16 nothing
 // (docs/BENCHMARKS.md, "Winograd decoder").
 int64_t winograd_min_side(WinogradGemm gemm) { return gemm == WinogradGemm::Sgemm ? 16 : 32; }

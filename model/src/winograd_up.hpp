@@ -11,7 +11,7 @@
 // 2×2 tiles of z on a (s+1)² grid, and the four parities' filters are the
 // columns of one GEMM per Winograd point: 9 GEMMs of
 //   V[ξ] {tiles, Cin} × U[ξ] {Cin, 4·Cout} -> M[ξ] {tiles, 4·Cout}
-// on oneDNN's matmul (weights packed once). The transforms (Lavin & Gray,
+// (weights transformed once; who multiplies: WinogradGemm below). The transforms (Lavin & Gray,
 // "Fast Algorithms for Convolutional Neural Networks", CVPR 2016) for F(2,2):
 //   m1 = (d0 - d1)·g0,  m2 = d1·(g0 + g1),  m3 = (d2 - d1)·g1,
 //   y0 = m1 + m2,       y1 = m2 + m3,

@@ -46,6 +46,17 @@ void answer_and_close(int fd, int status, const char* reason, const std::string&
   ::close(fd);
 }
 
+// Out of descriptors, with one held in `reserve` (/dev/null): frees it to
+// accept the next client, answers that client 503 and takes the reserve
+// back. false when no client was waiting.
+bool turn_away_one(int listen_fd, int& reserve) {
+  ::close(reserve);
+  const int fd = ::accept4(listen_fd, nullptr, nullptr, SOCK_CLOEXEC);
+  if (fd >= 0) answer_and_close(fd, 503, "Service Unavailable", kNoDescriptors);
+  reserve = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
+  return fd >= 0;
+}
+
 bool send_all(int fd, const char* p, size_t n) {
   while (n > 0) {
     const ssize_t w = ::send(fd, p, n, MSG_NOSIGNAL);
@@ -233,16 +244,9 @@ void FrontDoor::run(int backend_port) {
       for (;;) {
         const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
         if (fd < 0 && out_of_descriptors(errno)) {
-          if (reserve < 0) {
-            paused_until = Clock::now() + std::chrono::milliseconds(kNoDescriptorPauseMs);
-            break;
-          }
-          ::close(reserve);
-          const int turned_away = ::accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC);
-          if (turned_away >= 0) answer_and_close(turned_away, 503, "Service Unavailable", kNoDescriptors);
-          reserve = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
-          if (turned_away < 0) break;
-          continue;
+          if (reserve >= 0 && turn_away_one(listen_fd_, reserve)) continue;
+          if (reserve < 0) paused_until = Clock::now() + std::chrono::milliseconds(kNoDescriptorPauseMs);
+          break;
         }
         if (fd < 0) break;
         const int one = 1;
