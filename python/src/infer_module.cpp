@@ -15,6 +15,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <stdexcept>
 #include <string>
 
 #include <opencv2/imgproc.hpp>
@@ -153,6 +154,9 @@ PYBIND11_MODULE(_reefgen_infer, m) {
       PyErr_SetString(error_type.ptr(), e.what_without_backtrace());
     } catch (const std::runtime_error& e) {
       // reefgen::Error and the model loader's errors: one line naming the file and the fix.
+      PyErr_SetString(error_type.ptr(), e.what());
+    } catch (const std::invalid_argument& e) {
+      // The engine's refusals (an unknown REEFGEN_WINOGRAD_GEMM): the same one line.
       PyErr_SetString(error_type.ptr(), e.what());
     }
   });

@@ -118,6 +118,17 @@ class Module(unittest.TestCase):
         with self.assertRaises(reefgen.Error) as e:
             reefgen.infer(labels, engine="onednn", stochastic=True)
         self.assertIn("stochastic=True needs engine=torch", str(e.exception))  # its keywords, not the flags
+        # The engine's own refusal (an unknown Winograd backend) is reefgen.Error too, one line. A copy
+        # of the model: the engine of the one used above is loaded already.
+        fresh = os.path.join(self.tmp, "fresh.pt")
+        shutil.copyfile(os.path.join(os.path.dirname(__file__), "..", "..", "models", "reef-256.pt"), fresh)
+        os.environ["REEFGEN_WINOGRAD_GEMM"] = "blas"
+        try:
+            with self.assertRaises(reefgen.Error) as e:
+                reefgen.infer(labels, size=128, model=fresh)
+        finally:
+            del os.environ["REEFGEN_WINOGRAD_GEMM"]
+        self.assertIn("REEFGEN_WINOGRAD_GEMM='blas'", str(e.exception))
 
     def stream(self, workers, **kw):
         ds = rtorch.PairStream(self.config, seed=SEED, count=12, with_index=True, **kw)
