@@ -70,7 +70,7 @@ def generate(spec="young-volcano", size=256, seed=None, subsidence=None):
 def default_model():
     """The generator reefgen.infer loads without model=: $REEFGEN_MODEL, else the shipped
     model of an installed reefgen (PREFIX/share/reefgen/models beside PREFIX/lib/python3),
-    else the source tree's models/ (a build tree); None when there is none."""
+    else None: in a build tree infer then loads the source tree's models/ (the C++ look-up)."""
     env = _os.environ.get("REEFGEN_MODEL")
     if env:
         return env
