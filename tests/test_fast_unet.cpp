@@ -13,6 +13,7 @@
 #include "reefgen/model/networks.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/model/codec.hpp"
+#include "test_util.hpp"
 
 using namespace reefgen;
 using model::FastPrecision;
@@ -204,10 +205,8 @@ TEST(FastUNet, RefusesWhatItCannotRun) {
 TEST(FastUNet, WinogradDecoderEqualsDirectConvolutions) {
   c10::InferenceMode im;
   // Both GEMM backends on any CPU: this CPU's own and the other one, forced.
-  const char* was = std::getenv("REEFGEN_WINOGRAD_GEMM");
-  const std::string saved = was ? was : "";
   for (const char* gemm : {"sgemm", "matmul"}) {
-    setenv("REEFGEN_WINOGRAD_GEMM", gemm, 1);
+    const test::ScopedEnv force("REEFGEN_WINOGRAD_GEMM", gemm);
     for (int batch : {1, 2}) {
       UNetGenerator g = net(Upsample::Transpose, Norm::Batch, 8, 8, 11);
       g->train(true);
@@ -228,7 +227,7 @@ TEST(FastUNet, WinogradDecoderEqualsDirectConvolutions) {
       EXPECT_LT(max_diff(g->forward(x), y1), 1e-4) << what;
     }
   }
-  setenv("REEFGEN_WINOGRAD_GEMM", "blas", 1);
+  const test::ScopedEnv unknown("REEFGEN_WINOGRAD_GEMM", "blas");
   UNetGenerator g = net(Upsample::Transpose, Norm::Batch, 8, 8, 11);
   g->set_dropout_enabled(false);
   try {
@@ -237,6 +236,4 @@ TEST(FastUNet, WinogradDecoderEqualsDirectConvolutions) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("REEFGEN_WINOGRAD_GEMM='blas'"), std::string::npos) << e.what();
   }
-  if (was) setenv("REEFGEN_WINOGRAD_GEMM", saved.c_str(), 1);
-  else unsetenv("REEFGEN_WINOGRAD_GEMM");
 }

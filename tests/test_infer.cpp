@@ -339,16 +339,6 @@ InferOptions opts(Precision p, Engine e, bool stochastic = false) {
   return o;
 }
 
-// Sets an environment variable for one scope (tests run one at a time per process).
-struct ScopedEnv {
-  std::string name;
-  std::optional<std::string> old;
-  ScopedEnv(std::string n, const char* value) : name(std::move(n)) {
-    if (const char* o = std::getenv(name.c_str())) old = o;
-    ::setenv(name.c_str(), value, 1);
-  }
-  ~ScopedEnv() { old ? ::setenv(name.c_str(), old->c_str(), 1) : ::unsetenv(name.c_str()); }
-};
 }  // namespace
 
 // What auto chooses and what is refused, on every CPU (the bf16 branches by
@@ -418,7 +408,7 @@ TEST(Infer, HiddenBf16TakesTheFloat32Path) {
   model::UNetGenerator g = small_resize_net(5, model::Upsample::Bilinear);
   model::save_generator(dir / "g.pt", g, {-100, 560}, 64, 1);
   auto f = model::load_generator(dir / "g.pt");
-  ScopedEnv hide("REEFGEN_NO_BF16", "1");
+  test::ScopedEnv hide("REEFGEN_NO_BF16", "1");
   EXPECT_FALSE(cpu_has_native_bf16());
   EXPECT_FALSE(cpu_has_amx_bf16());
   EXPECT_FALSE(model::bf16_convolution_available());

@@ -70,10 +70,8 @@ TEST(Outlines, RowOfXtIsXtBitForBitOnEveryVectorPath) {
     for (int c = 0; c < 97; ++c) x.push_back(-1.3f + 2.6f * c / 96), y.push_back(1.3f - 2.6f * r / 96);
   std::vector<float> want(x.size()), got(x.size());
   for (size_t p = 0; p < x.size(); ++p) want[p] = t.xt(x[p], y[p]);
-  const char* was = std::getenv("REEFGEN_CPU_PATH");
-  const std::string saved = was ? was : "";
   for (const char* path : {"sse2", "avx2", "avx512"}) {
-    setenv("REEFGEN_CPU_PATH", path, 1);
+    const test::ScopedEnv force("REEFGEN_CPU_PATH", path);
     std::printf("REEFGEN_CPU_PATH=%s runs the %s path\n", path, to_string(cpu_path()));
     std::fill(got.begin(), got.end(), -1.f);
     t.xt_row(x.data(), y.data(), int(x.size()), got.data());
@@ -84,8 +82,6 @@ TEST(Outlines, RowOfXtIsXtBitForBitOnEveryVectorPath) {
         break;
       }
   }
-  if (was) setenv("REEFGEN_CPU_PATH", saved.c_str(), 1);
-  else unsetenv("REEFGEN_CPU_PATH");
 }
 
 TEST(Outlines, OrderingEnforcedAfterInterpolation) {

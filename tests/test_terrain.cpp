@@ -27,6 +27,7 @@
 #include "reefgen/rng.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
+#include "test_util.hpp"
 
 using namespace reefgen;
 using namespace reefgen::terrain;
@@ -399,10 +400,8 @@ TEST(FlowGraph, EveryVectorPathGivesTheReferenceReceivers) {
       const int r = rng.uniform(0, 10);
       role(y, x) = r == 0 ? kIgnore : r == 1 ? kOutlet : kActive;
     }
-  const char* was = std::getenv("REEFGEN_CPU_PATH");
-  const std::string saved = was ? was : "";
   for (const char* path : {"sse2", "avx2", "avx512"}) {
-    setenv("REEFGEN_CPU_PATH", path, 1);
+    const test::ScopedEnv force("REEFGEN_CPU_PATH", path);
     std::printf("REEFGEN_CPU_PATH=%s runs the %s path\n", path, to_string(cpu_path()));
     for (const uint64_t salt : {uint64_t(0), uint64_t(0x5eed)}) {
       for (const double mpp : {1.0, 23.4375}) {
@@ -412,6 +411,4 @@ TEST(FlowGraph, EveryVectorPathGivesTheReferenceReceivers) {
       }
     }
   }
-  if (was) setenv("REEFGEN_CPU_PATH", saved.c_str(), 1);
-  else unsetenv("REEFGEN_CPU_PATH");
 }

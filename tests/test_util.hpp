@@ -3,9 +3,11 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <optional>
 #include <functional>
 #include <type_traits>
 #include <string>
@@ -17,6 +19,18 @@
 #include "reefgen/params_json.hpp"
 
 namespace reefgen::test {
+
+// Sets an environment variable for one scope, then restores it (or unsets it):
+// forces a CPU path or backend in a test (tests run one at a time per process).
+struct ScopedEnv {
+  std::string name;
+  std::optional<std::string> old;
+  ScopedEnv(std::string n, const char* value) : name(std::move(n)) {
+    if (const char* o = std::getenv(name.c_str())) old = o;
+    ::setenv(name.c_str(), value, 1);
+  }
+  ~ScopedEnv() { old ? ::setenv(name.c_str(), old->c_str(), 1) : ::unsetenv(name.c_str()); }
+};
 
 // A fresh, empty folder under the system temp dir, unique per process.
 inline fs::path temp_dir(const std::string& name) {
