@@ -1,5 +1,7 @@
 // reefgen realism FILE... : the realism statistics of docs/REALISM.md (pits,
 // terraces, valleys) for height files, so users and tests measure the same thing.
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <optional>
 
@@ -9,6 +11,7 @@
 #include "reefgen/image_io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/terrain/realism.hpp"
+#include "reefgen/terrain/reef_stats.hpp"
 
 namespace reefgen {
 
@@ -23,6 +26,8 @@ struct RealismArgs {
   double world_size_m = 0;
   bool json = false;
   bool stream = false;
+  bool reef = false;
+  double grid_period_px = 0;
   std::string sketch;
 };
 
@@ -44,6 +49,8 @@ struct FileStats {
   cv::Size size;
   double metres_per_px = 0;
   std::optional<terrain::SketchAgreement> agree;
+  terrain::ReefStats reef;
+  bool has_reef = false;
 };
 
 // The statistics (and the sketch's agreement) of `file`: whole, or a band of rows at a time.
@@ -54,6 +61,7 @@ FileStats stats_of(const std::string& file, const RealismArgs& a, const std::opt
   r.metres_per_px = cell_size(a, reader.attributes(), r.size.width, file);
   if (sketch) r.agree = terrain::SketchAgreement{};
   if (a.stream || int64_t(r.size.area()) > kRealismWholeMaxCells) {
+    if (a.reef) throw Error(file + ": --reef reads the whole file; it cannot run with --stream or past 16385²");
     const terrain::StreamBands bands;
     for (int y0 = 0; y0 < r.size.height && sketch; y0 += bands.band_rows) {
       const int n = std::min(bands.band_rows, r.size.height - y0);
@@ -64,6 +72,7 @@ FileStats stats_of(const std::string& file, const RealismArgs& a, const std::opt
     return r;
   }
   const cv::Mat1f h = reader.rows(0, r.size.height);
+  if (a.reef) r.reef = terrain::reef_stats(h, r.metres_per_px, a.grid_period_px), r.has_reef = true;
   if (sketch) r.agree = terrain::sketch_agreement(h, sketch->label, sketch->subsidence);
   r.st = realism_stats(h, r.metres_per_px);
   return r;
@@ -79,7 +88,9 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                                  "  reefgen realism out/atoll.height.exr\n"
                                  "  reefgen realism out/*.height.exr --json > stats.jsonl\n"
                                  "  reefgen realism dem.exr --metres-per-px 90\n"
-                                 "  reefgen realism out/sea.height.exr --sketch sea.png   # painted land above the sea, abyss deep");
+                                 "  reefgen realism out/sea.height.exr --sketch sea.png   # painted land above the sea, abyss deep\n"
+                                 "  reefgen realism out/atoll.height.exr --reef            # crest, reef flat, lagoon, passes, motu, floor\n"
+                                 "  reefgen realism w/world.height.exr --reef --grid-period 8   # and the model grid at 1:1");
   sub->add_option("files", a->files, "Height files (OpenEXR, metres, sea level 0)")->required();
   sub->add_option("--metres-per-px", a->metres_per_px, "Cell size in metres (default: the file's own)")
       ->check(finite_in(1e-6, 1e6));
@@ -89,6 +100,13 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
   sub->add_flag("--stream", a->stream,
                 "Read the file a band of rows at a time (memory of a few bands; automatic past 16385²; "
                 "docs/REALISM.md \"Streamed\")");
+  sub->add_flag("--reef", a->reef,
+                "Also the reef report: crest height and its share at sea level, reef-flat width, lagoon depth, "
+                "passes, motu, the share of the canvas on a flat floor (docs/REALISM.md \"Reef\")");
+  sub->add_option("--grid-period", a->grid_period_px,
+                  "With --reef: the model grid's period in pixels (output side / 256) whose Fourier amplitude "
+                  "on underwater slopes is reported")
+      ->check(finite_in(2, 4096));
   sub->add_option("--sketch", a->sketch,
                   "The sketch the heights were drawn from: also the painted land above the sea and the painted "
                   "bright abyss below -20 m (any resolution over the same ground)");
@@ -123,6 +141,16 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                                     {"pits", st.pits},    {"terraces", st.terraces},
                                     {"valleys", st.valleys}, {"seams_rows", st.seams_rows},
                                     {"seams_cols", st.seams_cols}};
+                if (r.has_reef) {
+                  const auto& e = r.reef;
+                  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+                  j["reef"] = {{"rays_with_reef", e.rays_with_reef}, {"crest_median_m", num(e.crest_median_m)},
+                               {"crest_at_sea", e.crest_at_sea},     {"reef_flat_width_m", num(e.reef_flat_width_m)},
+                               {"lagoon_median_m", num(e.lagoon_median_m)}, {"lagoon_min_m", num(e.lagoon_min_m)},
+                               {"passes", e.passes},                 {"motu", e.motu},
+                               {"motu_widths_m", e.motu_widths_m},   {"flat_floor_share", e.flat_floor_share},
+                               {"grid_amplitude_m", num(e.grid_amplitude_m)}, {"grid_ring_ratio", num(e.grid_ring_ratio)}};
+                }
                 if (agree) {
                   j["painted_land_above_sea"] = agree->land_above_sea;
                   j["painted_abyss_below_20m"] = agree->abyss_below_bar;
@@ -132,6 +160,20 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                 std::printf("%-40s %4dx%-4d %8.1f%% %9.1f %8.2f%% %8.2f%% %8.3f %10.2f %10.2f\n", f.c_str(), size.width, size.height,
                             100 * land, st.max_height_m, 100 * st.pits, 100 * st.terraces, st.valleys, st.seams_rows,
                             st.seams_cols);
+                if (r.has_reef) {
+                  const auto& e = r.reef;
+                  std::vector<double> w = e.motu_widths_m;
+                  std::sort(w.begin(), w.end());
+                  std::printf("%-40s reef: crest median %.2f m, at sea level (>= -1 m) on %.1f%% of %d rays; reef flat %.0f m; "
+                              "lagoon median %.1f m, deepest %.1f m; passes %d; motu %d (median width %.0f m); "
+                              "flat floor %.2f%%\n",
+                              "", e.crest_median_m, 100 * e.crest_at_sea, e.rays_with_reef, e.reef_flat_width_m,
+                              e.lagoon_median_m, e.lagoon_min_m, e.passes, e.motu, w.empty() ? NAN : w[w.size() / 2],
+                              100 * e.flat_floor_share);
+                  if (a->grid_period_px > 0)
+                    std::printf("%-40s model grid (%.0f px): %.4f m, %.2fx its ring's median\n", "", a->grid_period_px,
+                                e.grid_amplitude_m, e.grid_ring_ratio);
+                }
                 if (agree)
                   std::printf("%-40s painted land above sea %.2f%% (%lld cells), bright abyss below -20 m %.2f%% (%lld cells)\n",
                               "", 100 * agree->land_above_sea, (long long)agree->land_cells, 100 * agree->abyss_below_bar,

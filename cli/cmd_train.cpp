@@ -72,7 +72,8 @@ void add_train_options(CLI::App* sub, TrainArgs& a) {
   sub->add_flag("--resume", a.resume, "Continue the run in --out from its checkpoint (its run.json config unless --config)");
   sub->add_option("--init", a.init,
                   "Start G and D from another run's checkpoint.pt (same networks; fresh optimizers at step 0), "
-                  "e.g. to fine-tune with another lambda_l1 or schedule")
+                  "e.g. to fine-tune with another lambda_l1 or schedule; or G alone from an exported generator "
+                  "(RUN/generator.pt, models/reef-256.pt), D fresh: fine-tuning the shipped model on new targets")
       ->excludes("--resume");
   sub->add_option("--max-steps", a.max_steps, "Stop after this many steps in all (checkpoint written); the lr schedule still spans the whole run")
       ->check(CLI::Range(int64_t(1), std::numeric_limits<int64_t>::max()));

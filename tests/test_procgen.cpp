@@ -142,7 +142,9 @@ TEST(SmoothMax, TableMatchesExact) {
 }
 
 TEST(Coral, AnchorsAndTransitions) {
-  const CoralParams c;
+  // The paper's anchors (Eqs. 6-8), not reefgen's reef defaults.
+  CoralParams c;
+  c.back_m = -20, c.crest_m = -2, c.abyss_m = -100, c.back_end = 0.5;
   EXPECT_DOUBLE_EQ(coral_height_m(-1.0, c), -20);  // lagoon and inland
   EXPECT_DOUBLE_EQ(coral_height_m(0.3, c), -20);
   EXPECT_DOUBLE_EQ(coral_height_m(0.5, c), -20);
@@ -220,6 +222,7 @@ TEST(Noise, CubicTileLookUpIsSmoothAcrossTexelEdges) {
 
 TEST(Warp, NoStrokesIsIdentity) {
   IslandSpec s;  // default outlines, no wind
+  use_paper_reef(s);  // motu and passes relabel cells: the paper's labels here
   s.noise.amplitude = 0;
   RenderOptions o;
   o.size_px = 64;
@@ -234,6 +237,7 @@ TEST(Warp, NoStrokesIsIdentity) {
 
 TEST(Warp, FullResistanceMeansNoDeformation) {
   IslandSpec calm;
+  use_paper_reef(calm);  // random passes face the wind's lee: the warp alone here
   calm.resistance.assign(30, 1.0);
   IslandSpec windy = calm;
   windy.wind.push_back({{{-0.8, -0.5}, {0.0, 0.1}, {0.7, 0.4}}, 0.8, 0.3});
@@ -247,6 +251,7 @@ TEST(Warp, FullResistanceMeansNoDeformation) {
 TEST(Warp, WindMovesMaterialDownwind) {
   // A stroke blowing +x through the island: the island's centre of mass moves east.
   IslandSpec calm;
+  use_paper_reef(calm);
   calm.noise.amplitude = 0;
   IslandSpec windy = calm;
   windy.wind.push_back({{{-1.0, 0.0}, {0.0, 0.0}, {1.0, 0.0}}, 0.3, 0.5});
@@ -276,6 +281,7 @@ TEST(Wind, FieldIsGaussianAlongTheTangent) {
 
 TEST(Generator, GeologicalSequence) {
   IslandSpec s;
+  use_paper_reef(s);  // the paper's sequence (docs/DESIGN.md §3); the reef's own: test_reef.cpp
   s.noise.amplitude = 0;
   RenderOptions o;
   o.size_px = 128;
@@ -311,6 +317,7 @@ TEST(Generator, GoldenValues) {
   // produced by this implementation; a change means the generator's output
   // changed: update them only on purpose, and say why in the commit.
   auto s = random_spec(2026, 1);
+  use_paper_reef(s);
   s.subsidence = 0.25;
   s.erosion.enabled = false;  // the paper's generator; the eroded one: Erosion.GoldenValues
   RenderOptions o;
@@ -363,7 +370,8 @@ TEST(Spec, EveryFieldRoundTrips) {
                                                s.resistance = {0.9, 0.1};
                                                s.wind = {WindStroke{{{-0.5, 0.1}, {0.2, 0.3}, {0.6, -0.2}}, 0.3, 0.15},
                                                          WindStroke{{{0, -1}, {0, 1}}, 0.05, 0.4}};
-                                               s.coral.crest_begin = 0.9;  // back_end ≤ crest_begin ≤ crest_end
+                                               s.coral.crest_begin = 0.9;  // back_end ≤ flat_begin ≤ crest_begin ≤ crest_end
+                                               s.coral.flat_begin = 0.85;
                                                s.coral.crest_end = 0.95;
                                              });
 }
@@ -376,10 +384,12 @@ TEST(Spec, SubObjectsRoundTripEveryField) {
   };
   test::expect_params_round_trip<HeightMapping>([&](const nlohmann::json& j) { return through_spec("heights")(j).heights; });
   test::expect_params_round_trip<CoralParams>([&](const nlohmann::json& j) { return through_spec("coral")(j).coral; },
-                                              [](CoralParams& c) {  // keep back_end ≤ crest_begin ≤ crest_end
+                                              [](CoralParams& c) {  // keep back_end ≤ flat_begin ≤ crest_begin ≤ crest_end
+                                                c.flat_begin = 0.85;
                                                 c.crest_begin = 0.9;
                                                 c.crest_end = 0.95;
                                               });
+  test::expect_params_round_trip<ReefParams>([&](const nlohmann::json& j) { return through_spec("reef")(j).reef; });
   test::expect_params_round_trip<DetailNoise>([&](const nlohmann::json& j) { return through_spec("noise")(j).noise; });
   try {
     spec_from_json(nlohmann::json{{"heights", {{"floor_m", 5}}}}, "t.json");

@@ -32,7 +32,12 @@ Pair affine(const Pair& p, double angle_deg, double scale, bool flip_x, double o
   }
   Pair out;
   const cv::Size sz = p.height_m.size();
-  cv::warpAffine(p.height_m, out.height_m, m, sz, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(ocean_m));
+  // The sea floor has relief (docs/REEF.md): cells from outside the canvas
+  // continue its edge rather than a constant floor, which would draw the
+  // rotated canvas as a straight step. ocean_m fills only a canvas without an
+  // edge to continue (never: kept for callers that pass one).
+  (void)ocean_m;
+  cv::warpAffine(p.height_m, out.height_m, m, sz, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
   cv::warpAffine(p.label, out.label, m, sz, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar(kAbyss));
   cv::warpAffine(p.subsidence, out.subsidence, m, sz, cv::INTER_NEAREST, cv::BORDER_REPLICATE);
   return out;

@@ -9,6 +9,7 @@
 #include "reefgen/terrain/erosion.hpp"
 #include "reefgen/terrain/noise.hpp"
 #include "reefgen/rng.hpp"
+#include "reefgen/procgen/reef.hpp"
 
 namespace reefgen::procgen {
 
@@ -293,17 +294,35 @@ void check_render_options(const RenderOptions& opt) {
 // Everything that depends on x̃ alone, tabulated once per island at
 // kEntries points over [0, 5]: resistance ρ, subsided volcano h_sub, coral,
 // and their smooth maximum (the height without erosion or noise).
+// Coral height (m) where no coral grows: far below any ground, so the smooth
+// maximum returns the ground unchanged.
+constexpr float kNoCoral = -1e4f;
+
 struct ProfileTables {
   static constexpr int kEntries = 4097;
   const float scale = (kEntries - 1) / 5.f;  // entries per unit of x̃
   std::vector<float> rho, hsub, coral, merged;
 
-  explicit ProfileTables(const IslandSpec& spec) : rho(kEntries), hsub(kEntries), coral(kEntries), merged(kEntries) {
+  // With reef geomorphology the volcano is shaped to the lagoon shore
+  // (shore_height_m) and the coral is a reef with a flat, rising from the
+  // lagoon floor; elsewhere there is no coral (kNoCoral), so the lagoon
+  // basin and the sea floor beyond the reef come from apply_reef.
+  ProfileTables(const IslandSpec& spec, double lagoon_depth_m)
+      : rho(kEntries), hsub(kEntries), coral(kEntries), merged(kEntries) {
+    const bool reef = spec.reef.enabled;
+    CoralParams reef_coral = spec.coral;
+    reef_coral.back_m = -kBackReefShare * lagoon_depth_m;
     for (int j = 0; j < kEntries; ++j) {
-      const double xt = 5.0 * j / (kEntries - 1);
+      const double xt = 5.0 * j / (kEntries - 1), x = xt - 3.0;
       rho[j] = float(sample_curve(spec.resistance, xt / 5.0));
-      hsub[j] = float(subsided_height_m(sample_curve(spec.profile, xt / 5.0), spec.subsidence, spec.heights));
-      coral[j] = float(coral_height_m(xt - 3.0, spec.coral));
+      const double h0 = subsided_height_m(sample_curve(spec.profile, xt / 5.0), spec.subsidence, spec.heights);
+      hsub[j] = float(reef ? shore_height_m(h0, xt, lagoon_depth_m, spec.reef) : h0);
+      if (!spec.coral.enabled) coral[j] = kNoCoral;
+      // Past the fore-reef foot the coral ends two entries out, so the
+      // interpolation between the foot and kNoCoral never reaches x < 1.
+      else if (reef) coral[j] = (x <= spec.coral.back_end || x > 1.0 + 10.0 / (kEntries - 1)) ? kNoCoral
+                                                                                              : float(reef_coral_m(x, reef_coral));
+      else coral[j] = float(coral_height_m(x, spec.coral));
       merged[j] = spec.coral.enabled ? float(smax(hsub[j], coral[j], spec.smax_k)) : hsub[j];
     }
   }
@@ -429,22 +448,24 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
   check_render_options(opt);
   const int W = opt.size_px;
   const OutlineTable outlines(spec.outlines, spec.min_gap);
-  const ProfileTables lut(spec);
+  const bool reef = spec.reef.enabled;
+  const double lagoon_m = reef ? lagoon_depth_m(spec) : 0.0;
+  const ProfileTables lut(spec, lagoon_m);
   const cv::Mat2f D = displacement_field(spec, opt, outlines, lut.rho);
   const SourceGrid source(D, W, opt.warp_grid);
   const NoiseLookup noise(spec.noise, W);
   const SmoothMaxTable smax_table(spec.smax_k);
-  const bool noisy = noise.on(), eroded = spec.erosion.enabled;
+  const bool noisy = noise.on(), eroded = spec.erosion.enabled, split = eroded || reef;
   const float amp = float(spec.noise.amplitude), lut_scale = lut.scale;
   const float *rho = lut.rho.data(), *hsub = lut.hsub.data(), *coral = lut.coral.data(), *merged = lut.merged.data();
   constexpr int kLast = ProfileTables::kEntries - 2;  // the last interval's first entry
 
   IslandFields out{cv::Mat1f(W, W), cv::Mat1f(W, W), cv::Mat1b(W, W), cv::Mat1f()};
   cv::Mat1f coral_m, rho_px;
-  if (eroded) {
-    coral_m.create(W, W);
-    rho_px.create(W, W);
-  }
+  cv::Mat2f source_px;  // with the reef: each pixel's source point
+  if (split) coral_m.create(W, W);
+  if (eroded) rho_px.create(W, W);
+  if (reef) source_px.create(W, W);
   // Per row: the source points, then x̃ for the whole row on the CPU's
   // vector path, then heights and labels.
   std::vector<float> src_x(W), src_y(W), xt_row(W);
@@ -460,19 +481,17 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
       const int j = std::min(static_cast<int>(g), kLast);
       const float f = g - j;
       float h;
-      if (!eroded && !noisy) {
+      if (!split && !noisy) {
         h = merged[j] + f * (merged[j + 1] - merged[j]);
       } else {
         h = hsub[j] + f * (hsub[j + 1] - hsub[j]);
         if (noisy) h *= 1.f + amp * noise.at(src_x[x], src_y[x]);
         const float c = coral[j] + f * (coral[j + 1] - coral[j]);
-        if (eroded) {
-          coral_m(y, x) = c;
-          rho_px(y, x) = rho[j] + f * (rho[j + 1] - rho[j]);
-        } else if (spec.coral.enabled) {
-          h = smax_table(h, c);
-        }
+        if (split) coral_m(y, x) = c;
+        if (eroded) rho_px(y, x) = rho[j] + f * (rho[j + 1] - rho[j]);
+        if (!split && spec.coral.enabled) h = smax_table(h, c);
       }
+      if (reef) source_px(y, x) = cv::Vec2f(src_x[x], src_y[x]);
       hrow[x] = h;
       xrow[x] = xt;
       lrow[x] = static_cast<uint8_t>(std::min(static_cast<int>(xt), 4));
@@ -481,7 +500,13 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
   if (eroded) {
     if (opt.keep_uneroded) out.uneroded_m = out.height_m.clone();
     out.height_m = terrain::erode_island(out.height_m, rho_px, spec.world_size_m, spec.noise.seed, spec.erosion);
-    if (spec.coral.enabled) grow_coral(out, coral_m, smax_table);
+    if (spec.coral.enabled && !reef) grow_coral(out, coral_m, smax_table);
+  }
+  if (reef) {
+    const ReefPlan plan = plan_reef(spec, outlines);
+    const ReefInputs in{out.xt, source_px, coral_m};
+    apply_reef(out.height_m, &out.label, in, spec, outlines, plan);
+    if (!out.uneroded_m.empty()) apply_reef(out.uneroded_m, nullptr, in, spec, outlines, plan);
   }
   return out;
 }

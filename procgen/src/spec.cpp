@@ -92,7 +92,8 @@ void validate(const IslandSpec& s) {
   check_params(s, "", "docs/SPEC.md");
   // Rules between fields, which the walk's per-field ranges cannot say.
   const auto& c = s.coral;
-  check_range("coral.crest_begin", c.crest_begin, c.back_end, 1);
+  check_range("coral.flat_begin", c.flat_begin, c.back_end, 1);
+  check_range("coral.crest_begin", c.crest_begin, c.flat_begin, 1);
   check_range("coral.crest_end", c.crest_end, c.crest_begin, 1);
 }
 

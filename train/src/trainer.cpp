@@ -301,9 +301,49 @@ bool same_architecture(const TrainParams& a, const TrainParams& b, std::string* 
   return true;
 }
 
+namespace {
+
+// Copies every tensor of `from` into the same-named tensor of `to`; throws
+// when a name or shape differs (another architecture).
+void copy_tensors(const torch::OrderedDict<std::string, torch::Tensor>& from,
+                  torch::OrderedDict<std::string, torch::Tensor>& to, const fs::path& path) {
+  if (from.size() != to.size())
+    throw Error(path.string() + ": another architecture (" + std::to_string(from.size()) + " tensors, this config has " +
+                std::to_string(to.size()) + "); start from a generator of the same networks or change the config");
+  torch::NoGradGuard no_grad;
+  for (const auto& item : from) {
+    torch::Tensor* t = to.find(item.key());
+    if (!t || !t->sizes().equals(item.value().sizes()))
+      throw Error(path.string() + ": another architecture (tensor " + item.key() +
+                  "); start from a generator of the same networks or change the config");
+    t->copy_(item.value());
+  }
+}
+
+// An exported generator (RUN/generator.pt, models/reef-256.pt) starts G from
+// its weights and D afresh: fine-tuning the shipped model on new targets.
+// False when the file is not a generator file.
+bool load_generator_weights(const fs::path& path, Pix2Pix& p) {
+  model::GeneratorFile f;
+  try {
+    f = model::load_generator(path);
+  } catch (const std::exception&) {
+    return false;
+  }
+  auto params = p.G()->named_parameters();
+  auto buffers = p.G()->named_buffers();
+  copy_tensors(f.g->named_parameters(), params, path);
+  copy_tensors(f.g->named_buffers(), buffers, path);
+  return true;
+}
+
+}  // namespace
+
 void load_checkpoint_weights(const fs::path& path, Pix2Pix& p, const TrainParams& params) {
   if (!fs::is_regular_file(path))
-    throw Error(path.string() + ": no such checkpoint to start from (--init takes another run's RUN/checkpoint.pt)");
+    throw Error(path.string() + ": no such checkpoint to start from (--init takes another run's RUN/checkpoint.pt "
+                "or an exported generator)");
+  if (load_generator_weights(path, p)) return;
   torch::serialize::InputArchive a;
   const std::string fix = "pass --init another run's RUN/checkpoint.pt";
   std::string differing;

@@ -52,26 +52,106 @@ void fields(HeightMapping& p, F&& f) {  // the one field list (common/params_jso
   f("peak_m", p.peak_m, Range{1, 9000});
 }
 
-// Coral height field over x = x̃ − 3 (Eqs. 6-8).
+// Coral height field over x = x̃ − 3 (Eqs. 6-8), with a reef flat between
+// the back reef and the crest. Living crests grow to the surface and dry at
+// low tide; the flat behind them lies 0…−2 m (docs/REEF.md).
 struct CoralParams {
   bool enabled = true;
-  double back_m = -20;       // m, back reef / lagoon floor for x ≤ back_end
-  double crest_m = -2;       // m, reef crest on [crest_begin, crest_end]
-  double abyss_m = -100;     // m, fore-reef foot for x ≥ 1
-  double back_end = 0.5;     // x where the rise to the crest starts, [0, crest_begin]
-  double crest_begin = 0.75; // x, [back_end, crest_end]
+  double back_m = -20;       // m, back-reef toe for x ≤ back_end (with reef.enabled: the lagoon floor instead)
+  double flat_m = -0.8;      // m, reef flat on [flat_begin, crest_begin], [-11000, 9000]
+  double crest_m = -0.3;     // m, reef crest on [crest_begin, crest_end] (awash: dries at low tide)
+  double abyss_m = -80;      // m, fore-reef foot for x ≥ 1
+  double back_end = 0.4;     // x where the rise to the reef flat starts, [0, flat_begin]
+  double flat_begin = 0.55;  // x, [back_end, crest_begin]
+  double crest_begin = 0.75; // x, [flat_begin, crest_end]
   double crest_end = 0.8;    // x, [crest_begin, 1]
 };
 template <class F>
-void fields(CoralParams& p, F&& f) {  // back_end ≤ crest_begin ≤ crest_end is checked by validate()
+void fields(CoralParams& p, F&& f) {  // back_end ≤ flat_begin ≤ crest_begin ≤ crest_end is checked by validate()
   f("enabled", p.enabled);
   f("back_m", p.back_m, Range{-11000, 9000});
+  f("flat_m", p.flat_m, Range{-11000, 9000});
   f("crest_m", p.crest_m, Range{-11000, 9000});
   f("abyss_m", p.abyss_m, Range{-11000, 9000});
   f("back_end", p.back_end, Range{0, 1});
+  f("flat_begin", p.flat_begin, Range{0, 1});
   f("crest_begin", p.crest_begin, Range{0, 1});
   f("crest_end", p.crest_end, Range{0, 1});
 }
+
+// A pass through the reef rim: a curve the rim is cut along (the authors'
+// tool draws them as curves), with its width and floor depth.
+struct PassStroke {
+  std::vector<Vec2> points;  // canvas units in [-4,4]² (+y up), 2..1024 points of an open Catmull-Rom curve
+  double width_m = 150;      // m, full width of the channel, [10, 3000]
+  double depth_m = 12;       // m, floor of the pass below sea level, [1, 80]
+};
+template <class F>
+void fields(PassStroke& p, F&& f) {
+  f("points", p.points, Custom<std::vector<Vec2>>{points_to_json, points_from_json, check_points});
+  f("width_m", p.width_m, Range{10, 3000});
+  f("depth_m", p.depth_m, Range{1, 80});
+}
+
+// A motu: a low sand islet on the reef flat, centred at an angle from the
+// canvas centre, elongated along the rim.
+struct Motu {
+  double angle_deg = 0;    // degrees counter-clockwise from +x, [-360, 360]
+  double length_m = 600;   // m, along the rim, [30, 20000]
+  double width_m = 260;    // m, across the rim, [30, 3000]
+  double height_m = 2.5;   // m above sea level at its crown, [0.5, 8]
+};
+template <class F>
+void fields(Motu& m, F&& f) {
+  f("angle_deg", m.angle_deg, Range{-360, 360});
+  f("length_m", m.length_m, Range{30, 20000});
+  f("width_m", m.width_m, Range{30, 3000});
+  f("height_m", m.height_m, Range{0.5, 8});
+}
+
+// Reef geomorphology (docs/REEF.md): a lagoon that is water at every age,
+// basins deeper than the rim, patch reefs, passes, motu, spur-and-groove and
+// a sea floor with relief. enabled = false gives the paper's Eqs. 6–9 alone.
+struct ReefParams {
+  bool enabled = true;
+  double lagoon_depth_m = 0;         // m, deepest lagoon floor of a sunk island; 0 = from the lagoon's area, [0, 150]
+  double young_lagoon_share = 0.2;   // share of that depth at subsidence 0 (a fringing back-reef), [0, 1]
+  double coast_begin = 1.4;          // x̃ where the land starts its descent to the lagoon shore at x̃ = 2, [1, 1.95]
+  double shoreface = 0.3;            // x̃ units over which the lagoon shore descends to the floor, [0.02, 1]
+  double patch_reefs = 0.3;          // how much of the lagoon floor rises in patch reefs (0 none, 1 about a third), [0, 1]
+  std::vector<PassStroke> passes;    // drawn passes, 0..64
+  int random_passes = 2;             // passes added on the leeward rim, [0, 16]
+  std::vector<Motu> motu;            // placed motu, 0..256
+  int random_motu = 6;               // motu added on the reef flat (scaled down below subsidence 0.2), [0, 64]
+  double groove_spacing_m = 30;      // m, spur-and-groove period along the windward fore reef, [5, 200]
+  double groove_amplitude_m = 1.5;   // m, spur top to groove floor / 2, [0, 10]
+  double groove_depth_m = 20;        // m, grooves run from the crest down to this depth, [2, 60]
+  double abyss_decay_m = 900;        // m, e-folding distance of the sea floor's descent beyond the reef, [50, 1e5]
+  double abyss_relief_m = 4;         // m, sea-floor relief (low-frequency noise), [0, 30]
+};
+template <class F>
+void fields(ReefParams& p, F&& f) {
+  f("enabled", p.enabled);
+  f("lagoon_depth_m", p.lagoon_depth_m, Range{0, 150});
+  f("young_lagoon_share", p.young_lagoon_share, Range{0, 1});
+  f("coast_begin", p.coast_begin, Range{1, 1.95});
+  f("shoreface", p.shoreface, Range{0.02, 1});
+  f("patch_reefs", p.patch_reefs, Range{0, 1});
+  f("passes", p.passes, Count{0, 64});
+  f("random_passes", p.random_passes, Range{0, 16});
+  f("motu", p.motu, Count{0, 256});
+  f("random_motu", p.random_motu, Range{0, 64});
+  f("groove_spacing_m", p.groove_spacing_m, Range{5, 200});
+  f("groove_amplitude_m", p.groove_amplitude_m, Range{0, 10});
+  f("groove_depth_m", p.groove_depth_m, Range{2, 60});
+  f("abyss_decay_m", p.abyss_decay_m, Range{50, 1e5});
+  f("abyss_relief_m", p.abyss_relief_m, Range{0, 30});
+}
+
+// The paper's generator alone (Eqs. 1–9, docs/DESIGN.md §3): its coral
+// anchors (lagoon −20 m, crest −2 m on [0.75, 0.8], abyss −100 m) and no reef
+// geomorphology. The tests of the paper's equations start from this.
+inline void use_paper_reef(struct IslandSpec& s);
 
 // Multiplicative surface noise on the volcano heights (signed metres, so the
 // 0 m coastline of the profile is kept exactly where the outlines put it).
@@ -111,6 +191,7 @@ struct IslandSpec {
   double subsidence = 0;                           // λ, [0, 1]: 0 young volcano, 1 atoll
   HeightMapping heights;
   CoralParams coral;
+  ReefParams reef;                                 // reef geomorphology after coral growth (docs/REEF.md)
   double smax_k = 0.5;                             // 1/m, smooth-max sharpness (overshoot ≤ 1/(2k) m), [0.01, 100]
   DetailNoise noise;
   terrain::ErosionParams erosion;                           // fluvial erosion of the land before coral growth (docs/EROSION.md)
@@ -130,10 +211,17 @@ void fields(IslandSpec& s, F&& f) {
   f("subsidence", s.subsidence, Range{0, 1});
   f("heights", s.heights);
   f("coral", s.coral);
+  f("reef", s.reef);
   f("smax_k", s.smax_k, Range{0.01, 100});
   f("noise", s.noise);
   f("erosion", s.erosion);
   f("world_size_m", s.world_size_m, Range{10, 1e6});
+}
+
+inline void use_paper_reef(IslandSpec& s) {
+  s.reef.enabled = false;
+  s.coral.back_m = -20, s.coral.crest_m = -2, s.coral.abyss_m = -100;
+  s.coral.back_end = 0.5, s.coral.flat_begin = 0.5, s.coral.flat_m = -20;
 }
 
 // Throws reefgen::Error naming the first invalid field and its valid range.

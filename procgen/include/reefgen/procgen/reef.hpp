@@ -1,0 +1,86 @@
+#pragma once
+// Reef geomorphology after the paper's coral growth (docs/REEF.md): each
+// piece a named step over the generator's per-pixel fields, each with the
+// real-reef figures it follows in its doc comment. LibTorch-free.
+#include <array>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "reefgen/procgen/spec.hpp"
+
+namespace reefgen::procgen {
+
+class OutlineTable;
+
+// Feature size of the patch-reef noise (m): about the spacing of patch
+// reefs on atoll lagoon floors, a few per km².
+inline constexpr double kPatchCellM = 250;
+
+// Deepest floor (m, positive) of a mature lagoon of `area_km2` (the area
+// inside the reef). Purdy & Winterer (2001, 301 atolls): lagoon depth grows
+// with atoll area, typically 20–60 m, up to ~90 m; this fit gives 18 m at
+// 1 km², 30 m at 10 km², 42 m at 100 km², 54 m at 1000 km², clamped to [8, 90].
+double lagoon_depth_for_area_m(double area_km2);
+
+// The lagoon depth of an island: the spec's, or the fit above from the area
+// inside the outline R_3 (the lagoon's outer border), scaled for age: a
+// fringing reef's back-reef (λ = 0) is young_lagoon_share of it, a barrier
+// reef's lagoon (λ ≥ kBarrierLambda) all of it.
+inline constexpr double kBarrierLambda = 0.3;
+// The back-reef toe sits at this share of the lagoon depth: the basin's floor
+// next to the reef (apply_reef's floor is 0.75 D there, D in its middle).
+inline constexpr double kBackReefShare = 0.75;
+double lagoon_depth_m(const IslandSpec& spec);
+
+// The land's descent to the lagoon shore at x̃ = 2 and the lagoon's shoreface,
+// a function of x̃ alone (tabulated with the profile): land heights are scaled
+// to 0 between coast_begin and x̃ = 2 (a coast, not a cliff), and past x̃ = 2
+// nothing stands above the shoreface −D·s((x̃ − 2)/shoreface): a painted
+// lagoon is water at every age ("behind a reef crest lies water").
+double shore_height_m(double h_m, double xt, double depth_m, const ReefParams& r);
+
+// Coral height over x = x̃ − 3 with a reef flat: back-reef toe (back_m) on
+// x ≤ back_end, rise to the flat (flat_m) at flat_begin, flat then a crest
+// (crest_m) from crest_begin to crest_end, fore reef down to abyss_m at x = 1.
+double reef_coral_m(double x, const CoralParams& c);
+
+// Everything the reef steps need per island, placed once from the spec.
+struct ReefPlan {
+  double depth_m = 0;              // lagoon depth D (m, positive)
+  double lambda = 0;               // subsidence
+  std::array<double, 2> windward;  // unit vector towards the wind's origin (canvas, +y up)
+  struct Pass {
+    std::vector<std::array<float, 4>> segs;  // canvas segments: x0, y0, x1, y1
+    double half_width = 0, depth_m = 0;      // canvas units, m
+  };
+  std::vector<Pass> passes;
+  struct Islet {
+    double theta = 0, half_len = 0, half_wid = 0, height_m = 0;  // rad, canvas units, canvas units, m
+  };
+  std::vector<Islet> motu;
+};
+ReefPlan plan_reef(const IslandSpec& spec, const OutlineTable& outlines);
+
+// The per-pixel fields the reef steps read: heights before the merge (the
+// volcano, eroded or not), coral heights, x̃, and each pixel's source point
+// (the wind-warped canvas point its material came from).
+struct ReefInputs {
+  const cv::Mat1f& xt;
+  const cv::Mat2f& source;  // canvas (x, y) of each pixel's material
+  const cv::Mat1f& coral_m;
+};
+
+// The steps, in order, on one height field (label updated where motu or
+// passes change the region):
+//  1. lagoon floor: sunk ground is filled to the basin floor, deepest in the
+//     middle, with patch reefs and pinnacles rising from it;
+//  2. passes cut the coral rim to their floor;
+//  3. coral growth: the smooth maximum of the ground and the coral (Eq. 9);
+//  4. motu on the reef flat (beach label where above sea);
+//  5. spur-and-groove on the windward fore reef (visible from ~4 px a period);
+//  6. the sea floor beyond the reef descends with relief, never flat.
+void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, const IslandSpec& spec,
+                const OutlineTable& outlines, const ReefPlan& plan);
+
+}  // namespace reefgen::procgen

@@ -1,0 +1,304 @@
+#include "reefgen/procgen/reef.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "reefgen/error.hpp"
+#include "reefgen/labels.hpp"
+#include "reefgen/procgen/generator.hpp"
+#include "reefgen/rng.hpp"
+#include "reefgen/terrain/noise.hpp"
+
+namespace reefgen::procgen {
+
+namespace {
+
+inline double ease(double t) {
+  t = std::clamp(t, 0.0, 1.0);
+  return t * t * (3.0 - 2.0 * t);
+}
+
+// Wraps an angle difference into (−π, π].
+inline double wrap_angle(double a) {
+  a = std::fmod(a + M_PI, 2.0 * M_PI);
+  if (a < 0) a += 2.0 * M_PI;
+  return a - M_PI;
+}
+
+// Area inside outline R_3 (the lagoon's outer border), canvas units².
+double lagoon_area_canvas(const OutlineTable& outlines) {
+  constexpr int kSteps = 720;
+  double a = 0;
+  for (int i = 0; i < kSteps; ++i) {
+    const double r = outlines.radii(2.0 * M_PI * i / kSteps)[2];
+    a += 0.5 * r * r * (2.0 * M_PI / kSteps);
+  }
+  return a;
+}
+
+double canvas_to_m(const IslandSpec& spec) { return spec.world_size_m / 2.0; }
+
+// Unit vector towards where the wind comes from: minus the strength-weighted
+// mean direction of the strokes; without wind, a direction drawn from the seed.
+std::array<double, 2> windward_direction(const IslandSpec& spec) {
+  double wx = 0, wy = 0;
+  for (const auto& w : spec.wind) {
+    if (w.points.size() < 2) continue;
+    const double dx = w.points.back().x - w.points.front().x, dy = w.points.back().y - w.points.front().y;
+    const double l = std::hypot(dx, dy);
+    if (l > 0) wx -= w.strength * dx / l, wy -= w.strength * dy / l;
+  }
+  const double l = std::hypot(wx, wy);
+  if (l > 1e-9) return {wx / l, wy / l};
+  Rng rng(spec.noise.seed, 0, "reef-windward");
+  const double a = rng.uniform(0, 2.0 * M_PI);
+  return {std::cos(a), std::sin(a)};
+}
+
+ReefPlan::Pass pass_from_curve(const std::vector<Vec2>& points, double width_m, double depth_m, double to_canvas) {
+  ReefPlan::Pass p;
+  const auto poly = sample_open_catmull_rom(points, 8);
+  for (size_t i = 0; i + 1 < poly.size(); ++i)
+    p.segs.push_back({float(poly[i].x), float(poly[i].y), float(poly[i + 1].x), float(poly[i + 1].y)});
+  p.half_width = 0.5 * width_m * to_canvas;
+  p.depth_m = depth_m;
+  return p;
+}
+
+// Random passes: on the leeward rim (within ±60° of leeward), where lagoons
+// drain (Purdy & Winterer: passes cut the rim, often leeward), each a short
+// radial cut across the reef from the lagoon to the fore reef.
+void add_random_passes(ReefPlan& plan, const IslandSpec& spec, const OutlineTable& outlines, double to_canvas) {
+  Rng rng(spec.noise.seed, 0, "reef-passes");
+  const double leeward = std::atan2(-plan.windward[1], -plan.windward[0]);
+  for (int k = 0; k < spec.reef.random_passes; ++k) {
+    const double th = leeward + rng.uniform(-M_PI / 3, M_PI / 3);
+    const auto R = outlines.radii(th);
+    const double r0 = R[2] - 0.03, r1 = R[3] + 0.03;
+    const double width_m = rng.uniform(100, 260), depth_m = rng.uniform(8, 20);
+    // Four points across the rim, each pushed sideways: a channel that winds.
+    std::vector<Vec2> pts;
+    for (int i = 0; i < 4; ++i) {
+      const double r = r0 + (r1 - r0) * i / 3.0, a = th + rng.uniform(-0.6, 0.6) * width_m * to_canvas / r;
+      pts.push_back({r * std::cos(a), r * std::sin(a)});
+    }
+    plan.passes.push_back(pass_from_curve(pts, width_m, depth_m, to_canvas));
+  }
+}
+
+// The angle of a pass's middle, seen from the canvas centre.
+double pass_angle(const ReefPlan::Pass& p) {
+  const auto& s = p.segs[p.segs.size() / 2];
+  return std::atan2(0.5 * (s[1] + s[3]), 0.5 * (s[0] + s[2]));
+}
+
+// Random motu: sand islets on the reef flat, 150–1200 m long and 150–400 m
+// wide (Johnson & Ortiz, 154 atolls: motu 263 ± 210 m wide), 1.5–3.5 m high,
+// kept away from the passes; fewer on young fringing reefs.
+void add_random_motu(ReefPlan& plan, const IslandSpec& spec, const OutlineTable& outlines, double to_canvas) {
+  Rng rng(spec.noise.seed, 0, "reef-motu");
+  const int count = int(std::lround(spec.reef.random_motu * std::min(1.0, spec.subsidence / 0.2)));
+  const auto& c = spec.coral;
+  for (int k = 0; k < count; ++k) {
+    const double th = rng.uniform(-M_PI, M_PI);
+    const double len_m = rng.uniform(150, 1200), wid_m = rng.uniform(150, 400), top = rng.uniform(1.5, 3.5);
+    const bool near_pass = std::any_of(plan.passes.begin(), plan.passes.end(), [&](const ReefPlan::Pass& p) {
+      return std::fabs(wrap_angle(th - pass_angle(p))) < 0.15;
+    });
+    if (near_pass) continue;
+    const auto R = outlines.radii(th);
+    const double flat_half = 0.5 * (c.crest_end - c.back_end) * (R[3] - R[2]);
+    ReefPlan::Islet m;
+    m.theta = th;
+    m.half_wid = std::min(0.5 * wid_m * to_canvas, flat_half);
+    m.half_len = 0.5 * len_m * to_canvas;
+    m.height_m = top;
+    plan.motu.push_back(m);
+  }
+}
+
+}  // namespace
+
+double lagoon_depth_for_area_m(double area_km2) {
+  return std::clamp(18.0 + 12.0 * std::log10(std::max(area_km2, 1e-6)), 8.0, 90.0);
+}
+
+double lagoon_depth_m(const IslandSpec& spec) {
+  const auto& r = spec.reef;
+  double full = r.lagoon_depth_m;
+  if (full <= 0) {
+    const OutlineTable outlines(spec.outlines, spec.min_gap);
+    const double m = canvas_to_m(spec);
+    full = lagoon_depth_for_area_m(lagoon_area_canvas(outlines) * m * m * 1e-6);
+  }
+  const double age = r.young_lagoon_share + (1.0 - r.young_lagoon_share) * ease(spec.subsidence / kBarrierLambda);
+  return full * age;
+}
+
+double shore_height_m(double h_m, double xt, double depth_m, const ReefParams& r) {
+  if (h_m > 0) h_m *= 1.0 - ease((xt - r.coast_begin) / (2.0 - r.coast_begin));
+  if (xt > 2.0) h_m = std::min(h_m, -depth_m * ease((xt - 2.0) / r.shoreface));
+  return h_m;
+}
+
+double reef_coral_m(double x, const CoralParams& c) {
+  if (x <= c.back_end) return c.back_m;
+  if (x < c.flat_begin) return c.back_m + (c.flat_m - c.back_m) * ease((x - c.back_end) / (c.flat_begin - c.back_end));
+  if (x < c.crest_begin) {
+    // The flat stays flat and turns up into the crest over its last part.
+    const double t = ease((x - c.flat_begin) / (c.crest_begin - c.flat_begin));
+    return c.flat_m + (c.crest_m - c.flat_m) * t * t * t;
+  }
+  if (x <= c.crest_end) return c.crest_m;
+  if (x < 1.0) return c.crest_m + (c.abyss_m - c.crest_m) * ease((x - c.crest_end) / (1.0 - c.crest_end));
+  return c.abyss_m;
+}
+
+ReefPlan plan_reef(const IslandSpec& spec, const OutlineTable& outlines) {
+  ReefPlan plan;
+  plan.depth_m = lagoon_depth_m(spec);
+  plan.lambda = spec.subsidence;
+  plan.windward = windward_direction(spec);
+  const double to_canvas = 1.0 / canvas_to_m(spec);
+  for (const auto& p : spec.reef.passes) plan.passes.push_back(pass_from_curve(p.points, p.width_m, p.depth_m, to_canvas));
+  add_random_passes(plan, spec, outlines, to_canvas);
+  for (const auto& m : spec.reef.motu) {
+    ReefPlan::Islet i;
+    i.theta = m.angle_deg * M_PI / 180.0;
+    i.half_len = 0.5 * m.length_m * to_canvas;
+    i.half_wid = 0.5 * m.width_m * to_canvas;
+    i.height_m = m.height_m;
+    plan.motu.push_back(i);
+  }
+  add_random_motu(plan, spec, outlines, to_canvas);
+  return plan;
+}
+
+namespace {
+
+// Distance (canvas units) from a point to a pass's centre line.
+float pass_distance(const ReefPlan::Pass& p, float x, float y) {
+  float best = 1e30f;
+  for (const auto& s : p.segs) {
+    const float dx = s[2] - s[0], dy = s[3] - s[1], wx = x - s[0], wy = y - s[1];
+    const float l2 = dx * dx + dy * dy;
+    const float t = l2 > 0 ? std::clamp((wx * dx + wy * dy) / l2, 0.f, 1.f) : 0.f;
+    const float ex = wx - t * dx, ey = wy - t * dy;
+    best = std::min(best, ex * ex + ey * ey);
+  }
+  return std::sqrt(best);
+}
+
+// Patch reefs and pinnacles: where a band-limited noise field (features of
+// ~kPatchCellM) rises above a threshold set by `density`, the floor rises to
+// a knoll whose top lies 0.5–6 m under water (One Tree Reef's lagoon: patch
+// reefs to near the surface), in irregular clusters as on real lagoon floors.
+// Returns the knoll surface at (xm, ym) metres, or −∞ where there is none.
+float patch_reef_m(const terrain::GradientNoise2& noise, double xm, double ym, double depth_m, double density) {
+  const float u = float(xm / kPatchCellM), v = float(ym / kPatchCellM);
+  const double n = noise.fbm(u, v, 3);
+  // fbm is roughly symmetric about 0 with |n| < 0.6: density 0 → no knolls,
+  // 1 → about a third of the floor.
+  const double threshold = 0.35 - 0.4 * density;
+  if (n <= threshold) return -1e30f;
+  const double top = -0.5 - 5.5 * (0.5 + 0.5 * noise.perlin(u * 0.37f + 11.f, v * 0.37f - 5.f));
+  return float(-depth_m + (depth_m + top) * ease((n - threshold) / 0.12));
+}
+
+struct PixelPolar {
+  double r, theta;
+  std::array<double, 5> R;
+};
+
+}  // namespace
+
+void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, const IslandSpec& spec,
+                const OutlineTable& outlines, const ReefPlan& plan) {
+  const auto& c = spec.coral;
+  const auto& rp = spec.reef;
+  const int W = height_m.cols;
+  const double to_m = canvas_to_m(spec), mpp = spec.world_size_m / W;
+  const double D = plan.depth_m;
+  const SmoothMaxTable smax_table(spec.smax_k);
+  const terrain::GradientNoise2 noise(derive_seed(spec.noise.seed, 0, "reef-noise"));
+  const terrain::GradientNoise2 patch_noise(derive_seed(spec.noise.seed, 0, "reef-patches"));
+  // Spur-and-groove: a whole number of periods round the mean reef outline,
+  // faded out below 3 px a period (it would alias into moiré).
+  double mean_reef_r = 0;
+  for (int i = 0; i < 64; ++i) mean_reef_r += outlines.radii(2.0 * M_PI * i / 64)[3] / 64;
+  const double grooves_round = std::max(1.0, std::round(2.0 * M_PI * mean_reef_r * to_m / rp.groove_spacing_m));
+  const double groove_fade = std::clamp((rp.groove_spacing_m / mpp - 3.0) / 3.0, 0.0, 1.0);
+  const double groove_amp = rp.groove_amplitude_m * groove_fade;
+  const double floor_m = spec.heights.floor_m;
+
+  for (int y = 0; y < W; ++y) {
+    float* h = height_m.ptr<float>(y);
+    const float* xtr = in.xt.ptr<float>(y);
+    const cv::Vec2f* src = in.source.ptr<cv::Vec2f>(y);
+    const float* cor = in.coral_m.ptr<float>(y);
+    uint8_t* lab = label ? label->ptr<uint8_t>(y) : nullptr;
+    for (int x = 0; x < W; ++x) {
+      const double sx = src[x][0], sy = src[x][1], xt = xtr[x], xr = xt - 3.0;
+      const double r = std::hypot(sx, sy), th = std::atan2(sy, sx);
+      const auto R = outlines.radii(th);
+      double g = h[x];
+      // 1. Lagoon floor: a basin deepest in the middle (q = 0) and 0.75 D at
+      // the back reef, with low relief and patch reefs.
+      if (xr < c.flat_begin) {
+        const double q = std::min(1.0, r / R[2]);
+        double F = -D * (kBackReefShare + (1.0 - kBackReefShare) * (1.0 - q * q)) + 0.08 * D * noise.fbm(float(sx * to_m / 600), float(sy * to_m / 600), 2);
+        if (rp.patch_reefs > 0 && D > 1) F = std::max(F, double(patch_reef_m(patch_noise, sx * to_m, sy * to_m, D, rp.patch_reefs)));
+        g = std::max(g, std::min(F, -0.3));
+      }
+      // 2. Passes cut the coral down to their floor.
+      double coral = cor[x];
+      bool in_pass = false;
+      if (xr > c.back_end - 0.3 && xr < 1.0)
+        for (const auto& p : plan.passes) {
+          const double d = pass_distance(p, float(sx), float(sy));
+          if (d >= p.half_width) continue;
+          const double m = ease(2.0 * (1.0 - d / p.half_width));
+          coral += m * (std::min(coral, -p.depth_m) - coral);
+          g = std::min(g, g + m * (std::min(g, -p.depth_m) - g));
+          in_pass = in_pass || m > 0.5;
+        }
+      // 3. Coral growth on the ground (Eq. 9).
+      g = smax_table(float(g), float(coral));
+      if (lab && in_pass && xr >= c.back_end && xr <= c.crest_end) lab[x] = kLagoon;
+      // 4. Motu on the reef flat, their edges roughened along the rim.
+      if (xr > c.back_end - 0.2 && xr < 1.0 && !in_pass)
+        for (const auto& m : plan.motu) {
+          const double rc = R[2] + 0.5 * (c.flat_begin + c.crest_end) * (R[3] - R[2]);
+          const double u = wrap_angle(th - m.theta) * rc / m.half_len, v = (r - rc) / m.half_wid;
+          double d = std::hypot(u, v);
+          if (d >= 1.3) continue;
+          d *= 1.0 + 0.15 * noise.perlin(float(th * rc * to_m / 120), float(m.theta * 7));
+          const double top = -0.6 + (m.height_m + 0.6) * ease((1.0 - d) / 0.45);
+          if (top > g) g = top;
+          if (lab && top > 0.5) lab[x] = kBeach;  // above the crest: the islet, not the reef
+        }
+      // 5. Spur-and-groove: grooves perpendicular to the crest, 0.5 m to
+      // groove_depth_m deep, on the windward side.
+      if (groove_amp > 0 && xr > c.crest_end - 0.1 && g < -0.5 && g > -rp.groove_depth_m) {
+        const double facing = std::cos(th) * plan.windward[0] + std::sin(th) * plan.windward[1];
+        const double ww = ease(2.0 * facing + 0.5);
+        const double dg = -g;
+        const double wd = ease((dg - 0.5) / 2.0) * (1.0 - ease((dg - 0.6 * rp.groove_depth_m) / (0.4 * rp.groove_depth_m)));
+        const double phase = th * grooves_round / (2.0 * M_PI) + 0.3 * noise.perlin(float(th * grooves_round / 25), 3.5f);
+        g += groove_amp * ww * wd * std::cos(2.0 * M_PI * phase);
+      }
+      // 6. Beyond the reef the flank keeps descending towards the floor,
+      // e-folding over abyss_decay_m, with relief: never a flat plane.
+      if (xt >= 4.0) {
+        const double d = std::max(0.0, r - R[3]) * to_m;
+        const double base = floor_m + 1.0 + (c.abyss_m - floor_m - 1.0) * std::exp(-d / rp.abyss_decay_m);
+        const double n = noise.fbm(float(sx * to_m / 1500), float(sy * to_m / 1500), 3);
+        const double relief = rp.abyss_relief_m * (0.5 + 0.5 * n) * (1.0 - std::exp(-d / 300.0));
+        g = std::max(g, base + relief);
+      }
+      h[x] = float(g);
+    }
+  }
+}
+
+}  // namespace reefgen::procgen

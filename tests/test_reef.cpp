@@ -1,0 +1,185 @@
+// Reef geomorphology (procgen/reef.hpp, docs/REEF.md) and the reef report
+// (terrain/reef_stats.hpp): the real-reef bars on the presets at test sizes.
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include <nlohmann/json.hpp>
+
+#include "reefgen/labels.hpp"
+#include "reefgen/procgen/generator.hpp"
+#include "reefgen/procgen/reef.hpp"
+#include "reefgen/terrain/reef_stats.hpp"
+
+using namespace reefgen;
+using namespace reefgen::procgen;
+
+namespace {
+
+IslandSpec preset(const std::string& name) {
+  std::ifstream f(std::string(REEFGEN_SOURCE_DIR) + "/configs/presets/" + name + ".json");
+  return spec_from_json(nlohmann::json::parse(f), name);
+}
+
+RenderOptions side(int px) {
+  RenderOptions o;
+  o.size_px = px;
+  return o;
+}
+
+}  // namespace
+
+TEST(Reef, LagoonDepthGrowsWithAreaAndAge) {
+  EXPECT_NEAR(lagoon_depth_for_area_m(10), 30, 1e-9);
+  EXPECT_NEAR(lagoon_depth_for_area_m(100), 42, 1e-9);
+  EXPECT_EQ(lagoon_depth_for_area_m(1e9), 90);
+  EXPECT_EQ(lagoon_depth_for_area_m(1e-3), 8);
+  IslandSpec s;
+  s.subsidence = 0;
+  const double young = lagoon_depth_m(s);
+  s.subsidence = 0.6;
+  const double old = lagoon_depth_m(s);
+  EXPECT_NEAR(young, s.reef.young_lagoon_share * old, 1e-9);
+  s.reef.lagoon_depth_m = 40;
+  EXPECT_NEAR(lagoon_depth_m(s), 40, 1e-9);
+}
+
+TEST(Reef, ShoreKeepsLagoonUnderWater) {
+  const ReefParams r;
+  for (double h : {-50.0, -3.0, 5.0, 120.0})
+    for (double xt = 2.0; xt <= 3.5; xt += 0.05) EXPECT_LE(shore_height_m(h, xt, 20, r), 0.0) << h << " " << xt;
+  // Inland of coast_begin land is untouched; at the shore it is 0.
+  EXPECT_EQ(shore_height_m(80, r.coast_begin - 0.01, 20, r), 80);
+  EXPECT_NEAR(shore_height_m(80, 2.0, 20, r), 0, 1e-12);
+  // The shoreface reaches the floor.
+  EXPECT_NEAR(shore_height_m(80, 2.0 + r.shoreface, 20, r), -20, 1e-12);
+}
+
+TEST(Reef, ReefCoralHasAFlatAndACrestAwash) {
+  CoralParams c;
+  c.back_m = -25;
+  EXPECT_EQ(reef_coral_m(c.back_end, c), -25);
+  EXPECT_EQ(reef_coral_m(c.flat_begin, c), c.flat_m);
+  EXPECT_EQ(reef_coral_m(0.5 * (c.crest_begin + c.crest_end), c), c.crest_m);
+  EXPECT_GE(c.crest_m, -1.0);
+  EXPECT_LE(c.crest_m, 1.0);
+  EXPECT_EQ(reef_coral_m(1.0, c), c.abyss_m);
+  // The flat's first half stays within 0.1 m of flat_m: a flat, not a ramp.
+  EXPECT_NEAR(reef_coral_m(0.5 * (c.flat_begin + c.crest_begin), c), c.flat_m, 0.1);
+}
+
+// The atoll bars of the reef issue at 513² (the test size; docs/REEF.md has
+// the 1025² figures): crest at −1 m or higher on ≥ 70 % of rays, lagoon median
+// ≥ 5 m below the crest's and within [−60, −8] m, motu above the sea, passes,
+// and no flat floor.
+TEST(Reef, AtollPresetMeetsTheRealReefBars) {
+  const IslandSpec s = preset("atoll");
+  const IslandFields f = generate(s, side(513));
+  const auto st = terrain::reef_stats(f.height_m, s.world_size_m / 513);
+  EXPECT_GE(st.crest_at_sea, 0.70);
+  EXPECT_LE(st.lagoon_median_m, st.crest_median_m - 5);
+  EXPECT_LE(st.lagoon_median_m, -8);
+  EXPECT_GE(st.lagoon_median_m, -60);
+  EXPECT_GE(st.motu, 3);
+  EXPECT_GE(st.passes, 1);
+  EXPECT_LE(st.flat_floor_share, 0.02);
+  // Motu are labelled beach (the green a painter puts on a reef ring).
+  int motu_beach = 0;
+  for (int y = 0; y < 513; ++y)
+    for (int x = 0; x < 513; ++x) motu_beach += f.height_m(y, x) > 0.5f && f.label(y, x) == kBeach;
+  EXPECT_GT(motu_beach, 100);
+}
+
+// A bright (young) island's painted lagoon is water: every lagoon-labelled
+// cell below the sea, at every subsidence.
+TEST(Reef, LagoonIsWaterAtEveryAge) {
+  for (double lambda : {0.0, 0.15, 0.4, 0.9}) {
+    IslandSpec s = preset("young-volcano");
+    s.subsidence = lambda;
+    const IslandFields f = generate(s, side(257));
+    int64_t lagoon = 0, wet = 0;
+    for (int y = 0; y < 257; ++y)
+      for (int x = 0; x < 257; ++x)
+        if (f.label(y, x) == kLagoon) ++lagoon, wet += f.height_m(y, x) < 0;
+    ASSERT_GT(lagoon, 0);
+    EXPECT_GE(double(wet) / double(lagoon), 0.99) << "subsidence " << lambda;
+  }
+}
+
+TEST(Reef, SeaFloorIsNeverAFlatPlane) {
+  for (const char* name : {"atoll", "barrier-reef", "young-volcano", "low-island", "windswept"}) {
+    const IslandSpec s = preset(name);
+    const IslandFields f = generate(s, side(257));
+    const auto st = terrain::reef_stats(f.height_m, s.world_size_m / 257);
+    EXPECT_LE(st.flat_floor_share, 0.02) << name;
+    double lo, hi;
+    cv::minMaxLoc(f.height_m, &lo, &hi);
+    EXPECT_GT(lo, s.heights.floor_m - 1e-3) << name;  // the training range's floor is kept
+  }
+}
+
+TEST(Reef, DrawnPassesAndMotuAreWhereTheSpecPutsThem) {
+  IslandSpec s = preset("atoll");
+  s.reef.random_passes = 0;
+  s.reef.random_motu = 0;
+  Motu m;
+  m.angle_deg = 90;
+  m.length_m = 700;
+  s.reef.motu = {m};
+  PassStroke p;
+  p.points = {{-0.4, 0.0}, {-0.9, 0.0}};  // across the western rim
+  s.reef.passes = {p};
+  const IslandFields f = generate(s, side(513));
+  const auto st = terrain::reef_stats(f.height_m, s.world_size_m / 513);
+  EXPECT_EQ(st.motu, 1);
+  EXPECT_EQ(st.passes, 1);
+  // The motu stands north of the centre, the pass is water to its floor.
+  float north = -1e9f, west_crest = -1e9f;
+  for (int y = 0; y < 256; ++y) north = std::max(north, f.height_m(y, 256));
+  const OutlineTable o(s.outlines, s.min_gap);
+  const double r_crest = o.radii(M_PI)[2] + 0.5 * (s.coral.crest_begin + s.coral.crest_end) * (o.radii(M_PI)[3] - o.radii(M_PI)[2]);
+  const int xc = int(std::lround((1.0 - r_crest) * 256));
+  for (int x = std::max(0, xc - 3); x <= xc + 3; ++x) west_crest = std::max(west_crest, f.height_m(256, x));
+  EXPECT_GT(north, 1.0f);
+  EXPECT_LT(west_crest, -5.0f);
+}
+
+TEST(Reef, SameSpecSameBytesAndJsonRoundTrip) {
+  IslandSpec s = preset("barrier-reef");
+  s.reef.motu.push_back(Motu{});
+  nlohmann::json j;
+  to_json(j, s);
+  const IslandSpec back = spec_from_json(j, "round-trip");
+  nlohmann::json j2;
+  to_json(j2, back);
+  EXPECT_EQ(j, j2);
+  const IslandFields a = generate(s, side(129)), b = generate(back, side(129));
+  EXPECT_EQ(cv::norm(a.height_m, b.height_m, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(a.label, b.label, cv::NORM_INF), 0);
+  nlohmann::json bad = j;
+  bad["reef"]["motu"][0]["height_m"] = 50;
+  EXPECT_THROW(spec_from_json(bad, "bad.json"), Error);
+  bad = j;
+  bad["reef"]["lagoon_dept_m"] = 3;  // a typo is refused, not ignored
+  EXPECT_THROW(spec_from_json(bad, "bad.json"), Error);
+}
+
+TEST(ReefStats, RefusesEmptyAndBadCellSize) {
+  EXPECT_THROW(terrain::reef_stats(cv::Mat1f(), 1), Error);
+  EXPECT_THROW(terrain::reef_stats(cv::Mat1f(8, 8, 0.f), 0), Error);
+}
+
+// The grid measure finds a planted 8-px waffle of 5 cm on an underwater slope
+// and reports ~0 without it.
+TEST(ReefStats, GridAmplitudeFindsAPlantedWaffle) {
+  cv::Mat1f h(512, 512);
+  for (int y = 0; y < 512; ++y)
+    for (int x = 0; x < 512; ++x) h(y, x) = -10.f - 0.1f * float(x) + 0.5f * std::sin(0.05f * float(y)) * std::cos(0.031f * float(x));
+  const auto clean = terrain::reef_stats(h, 3, 8);
+  for (int y = 0; y < 512; ++y)
+    for (int x = 0; x < 512; ++x) h(y, x) += 0.05f * std::cos(2.f * float(M_PI) * float(x) / 8.f);
+  const auto waffle = terrain::reef_stats(h, 3, 8);
+  EXPECT_LT(clean.grid_amplitude_m, 0.005);
+  EXPECT_NEAR(waffle.grid_amplitude_m, 0.05, 0.01);
+  EXPECT_GT(waffle.grid_ring_ratio, 10);
+}
