@@ -5,6 +5,7 @@
 #include <optional>
 
 #include "app.hpp"
+#include "reefgen/terrain/ocean_floor.hpp"
 #include "reefgen/constants.hpp"
 #include "finish.hpp"
 #include "reefgen/gis/geotiff.hpp"
@@ -79,7 +80,13 @@ int run_erode(const ErodeArgs& a0, const GlobalOptions& g) {
   const double mpp = in.metres_per_px, world_m = mpp * in.height_m.cols;
   cv::Mat1f before = in.height_m - float(a.sea_level_m);
   if (!g.quiet) std::fprintf(stderr, "erode: %s, %d², %.3g m per pixel\n", a.input.c_str(), before.cols, mpp);
-  const cv::Mat1f out = terrain::erode_island(before, cv::Mat1f(before.size(), float(a.resistance)), world_m, a.seed, ep);
+  cv::Mat1f out = terrain::erode_island(before, cv::Mat1f(before.size(), float(a.resistance)), world_m, a.seed, ep);
+  // --ocean-floor-m: the flank continues from the field's own lowest value.
+  if (a.finish.ocean_floor_m < 0) {
+    double lo = 0;
+    cv::minMaxLoc(out, &lo);
+    terrain::deepen_flank(out, a.finish.ocean_floor_m, lo);
+  }
 
   StagedOutputs staged;
   HeightFiles hf;

@@ -7,6 +7,7 @@
 #include "reefgen/presets.hpp"
 #include "reefgen/constants.hpp"
 #include "finish.hpp"
+#include "reefgen/terrain/ocean_floor.hpp"
 #include "reefgen/gis/geotiff.hpp"
 #include "reefgen/files.hpp"
 #include "reefgen/procgen/output.hpp"
@@ -70,10 +71,15 @@ int run_single(const GenerateArgs& a, const GlobalOptions& g) {
   const FinishFlags::Parsed fin = a.finish.parse();
   note_bundle_sizes(fin, a.size, g.quiet);
   opt.keep_uneroded = fin.need_layers;
-  const IslandFields f = generate(spec, opt);
+  IslandFields f = generate(spec, opt);
+  if (a.finish.ocean_floor_m < 0) {
+    terrain::deepen_flank(f.height_m, a.finish.ocean_floor_m, spec.heights.floor_m);
+    if (!f.uneroded_m.empty()) terrain::deepen_flank(f.uneroded_m, a.finish.ocean_floor_m, spec.heights.floor_m);
+  }
   nlohmann::json prov = {{"mode", a.preset.empty() ? "spec" : "preset"},
                          {"source", a.preset.empty() ? a.spec_file : a.preset},
                          {"warp_grid", opt.warp_grid}};
+  if (a.finish.ocean_floor_m < 0) prov["ocean_floor_m"] = a.finish.ocean_floor_m;
   const double mpp = spec.world_size_m / opt.size_px;
   const ExtraFiles finishing = [&](StagedOutputs& staged, nlohmann::json& side, const terrain::Layers* L) {
     if (a.finish.geotiff) side["geotiff"] = gis::stage_geotiff_files(staged, prefix.string(), f.height_m, L, mpp, fin.geo, a.threads);

@@ -108,6 +108,7 @@ void set_infer_options(const InferArgs& a, model::GeneratorFile& gen, const std:
   io.seed = a.seed;
   io.size_px = a.size;
   io.world_size_m = a.world_size_m;
+  io.ocean_floor_m = a.finish.ocean_floor_m;
   if (!a.erosion.empty()) io.erosion = terrain::erosion_params_from_json(read_json(a.erosion), a.erosion);
 }
 

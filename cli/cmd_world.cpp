@@ -316,6 +316,9 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
             if (a->metres_per_px > 0 && a->world_size_m > 0)
               throw Error("--metres-per-px and --world-size say the same thing; give one");
             if (a->raw && a->size > 0) throw Error("--raw keeps the model's scale; drop --size or --raw");
+            if (a->finish.ocean_floor_m < 0)
+              throw Error("--ocean-floor-m: not for worlds yet (their tiles are streamed; the flank needs the whole "
+                          "ocean); deepen each island with `reefgen infer --ocean-floor-m` or see docs/REEF.md");
             const FinishFlags::Parsed fin = a->finish.parse();
             const fs::path prefix(a->out);
             refuse_world_over_sketch(*a, prefix);

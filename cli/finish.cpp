@@ -44,6 +44,12 @@ void add_finish_flags(CLI::App* sub, FinishFlags& f) {
                   "Bundles in each tool's own layout, each in PREFIX.<engine>/ with a README.txt of import steps: " +
                   engines::engine_names() + " (comma-separated or repeated; docs/ENGINES.md)")
       ->type_name("ENGINE");
+  sub->add_option("--ocean-floor-m", f.ocean_floor_m,
+                  "Continue the submarine flank down to this depth, e.g. -2000 (metres, [-11000, -1]): the open "
+                  "ocean below -60 m is stretched from the model's -100 m floor to it; lagoons are kept "
+                  "(docs/REEF.md \"Deeper than the abyss\")")
+      ->check(CLI::Range(-11000.0, -1.0))
+      ->type_name("M");
 }
 
 }  // namespace reefgen

@@ -1,7 +1,7 @@
 #pragma once
 // The finishing flags of generate, infer and erode, registered once with one
 // meaning (docs/LAYERS.md, docs/GIS.md, docs/ENGINES.md): --layers,
-// --layer-rules, --geotiff, --crs, --origin and --for.
+// --layer-rules, --geotiff, --crs, --origin, --for and --ocean-floor-m.
 #include <string>
 #include <vector>
 
@@ -19,6 +19,7 @@ struct FinishFlags {
   bool geotiff = false;               // PREFIX.height.tif (+ the float layers with --layers)
   std::string crs, origin;            // of the GeoTIFFs and the gis bundle
   std::vector<std::string> engines;   // --for: bundles, PREFIX.<engine>/
+  double ocean_floor_m = 0;           // m, --ocean-floor-m: the open ocean's flank stretched down to it; 0 = off
 
   // What the flags ask for, checked (one line naming the flag otherwise).
   struct Parsed {

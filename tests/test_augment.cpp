@@ -152,6 +152,22 @@ TEST(Affine, OutsideTheCanvasIsOpenOcean) {
   EXPECT_EQ(cv::countNonZero(q.label == kIsland), 16);  // the edge column, shrunk to half, inside
 }
 
+// A sea floor with relief is continued past the canvas edge, not cut to a
+// constant: no step along the rotated canvas.
+TEST(Affine, OutsideContinuesTheSeaFloorWithoutAStep) {
+  Pair p{cv::Mat1f(64, 64), cv::Mat1b(64, 64, uint8_t(kAbyss)), cv::Mat1f(64, 64, 0.f)};
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x) p.height_m(y, x) = -97.f + 0.02f * float(x);  // a gentle slope, −97…−95.7 m
+  const Pair q = affine(p, 30, 0.8, false);
+  float step = 0;
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x + 1 < 64; ++x) step = std::max(step, std::fabs(q.height_m(y, x + 1) - q.height_m(y, x)));
+  EXPECT_LT(step, 0.2f);  // a constant −100 m fill stepped ≥ 2 m
+  double lo, hi;
+  cv::minMaxLoc(q.height_m, &lo, &hi);
+  EXPECT_GE(lo, -97.01);
+}
+
 TEST(Dataset, OtherIslandSystemsAsPairs) {
   DatasetParams p;
   p.size_px = 48;

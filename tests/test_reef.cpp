@@ -9,6 +9,7 @@
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/reef.hpp"
+#include "reefgen/terrain/ocean_floor.hpp"
 #include "reefgen/terrain/reef_stats.hpp"
 
 using namespace reefgen;
@@ -182,4 +183,34 @@ TEST(ReefStats, GridAmplitudeFindsAPlantedWaffle) {
   EXPECT_LT(clean.grid_amplitude_m, 0.005);
   EXPECT_NEAR(waffle.grid_amplitude_m, 0.05, 0.01);
   EXPECT_GT(waffle.grid_ring_ratio, 10);
+}
+
+// --ocean-floor-m: the open ocean is stretched to the depth asked, continuous
+// at the knee; a lagoon behind its rim keeps its depth even below the knee.
+TEST(OceanFloor, StretchesTheOpenOceanAndKeepsLagoons) {
+  cv::Mat1f h(64, 64, -100.f);
+  // A rim at -1 m around a -70 m lagoon in the middle; the ocean rises to -60 m at the rim.
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x) {
+      const double r = std::hypot(x - 31.5, y - 31.5);
+      if (r < 12) h(y, x) = -70.f;
+      else if (r < 16) h(y, x) = -1.f;
+      else h(y, x) = float(-60.0 - 40.0 * std::min(1.0, (r - 16) / 16));
+    }
+  cv::Mat1f d = h.clone();
+  terrain::deepen_flank(d, -2000);
+  EXPECT_FLOAT_EQ(d(0, 0), -2000.f);       // the model's floor lands on the ocean floor
+  EXPECT_FLOAT_EQ(d(31, 31), -70.f);       // the lagoon is not the ocean
+  EXPECT_FLOAT_EQ(d(31, 31 + 14), -1.f);   // nor the rim
+  // Continuous at the knee: the flank's first cells stay near -60 m.
+  EXPECT_NEAR(d(31, 31 + 17), -60.0 + (h(31, 31 + 17) + 60.0) * 1940.0 / 40.0, 1e-3);
+  EXPECT_FLOAT_EQ(d(31, 31 + 16), h(31, 31 + 16));  // at the knee itself: unchanged
+  double lo, hi;
+  cv::minMaxLoc(d, &lo, &hi);
+  EXPECT_FLOAT_EQ(float(lo), -2000.f);
+  cv::Mat1f same = h.clone();
+  terrain::deepen_flank(same, -50);  // shallower than the model's floor: nothing
+  EXPECT_EQ(cv::norm(same, h, cv::NORM_INF), 0);
+  EXPECT_THROW(terrain::deepen_flank(same, std::nan("")), Error);
+  EXPECT_THROW(terrain::deepen_flank(same, -20000), Error);
 }

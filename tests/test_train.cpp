@@ -344,8 +344,16 @@ TEST(Train, InitStartsFromAnotherRunsWeights) {
   expect_error_naming([&] { run_training(wider, bad); }, "ngf = 4 there, 8 here");
   bad.init_from = base / "nowhere.pt";
   expect_error_naming([&] { run_training(params, bad); }, "nowhere.pt");
+  // An exported generator starts G alone, D fresh (fine-tuning a shipped model).
+  torch::manual_seed(tuned.seed);
+  Pix2Pix g_only(pix2pix_options(tuned));
+  load_checkpoint_weights(base / "src" / "generator.pt", g_only, tuned);
+  expect_same_weights(*src.p.G(), *g_only.G());
+  EXPECT_FALSE(torch::equal(src.p.D()->parameters()[0], g_only.D()->parameters()[0]));
   bad.init_from = base / "src" / "generator.pt";
-  expect_error_naming([&] { run_training(params, bad); }, "expected a checkpoint");
+  expect_error_naming([&] { run_training(wider, bad); }, "another architecture");
+  bad.init_from = base / "src" / "run.json";  // neither a checkpoint nor a generator
+  expect_error_naming([&] { run_training(params, bad); }, "run.json");
   EXPECT_FALSE(fs::exists(base / "bad" / "checkpoint.pt"));
   fs::remove_all(base);
 }

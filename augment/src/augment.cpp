@@ -18,6 +18,20 @@ void check(const Pair& p) {
 }
 }  // namespace
 
+// The open ocean's height on the canvas border: the highest border cell
+// labelled abyss, or `fallback` when none is.
+float border_ocean_m(const Pair& p, double fallback) {
+  std::vector<float> v;
+  const int W = p.height_m.cols, H = p.height_m.rows;
+  auto take = [&](int y, int x) {
+    if (p.label(y, x) == kAbyss) v.push_back(p.height_m(y, x));
+  };
+  for (int x = 0; x < W; ++x) take(0, x), take(H - 1, x);
+  for (int y = 1; y + 1 < H; ++y) take(y, 0), take(y, W - 1);
+  if (v.empty()) return float(fallback);
+  return *std::max_element(v.begin(), v.end());
+}
+
 Pair affine(const Pair& p, double angle_deg, double scale, bool flip_x, double ocean_m) {
   check(p);
   if (!(scale > 0) || !std::isfinite(angle_deg)) throw Error("augment: scale must be > 0 and the angle finite");
@@ -33,11 +47,17 @@ Pair affine(const Pair& p, double angle_deg, double scale, bool flip_x, double o
   Pair out;
   const cv::Size sz = p.height_m.size();
   // The sea floor has relief (docs/REEF.md): cells from outside the canvas
-  // continue its edge rather than a constant floor, which would draw the
-  // rotated canvas as a straight step. ocean_m fills only a canvas without an
-  // edge to continue (never: kept for callers that pass one).
-  (void)ocean_m;
+  // continue its edge (no straight step along the rotated canvas), but never
+  // above the highest abyss cell of its border, so land cut by the edge is not
+  // smeared outwards.
   cv::warpAffine(p.height_m, out.height_m, m, sz, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  cv::Mat1b inside;
+  cv::warpAffine(cv::Mat1b(p.height_m.size(), uint8_t(1)), inside, m, sz, cv::INTER_NEAREST, cv::BORDER_CONSTANT,
+                 cv::Scalar(0));
+  const float ocean = border_ocean_m(p, ocean_m);
+  for (int y = 0; y < sz.height; ++y)
+    for (int x = 0; x < sz.width; ++x)
+      if (!inside(y, x)) out.height_m(y, x) = std::min(out.height_m(y, x), ocean);
   cv::warpAffine(p.label, out.label, m, sz, cv::INTER_NEAREST, cv::BORDER_CONSTANT, cv::Scalar(kAbyss));
   cv::warpAffine(p.subsidence, out.subsidence, m, sz, cv::INTER_NEAREST, cv::BORDER_REPLICATE);
   return out;

@@ -1,3 +1,4 @@
+#include "reefgen/terrain/ocean_floor.hpp"
 #include "reefgen/infer/run.hpp"
 
 #include <cmath>
@@ -134,6 +135,10 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
       labels.clear();
       for (const auto& s : sketches) labels.push_back(s.label);
       heights = infer_heights(gen, sketches, io, job.layers || job.geotiff || !job.bundles.empty() ? &before : nullptr);
+      if (io.ocean_floor_m < 0) {
+        for (auto& h : heights) terrain::deepen_flank(h, io.ocean_floor_m);
+        for (auto& h : before) terrain::deepen_flank(h, io.ocean_floor_m);
+      }
     }
     const fs::path prefix = prefix_of(inputs[i]);
     const cv::Mat1f& h = heights[i % kChunk];
@@ -154,6 +159,7 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
         {"metres_per_px", mpp},
         {"height_range_m", {hmin, hmax}},
         {"model_range_m", {gen.range.lo_m, gen.range.hi_m}}};
+    if (io.ocean_floor_m < 0) side["ocean_floor_m"] = io.ocean_floor_m;
     side.update(stage_height_files(staged, prefix, h, mpp, hf));
     stage_layers_and_geotiffs(staged, job, prefix.string(), h, before, labels, i % kChunk, mpp, side);
     if (hf.r16) r.r16_notes.push_back(prefix.string() + ".r16: " + side["r16"]["import_note"].get<std::string>());

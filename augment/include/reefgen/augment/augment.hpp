@@ -18,8 +18,11 @@ struct Pair {
 
 // Rotation by angle_deg (counter-clockwise in the image as displayed), uniform
 // scaling about the centre, optional horizontal flip (applied first). Pixels
-// that come from outside the canvas are open ocean: abyss at `ocean_m`
-// (replicating the border instead drew streaks wherever an island touched it).
+// that come from outside the canvas are open ocean: abyss, their heights the
+// canvas edge continued but never above the highest abyss cell on the
+// border (`ocean_m` when there are none): a constant floor drew the rotated
+// canvas as a step on the sea floor's relief, and replicating alone drew
+// streaks wherever an island touched the border.
 Pair affine(const Pair& p, double angle_deg, double scale, bool flip_x, double ocean_m = -100.0);
 
 // Translation by (dx, dy) pixels with wrap-around: what leaves one side comes
