@@ -118,33 +118,50 @@ void measure_motu(const cv::Mat1f& h, double mpp, ReefStats& st) {
   st.motu = int(st.motu_widths_m.size());
 }
 
+// Welch's method: the amplitude spectra of every window that lies ≥ 90 % on
+// underwater slope (−80 … −3 m), Hann-windowed after the window's plane is
+// removed, averaged; the grid's components read off the mean spectrum at
+// period P along x, y and the diagonals. Windows are 8 periods wide (a power
+// of two, ≥ 32 px): narrow enough to fit on a reef island's flank.
 void measure_grid(const cv::Mat1f& h, double period_px, ReefStats& st) {
-  // The largest centred power-of-two window up to 2048².
-  int n = 1;
-  while (n * 2 <= std::min({h.rows, h.cols, 2048})) n *= 2;
-  const cv::Mat1f win = h(cv::Rect((h.cols - n) / 2, (h.rows - n) / 2, n, n)).clone();
-  cv::Mat1f smooth;
-  cv::GaussianBlur(win, smooth, cv::Size(), 2.0 * period_px);
-  cv::Mat1f detail = win - smooth;
-  // A Hann window: the window's cut edges would leak along the axes, where
-  // the grid's own components lie.
+  int n = 32;
+  while (n < 8 * period_px) n *= 2;
+  if (h.rows < n || h.cols < n || period_px * 2 > n) return;
   std::vector<double> hann(static_cast<size_t>(n));
   for (int i = 0; i < n; ++i) hann[size_t(i)] = 0.5 - 0.5 * std::cos(2.0 * M_PI * (i + 0.5) / n);
-  double weight = 0;
-  for (int y = 0; y < n; ++y)
-    for (int x = 0; x < n; ++x) {
-      const bool slope = win(y, x) > -80.f && win(y, x) < -3.f;
-      const double w = slope ? hann[size_t(x)] * hann[size_t(y)] : 0.0;
-      detail(y, x) = float(detail(y, x) * w);
-      weight += w;
+  double hann_sum = 0;
+  for (double a : hann) hann_sum += a;
+  cv::Mat1d mean_amp(n, n, 0.0);
+  int windows = 0;
+  for (int y0 = 0; y0 + n <= h.rows; y0 += n / 2)
+    for (int x0 = 0; x0 + n <= h.cols; x0 += n / 2) {
+      const cv::Mat1f w = h(cv::Rect(x0, y0, n, n));
+      if (cv::countNonZero((w > -80.f) & (w < -3.f)) < n * n) continue;  // slope only: land keeps its own detail
+      // Remove the window's least-squares plane (mean and the two slopes).
+      double m = cv::mean(w)[0], sx = 0, sy = 0, c = 0;
+      for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+          const double u = x - 0.5 * (n - 1), v = y - 0.5 * (n - 1);
+          sx += u * (w(y, x) - m), sy += v * (w(y, x) - m), c += u * u;
+        }
+      cv::Mat1f d(n, n);
+      for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+          const double u = x - 0.5 * (n - 1), v = y - 0.5 * (n - 1);
+          d(y, x) = float((w(y, x) - m - sx / c * u - sy / c * v) * hann[size_t(x)] * hann[size_t(y)]);
+        }
+      cv::Mat spec;
+      cv::dft(d, spec, cv::DFT_COMPLEX_OUTPUT);
+      for (int y = 0; y < n; ++y)
+        for (int x = 0; x < n; ++x) {
+          const cv::Vec2f z = spec.at<cv::Vec2f>(y, x);
+          mean_amp(y, x) += 2.0 * std::hypot(z[0], z[1]) / (hann_sum * hann_sum);
+        }
+      ++windows;
     }
-  if (weight < 0.01 * double(n) * n * 0.25) return;
-  cv::Mat spec;
-  cv::dft(detail, spec, cv::DFT_COMPLEX_OUTPUT);
-  auto amp = [&](int u, int v) {
-    const cv::Vec2f z = spec.at<cv::Vec2f>((v + n) % n, (u + n) % n);
-    return 2.0 * std::hypot(z[0], z[1]) / weight;
-  };
+  if (windows == 0) return;
+  mean_amp /= windows;
+  auto amp = [&](int u, int v) { return mean_amp((v + n) % n, (u + n) % n); };
   const int k = int(std::lround(n / period_px));
   const double peak = std::max({amp(k, 0), amp(0, k), amp(k, k), amp(k, -k)});
   std::vector<double> ring;

@@ -38,9 +38,10 @@ struct ReefStats {
 };
 
 // grid_period_px > 0 also measures the model grid (the period in pixels, e.g.
-// 8 for a 2048² answer of a 256² model): on the largest square window of
-// underwater slope (−80 … −3 m) the amplitude of the Fourier components at
-// that period along x and y, against the median of their frequency ring.
+// 8 for a 2048² answer of a 256² model): Welch's method over windows 8 periods
+// wide that lie ≥ 90 % on underwater slope (−80 … −3 m): the mean amplitude of the
+// components at that period along x, y and the diagonals, and its ratio to
+// the median of its frequency ring. NaN when no window qualifies.
 ReefStats reef_stats(const cv::Mat1f& height_m, double metres_per_px, double grid_period_px = 0);
 
 }  // namespace reefgen::terrain
