@@ -81,12 +81,7 @@ int run_erode(const ErodeArgs& a0, const GlobalOptions& g) {
   cv::Mat1f before = in.height_m - float(a.sea_level_m);
   if (!g.quiet) std::fprintf(stderr, "erode: %s, %d², %.3g m per pixel\n", a.input.c_str(), before.cols, mpp);
   cv::Mat1f out = terrain::erode_island(before, cv::Mat1f(before.size(), float(a.resistance)), world_m, a.seed, ep);
-  // --ocean-floor-m: the flank continues from the field's own lowest value.
-  if (a.finish.ocean_floor_m < 0) {
-    double lo = 0;
-    cv::minMaxLoc(out, &lo);
-    terrain::deepen_flank(out, a.finish.ocean_floor_m, lo);
-  }
+  if (a.finish.ocean_floor_m < 0) terrain::deepen_flank(out, a.finish.ocean_floor_m);
 
   StagedOutputs staged;
   HeightFiles hf;

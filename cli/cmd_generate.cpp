@@ -73,8 +73,8 @@ int run_single(const GenerateArgs& a, const GlobalOptions& g) {
   opt.keep_uneroded = fin.need_layers;
   IslandFields f = generate(spec, opt);
   if (a.finish.ocean_floor_m < 0) {
-    terrain::deepen_flank(f.height_m, a.finish.ocean_floor_m, spec.heights.floor_m);
-    if (!f.uneroded_m.empty()) terrain::deepen_flank(f.uneroded_m, a.finish.ocean_floor_m, spec.heights.floor_m);
+    terrain::deepen_flank(f.height_m, a.finish.ocean_floor_m);
+    if (!f.uneroded_m.empty()) terrain::deepen_flank(f.uneroded_m, a.finish.ocean_floor_m);
   }
   nlohmann::json prov = {{"mode", a.preset.empty() ? "spec" : "preset"},
                          {"source", a.preset.empty() ? a.spec_file : a.preset},

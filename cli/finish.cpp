@@ -46,7 +46,7 @@ void add_finish_flags(CLI::App* sub, FinishFlags& f) {
       ->type_name("ENGINE");
   sub->add_option("--ocean-floor-m", f.ocean_floor_m,
                   "Continue the submarine flank down to this depth, e.g. -2000 (metres, [-11000, -1]): the open "
-                  "ocean below -60 m is stretched from the model's -100 m floor to it; lagoons are kept "
+                  "ocean below -60 m is stretched so that its lowest cell lies there; lagoons are kept "
                   "(docs/REEF.md \"Deeper than the abyss\")")
       ->check(CLI::Range(-11000.0, -1.0))
       ->type_name("M");

@@ -369,7 +369,30 @@ expect_error "use one of default" floating --painting "$PAINT" --preset cliffy -
 echo '{"alpha_top": 0.2, "rim": 3}' > "$T/bad_floating.json"
 expect_error 'unknown key "rim"' floating --painting "$PAINT" --config "$T/bad_floating.json" -o "$T/e/x.glb"
 expect_error "metres_per_px" floating --height "$T/s/m4t.height.exr" --metres-per-px 0 -o "$T/e/x.glb"
-expect_error "no land" floating --height "$T/p/atoll.height.exr" -o "$T/e/x.glb"   # the atoll preset is all below 0 m
+# The reef report and --ocean-floor-m (docs/REEF.md): the atoll preset's crest
+# is awash on most rays, its lagoon a basin, its motu above the sea; the open
+# ocean is stretched to the depth asked while the lagoon keeps its depth.
+"$BIN" -q generate --preset atoll --size 257 -o "$T/reef/a" >/dev/null
+"$BIN" -q generate --preset atoll --size 257 --ocean-floor-m -2000 -o "$T/reef/d" >/dev/null
+"$BIN" realism --reef --json "$T/reef/a.height.exr" "$T/reef/d.height.exr" > "$T/reef/r.jsonl" \
+  && OPENCV_IO_ENABLE_OPENEXR=1 "$PY" - "$T/reef" <<'PYEOF' && ok || bad "realism --reef on the atoll, or --ocean-floor-m"
+import cv2, json, sys, numpy as np
+d = sys.argv[1]
+a, b = [json.loads(l)["reef"] for l in open(d + "/r.jsonl")]
+assert a["crest_at_sea"] >= 0.7 and a["motu"] >= 1 and a["passes"] >= 1, a
+assert -60 <= a["lagoon_median_m"] <= a["crest_median_m"] - 5, a
+assert a["flat_floor_share"] <= 0.02 and b["flat_floor_share"] <= 0.02, (a, b)
+ha = cv2.imread(d + "/a.height.exr", cv2.IMREAD_UNCHANGED); hb = cv2.imread(d + "/d.height.exr", cv2.IMREAD_UNCHANGED)
+assert ha.min() > -100 and abs(hb.min() + 2000) < 1e-3, (ha.min(), hb.min())
+assert np.array_equal(ha[ha > -60], hb[ha > -60])  # above the knee nothing moves: lagoon, reef, motu
+assert json.load(open(d + "/d.json"))["provenance"]["ocean_floor_m"] == -2000
+PYEOF
+expect_error "ocean-floor-m" generate --preset atoll --ocean-floor-m -20000 -o "$T/e/x"
+expect_error "not for worlds" world "$T/p/atoll.label.png" --ocean-floor-m -2000 -o "$T/e/w"
+# A sunk reef without motu: all below 0 m (the atoll preset has motu now).
+echo '{"subsidence": 0.95, "reef": {"random_motu": 0}}' > "$T/sunk.json"
+"$BIN" -q generate --spec "$T/sunk.json" --size 64 -o "$T/p/sunk" >/dev/null
+expect_error "no land" floating --height "$T/p/sunk.height.exr" -o "$T/e/x.glb"
 "$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/one" --png16 --r16 --mesh glb --preview > "$T/out" || bad "infer"
 for f in height.exr height.png r16 glb preview.png json; do [ -s "$T/i/one.$f" ] || bad "infer: no one.$f"; done
 [ "$(stat -c %s "$T/i/one.r16")" = $((48*48*2)) ] && ok || bad "r16 size"

@@ -209,7 +209,7 @@ TEST(OceanFloor, StretchesTheOpenOceanAndKeepsLagoons) {
   cv::minMaxLoc(d, &lo, &hi);
   EXPECT_FLOAT_EQ(float(lo), -2000.f);
   cv::Mat1f same = h.clone();
-  terrain::deepen_flank(same, -50);  // shallower than the model's floor: nothing
+  terrain::deepen_flank(same, -50);  // shallower than the ocean already is: nothing
   EXPECT_EQ(cv::norm(same, h, cv::NORM_INF), 0);
   EXPECT_THROW(terrain::deepen_flank(same, std::nan("")), Error);
   EXPECT_THROW(terrain::deepen_flank(same, -20000), Error);

@@ -32,12 +32,16 @@ cv::Mat1b open_ocean(const cv::Mat1f& h) {
 
 }  // namespace
 
-void deepen_flank(cv::Mat1f& h, double ocean_floor_m, double model_floor_m) {
+void deepen_flank(cv::Mat1f& h, double ocean_floor_m) {
   if (!std::isfinite(ocean_floor_m) || ocean_floor_m < -11000 || ocean_floor_m > -1)
     throw Error("ocean floor " + std::to_string(ocean_floor_m) + " m is out of range; expected [-11000, -1] m");
-  if (h.empty() || ocean_floor_m >= model_floor_m) return;
-  const double scale = (ocean_floor_m - kFlankKneeM) / (model_floor_m - kFlankKneeM);
+  if (h.empty()) return;
   const cv::Mat1b ocean = open_ocean(h);
+  if (cv::countNonZero(ocean) == 0) return;
+  double lowest = 0;
+  cv::minMaxLoc(h, &lowest, nullptr, nullptr, nullptr, ocean);
+  if (ocean_floor_m >= lowest) return;
+  const double scale = (ocean_floor_m - kFlankKneeM) / (lowest - kFlankKneeM);
   for (int y = 0; y < h.rows; ++y) {
     float* r = h.ptr<float>(y);
     const uint8_t* o = ocean.ptr<uint8_t>(y);

@@ -16,11 +16,11 @@ inline constexpr float kFlankKneeM = -60.f;
 
 // Stretches the ocean's flank down to ocean_floor_m: cells below
 // kFlankKneeM that reach the field's border through cells below it (the open
-// ocean, not a lagoon behind its rim) map linearly from [model_floor_m,
+// ocean, not a lagoon behind its rim) map linearly from [their lowest value,
 // kFlankKneeM] to [ocean_floor_m, kFlankKneeM]: continuous at the knee, the
-// field's lowest values at ocean_floor_m. ocean_floor_m ≥ model_floor_m
-// changes nothing. Throws reefgen::Error for a non-finite depth or one
+// ocean's lowest cell at ocean_floor_m. Nothing changes when that cell is
+// already as deep. Throws reefgen::Error for a non-finite depth or one
 // outside [-11000, -1] m.
-void deepen_flank(cv::Mat1f& height_m, double ocean_floor_m, double model_floor_m = kAbyssFloorM);
+void deepen_flank(cv::Mat1f& height_m, double ocean_floor_m);
 
 }  // namespace reefgen::terrain
