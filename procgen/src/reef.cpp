@@ -79,7 +79,7 @@ void add_random_passes(ReefPlan& plan, const IslandSpec& spec, const OutlineTabl
     // Four points across the rim, each pushed sideways: a channel that winds.
     std::vector<Vec2> pts;
     for (int i = 0; i < 4; ++i) {
-      const double r = r0 + (r1 - r0) * i / 3.0, a = th + rng.uniform(-0.6, 0.6) * width_m * to_canvas / r;
+      const double r = r0 + (r1 - r0) * i / 3.0, a = th + rng.uniform(-1.5, 1.5) * width_m * to_canvas / r;
       pts.push_back({r * std::cos(a), r * std::sin(a)});
     }
     plan.passes.push_back(pass_from_curve(pts, width_m, depth_m, to_canvas));
@@ -255,9 +255,14 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
       bool in_pass = false;
       if (xr > c.back_end - 0.3 && xr < 1.0)
         for (const auto& p : plan.passes) {
+          // Wider seaward (the channel fans out over the fore reef), with
+          // sloping walls (the cut deepens over its whole half-width) and
+          // edges roughened along the channel.
+          const double hw = p.half_width * (1.0 + 0.6 * ease((xr - c.back_end) / (1.0 - c.back_end))) *
+                            (1.0 + 0.2 * noise.perlin(float(sx * to_m / 90), float(sy * to_m / 90)));
           const double d = pass_distance(p, float(sx), float(sy));
-          if (d >= p.half_width) continue;
-          const double m = ease(2.0 * (1.0 - d / p.half_width));
+          if (d >= hw) continue;
+          const double m = ease(1.25 * (1.0 - d / hw));
           coral += m * (std::min(coral, -p.depth_m) - coral);
           g = std::min(g, g + m * (std::min(g, -p.depth_m) - g));
           in_pass = in_pass || m > 0.5;
@@ -284,8 +289,12 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
         const double ww = ease(2.0 * facing + 0.5);
         const double dg = -g;
         const double wd = ease((dg - 0.5) / 2.0) * (1.0 - ease((dg - 0.6 * rp.groove_depth_m) / (0.4 * rp.groove_depth_m)));
-        const double phase = th * grooves_round / (2.0 * M_PI) + 0.3 * noise.perlin(float(th * grooves_round / 25), 3.5f);
-        g += groove_amp * ww * wd * std::cos(2.0 * M_PI * phase);
+        // Irregular as real grooves: the phase wanders over a few periods and
+        // the relief varies from spur to spur.
+        const double along = th * grooves_round;
+        const double phase = along / (2.0 * M_PI) + 0.8 * noise.perlin(float(along / 12), 3.5f);
+        const double relief = 0.6 + 0.4 * noise.perlin(float(along / 5), 7.25f);
+        g += groove_amp * relief * ww * wd * std::cos(2.0 * M_PI * phase);
       }
       // 6. Beyond the reef the flank keeps descending towards the floor,
       // e-folding over abyss_decay_m, with relief: never a flat plane.

@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Rebuilds the shipped model of the reef (models/reef-256.pt since 2026-11-27,
+# docs/REEF.md, models/README.md): the dataset of configs/dataset/shipped.json
+# (seed 11) on the reef generator, then configs/train/reef-finetune.json
+# started with --init from the model shipped before the reef (G only, D
+# fresh), the float16 pack and the measurements. Work folders go to $WORK
+# (default ../reefgen-work-reef), outside the repository; Ctrl-C and run it
+# again to resume.
+#   bash scripts/train-reef.sh [BASE_MODEL]   # BASE_MODEL: the generator to start from
+#                                             # (default: the pre-reef model from git history, commit 6938da5)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+[ -x build/cli/reefgen-torch ] || bash scripts/build.sh >&2
+BIN=build/cli/reefgen
+WORK=${WORK:-../reefgen-work-reef}
+mkdir -p "$WORK"
+BASE=${1:-$WORK/base-256.pt}
+if [ ! -f "$BASE" ]; then
+  # The model shipped before the reef, from the repository's history.
+  git show 6938da5:models/reef-256.pt > "$BASE.tmp" && mv "$BASE.tmp" "$BASE"
+fi
+$BIN dataset build --config configs/dataset/shipped.json --seed 11 --out "$WORK/data" >/dev/null
+if [ -f "$WORK/run/checkpoint.pt" ]; then
+  $BIN train --data "$WORK/data" --out "$WORK/run" --resume >/dev/null
+else
+  $BIN train --config configs/train/reef-finetune.json --data "$WORK/data" --out "$WORK/run" --init "$BASE" >/dev/null
+fi
+$BIN model pack "$WORK/run/generator.pt" -o "$WORK/reef-256.pt" --storage float16 >/dev/null
+$BIN -q eval -m "$WORK/reef-256.pt" --data "$WORK/data" --split test --out "$WORK/eval" >/dev/null
+$BIN -q eval-sketches tests/data/painted -m "$WORK/reef-256.pt" --out "$WORK/eval-painted" >/dev/null
+PY=/usr/bin/python3; [ -x "$PY" ] || PY=python3
+"$PY" scripts/reef-bars.py -m "$WORK/reef-256.pt" --out "$WORK/reef-bars" > "$WORK/reef-bars.json"
+echo "model: $WORK/reef-256.pt (copy it to models/ to ship it)"
+echo "held-out test: $WORK/eval/eval.md; painted sketches: $WORK/eval-painted/sketches.json; reef bars: $WORK/reef-bars.json"
