@@ -79,20 +79,28 @@ Ray cast_ray(const cv::Mat1f& h, cv::Point2d c, double angle, double mpp) {
   return r;
 }
 
-// Runs of pass rays (crest < kPassCrestM) between reef rays, round the circle.
+// Runs of pass rays (crest < kPassCrestM) between reef rays, round the
+// circle; runs closer than kPassMergeRays (a pass's rough walls) are one.
+constexpr int kPassMergeRays = 4;
 int count_passes(const std::vector<Ray>& rays) {
-  const int n = int(rays.size());
+  std::vector<int> state;  // over the rays that cross a reef: 1 pass, 0 rim
+  for (const Ray& r : rays)
+    if (r.reef) state.push_back(r.crest_m < kPassCrestM ? 1 : 0);
+  const int n = int(state.size());
   int start = -1;
   for (int i = 0; i < n; ++i)
-    if (rays[size_t(i)].reef && rays[size_t(i)].crest_m >= kPassCrestM) { start = i; break; }
+    if (state[size_t(i)] == 0) { start = i; break; }
   if (start < 0) return 0;
-  int passes = 0;
-  bool in = false;
+  // Walk once round from a rim ray; a rim run shorter than kPassMergeRays
+  // between two pass rays does not end the pass.
+  int passes = 0, rim_run = kPassMergeRays;
   for (int k = 1; k <= n; ++k) {
-    const Ray& r = rays[size_t((start + k) % n)];
-    const bool pass = r.reef && r.crest_m < kPassCrestM;
-    if (pass && !in) ++passes;
-    if (r.reef) in = pass;
+    if (state[size_t((start + k) % n)] == 1) {
+      if (rim_run >= kPassMergeRays) ++passes;
+      rim_run = 0;
+    } else {
+      ++rim_run;
+    }
   }
   return passes;
 }
