@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "reefgen/labels.hpp"
+#include "test_util.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/reef.hpp"
 #include "reefgen/terrain/ocean_floor.hpp"
@@ -213,4 +214,18 @@ TEST(OceanFloor, StretchesTheOpenOceanAndKeepsLagoons) {
   EXPECT_EQ(cv::norm(same, h, cv::NORM_INF), 0);
   EXPECT_THROW(terrain::deepen_flank(same, std::nan("")), Error);
   EXPECT_THROW(terrain::deepen_flank(same, -20000), Error);
+}
+
+// Drawn passes are bounded (each reef cell looks at the passes near it): too
+// many points in all, or a pass wider than a real one, is one clear error.
+TEST(Reef, DrawnPassesAreBounded) {
+  nlohmann::json j = {{"reef", {{"passes", nlohmann::json::array()}}}};
+  for (int k = 0; k < 5; ++k) {
+    nlohmann::json pts = nlohmann::json::array();
+    for (int i = 0; i < 1000; ++i) pts.push_back({0.5 * std::cos(0.01 * i), 0.5 * std::sin(0.01 * i)});
+    j["reef"]["passes"].push_back({{"points", pts}});
+  }
+  test::expect_error_naming([&] { spec_from_json(j, "many.json"); }, "4096");
+  nlohmann::json wide = {{"reef", {{"passes", {{{"points", {{0, 0}, {1, 0}}}, {"width_m", 5000}}}}}}};
+  test::expect_error_naming([&] { spec_from_json(wide, "wide.json"); }, "width_m");
 }

@@ -57,11 +57,27 @@ std::array<double, 2> windward_direction(const IslandSpec& spec) {
 
 ReefPlan::Pass pass_from_curve(const std::vector<Vec2>& points, double width_m, double depth_m, double to_canvas) {
   ReefPlan::Pass p;
-  const auto poly = sample_open_catmull_rom(points, 8);
+  // 8 samples per control interval for a curve of a few points, fewer as it
+  // has more: at most ~512 segments a pass.
+  const auto poly = sample_open_catmull_rom(points, std::clamp(512 / int(points.size()), 1, 8));
   for (size_t i = 0; i + 1 < poly.size(); ++i)
     p.segs.push_back({float(poly[i].x), float(poly[i].y), float(poly[i + 1].x), float(poly[i + 1].y)});
   p.half_width = 0.5 * width_m * to_canvas;
   p.depth_m = depth_m;
+  // The widest the cut gets (apply_reef: ×1.6 seaward, ×1.2 roughened).
+  const float pad = float(2.0 * p.half_width);
+  auto grow = [pad](std::array<float, 4>& b, const std::array<float, 4>& g) {
+    b[0] = std::min({b[0], g[0] - pad, g[2] - pad});
+    b[1] = std::min({b[1], g[1] - pad, g[3] - pad});
+    b[2] = std::max({b[2], g[0] + pad, g[2] + pad});
+    b[3] = std::max({b[3], g[1] + pad, g[3] + pad});
+  };
+  p.box = {1e30f, 1e30f, -1e30f, -1e30f};
+  for (size_t i = 0; i < p.segs.size(); ++i) {
+    if (i % kPassChunk == 0) p.chunk_box.push_back({1e30f, 1e30f, -1e30f, -1e30f});
+    grow(p.chunk_box.back(), p.segs[i]);
+    grow(p.box, p.segs[i]);
+  }
   return p;
 }
 
@@ -176,17 +192,24 @@ ReefPlan plan_reef(const IslandSpec& spec, const OutlineTable& outlines) {
 
 namespace {
 
-// Distance (canvas units) from a point to a pass's centre line.
+// Distance (canvas units) from a point to a pass's centre line, or 1e30
+// when the point is outside every chunk's box (farther than the cut reaches).
 float pass_distance(const ReefPlan::Pass& p, float x, float y) {
   float best = 1e30f;
-  for (const auto& s : p.segs) {
+  for (size_t c = 0; c < p.chunk_box.size(); ++c) {
+    const auto& b = p.chunk_box[c];
+    if (x < b[0] || y < b[1] || x > b[2] || y > b[3]) continue;
+    const size_t end = std::min(p.segs.size(), (c + 1) * size_t(kPassChunk));
+    for (size_t i = c * kPassChunk; i < end; ++i) {
+    const auto& s = p.segs[i];
     const float dx = s[2] - s[0], dy = s[3] - s[1], wx = x - s[0], wy = y - s[1];
     const float l2 = dx * dx + dy * dy;
     const float t = l2 > 0 ? std::clamp((wx * dx + wy * dy) / l2, 0.f, 1.f) : 0.f;
     const float ex = wx - t * dx, ey = wy - t * dy;
     best = std::min(best, ex * ex + ey * ey);
+    }
   }
-  return std::sqrt(best);
+  return best >= 1e30f ? 1e30f : std::sqrt(best);
 }
 
 // Patch reefs and pinnacles: where a band-limited noise field (features of
@@ -255,6 +278,7 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
       bool in_pass = false;
       if (xr > c.back_end - 0.3 && xr < 1.0)
         for (const auto& p : plan.passes) {
+          if (sx < p.box[0] || sy < p.box[1] || sx > p.box[2] || sy > p.box[3]) continue;
           // Wider seaward (the channel fans out over the fore reef), with
           // sloping walls (the cut deepens over its whole half-width) and
           // edges roughened along the channel.

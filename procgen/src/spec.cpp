@@ -93,6 +93,11 @@ void validate(const IslandSpec& s) {
   // Rules between fields, which the walk's per-field ranges cannot say.
   const auto& c = s.coral;
   check_range("coral.flat_begin", c.flat_begin, c.back_end, 1);
+  size_t pass_points = 0;
+  for (const auto& p : s.reef.passes) pass_points += p.points.size();
+  if (pass_points > size_t(kMaxPassPoints))
+    throw Error("reef.passes have " + std::to_string(pass_points) + " points in all; at most " +
+                std::to_string(kMaxPassPoints) + " (a pass needs a handful: the channel is a smooth curve)");
   check_range("coral.crest_begin", c.crest_begin, c.flat_begin, 1);
   check_range("coral.crest_end", c.crest_end, c.crest_begin, 1);
 }

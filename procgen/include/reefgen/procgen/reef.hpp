@@ -45,6 +45,10 @@ double shore_height_m(double h_m, double xt, double depth_m, const ReefParams& r
 // (crest_m) from crest_begin to crest_end, fore reef down to abyss_m at x = 1.
 double reef_coral_m(double x, const CoralParams& c);
 
+// Segments per bounding box of a pass's centre line: a drawn pass of 1024
+// points is 8000 segments, and most boxes are far from a given cell.
+inline constexpr int kPassChunk = 16;
+
 // Everything the reef steps need per island, placed once from the spec.
 struct ReefPlan {
   double depth_m = 0;              // lagoon depth D (m, positive)
@@ -53,6 +57,8 @@ struct ReefPlan {
   struct Pass {
     std::vector<std::array<float, 4>> segs;  // canvas segments: x0, y0, x1, y1
     double half_width = 0, depth_m = 0;      // canvas units, m
+    std::array<float, 4> box{};              // canvas bounding box of the cut (x0, y0, x1, y1), widths included
+    std::vector<std::array<float, 4>> chunk_box;  // the same per kPassChunk segments
   };
   std::vector<Pass> passes;
   struct Islet {

@@ -79,17 +79,22 @@ void fields(CoralParams& p, F&& f) {  // back_end ≤ flat_begin ≤ crest_begin
   f("crest_end", p.crest_end, Range{0, 1});
 }
 
+// Points of all drawn passes together, at most: each cell of the reef looks
+// at the passes near it, and this bounds that look-up (a drawn curve is
+// sampled finer only while it has few points).
+inline constexpr int kMaxPassPoints = 4096;
+
 // A pass through the reef rim: a curve the rim is cut along (the authors'
 // tool draws them as curves), with its width and floor depth.
 struct PassStroke {
   std::vector<Vec2> points;  // canvas units in [-4,4]² (+y up), 2..1024 points of an open Catmull-Rom curve
-  double width_m = 150;      // m, full width of the channel, [10, 3000]
+  double width_m = 150;      // m, full width of the channel (real passes: tens of metres to ~1 km), [10, 1000]
   double depth_m = 12;       // m, floor of the pass below sea level, [1, 80]
 };
 template <class F>
 void fields(PassStroke& p, F&& f) {
   f("points", p.points, Custom<std::vector<Vec2>>{points_to_json, points_from_json, check_points});
-  f("width_m", p.width_m, Range{10, 3000});
+  f("width_m", p.width_m, Range{10, 1000});
   f("depth_m", p.depth_m, Range{1, 80});
 }
 
@@ -119,7 +124,7 @@ struct ReefParams {
   double coast_begin = 1.4;          // x̃ where the land starts its descent to the lagoon shore at x̃ = 2, [1, 1.95]
   double shoreface = 0.3;            // x̃ units over which the lagoon shore descends to the floor, [0.02, 1]
   double patch_reefs = 0.3;          // how much of the lagoon floor rises in patch reefs (0 none, 1 about a third), [0, 1]
-  std::vector<PassStroke> passes;    // drawn passes, 0..64
+  std::vector<PassStroke> passes;    // drawn passes, 0..64, kMaxPassPoints points in all
   int random_passes = 2;             // passes added on the leeward rim, [0, 16]
   std::vector<Motu> motu;            // placed motu, 0..256
   int random_motu = 6;               // motu added on the reef flat (scaled down below subsidence 0.2), [0, 64]
