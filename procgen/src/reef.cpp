@@ -173,7 +173,6 @@ double reef_coral_m(double x, const CoralParams& c) {
 ReefPlan plan_reef(const IslandSpec& spec, const OutlineTable& outlines) {
   ReefPlan plan;
   plan.depth_m = lagoon_depth_m(spec);
-  plan.lambda = spec.subsidence;
   plan.windward = windward_direction(spec);
   const double to_canvas = 1.0 / canvas_to_m(spec);
   for (const auto& p : spec.reef.passes) plan.passes.push_back(pass_from_curve(p.points, p.width_m, p.depth_m, to_canvas));

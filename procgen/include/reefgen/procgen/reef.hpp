@@ -52,7 +52,6 @@ inline constexpr int kPassChunk = 16;
 // Everything the reef steps need per island, placed once from the spec.
 struct ReefPlan {
   double depth_m = 0;              // lagoon depth D (m, positive)
-  double lambda = 0;               // subsidence
   std::array<double, 2> windward;  // unit vector towards the wind's origin (canvas, +y up)
   struct Pass {
     std::vector<std::array<float, 4>> segs;  // canvas segments: x0, y0, x1, y1
