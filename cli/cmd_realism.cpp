@@ -10,6 +10,7 @@
 #include "app.hpp"
 #include "reefgen/image_io.hpp"
 #include "reefgen/labels.hpp"
+#include "reefgen/stats.hpp"
 #include "reefgen/terrain/realism.hpp"
 #include "reefgen/terrain/reef_stats.hpp"
 
@@ -162,13 +163,11 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                             st.seams_cols);
                 if (r.has_reef) {
                   const auto& e = r.reef;
-                  std::vector<double> w = e.motu_widths_m;
-                  std::sort(w.begin(), w.end());
                   std::printf("%-40s reef: crest median %.2f m, at sea level (>= -1 m) on %.1f%% of %d rays; reef flat %.0f m; "
                               "lagoon median %.1f m, deepest %.1f m; passes %d; motu %d (median width %.0f m); "
                               "flat floor %.2f%%\n",
                               "", e.crest_median_m, 100 * e.crest_at_sea, e.rays_with_reef, e.reef_flat_width_m,
-                              e.lagoon_median_m, e.lagoon_min_m, e.passes, e.motu, w.empty() ? NAN : w[w.size() / 2],
+                              e.lagoon_median_m, e.lagoon_min_m, e.passes, e.motu, median(e.motu_widths_m),
                               100 * e.flat_floor_share);
                   if (a->grid_period_px > 0)
                     std::printf("%-40s model grid (%.0f px): %.4f m, %.2fx its ring's median\n", "", a->grid_period_px,

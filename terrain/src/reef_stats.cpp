@@ -6,17 +6,11 @@
 #include <opencv2/imgproc.hpp>
 
 #include "reefgen/error.hpp"
+#include "reefgen/stats.hpp"
 
 namespace reefgen::terrain {
 
 namespace {
-
-double median_of(std::vector<double> v) {
-  if (v.empty()) return NAN;
-  const size_t m = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + long(m), v.end());
-  return v[m];
-}
 
 // Bilinear height at (x, y) pixels, or NaN off the field.
 double at(const cv::Mat1f& h, double x, double y) {
@@ -180,7 +174,7 @@ void measure_grid(const cv::Mat1f& h, double period_px, ReefStats& st) {
         ring.push_back(amp(u, v));
     }
   st.grid_amplitude_m = peak;
-  const double med = median_of(ring);
+  const double med = median(ring);
   st.grid_ring_ratio = med > 0 ? peak / med : NAN;
 }
 
@@ -205,9 +199,9 @@ ReefStats reef_stats(const cv::Mat1f& h, double mpp, double grid_period_px) {
     lagoon.insert(lagoon.end(), r.lagoon.begin(), r.lagoon.end());
   }
   if (st.rays_with_reef > 0) st.crest_at_sea = double(at_sea) / st.rays_with_reef;
-  st.crest_median_m = median_of(crests);
-  st.reef_flat_width_m = median_of(flats);
-  st.lagoon_median_m = median_of(lagoon);
+  st.crest_median_m = median(crests);
+  st.reef_flat_width_m = median(flats);
+  st.lagoon_median_m = median(lagoon);
   if (!lagoon.empty()) st.lagoon_min_m = *std::min_element(lagoon.begin(), lagoon.end());
   st.passes = count_passes(rays);
   measure_motu(h, mpp, st);
