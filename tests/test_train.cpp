@@ -123,6 +123,35 @@ TEST(TrainParams, LearningRateConstantThenLinearToZero) {
   EXPECT_DOUBLE_EQ(lr_at(p, 14, 10, 4), 0.0);
 }
 
+// The shore weighting against a hand computation: two cells, one at sea level
+// (weight 1 + extra) and one far below it (weight ~1).
+TEST(Train, ShoreWeightedL1MatchesHandComputation) {
+  TrainParams params;
+  params.l1_shore_weight = 9;
+  params.l1_shore_m = 3;
+  const model::HeightRange range{-100, 560};
+  const Pix2PixOptions o = pix2pix_options(params, range);
+  const double per_m = 2.0 / 660.0;
+  EXPECT_NEAR(o.l1.sea, 100 * per_m - 1, 1e-12);
+  EXPECT_NEAR(o.l1.band, 3 * per_m, 1e-12);
+  const float sea = static_cast<float>(o.l1.sea), deep = -1.0f;
+  const torch::Tensor truth = torch::tensor({sea, deep}).view({1, 1, 1, 2});
+  const torch::Tensor fake = torch::tensor({sea + 0.1f, deep + 0.3f}).view({1, 1, 1, 2});
+  // The deep cell lies 100 m = 33 bands below the sea: its weight is 1.
+  const double expected = (10 * 0.1 + 1 * 0.3) / 11.0;
+  EXPECT_NEAR(weighted_l1(fake, truth, o.l1).item<double>(), expected, 1e-6);
+  // extra 0 is pix2pix's plain mean, bit for bit.
+  L1Weighting plain = o.l1;
+  plain.extra = 0;
+  EXPECT_TRUE(torch::equal(weighted_l1(fake, truth, plain), torch::nn::functional::l1_loss(fake, truth)));
+  // The gradient reaches the fake and is larger at the shore.
+  torch::Tensor f = fake.clone().requires_grad_(true);
+  weighted_l1(f, truth, o.l1).backward();
+  const auto g = f.grad().flatten();
+  EXPECT_NEAR(g[0].item<double>(), 10.0 / 11.0, 1e-6);
+  EXPECT_NEAR(g[1].item<double>(), 1.0 / 11.0, 1e-6);
+}
+
 TEST(Train, LossGoesDownOnAFixedBatch) {
   // LibTorch's convolutions, reefgen's oneDNN ones, and those in bf16 (where
   // the CPU has it): each must learn, and bf16 must keep float32 weights.

@@ -57,7 +57,7 @@ std::string resolved_precision(const TrainParams& p) {
   return p.engine == "onednn" && model::cpu_has_native_bf16() ? "bf16" : "fp32";
 }
 
-Pix2PixOptions pix2pix_options(const TrainParams& p) {
+Pix2PixOptions pix2pix_options(const TrainParams& p, const model::HeightRange& range) {
   Pix2PixOptions o;
   o.g.ngf = p.ngf;
   o.g.depth = p.depth;
@@ -71,6 +71,11 @@ Pix2PixOptions pix2pix_options(const TrainParams& p) {
   o.beta1 = p.beta1;
   o.beta2 = p.beta2;
   o.lambda_l1 = p.lambda_l1;
+  // Heights are normalised as 2 (h - lo) / (hi - lo) - 1 (model/codec.hpp).
+  const double per_m = 2.0 / (range.hi_m - range.lo_m);
+  o.l1.extra = p.l1_shore_weight;
+  o.l1.sea = -range.lo_m * per_m - 1;
+  o.l1.band = p.l1_shore_m * per_m;
   o.conv.engine = p.engine == "torch" ? model::ConvEngine::Torch : model::ConvEngine::OneDnn;
   o.conv.precision = resolved_precision(p) == "bf16" ? model::ConvPrecision::Bf16 : model::ConvPrecision::Fp32;
   return o;

@@ -15,6 +15,14 @@ void set_requires_grad(torch::nn::Module& m, bool on) {
 }
 }  // namespace
 
+torch::Tensor weighted_l1(const torch::Tensor& fake, const torch::Tensor& target, const L1Weighting& w) {
+  if (w.extra == 0) return F::l1_loss(fake, target);
+  // The weights follow the truth only: no gradient flows through them.
+  const torch::Tensor z = (target.detach() - w.sea) / w.band;    // {N,1,S,S}
+  const torch::Tensor weight = 1 + w.extra * torch::exp(-z * z);  // {N,1,S,S}
+  return (weight * (fake - target).abs()).sum() / weight.sum();
+}
+
 Pix2Pix::Pix2Pix(const Pix2PixOptions& o) : options_(o), g_(o.g), d_(o.d), lr_(o.lr) {
   if (o.d.in_channels != o.g.in_channels + o.g.out_channels)
     throw std::invalid_argument("Pix2PixOptions: D takes label ⊕ height, so d.in_channels must be " +
@@ -85,7 +93,7 @@ Losses Pix2Pix::step(const torch::Tensor& label, const torch::Tensor& height) {
   clear_grads(g_->parameters());
   const torch::Tensor pred = d_->forward(torch::cat({label, fake}, 1));
   const torch::Tensor g_gan = F::binary_cross_entropy_with_logits(pred, torch::ones_like(pred));
-  const torch::Tensor g_l1 = F::l1_loss(fake, height) * options_.lambda_l1;
+  const torch::Tensor g_l1 = weighted_l1(fake, height, options_.l1) * options_.lambda_l1;
   if (reduce_g_) reduce_g_->begin();
   (g_gan + g_l1).backward();
   if (reduce_g_) reduce_g_->end();

@@ -834,7 +834,7 @@ RunResult run_training(const TrainParams& requested, const RunOptions& run) {
   Job job;
   open_job(job, requested, run);
   torch::manual_seed(job.params.seed);  // weight initialisation
-  Pix2Pix p(pix2pix_options(job.params));
+  Pix2Pix p(pix2pix_options(job.params, job.data.range));
   LogWindow window;
   int64_t step = start_step(job, run, p, window);
   const int64_t end = job.plan.end;

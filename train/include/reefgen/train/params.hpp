@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "reefgen/params_json.hpp"
+#include "reefgen/model/codec.hpp"
 #include "reefgen/train/pix2pix.hpp"
 
 namespace reefgen::train {
@@ -26,6 +27,8 @@ struct TrainParams {
   double beta1 = 0.5;           // Adam β1, [0, 1)
   double beta2 = 0.999;         // Adam β2, [0, 1)
   double lambda_l1 = 100;       // L1 weight in G's loss, [0, 1e4]
+  double l1_shore_weight = 0;   // extra L1 weight on cells whose truth is near sea level (pix2pix.hpp L1Weighting); 0 = plain L1, [0, 100]
+  double l1_shore_m = 3;        // half-width of that band, metres, (0, 100]
   int batch_size = 1;           // pix2pix: 1, [1, 64]
   double epochs = 1;            // epochs at constant lr, [0, 1e4]
   double epochs_decay = 1;      // then epochs of linear decay to 0, [0, 1e4]; both 0 is refused
@@ -63,6 +66,8 @@ void fields(TrainParams& p, F&& f) {
   f("beta1", p.beta1, Range{0, 1, false, true});
   f("beta2", p.beta2, Range{0, 1, false, true});
   f("lambda_l1", p.lambda_l1, Range{0, 1e4});
+  f("l1_shore_weight", p.l1_shore_weight, Range{0, 100});
+  f("l1_shore_m", p.l1_shore_m, Range{0, 100, true, false});
   f("batch_size", p.batch_size, Range{1, 64});
   f("epochs", p.epochs, Range{0, 1e4});
   f("epochs_decay", p.epochs_decay, Range{0, 1e4});
@@ -93,7 +98,8 @@ void validate(const TrainParams& p, const std::string& origin);
 TrainParams train_params_for_run(const std::string& config_path, const fs::path& run_dir, bool resume,
                                  const nlohmann::json& overrides);
 
-Pix2PixOptions pix2pix_options(const TrainParams& p);
+// `range` (the dataset's height normalisation) turns l1_shore_m into normalised units.
+Pix2PixOptions pix2pix_options(const TrainParams& p, const model::HeightRange& range = {});
 // "auto" decided on this CPU: "bf16" with avx512_bf16 or AMX-bf16 (and the oneDNN engine), else "fp32".
 std::string resolved_precision(const TrainParams& p);
 

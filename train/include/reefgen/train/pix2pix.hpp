@@ -12,6 +12,20 @@ namespace reefgen::train {
 class Comm;
 class GradientReducer;
 
+// Extra L1 weight on the cells whose true height lies near sea level: the
+// reef crest, the reef flat, motu and beaches are a few percent of a canvas
+// and a few metres tall, so a plain mean L1 lets G trade them for the abyss
+// (docs/MODEL.md "Shore-weighted L1"). Per cell
+//   w = 1 + extra * exp(-((h - sea) / band)^2),   loss = mean(w |G - h|) / mean(w)
+// in normalised units, so the loss keeps pix2pix's scale whatever `extra` is.
+struct L1Weighting {
+  double extra = 0;     // extra weight at sea level; 0 = plain mean L1, [0, 100]
+  double sea = 0;       // sea level, normalised height units
+  double band = 0.01;   // e-folding half-width, normalised height units, > 0
+};
+// L1 of fake against target {N,1,S,S} under `w`; exactly F::l1_loss when w.extra == 0.
+torch::Tensor weighted_l1(const torch::Tensor& fake, const torch::Tensor& target, const L1Weighting& w);
+
 struct Pix2PixOptions {
   model::UNetOptions g;       // generator: 3 -> 1 channels
   model::PatchOptions d;      // discriminator: 4 input channels (label ⊕ height)
@@ -19,6 +33,7 @@ struct Pix2PixOptions {
   double beta1 = 0.5;         // Adam β1; [0, 1)
   double beta2 = 0.999;       // Adam β2; [0, 1)
   double lambda_l1 = 100.0;   // weight of the L1 term in G's loss; [0, 1e4]
+  L1Weighting l1;             // extra L1 weight near sea level (none by default: pix2pix's plain mean)
   model::ConvOptions conv;    // who runs G's and D's convolutions (LibTorch by default)
 };
 
