@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "reefgen/error.hpp"
+#include "reefgen/infer/reef_finish.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/rng.hpp"
 #include "reefgen/terrain/noise.hpp"
@@ -289,6 +290,7 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
   cv::Mat1f land = resampled(coarse, N, cv::INTER_CUBIC);
   if (N <= S || !p.enabled) {
     if (N < S) cv::resize(coarse, land, cv::Size(N, N), 0, 0, cv::INTER_AREA);
+    if (p.enabled) finish_painted_reef(land, label_s, world_size_m, seed);
     if (p.enabled) fill_ponds(land, label, world_size_m / N, p.amplify_pond_max_m2);
     drain_pits(land, kPitDepthM, float(p.pit_breach_m));
     return land;
@@ -297,6 +299,7 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
   cv::Mat1f out = refine_heights(coarse, land, resampled(resistance_of_labels(label), N, cv::INTER_LINEAR),
                                  world_size_m, seed, p, detail);
   smooth_model_grid_underwater(out, S, seed);
+  finish_painted_reef(out, label_s, world_size_m, seed);
   fill_ponds(out, label, world_size_m / N, p.amplify_pond_max_m2);
   drain_pits(out, kPitDepthM, float(p.pit_breach_m));
   return out;

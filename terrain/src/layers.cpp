@@ -8,6 +8,7 @@
 #include "reefgen/error.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/parallel.hpp"
+#include "reefgen/ramp.hpp"
 #include "reefgen/terrain/drainage.hpp"
 #include "reefgen/terrain/flow.hpp"
 #include "layers_parts.hpp"
@@ -26,12 +27,6 @@ void for_rows(int rows, int threads, const std::function<void(int)>& row) {
   parallel_for(bands, std::max(1, threads), [&](size_t b) {
     for (int y = int(b) * kBand; y < std::min(rows, int(b + 1) * kBand); ++y) row(y);
   });
-}
-
-// 0 below a, 1 above b, C¹ in between.
-inline float smoothstep(double a, double b, double x) {
-  const double t = std::clamp((x - a) / (b - a), 0.0, 1.0);
-  return float(t * t * (3 - 2 * t));
 }
 
 // A Gaussian-like blur whose cost does not grow with σ: three box passes of
@@ -137,10 +132,10 @@ using namespace detail;
 void material_weights(const PixelFacts& f, const LayerParams& p, float w[kNumMaterials]) {
   const double v = f.height_m, slope = f.slope_deg;
   // Water and land share a half-metre band at the coast.
-  const float sea = 1.f - smoothstep(-0.25, 0.25, v), land = 1.f - sea;
+  const float sea = 1.f - ramp(-0.25, 0.25, v), land = 1.f - sea;
   // Under water: deep sea floor where painted abyss or deep, else reef
   // cover on the reef region, lagoon sand elsewhere.
-  const float deep = smoothstep(0.6 * p.deep_sea_m, p.deep_sea_m, -v);
+  const float deep = ramp(0.6 * p.deep_sea_m, p.deep_sea_m, -v);
   const float open = std::clamp(f.abyss + (1.f - f.abyss) * deep, 0.f, 1.f);
   w[kDeepSeaFloor] = sea * open;
   w[kReefCover] = sea * (1.f - open) * std::clamp(f.reef, 0.f, 1.f);
@@ -148,14 +143,14 @@ void material_weights(const PixelFacts& f, const LayerParams& p, float w[kNumMat
   // On land, each cover takes its share of what the ones before it left:
   // rock on cliffs, riverbeds, scree (steep or on talus), beach, vegetation.
   const double log_river = std::log10(p.river_area_m2);
-  const float cliff = smoothstep(p.cliff_deg, p.cliff_deg + 6, slope);
-  const float river = smoothstep(log_river, log_river + 1, std::log10(std::max(1e-6f, f.flow_area_m2)));
-  const float scree = std::max(smoothstep(p.scree_deg, p.scree_deg + 4, slope),
-                               smoothstep(0, p.scree_deposit_m, f.deposit_m) * smoothstep(10, 15, slope));
+  const float cliff = ramp(p.cliff_deg, p.cliff_deg + 6, slope);
+  const float river = ramp(log_river, log_river + 1, std::log10(std::max(1e-6f, f.flow_area_m2)));
+  const float scree = std::max(ramp(p.scree_deg, p.scree_deg + 4, slope),
+                               ramp(0, p.scree_deposit_m, f.deposit_m) * ramp(10, 15, slope));
   // Beach sand on low land; the beach region (painted, or the generator's
   // band, which climbs a young volcano's flank) only where it is low too.
-  const float low = 1.f - smoothstep(0.5 * p.beach_top_m, p.beach_top_m, v);
-  const float painted = std::clamp(f.beach, 0.f, 1.f) * (1.f - smoothstep(p.beach_top_m, 3 * p.beach_top_m, v));
+  const float low = 1.f - ramp(0.5 * p.beach_top_m, p.beach_top_m, v);
+  const float painted = std::clamp(f.beach, 0.f, 1.f) * (1.f - ramp(p.beach_top_m, 3 * p.beach_top_m, v));
   const float shore = std::max(low, painted);
   float left = land;
   w[kRockCliff] = left * cliff, left -= w[kRockCliff];

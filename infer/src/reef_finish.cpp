@@ -1,0 +1,188 @@
+#include "reefgen/infer/reef_finish.hpp"
+
+#include <algorithm>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+#include "reefgen/error.hpp"
+#include "reefgen/labels.hpp"
+#include "reefgen/ramp.hpp"
+#include "reefgen/rng.hpp"
+#include "reefgen/terrain/noise.hpp"
+
+namespace reefgen::infer {
+
+namespace {
+
+// A reef without lagoon or land behind it (a bank) has no back edge: its t
+// is taken as if land lay this far in, so its top still has a crest and a
+// flat (reef flats are 850 ± 817 m wide, docs/REEF.md).
+constexpr double kBankBackM = 2000;
+// Motu stand on the ring: at least this share of the cells around a painted
+// islet is reef (the rest lagoon, passes, other islets).
+constexpr double kMotuReefShare = 0.5;
+// The features of the reef top's irregularity, metres (coral heads, rubble).
+constexpr float kTopFeatureM = 60.f;
+// Blur of the painted zones (t, the reef mask), model cells.
+constexpr double kZoneBlurPx = 1.0;
+// A motu's shore: its outline wanders by this much with the noise, its beach
+// rises from the reef flat to +0.3 m over kMotuBeachM seaward of the painted
+// edge, then the berm over kMotuBermM inland (beaches a few tens of metres wide).
+constexpr float kMotuOutlineWanderM = 25.f;
+constexpr float kMotuBeachM = 30.f;
+constexpr float kMotuBermM = 40.f;
+constexpr float kMotuShoreM = 0.3f;
+// Below the beach the islet's apron keeps descending at this slope (m/m,
+// ~27°, sand and rubble at rest) until it meets the model's floor: no cliff.
+constexpr float kMotuApronSlope = 0.5f;
+// Beyond this distance from a painted islet nothing is motu, metres: the
+// apron has reached -48 m by then, below any lagoon floor around it.
+constexpr float kMotuReachM = 150.f;
+
+bool landlike(uint8_t r) { return r == kIsland || r == kBeach; }
+
+// The painted islets small enough to be motu and ringed by reef.
+cv::Mat1b motu_mask(const cv::Mat1b& label, double cell_m, const PaintedReefParams& p) {
+  cv::Mat1i comp;
+  const cv::Mat1b land = (label == kIsland) | (label == kBeach);
+  const int n = cv::connectedComponents(land, comp, 8, CV_32S);
+  // Half the width of each islet: its deepest cell's distance to the water.
+  cv::Mat1f inland;
+  cv::distanceTransform(land, inland, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  std::vector<float> half_width(size_t(n), 0.f);
+  std::vector<int64_t> area(size_t(n), 0), reef(size_t(n), 0), around(size_t(n), 0);
+  for (int y = 0; y < label.rows; ++y)
+    for (int x = 0; x < label.cols; ++x) {
+      const int c = comp(y, x);
+      if (c == 0) continue;
+      ++area[size_t(c)];
+      half_width[size_t(c)] = std::max(half_width[size_t(c)], inland(y, x));
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int yy = y + dy, xx = x + dx;
+          if (yy < 0 || xx < 0 || yy >= label.rows || xx >= label.cols || landlike(label(yy, xx))) continue;
+          ++around[size_t(c)];
+          reef[size_t(c)] += label(yy, xx) == kReef;
+        }
+    }
+  std::vector<uint8_t> is_motu(size_t(n), 0);
+  for (size_t c = 1; c < size_t(n); ++c)
+    is_motu[c] = double(area[c]) * cell_m * cell_m <= p.motu_max_area_m2 &&
+                 2.0 * half_width[c] * cell_m <= p.motu_max_width_m + cell_m && around[c] > 0 &&
+                 double(reef[c]) >= kMotuReefShare * double(around[c]);
+  cv::Mat1b motu(label.size(), uint8_t(0));
+  for (int y = 0; y < label.rows; ++y)
+    for (int x = 0; x < label.cols; ++x) motu(y, x) = is_motu[size_t(comp(y, x))] ? 255 : 0;
+  return motu;
+}
+
+// Distance (px) from each cell to the nearest cell where `zero` holds; `cap` where none does.
+cv::Mat1f distance_to(const cv::Mat1b& zero, float cap) {
+  cv::Mat1f d;
+  if (cv::countNonZero(zero) == 0) return cv::Mat1f(zero.size(), cap);
+  cv::distanceTransform(cv::Mat1b(zero == 0), d, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  return cv::min(d, cap);
+}
+
+// Signed distance (model cells) to the painted islets' edge, > 0 inside,
+// within ±reach_px; the edge lies half a cell outside the painted cells.
+cv::Mat1f motu_signed_distance(const cv::Mat1b& motu, float reach_px) {
+  const cv::Mat1f in = distance_to(cv::Mat1b(motu == 0), reach_px + 1);
+  const cv::Mat1f out = distance_to(motu, reach_px + 1);
+  cv::Mat1f sd(motu.size());
+  for (int y = 0; y < motu.rows; ++y)
+    for (int x = 0; x < motu.cols; ++x)
+      sd(y, x) = std::clamp(motu(y, x) ? in(y, x) - 0.5f : 0.5f - out(y, x), -reach_px, reach_px);
+  return sd;
+}
+
+cv::Mat1f resized(const cv::Mat1f& m, int side) {
+  if (m.cols == side) return m.clone();
+  cv::Mat1f out;
+  cv::resize(m, out, cv::Size(side, side), 0, 0, side > m.cols ? cv::INTER_LINEAR : cv::INTER_AREA);
+  return out;
+}
+
+}  // namespace
+
+cv::Mat1f reef_position(const cv::Mat1b& label, const PaintedReefParams& p, double world_size_m, cv::Mat1b& motu) {
+  if (label.empty() || label.rows != label.cols) throw Error("painted reef: the label map must be square");
+  const double cell_m = world_size_m / label.cols;
+  motu = motu_mask(label, cell_m, p);
+  const cv::Mat1b sea = label == kAbyss;
+  const cv::Mat1b back = ((label == kLagoon) | (label == kIsland) | (label == kBeach)) & ~motu;
+  const float big = float(label.cols) * 2.f;
+  const cv::Mat1f d_sea = distance_to(sea, big);
+  const cv::Mat1f d_back = distance_to(back, float(kBankBackM / cell_m));
+  cv::Mat1f t(label.size());
+  for (int y = 0; y < label.rows; ++y)
+    for (int x = 0; x < label.cols; ++x) {
+      const float s = d_sea(y, x), b = d_back(y, x);
+      // No open sea on the canvas: nothing is a fore reef, the reef is all back.
+      t(y, x) = s >= big ? 1.f : s / std::max(s + b, 1e-6f);
+    }
+  return t;
+}
+
+// Per cell at the output side, with t and the masks interpolated:
+//   w     = ramp(crest_begin − 0.1, crest_begin, t) · (1 − ramp(flat_end, flat_end + 0.1, t)) · reef
+//   top   = crest_m → flat_m across t 0.3–0.36, + top_relief_m · noise, ≤ −5 cm
+//   h    += w · max(0, top − h)
+// and on motu (sd: the signed distance to the painted islet's edge, metres,
+// wandering with the noise) h = max(h, a beach from the flat to +0.3 m at the
+// edge, then a berm of motu_height_m).
+void finish_painted_reef(cv::Mat1f& h, const cv::Mat1b& label, double world_size_m, uint64_t seed,
+                         const PaintedReefParams& p) {
+  if (h.empty() || h.rows != h.cols) throw Error("painted reef: the height field must be square");
+  cv::Mat1b motu_s;
+  const cv::Mat1f t_s = reef_position(label, p, world_size_m, motu_s);
+  cv::Mat1f reef_s;
+  cv::Mat1f((label == kReef) | motu_s).convertTo(reef_s, CV_32F, 1.0 / 255);
+  const bool any_motu = cv::countNonZero(motu_s) > 0;
+  const float label_cell_m = float(world_size_m / label.cols);
+  const float reach_px = std::max(2.f, kMotuReachM / label_cell_m);
+  cv::Mat1f sd_s = any_motu ? motu_signed_distance(motu_s, reach_px) : cv::Mat1f(label.size(), -reach_px);
+  // Blurred over a model cell: the painted edges are pixel staircases, and a
+  // distance ratio over a staircase kinks wherever the staircase steps.
+  cv::Mat1f t_smooth;
+  cv::GaussianBlur(t_s, t_smooth, cv::Size(0, 0), kZoneBlurPx, kZoneBlurPx, cv::BORDER_REPLICATE);
+  cv::GaussianBlur(reef_s, reef_s, cv::Size(0, 0), kZoneBlurPx, kZoneBlurPx, cv::BORDER_REPLICATE);
+  if (any_motu) cv::GaussianBlur(sd_s, sd_s, cv::Size(0, 0), 0.7, 0.7, cv::BORDER_REPLICATE);
+  const int N = h.cols;
+  const cv::Mat1f t = resized(t_smooth, N), reef = resized(reef_s, N), sd = resized(sd_s, N);
+  const terrain::GradientNoise2 noise(derive_seed(seed, 0, "painted-reef-top"));
+  const float per_feature = float(world_size_m / N) / kTopFeatureM;
+  const float crest = float(p.crest_m), flat = float(p.flat_m);
+  for (int y = 0; y < N; ++y)
+    for (int x = 0; x < N; ++x) {
+      const float tt = t(y, x);
+      const float w = ramp(p.crest_begin - 0.1, p.crest_begin, tt) * (1 - ramp(p.flat_end, p.flat_end + 0.1, tt)) * reef(y, x);
+      const bool near_motu = sd(y, x) > -reach_px + 0.5f;
+      if (w <= 0 && !near_motu) continue;
+      const float n = noise.fbm(float(x) * per_feature, float(y) * per_feature, 3);
+      // Irregular islets, not the painted disc: the shore wanders with the
+      // noise; the apron below it does not (it would be as rough as the wander).
+      const float sd_raw = sd(y, x) * label_cell_m;
+      const float sd_m = sd_raw + kMotuOutlineWanderM * n * ramp(-3 * kMotuBeachM, -kMotuBeachM, sd_raw);
+      // Faded in from the edge of its reach, so the apron ends without a step.
+      // Seaward of the crest the apron gives way to the fore reef.
+      const float apron_w = sd_m >= 0 ? 1.f : ramp(p.crest_begin - 0.1, p.crest_begin, tt);
+      const float reach_w = apron_w * ramp(-reach_px * label_cell_m, -reach_px * label_cell_m + kMotuBermM, sd_raw);
+      const bool on_motu = near_motu;
+      float& z = h(y, x);
+      if (w > 0) {
+        const float top = std::min(crest + (flat - crest) * ramp(0.3, 0.36, tt) + float(p.top_relief_m) * n, -0.05f);
+        z += w * std::max(0.f, top - z);
+      }
+      if (on_motu) {
+        const float berm = float(p.motu_height_m) * (1 + 0.2f * n);
+        const float lv = sd_m < -kMotuBeachM ? flat - kMotuApronSlope * (-kMotuBeachM - sd_m)
+                         : sd_m < 0 ? flat + (kMotuShoreM - flat) * ramp(-kMotuBeachM, 0, sd_m)
+                                    : kMotuShoreM + (berm - kMotuShoreM) * ramp(0, kMotuBermM, sd_m);
+        z += reach_w * std::max(0.f, lv - z);
+      }
+    }
+}
+
+}  // namespace reefgen::infer

@@ -1,0 +1,139 @@
+// The painted reef finished from its zones (infer/reef_finish.hpp): a
+// blurred model answer of an atoll (a rim at -6 m, a lagoon at -25 m, a
+// pass, five islets) gets its crest at sea level, its motu above it, and
+// nothing else moves.
+#include <cmath>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "reefgen/constants.hpp"
+#include "reefgen/infer/reef_finish.hpp"
+#include "reefgen/labels.hpp"
+#include "reefgen/procgen/spec.hpp"
+
+using namespace reefgen;
+using namespace reefgen::infer;
+
+namespace {
+
+constexpr int kSide = 128;
+constexpr double kWorldM = kCanvasWorldSizeM * kSide / kModelSidePx;  // model cells of 23.4 m
+constexpr double kRimOutPx = 44, kRimInPx = 36, kPassHalfWidthRad = 0.12;
+
+struct PaintedAtoll {
+  cv::Mat1b label;
+  cv::Mat1f model_m;  // what a blurring model answers
+  std::vector<cv::Point2d> motu;
+};
+
+double radius_px(int x, int y) { return std::hypot(x - (kSide - 1) / 2.0, y - (kSide - 1) / 2.0); }
+
+PaintedAtoll painted_atoll() {
+  PaintedAtoll a{cv::Mat1b(kSide, kSide, uint8_t(kAbyss)), cv::Mat1f(kSide, kSide, -80.f), {}};
+  for (int y = 0; y < kSide; ++y)
+    for (int x = 0; x < kSide; ++x) {
+      const double r = radius_px(x, y), th = std::atan2(y - (kSide - 1) / 2.0, x - (kSide - 1) / 2.0);
+      if (r < kRimInPx) a.label(y, x) = kLagoon, a.model_m(y, x) = -25.f;
+      else if (r < kRimOutPx) a.label(y, x) = kReef, a.model_m(y, x) = -6.f;
+      // A pass painted as lagoon through the rim, due east.
+      if (r < kRimOutPx + 1 && std::abs(th) < kPassHalfWidthRad) a.label(y, x) = kLagoon, a.model_m(y, x) = -18.f;
+    }
+  for (int k = 0; k < 5; ++k) {
+    const double th = 0.6 + 2 * M_PI * k / 5.5, r = (kRimInPx + kRimOutPx) / 2;
+    const cv::Point2d c((kSide - 1) / 2.0 + r * std::cos(th), (kSide - 1) / 2.0 + r * std::sin(th));
+    cv::circle(a.label, cv::Point(int(std::lround(c.x)), int(std::lround(c.y))), 2, cv::Scalar(kBeach), -1);
+    a.motu.push_back(c);
+  }
+  cv::GaussianBlur(a.model_m, a.model_m, cv::Size(0, 0), 1.5);
+  return a;
+}
+
+cv::Mat1f finished(const PaintedAtoll& a, int side, uint64_t seed = 1) {
+  cv::Mat1f h;
+  cv::resize(a.model_m, h, cv::Size(side, side), 0, 0, cv::INTER_CUBIC);
+  finish_painted_reef(h, a.label, kWorldM, seed);
+  return h;
+}
+
+}  // namespace
+
+// The crest at the reef's top along rays that do not cross the pass; the
+// lagoon, the pass and the open sea untouched.
+TEST(PaintedReef, CrestAtSeaLevelPassAndLagoonUntouched) {
+  const PaintedAtoll a = painted_atoll();
+  const int N = 4 * kSide;
+  cv::Mat1f before;
+  cv::resize(a.model_m, before, cv::Size(N, N), 0, 0, cv::INTER_CUBIC);
+  const cv::Mat1f h = finished(a, N);
+  const double c = (N - 1) / 2.0, scale = double(N) / kSide;
+  int rays = 0, at_sea = 0;
+  for (int i = 0; i < 72; ++i) {
+    const double th = 2 * M_PI * i / 72;
+    if (std::abs(std::remainder(th, 2 * M_PI)) < kPassHalfWidthRad + 0.1) continue;
+    float crest = -1e9f;
+    for (double r = kRimInPx * scale; r < kRimOutPx * scale; r += 0.5)
+      crest = std::max(crest, h(int(std::lround(c + r * std::sin(th))), int(std::lround(c + r * std::cos(th)))));
+    ++rays;
+    at_sea += crest >= -1.f;
+  }
+  EXPECT_GE(at_sea, rays * 95 / 100) << at_sea << " of " << rays;
+  // Never lowered, never lifted out of the water outside the islets.
+  EXPECT_EQ(cv::countNonZero(h < before - 1e-6f), 0);
+  // The lagoon's centre, the pass's throat and the open sea as the model left them.
+  for (const cv::Point p : {cv::Point(N / 2, N / 2), cv::Point(int(c + (kRimInPx + 4) * scale), int(c)),
+                            cv::Point(8, 8), cv::Point(N - 9, N / 2 + 40)})
+    EXPECT_FLOAT_EQ(h(p), before(p)) << p;
+}
+
+// Each painted islet is an islet: most of it above +0.3 m, its top 1-5 m.
+TEST(PaintedReef, PaintedIsletsOnTheRingBecomeMotu) {
+  const PaintedAtoll a = painted_atoll();
+  const int N = 4 * kSide;
+  const cv::Mat1f h = finished(a, N);
+  const double scale = double(N) / kSide;
+  for (const cv::Point2d& m : a.motu) {
+    int cells = 0, dry = 0;
+    float top = -1e9f;
+    for (int y = int((m.y - 2) * scale); y <= int((m.y + 3) * scale); ++y)
+      for (int x = int((m.x - 2) * scale); x <= int((m.x + 3) * scale); ++x) {
+        if (std::hypot((x + 0.5) / scale - 0.5 - m.x, (y + 0.5) / scale - 0.5 - m.y) > 2) continue;
+        ++cells;
+        dry += h(y, x) > 0.3f;
+        top = std::max(top, h(y, x));
+      }
+    EXPECT_GE(dry, cells / 2) << m;
+    EXPECT_GT(top, 1.f) << m;
+    EXPECT_LT(top, 5.f) << m;
+  }
+}
+
+// A painted island is not a motu: a large island's land is the model's.
+TEST(PaintedReef, LargeIslandsAndOpenSeaAreNotMotu) {
+  cv::Mat1b label(kSide, kSide, uint8_t(kAbyss));
+  cv::circle(label, cv::Point(64, 64), 40, cv::Scalar(kReef), -1);
+  cv::circle(label, cv::Point(64, 64), 34, cv::Scalar(kIsland), -1);
+  cv::circle(label, cv::Point(10, 10), 2, cv::Scalar(kBeach), -1);  // an islet in the open sea
+  cv::Mat1b motu;
+  const cv::Mat1f t = reef_position(label, PaintedReefParams{}, kWorldM, motu);
+  EXPECT_EQ(cv::countNonZero(motu), 0);
+  // t: 0 on the open sea, 1 on land, rising across the ring.
+  EXPECT_EQ(t(0, 64), 0.f);
+  EXPECT_EQ(t(64, 64), 1.f);
+  EXPECT_LT(t(64, 64 + 39), t(64, 64 + 36));
+}
+
+TEST(PaintedReef, SameSeedSameBytesOtherSeedOtherRelief) {
+  const PaintedAtoll a = painted_atoll();
+  const cv::Mat1f x = finished(a, 256, 7), y = finished(a, 256, 7), z = finished(a, 256, 8);
+  EXPECT_EQ(cv::norm(x, y, cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(x, z, cv::NORM_INF), 0.01);
+}
+
+// The painted reef's top is the generator's (procgen CoralParams).
+TEST(PaintedReef, TopIsTheGeneratorsCrestAndFlat) {
+  const procgen::CoralParams coral;
+  const PaintedReefParams painted;
+  EXPECT_EQ(painted.crest_m, coral.crest_m);
+  EXPECT_EQ(painted.flat_m, coral.flat_m);
+}
