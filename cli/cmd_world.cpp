@@ -19,6 +19,7 @@
 #include "reefgen/model/shipped.hpp"
 #include "reefgen/parallel.hpp"
 #include "reefgen/sha256.hpp"
+#include "reefgen/terrain/ocean_floor.hpp"
 #include "reefgen/train/fused_adam.hpp"
 #include "reefgen/version.hpp"
 
@@ -105,6 +106,7 @@ nlohmann::json world_key(const WorldArgs& a, const std::string& model_path, int6
           {"world_size_m", a.world_size_m},
           {"seed", a.seed},
           {"raw", a.raw},
+          {"ocean_floor_m", a.finish.ocean_floor_m},
           {"precision", a.precision},
           {"engine", a.engine},
           {"files", {a.png16, a.r16, a.preview, a.finish.layers, a.finish.geotiff, a.finish.crs, a.finish.origin,
@@ -214,11 +216,17 @@ WorldFields world_fields(const WorldArgs& a, const FinishFlags::Parsed& fin, mod
   w.world_m = w.model_h.cols * kModelMetresPerPx;
   cv::resize(s.label, w.region_model, w.model_h.size(), 0, 0, cv::INTER_NEAREST);
   w.h = w.model_h;
-  if (a.raw) return w;
+  // The flank below the training range, on the whole world at once (the
+  // checkpoint keeps the heights before it: the same for any depth).
+  auto deepened = [&a](WorldFields& f) {
+    if (a.finish.ocean_floor_m < 0) terrain::deepen_flank(f.h, a.finish.ocean_floor_m);
+    return f;
+  };
+  if (a.raw) return deepened(w);
   if (auto saved = checkpoint.load("heights.exr")) {
     w.h = *saved;
     if (!quiet) std::fprintf(stderr, "world: amplified heights resumed from %s\n", checkpoint.dir().c_str());
-    return w;
+    return deepened(w);
   }
   const int N = a.size > 0 ? a.size : std::max(w.model_h.cols, w.model_h.rows);
   if (N <= infer::kMaxWholeAmplifySidePx) note_bundle_sizes(fin, N, quiet);
@@ -233,7 +241,7 @@ WorldFields world_fields(const WorldArgs& a, const FinishFlags::Parsed& fin, mod
   cv::min(cv::max(w.h, gen.range.lo_m), gen.range.hi_m, w.h);
   if (!quiet) std::fprintf(stderr, "world: amplified to %d² in %.1f s\n", w.h.cols, seconds_since(t));
   checkpoint.save("heights.exr", w.h);
-  return w;
+  return deepened(w);
 }
 
 // Every file of the world, staged in the checkpoint (kept there if the run
@@ -253,6 +261,7 @@ void write_world(const WorldArgs& a, const FinishFlags::Parsed& fin, const World
                                     {"model_side_px", {w.model_h.cols, w.model_h.rows}},
                                     {"raw", a.raw},
                                     {"seed", a.seed}}},
+                         {"ocean_floor_m", a.finish.ocean_floor_m < 0 ? nlohmann::json(a.finish.ocean_floor_m) : nlohmann::json()},
                          {"size_px", {h.cols, h.rows}},
                          {"metres_per_px", mpp},
                          {"height_range_m", {hmin, hmax}}};
@@ -316,9 +325,6 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
             if (a->metres_per_px > 0 && a->world_size_m > 0)
               throw Error("--metres-per-px and --world-size say the same thing; give one");
             if (a->raw && a->size > 0) throw Error("--raw keeps the model's scale; drop --size or --raw");
-            if (a->finish.ocean_floor_m < 0)
-              throw Error("--ocean-floor-m: not for worlds yet (their tiles are streamed; the flank needs the whole "
-                          "ocean); deepen each island with `reefgen infer --ocean-floor-m` or see docs/REEF.md");
             const FinishFlags::Parsed fin = a->finish.parse();
             const fs::path prefix(a->out);
             refuse_world_over_sketch(*a, prefix);

@@ -388,7 +388,17 @@ assert np.array_equal(ha[ha > -60], hb[ha > -60])  # above the knee nothing move
 assert json.load(open(d + "/d.json"))["provenance"]["ocean_floor_m"] == -2000
 PYEOF
 expect_error "ocean-floor-m" generate --preset atoll --ocean-floor-m -20000 -o "$T/e/x"
-expect_error "not for worlds" world "$T/p/atoll.label.png" --ocean-floor-m -2000 -o "$T/e/w"
+# A world deepened as a whole: its lowest cell at the depth asked, nothing above the knee moved.
+"$BIN" -q world "$T/reef/a.label.png" --size 257 -o "$T/reef/wa" >/dev/null
+"$BIN" -q world "$T/reef/a.label.png" --size 257 --ocean-floor-m -2000 -o "$T/reef/wd" >/dev/null \
+  && OPENCV_IO_ENABLE_OPENEXR=1 "$PY" - "$T/reef" <<'PYEOF' && ok || bad "world --ocean-floor-m"
+import cv2, json, sys, numpy as np
+d = sys.argv[1]
+ha = cv2.imread(d + "/wa.height.exr", cv2.IMREAD_UNCHANGED); hb = cv2.imread(d + "/wd.height.exr", cv2.IMREAD_UNCHANGED)
+assert ha.min() >= -100 and abs(hb.min() + 2000) < 1e-3, (ha.min(), hb.min())
+assert np.array_equal(ha[ha > -60], hb[ha > -60])
+assert json.load(open(d + "/wd.json"))["ocean_floor_m"] == -2000
+PYEOF
 # A sunk reef without motu: all below 0 m (the atoll preset has motu now).
 echo '{"subsidence": 0.95, "reef": {"random_motu": 0}}' > "$T/sunk.json"
 "$BIN" -q generate --spec "$T/sunk.json" --size 64 -o "$T/p/sunk" >/dev/null
