@@ -25,6 +25,7 @@
 #include "reefgen/procgen/spec.hpp"
 #include "reefgen/studio/server.hpp"
 #include "reefgen/studio/zip.hpp"
+#include "reefgen/terrain/ocean_floor.hpp"
 #include "test_util.hpp"
 
 using namespace reefgen;
@@ -321,6 +322,35 @@ TEST_F(Studio, ExportsWriteOnlyIntoTheOutputFolder) {
   ASSERT_TRUE(idx);
   EXPECT_EQ(idx->status, 200);
   EXPECT_NE(idx->body.find("reefgen studio"), std::string::npos);
+}
+
+// An export's ocean_floor_m is the CLI's --ocean-floor-m: the open ocean
+// stretched down to it, nothing above the flank's knee moved; a bad depth is
+// a 400 naming the field.
+TEST_F(Studio, ExportsContinueTheFlankToTheOceanFloorAsked) {
+  const json spec = json::parse(R"({"outlines": [0.3, 0.38, 0.55, 0.68, 0.98]})");
+  json body = {{"spec", spec}, {"size", 64}};
+  auto plain = client->Post("/api/export?format=exr&name=shallow", body.dump(), "application/json");
+  ASSERT_TRUE(plain);
+  ASSERT_EQ(plain->status, 200) << plain->body;
+  body["ocean_floor_m"] = -1500;
+  auto deep = client->Post("/api/export?format=exr&name=deep", body.dump(), "application/json");
+  ASSERT_TRUE(deep);
+  ASSERT_EQ(deep->status, 200) << deep->body;
+  const cv::Mat1f a = read_exr_height(out / "exports" / "shallow.height.exr");
+  const cv::Mat1f b = read_exr_height(out / "exports" / "deep.height.exr");
+  double lo_a, lo_b;
+  cv::minMaxLoc(a, &lo_a);
+  cv::minMaxLoc(b, &lo_b);
+  EXPECT_GE(lo_a, -100.0);
+  EXPECT_NEAR(lo_b, -1500.0, 1e-3);
+  const cv::Mat1b shallow = a > terrain::kFlankKneeM;
+  EXPECT_EQ(cv::norm(a, b, cv::NORM_INF, shallow), 0.0);
+  for (const json& bad : {json(-20000), json("deep"), json(5)}) {
+    body["ocean_floor_m"] = bad;
+    expect_error(client->Post("/api/export?format=exr&name=bad", body.dump(), "application/json"), 400, "ocean_floor_m");
+  }
+  EXPECT_FALSE(fs::exists(out / "exports" / "bad.height.exr"));
 }
 
 TEST_F(Studio, BadAndOversizeRequestsAreRefused) {

@@ -29,6 +29,7 @@
 #include "reefgen/engines/bundle.hpp"
 #include "reefgen/studio/zip.hpp"
 #include "reefgen/terrain/layers.hpp"
+#include "reefgen/terrain/ocean_floor.hpp"
 
 namespace reefgen::studio {
 
@@ -362,6 +363,17 @@ struct StudioServer::Impl {
     return src;
   }
 
+  // {"ocean_floor_m": D} in an export's body: the CLI's --ocean-floor-m
+  // (terrain/ocean_floor.hpp), the open ocean's flank stretched down to D.
+  static void deepen_if_asked(const json& body, Source& src) {
+    if (!body.contains("ocean_floor_m") || body["ocean_floor_m"].is_null()) return;
+    const json& d = body["ocean_floor_m"];
+    if (!d.is_number() || !(d.get<double>() >= -11000 && d.get<double>() <= -1))
+      throw BadRequest("ocean_floor_m must be a depth in metres in [-11000, -1], e.g. -2000 (or left out)");
+    terrain::deepen_flank(src.height_m, d.get<double>());
+    if (!src.before_m.empty()) terrain::deepen_flank(src.before_m, d.get<double>());
+  }
+
   // The bundle of `e` (layers from the regions, the erosion when known) staged
   // into OUT/NAME.<engine>/ and sent as NAME.<engine>.zip holding exactly
   // this export's files (an earlier, larger export's tiles may still be in
@@ -565,7 +577,8 @@ struct StudioServer::Impl {
     if (format == "spec" && body.is_object() && !body.contains("spec"))
       throw BadRequest("format spec needs a spec (curves mode)");
     // The source again (deterministic), then the CLI's writer for the format.
-    const Source src = source_of(body, bundle);
+    Source src = source_of(body, bundle);
+    deepen_if_asked(body, src);
     std::error_code ec;
     fs::create_directories(o.out_dir, ec);
     ensure_writable_dir(o.out_dir);

@@ -705,6 +705,8 @@ for (const b of document.querySelectorAll('#exports button')) {
   b.addEventListener('click', async () => {
     const format = b.dataset.format, name = $('name').value;
     const body = await sourceBody(256);
+    const floor = $('ocean-floor').value.trim();
+    if (floor !== '') body.ocean_floor_m = Number(floor);
     // Some exports take seconds (OBJ of a 1024² island: ~7 s): say so, and
     // keep the button from starting a second one meanwhile.
     const t0 = performance.now();
