@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <fstream>
 #include <optional>
 
 #include <opencv2/imgproc.hpp>
@@ -58,16 +59,17 @@ void refuse_world_over_sketch(const WorldArgs& a, const fs::path& prefix) {
 // starts again.
 class WorldCheckpoint {
  public:
-  WorldCheckpoint(const fs::path& prefix, const nlohmann::json& key, bool quiet)
-      : dir_(prefix.string() + ".partial") {
+  // The mark of a checkpoint this command made: the only kind it removes.
+  static constexpr const char* kKind = "reefgen world checkpoint";
+
+  WorldCheckpoint(const fs::path& prefix, nlohmann::json key, bool quiet) : dir_(prefix.string() + ".partial") {
+    key["kind"] = kKind;
     std::error_code ec;
     const fs::path key_file = dir_ / "key.json";
-    if (fs::is_regular_file(key_file, ec)) {
-      try {
-        resumed_ = read_json(key_file) == key;
-      } catch (const Error&) {
-        resumed_ = false;
-      }
+    const auto type = fs::symlink_status(dir_, ec).type();
+    if (type != fs::file_type::not_found) {
+      refuse_unless_ours(type, key_file);
+      resumed_ = read_json(key_file) == key;
       if (!resumed_ && !quiet)
         std::fprintf(stderr, "note: %s holds another world's work; starting again\n", dir_.c_str());
     }
@@ -79,16 +81,50 @@ class WorldCheckpoint {
   }
   bool resumed() const { return resumed_; }
   const fs::path& dir() const { return dir_; }
-  // A field saved by an earlier run of this command, if any.
+  // A field saved by an earlier run of this command, if any, and intact
+  // (the checksum recorded when it was saved); else it is made again.
   std::optional<cv::Mat1f> load(const std::string& name) const {
-    std::error_code ec;
-    if (!resumed_ || !fs::is_regular_file(dir_ / name, ec)) return std::nullopt;
-    return read_exr_height(dir_ / name);
+    if (!resumed_ || !intact(name)) return std::nullopt;
+    try {
+      return read_exr_height(dir_ / name);
+    } catch (const Error&) {
+      return std::nullopt;
+    }
   }
-  // Uncompressed: a 16385² field is written in seconds.
-  void save(const std::string& name, const cv::Mat1f& field) const { write_exr_height(dir_ / name, field, {}, 0); }
+  // Uncompressed: a 16385² field is written in seconds. The record last.
+  void save(const std::string& name, const cv::Mat1f& field) const {
+    write_exr_height(dir_ / name, field, {}, 0);
+    write_text_atomic(dir_ / (name + ".sha256"), sha256_of_file((dir_ / name).string()) + "\n");
+  }
 
  private:
+  // PREFIX.partial is removed or reused only when this command made it: a
+  // folder holding our key.json, or an empty folder (killed before its key).
+  void refuse_unless_ours(fs::file_type type, const fs::path& key_file) const {
+    std::error_code ec;
+    bool ours = type == fs::file_type::directory && fs::is_empty(dir_, ec);
+    if (!ours && type == fs::file_type::directory && fs::symlink_status(key_file, ec).type() == fs::file_type::regular) {
+      try {
+        const nlohmann::json k = read_json(key_file);
+        ours = k.is_object() && k.value("kind", "") == kKind;
+      } catch (const Error&) {
+      }
+    }
+    if (!ours)
+      throw Error(dir_.string() + ": exists and is not a checkpoint of `reefgen world` (it would be deleted); move it "
+                  "away or choose another -o");
+  }
+  bool intact(const std::string& name) const {
+    std::error_code ec;
+    const fs::path f = dir_ / name, rec = dir_ / (name + ".sha256");
+    if (fs::symlink_status(f, ec).type() != fs::file_type::regular) return false;
+    if (fs::symlink_status(rec, ec).type() != fs::file_type::regular) return false;
+    std::ifstream in(rec);
+    std::string recorded;
+    std::getline(in, recorded);
+    return !recorded.empty() && recorded == sha256_of_file(f.string());
+  }
+
   fs::path dir_;
   bool resumed_ = false;
 };
@@ -96,10 +132,14 @@ class WorldCheckpoint {
 // What a world's bytes depend on: a checkpoint is resumed only by the same.
 nlohmann::json world_key(const WorldArgs& a, const std::string& model_path, int64_t train_step) {
   const std::string sketch = read_text(a.sketch, size_t(256) << 20);
+  // The model by its bytes: another file of the same name and step is another model.
+  const std::string model_sha256 = sha256_of_file(model_path);
+  if (model_sha256.empty()) throw Error(model_path + ": cannot read the model (check the path and its permissions)");
   std::string rules;
   if (!a.finish.layer_rules.empty()) rules = read_text(a.finish.layer_rules, size_t(1) << 20);
   return {{"sketch_sha256", sha256_hex(sketch.data(), sketch.size())},
           {"model", fs::absolute(model_path).string()},
+          {"model_sha256", model_sha256},
           {"train_step", train_step},
           {"size", a.size},
           {"metres_per_px", a.metres_per_px},

@@ -733,6 +733,24 @@ if "$BIN" world "$T/w/big.png" --size 1025 --layers --for unity -o "$T/w/r1/x" 2
     && (cd "$T/w/r2" && find . -type f ! -name '*.json' | sort | xargs sha256sum) > "$T/w/r2.sha" \
     && cmp -s "$T/w/r1.sha" "$T/w/r2.sha" && ok || bad "a resumed world differs from an uninterrupted one: $(cat "$T/err")"
 else bad "world resume: $(cat "$T/err")"; fi
+# Resume trusts nothing it finds: a truncated staged file, a corrupt saved
+# field and a planted link are made again (the bytes of an uninterrupted
+# run); a PREFIX.partial this command did not make is refused, not deleted.
+mkdir -p "$T/w/r3/x.unity/x.splat1.png"
+"$BIN" -q world "$T/w/big.png" --size 1025 --layers --for unity -o "$T/w/r3/x" >/dev/null 2>&1
+rmdir "$T/w/r3/x.unity/x.splat1.png"
+if [ -f "$T/w/r3/x.partial/files/x.height.exr" ] && [ -f "$T/w/r3/x.partial/model.exr" ]; then
+  truncate -s 1000 "$T/w/r3/x.partial/files/x.height.exr"
+  echo garbage > "$T/w/r3/x.partial/model.exr"
+  ln -sf /etc/hostname "$T/w/r3/x.partial/files/x.json"
+  "$BIN" -q world "$T/w/big.png" --size 1025 --layers --for unity -o "$T/w/r3/x" >/dev/null 2>"$T/err" \
+    && (cd "$T/w/r3" && find . -type f ! -name '*.json' | sort | xargs sha256sum) > "$T/w/r3.sha" \
+    && cmp -s "$T/w/r2.sha" "$T/w/r3.sha" && [ ! -L "$T/w/r3/x.json" ] && ok \
+    || bad "a world resumed over a truncated, corrupt or linked staged file: $(cat "$T/err")"
+else bad "the interrupted world left no staged height file or model field"; fi
+mkdir -p "$T/w/r4/x.partial" && echo mine > "$T/w/r4/x.partial/notes.txt"
+expect_error "x.partial: exists and is not a checkpoint of" world "$T/w/big.png" --size 1025 -o "$T/w/r4/x"
+[ "$(cat "$T/w/r4/x.partial/notes.txt")" = mine ] && ok || bad "world deleted a PREFIX.partial it did not make"
 expect_error "--for blender: a world past 8192² is written in tiles" world "$T/w/big.png" --size 9000 --for blender -o "$T/e/x"
 # Past 8192² the layers come in tiles on the GeoTIFF grid, with the world's
 # scales in the sidecar and a VRT mosaic per float layer that GDAL opens.

@@ -250,6 +250,38 @@ TEST(Io, ResumableStagingKeepsFinishedFilesForTheNextRun) {
   fs::remove_all(d);
 }
 
+// A resumed run trusts only what it staged itself: a staged file truncated,
+// altered, replaced by a link or without its record is written again.
+TEST(Io, ResumableStagingRewritesWhatItCannotVouchFor) {
+  const fs::path d = temp_dir("resume-verify"), work = d / "w.partial";
+  write_text_atomic(d / "elsewhere.txt", "not ours");
+  {
+    StagedOutputs s(work, d);
+    for (const char* n : {"a.txt", "b.txt", "c.txt", "d.txt", "e.txt"})
+      s.write(d / n, [n](const fs::path& t) { write_text_atomic(t, std::string("first ") + n); });
+  }  // stopped before commit
+  write_text_atomic(work / "a.txt", "first");              // truncated
+  write_text_atomic(work / "b.txt", "FIRST b.txt");        // altered, same size
+  fs::remove(work / "c.txt");
+  fs::create_symlink(d / "elsewhere.txt", work / "c.txt");  // a planted link
+  fs::remove(work / "d.txt.sha256");                       // no record
+  int writes = 0;
+  StagedOutputs s(work, d);
+  for (const char* n : {"a.txt", "b.txt", "c.txt", "d.txt", "e.txt"})
+    s.write(d / n, [&writes, n](const fs::path& t) {
+      ++writes;
+      write_text_atomic(t, std::string("second ") + n);
+    });
+  s.commit();
+  EXPECT_EQ(writes, 4);
+  EXPECT_EQ(s.resumed_count(), 1u);
+  for (const char* n : {"a.txt", "b.txt", "c.txt", "d.txt"}) EXPECT_EQ(read_text(d / n), std::string("second ") + n);
+  EXPECT_EQ(read_text(d / "e.txt"), "first e.txt");
+  EXPECT_FALSE(fs::is_symlink(d / "c.txt"));
+  EXPECT_EQ(read_text(d / "elsewhere.txt"), "not ours");
+  fs::remove_all(d);
+}
+
 // Issue 36 item 6: a name that fits the filesystem (255 bytes) is written,
 // although NAME.tmp.PID.N would not fit; its temporary name is cut short.
 TEST(Io, LongestNamesAreWrittenThroughAShortenedTemporary) {

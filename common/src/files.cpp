@@ -1,5 +1,6 @@
 #include "reefgen/files.hpp"
 #include "reefgen/parallel.hpp"
+#include "reefgen/sha256.hpp"
 
 #include <fcntl.h>
 #include <signal.h>
@@ -137,9 +138,32 @@ fs::path StagedOutputs::kept_path(const fs::path& final_path) const {
   return work_ / rel;
 }
 
-bool StagedOutputs::resumed(const fs::path& final_path) const {
+namespace {
+// A staged file's record, written when it was settled: "SIZE SHA256".
+fs::path record_of(const fs::path& kept) { return kept.string() + ".sha256"; }
+
+std::string record_line(const fs::path& file) {
   std::error_code ec;
-  return !work_.empty() && fs::is_regular_file(kept_path(final_path), ec);
+  const auto size = fs::file_size(file, ec);
+  if (ec) return "";
+  return std::to_string(size) + " " + sha256_of_file(file.string());
+}
+
+// A file an earlier run staged, as it wrote it: a regular file (not a link
+// planted there), of the size and checksum recorded when it was settled.
+bool kept_intact(const fs::path& kept) {
+  std::error_code ec;
+  if (fs::symlink_status(kept, ec).type() != fs::file_type::regular) return false;
+  if (fs::symlink_status(record_of(kept), ec).type() != fs::file_type::regular) return false;
+  std::ifstream in(record_of(kept));
+  std::string recorded;
+  std::getline(in, recorded);
+  return !recorded.empty() && recorded == record_line(kept);
+}
+}  // namespace
+
+bool StagedOutputs::resumed(const fs::path& final_path) const {
+  return !work_.empty() && kept_intact(kept_path(final_path));
 }
 
 namespace {
@@ -184,10 +208,13 @@ fs::path StagedOutputs::stage(const fs::path& final_path) {
     remove_stale_temps(kept.parent_path());
     swept_dirs_.push_back(kept.parent_path());
   }
-  if (fs::is_regular_file(kept, ec)) {
+  if (kept_intact(kept)) {
     ++resumed_count_;
     return {};
   }
+  // Anything else there (a truncated or altered file, a link) is made again.
+  fs::remove(kept, ec);
+  fs::remove(record_of(kept), ec);
   fs::create_directories(kept.parent_path(), ec);
   if (ec) throw Error("cannot write " + kept.parent_path().string() + ": " + ec.message() + " (is the disk full?)");
   return temp_path_for(kept);
@@ -195,7 +222,10 @@ fs::path StagedOutputs::stage(const fs::path& final_path) {
 
 void StagedOutputs::settle(const fs::path& tmp, const fs::path& final_path) {
   if (work_.empty() || tmp.empty()) return;
-  commit_temp(tmp, kept_path(final_path));
+  const fs::path kept = kept_path(final_path);
+  commit_temp(tmp, kept);
+  // The record last: a file without one is not trusted by the next run.
+  write_text_atomic(record_of(kept), record_line(kept) + "\n");
 }
 
 void StagedOutputs::write(const fs::path& final_path, const std::function<void(const fs::path&)>& writer) {

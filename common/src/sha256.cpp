@@ -1,5 +1,8 @@
 #include "reefgen/sha256.hpp"
 
+#include <cstdio>
+#include <vector>
+
 #include <cstring>
 
 namespace reefgen {
@@ -73,6 +76,22 @@ std::string sha256_hex(const void* data, size_t bytes) {
   Sha256 s;
   s.update(data, bytes);
   return s.hex();
+}
+
+}  // namespace reefgen
+
+namespace reefgen {
+
+std::string sha256_of_file(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return "";
+  Sha256 h;
+  std::vector<char> buf(size_t(1) << 20);
+  size_t n;
+  while ((n = std::fread(buf.data(), 1, buf.size(), f)) > 0) h.update(buf.data(), n);
+  const bool failed = std::ferror(f) != 0;
+  std::fclose(f);
+  return failed ? "" : h.hex();
 }
 
 }  // namespace reefgen

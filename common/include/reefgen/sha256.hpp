@@ -24,5 +24,7 @@ class Sha256 {
 };
 
 std::string sha256_hex(const void* data, size_t bytes);
+// The file's SHA-256, read in blocks (any size); "" when it cannot be read.
+std::string sha256_of_file(const std::string& path);
 
 }  // namespace reefgen
