@@ -52,14 +52,6 @@ void check_square(const cv::Mat1f& h, const std::string& file) {
                 std::to_string(kMaxErodeSide) + "²; resample it (gdalwarp -ts)");
 }
 
-std::vector<fs::path> planned_outputs(const OutputNames& names) {
-  std::vector<fs::path> outs{names.height};
-  for (const char* ext : {".height.png", ".r16", ".preview.png", ".json"}) outs.push_back(names.prefix.string() + ext);
-  for (const auto& ext : terrain::layer_file_suffixes()) outs.push_back(names.prefix.string() + ext);
-  for (const auto& ext : gis::geotiff_suffixes()) outs.push_back(names.prefix.string() + ext);
-  return outs;
-}
-
 nlohmann::json realism_json(const cv::Mat1f& h, double mpp) {
   const terrain::RealismStats s = terrain::realism_stats(h, mpp);
   return {{"pits", s.pits}, {"terraces", s.terraces}, {"valleys", s.valleys}, {"max_height_m", s.max_height_m}};
@@ -69,10 +61,12 @@ int run_erode(const ErodeArgs& a0, const GlobalOptions& g) {
   ErodeArgs a = a0;
   parse_range(a.range, a.units);
   const OutputNames names = output_names(a.prefix);
-  refuse_output_over_input({a.input}, planned_outputs(names));
   terrain::ErosionParams ep;
   if (!a.erosion_file.empty()) ep = terrain::erosion_params_from_json(read_json(a.erosion_file), a.erosion_file);
   const FinishFlags::Parsed fin = a.finish.parse();
+  engines::PlannedOutputs planned = engines::planned_outputs(names.prefix, fin.bundles);
+  planned.files.push_back(names.height);  // -o may name the height file itself
+  engines::refuse_outputs_over_inputs({a.input}, planned);
   gis::Heightmap in = gis::read_heightmap(a.input, a.units);
   check_square(in.height_m, a.input);
   note_bundle_sizes(fin, in.height_m.cols, g.quiet);

@@ -4,6 +4,7 @@
 #include <optional>
 
 #include "app.hpp"
+#include "reefgen/engines/bundle.hpp"
 #include "reefgen/presets.hpp"
 #include "reefgen/constants.hpp"
 #include "finish.hpp"
@@ -57,18 +58,17 @@ int run_single(const GenerateArgs& a, const GlobalOptions& g) {
   if (a.seed_given) spec.noise.seed = a.seed;
   const OutputNames names = output_names(a.prefix);
   const fs::path prefix = names.prefix;
+  const FinishFlags::Parsed fin = a.finish.parse();
   if (!a.spec_file.empty()) {  // the sidecar PREFIX.json must never replace the spec it was made from
-    std::vector<fs::path> outs{names.height};
-    for (const char* ext : {".label.png", ".preview.png", ".json"}) outs.push_back(prefix.string() + ext);
-    for (const auto& ext : terrain::layer_file_suffixes()) outs.push_back(prefix.string() + ext);
-    for (const auto& ext : gis::geotiff_suffixes()) outs.push_back(prefix.string() + ext);
-    refuse_output_over_input({a.spec_file}, outs);
+    engines::PlannedOutputs planned = engines::planned_outputs(prefix, fin.bundles);
+    planned.files.push_back(names.height);
+    planned.files.push_back(prefix.string() + ".label.png");
+    engines::refuse_outputs_over_inputs({a.spec_file}, planned);
   }
   ensure_writable_dir(prefix.parent_path());
   RenderOptions opt;
   opt.size_px = a.size;
   opt.warp_grid = a.warp_grid;
-  const FinishFlags::Parsed fin = a.finish.parse();
   note_bundle_sizes(fin, a.size, g.quiet);
   opt.keep_uneroded = fin.need_layers;
   IslandFields f = generate(spec, opt);

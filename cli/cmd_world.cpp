@@ -42,14 +42,9 @@ double seconds_since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
-// Every file the world may write, refused when one is the sketch.
-void refuse_world_over_sketch(const WorldArgs& a, const fs::path& prefix) {
-  std::vector<fs::path> outs;
-  for (const char* ext : {".height.exr", ".height.png", ".r16", ".preview.png", ".json"})
-    outs.push_back(prefix.string() + ext);
-  for (const auto& ext : terrain::layer_file_suffixes()) outs.push_back(prefix.string() + ext);
-  for (const auto& ext : gis::geotiff_suffixes()) outs.push_back(prefix.string() + ext);
-  refuse_output_over_input({fs::path(a.sketch)}, outs);
+// Every file and bundle folder the world may write, refused when one is the sketch.
+void refuse_world_over_sketch(const WorldArgs& a, const FinishFlags::Parsed& fin, const fs::path& prefix) {
+  engines::refuse_outputs_over_inputs({fs::path(a.sketch)}, engines::planned_outputs(prefix, fin.bundles));
 }
 
 // An interrupted world's finished work, kept beside it in PREFIX.partial/ for
@@ -367,7 +362,7 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
             if (a->raw && a->size > 0) throw Error("--raw keeps the model's scale; drop --size or --raw");
             const FinishFlags::Parsed fin = a->finish.parse();
             const fs::path prefix(a->out);
-            refuse_world_over_sketch(*a, prefix);
+            refuse_world_over_sketch(*a, fin, prefix);
             if (!fs::is_regular_file(a->sketch)) throw Error(a->sketch + ": no such sketch file");
             const DecodedSketch s = read_sketch(a->sketch);
             check_world_finish(fin, a->size, s.label.rows == s.label.cols);

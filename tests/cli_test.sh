@@ -156,6 +156,12 @@ head -c 1001 /dev/zero > "$T/er/odd.r16"
 "$BIN" -q erode "$T/er/we.r16" --range -100:400 --world-size 6000 -o "$T/er/r" >/dev/null 2>"$T/err" && ok || bad "erode r16: $(cat "$T/err")"
 "$BIN" -q erode "$T/er/w.height.exr" -o "$T/er/w" >/dev/null 2>"$T/err" && bad "erode over its input accepted" || \
   { grep -q "w.height.exr" "$T/err" && ok || bad "over input: $(cat "$T/err")"; }
+# An input inside the bundle folder the run writes (through ../ too) is refused, untouched.
+"$BIN" -q erode "$T/er/w.height.exr" -o "$T/er/b" --for gis >/dev/null 2>"$T/err" || bad "erode --for gis: $(cat "$T/err")"
+sha_before=$(sha256sum < "$T/er/b.gis/b.height.tif")
+"$BIN" -q erode "$T/er/b.gis/b.height.tif" -o "$T/er/../er/b" --for gis >/dev/null 2>"$T/err" && bad "erode into its input's bundle accepted" || \
+  { grep -q "lies in .*b.gis, which this run writes" "$T/err" && [ "$(sha256sum < "$T/er/b.gis/b.height.tif")" = "$sha_before" ] \
+    && ok || bad "input inside the bundle: $(cat "$T/err")"; }
 "$BIN" -q erode "$T/er/w.height.exr" -o "$T/er/c" --geotiff --crs EPSG:999999 >/dev/null 2>"$T/err" && bad "unknown CRS accepted" || \
   { grep -q "EPSG:999999" "$T/err" && ok || bad "crs: $(cat "$T/err")"; }
 [ -e "$T/er/c.height.exr" ] && bad "unknown CRS: files written" || ok

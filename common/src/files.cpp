@@ -487,8 +487,25 @@ int remove_stale_temps(const fs::path& dir) {
   return removed;
 }
 
-void refuse_output_over_input(const std::vector<fs::path>& inputs, const std::vector<fs::path>& outputs) {
+namespace {
+// Whether `in` lies inside `folder` (through links and ../ alike).
+bool lies_inside(const fs::path& in, const fs::path& folder) {
+  std::error_code e1, e2;
+  const fs::path a = fs::weakly_canonical(fs::absolute(in), e1), f = fs::weakly_canonical(fs::absolute(folder), e2);
+  if (e1 || e2) return false;
+  const fs::path rel = a.lexically_relative(f);
+  return !rel.empty() && *rel.begin() != ".." && rel != ".";
+}
+}  // namespace
+
+void refuse_output_over_input(const std::vector<fs::path>& inputs, const std::vector<fs::path>& outputs,
+                              const std::vector<fs::path>& output_folders) {
   std::error_code ec;
+  for (const auto& folder : output_folders)
+    for (const auto& in : inputs)
+      if (lies_inside(in, folder))
+        throw Error(in.string() + ": this input lies in " + folder.string() +
+                    ", which this run writes; copy it elsewhere or choose another output name");
   for (const auto& out : outputs)
     for (const auto& in : inputs) {
       const bool same = fs::absolute(out, ec).lexically_normal() == fs::absolute(in, ec).lexically_normal() ||

@@ -339,4 +339,19 @@ std::vector<Engine> engines_from_strings(const std::vector<std::string>& names) 
   return out;
 }
 
+PlannedOutputs planned_outputs(const std::filesystem::path& prefix, const std::vector<Engine>& bundles) {
+  PlannedOutputs p;
+  const std::string pre = prefix.string();
+  for (const char* ext : {".height.exr", ".height.png", ".r16", ".preview.png", ".json", ".obj", ".glb"})
+    p.files.push_back(pre + ext);
+  for (const auto& ext : terrain::layer_file_suffixes()) p.files.push_back(pre + ext);
+  for (const auto& ext : gis::geotiff_suffixes()) p.files.push_back(pre + ext);
+  for (const Engine e : bundles) p.folders.push_back(pre + "." + to_string(e));
+  return p;
+}
+
+void refuse_outputs_over_inputs(const std::vector<std::filesystem::path>& inputs, const PlannedOutputs& planned) {
+  refuse_output_over_input(inputs, planned.files, planned.folders);
+}
+
 }  // namespace reefgen::engines

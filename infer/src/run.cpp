@@ -76,7 +76,7 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
   {
     // Every file this run may write, checked before any is written: no
     // output may be an input, no two sketches may share a result name.
-    std::vector<fs::path> outs;
+    engines::PlannedOutputs planned;
     std::map<std::string, fs::path> stems;
     for (const auto& in : inputs) {
       const fs::path prefix = prefix_of(in);
@@ -86,15 +86,14 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
           throw Error(in.string() + " and " + it->second.string() + " would both write " + prefix.string() +
                       ".*; rename one of them or infer them into different -o folders");
       } else {
-        outs.push_back(single.height);
+        planned.files.push_back(single.height);
       }
-      for (const char* ext : {".height.exr", ".height.png", ".r16", ".preview.png", ".json", ".obj", ".glb"})
-        outs.push_back(prefix.string() + ext);
-      for (const auto& ext : terrain::layer_file_suffixes()) outs.push_back(prefix.string() + ext);
-      for (const auto& ext : gis::geotiff_suffixes()) outs.push_back(prefix.string() + ext);
+      const engines::PlannedOutputs mine = engines::planned_outputs(prefix, job.bundles);
+      planned.files.insert(planned.files.end(), mine.files.begin(), mine.files.end());
+      planned.folders.insert(planned.folders.end(), mine.folders.begin(), mine.folders.end());
     }
-    if (!hf.mesh_path.empty()) outs.push_back(hf.mesh_path);
-    refuse_output_over_input(inputs, outs);
+    if (!hf.mesh_path.empty()) planned.files.push_back(hf.mesh_path);
+    engines::refuse_outputs_over_inputs(inputs, planned);
   }
   ensure_writable_dir(out_dir.empty() ? fs::path(".") : out_dir);
 

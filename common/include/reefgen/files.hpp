@@ -133,7 +133,10 @@ void remove_temps_on_fatal_signals();
 
 // Throws Error when an output path is one of the inputs (same file by inode,
 // or the same path): a run must never overwrite what it reads.
-void refuse_output_over_input(const std::vector<fs::path>& inputs, const std::vector<fs::path>& outputs);
+// Folders the run writes into (engine bundles, PREFIX.<engine>/) count too:
+// an input inside one of them is refused.
+void refuse_output_over_input(const std::vector<fs::path>& inputs, const std::vector<fs::path>& outputs,
+                              const std::vector<fs::path>& output_folders = {});
 
 // A stable checksum for manifests: FNV-1a 64 of the file's bytes, as hex.
 std::string file_checksum(const fs::path& path);

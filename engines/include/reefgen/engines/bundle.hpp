@@ -108,6 +108,17 @@ nlohmann::json stage_bundles(StagedOutputs& staged, const std::filesystem::path&
 // padding), or "" when the engine takes it as it is.
 std::string size_note(Engine e, int side);
 
+// Every path a command with output prefix PREFIX may write: the height
+// files, sidecar, meshes, layer files and GeoTIFFs, and the folders of the
+// bundles asked for. The one list the "never overwrite an input" check uses
+// (refuse_output_over_input); a command adds what it alone writes.
+struct PlannedOutputs {
+  std::vector<std::filesystem::path> files, folders;
+};
+PlannedOutputs planned_outputs(const std::filesystem::path& prefix, const std::vector<Engine>& bundles);
+// Throws Error when one of `inputs` is a planned file or lies in a planned folder.
+void refuse_outputs_over_inputs(const std::vector<std::filesystem::path>& inputs, const PlannedOutputs& planned);
+
 // "unity,unreal" or repeated flags → engines, in order, each once.
 std::vector<Engine> engines_from_strings(const std::vector<std::string>& names);
 
