@@ -353,6 +353,20 @@ TEST_F(Studio, ExportsContinueTheFlankToTheOceanFloorAsked) {
   EXPECT_FALSE(fs::exists(out / "exports" / "bad.height.exr"));
 }
 
+// A bundle folder that is a link out of --out is refused; nothing is written
+// where it points.
+TEST_F(Studio, BundleExportsDoNotFollowLinksOutOfTheFolder) {
+  const fs::path elsewhere = out / "elsewhere";
+  fs::create_directories(elsewhere);
+  write_text_atomic(elsewhere / "README.txt", "mine");
+  fs::create_directories(out / "exports");
+  fs::create_directory_symlink(elsewhere, out / "exports" / "v2.godot");
+  const json body = {{"spec", json::parse(R"({"outlines": [0.3, 0.38, 0.55, 0.68, 0.98]})")}, {"size", 64}};
+  expect_error(client->Post("/api/export?format=godot&name=v2", body.dump(), "application/json"), 400, "link");
+  EXPECT_EQ(read_text(elsewhere / "README.txt"), "mine");
+  EXPECT_EQ(std::distance(fs::directory_iterator(elsewhere), fs::directory_iterator()), 1);
+}
+
 TEST_F(Studio, BadAndOversizeRequestsAreRefused) {
   expect_error(client->Post("/api/infer", "not an image", "image/png"), 400, "not an image");
   expect_error(client->Post("/api/infer", "", "image/png"), 400, "empty body");

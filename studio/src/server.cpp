@@ -378,12 +378,25 @@ struct StudioServer::Impl {
   // into OUT/NAME.<engine>/ and sent as NAME.<engine>.zip holding exactly
   // this export's files (an earlier, larger export's tiles may still be in
   // the folder).
+  // Nothing is written outside --out (docs/STUDIO.md): a bundle folder that
+  // is a link (or resolves elsewhere) would carry the export out of it.
+  void refuse_link_out(const fs::path& folder) const {
+    std::error_code ec;
+    const bool link = fs::symlink_status(folder, ec).type() == fs::file_type::symlink;
+    const fs::path real = fs::weakly_canonical(folder, ec), root = fs::weakly_canonical(o.out_dir, ec);
+    const fs::path rel = real.lexically_relative(root);
+    if (link || ec || rel.empty() || *rel.begin() == "..")
+      throw BadRequest(folder.filename().string() + " in the studio's folder is a link elsewhere; nothing is written "
+                       "outside --out: remove the link or choose another name");
+  }
+
   void send_bundle(httplib::Response& res, engines::Engine e, const std::string& name, const Source& src) {
     const terrain::Layers L = terrain::compute_layers(src.height_m, src.before_m, src.region, src.metres_per_px);
     std::error_code ec;
     fs::create_directories(o.out_dir, ec);
     ensure_writable_dir(o.out_dir);
     const std::string folder = name + "." + engines::to_string(e);
+    refuse_link_out(o.out_dir / folder);
     StagedOutputs staged;
     engines::stage_bundle(staged, o.out_dir / folder, name, e, {src.height_m, &L, src.metres_per_px, {}});
     staged.commit();
