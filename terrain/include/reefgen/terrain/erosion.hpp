@@ -50,11 +50,11 @@ struct ErosionParams {
   double flow_exponent = 1.0;         // multiple-flow-direction share ∝ slope^p (Quinn et al.: 1; large = one direction), [0, 10]
   double pit_breach_m = 5;            // closed depressions left at the end: breached up to this depth, filled below it (0: filled flat), m, [0, 100]
   // Amplification of a model answer only (amplify_heights; the generator ignores them):
-  double amplify_roughness = 0.35;    // relief added to the land before eroding, share of the height, [0, 1]
+  double amplify_roughness = 0.8;     // relief added to the land before eroding, share of the height, [0, 1]
   double amplify_feature_m = 140;     // spacing of that relief's features, m, [1, 1e5]
   double amplify_duration_scale = 0.5;  // base-grid erosion time as a multiple of duration_yr, [0, 100]
   int amplify_steps = 3;              // implicit steps of that erosion (few: the lobes' valleys are not captured), [0, 1000]
-  double amplify_lobe_m = 300;        // flank contours pushed up or down the slope by up to this, m, [0, 2000]
+  double amplify_lobe_m = 500;        // flank contours pushed up or down the slope by up to this, m, [0, 2000]
   double amplify_lobe_spacing_m = 400;  // spacing of those lobes along a contour, m, [1, 1e5]
   bool amplify_lobe_along_flow = true;  // one push per flow line (spurs and re-entrants from the low flank up), not a 2D noise
   double amplify_plain_smooth_m = 150;  // Gaussian σ that takes the model's rings off the beach/lagoon plain's land, m, [0, 2000] (0 = off)
