@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Rebuilds the shipped model of the reef (models/reef-256.pt since 2026-11-27,
 # docs/REEF.md, models/README.md): the dataset of configs/dataset/shipped.json
-# (seed 11) on the reef generator, then configs/train/reef-finetune.json
+# (seed 11) on the reef generator, then two stages: configs/train/reef-finetune.json
 # started with --init from the model shipped before the reef (G only, D
-# fresh), the float16 pack and the measurements. Work folders go to $WORK
+# fresh), then configs/train/reef-shore.json (L1 weighted ×11 at sea level)
+# with --init from that; the float16 pack and the measurements. Work folders go to $WORK
 # (default ../reefgen-work-reef), outside the repository; Ctrl-C and run it
 # again to resume.
 #   bash scripts/train-reef.sh [BASE_MODEL]   # BASE_MODEL: the generator to start from
@@ -20,12 +21,18 @@ if [ ! -f "$BASE" ]; then
   git show 6938da5:models/reef-256.pt > "$BASE.tmp" && mv "$BASE.tmp" "$BASE"
 fi
 $BIN dataset build --config configs/dataset/shipped.json --seed 11 --out "$WORK/data" >/dev/null
-if [ -f "$WORK/run/checkpoint.pt" ]; then
-  $BIN train --data "$WORK/data" --out "$WORK/run" --resume >/dev/null
-else
-  $BIN train --config configs/train/reef-finetune.json --data "$WORK/data" --out "$WORK/run" --init "$BASE" >/dev/null
-fi
-$BIN model pack "$WORK/run/generator.pt" -o "$WORK/reef-256.pt" --storage float16 >/dev/null
+# One stage: resumed from its checkpoint if one is there (a finished run
+# only exports its generator again), else started from INIT.
+stage() {  # stage CONFIG RUN INIT
+  if [ -f "$2/checkpoint.pt" ]; then
+    $BIN train --data "$WORK/data" --out "$2" --resume >/dev/null
+  else
+    $BIN train --config "$1" --data "$WORK/data" --out "$2" --init "$3" >/dev/null
+  fi
+}
+stage configs/train/reef-finetune.json "$WORK/run" "$BASE"
+stage configs/train/reef-shore.json "$WORK/shore" "$WORK/run/generator.pt"
+$BIN model pack "$WORK/shore/generator.pt" -o "$WORK/reef-256.pt" --storage float16 >/dev/null
 $BIN -q eval -m "$WORK/reef-256.pt" --data "$WORK/data" --split test --out "$WORK/eval" >/dev/null
 $BIN -q eval-sketches tests/data/painted -m "$WORK/reef-256.pt" --out "$WORK/eval-painted" >/dev/null
 PY=/usr/bin/python3; [ -x "$PY" ] || PY=python3
