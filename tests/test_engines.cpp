@@ -10,6 +10,7 @@
 #include <vector>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "reefgen/engines/bundle.hpp"
 #include "reefgen/engines/world_bundle.hpp"
@@ -148,6 +149,29 @@ TEST(Engines, UnityTilesShareTheirEdges) {
   }
   expect_splats_sum_to_255(b / "isle_1_1.splat0.png", b / "isle_1_1.splat1.png", t - 1);
   EXPECT_TRUE(fs::exists(b / "README.txt"));
+  fs::remove_all(dir);
+}
+
+// Unity's splat maps hold material 4s+k in channel k of RGBA (README step 4,
+// Unity's alphamap order): a field whose material m weighs (m + 1)/36
+// everywhere reads back as those weights, channel by channel.
+TEST(Engines, UnitySplatChannelsAreTheMaterialsTheyClaim) {
+  const int n = 65;
+  const cv::Mat1f h(n, n, 10.f);
+  terrain::Layers L;
+  for (int m = 0; m < terrain::kNumMaterials; ++m) L.weight[size_t(m)] = cv::Mat1f(n, n, float(m + 1) / 36.f);
+  const fs::path dir = test::temp_dir("unity-channels");
+  StagedOutputs staged;
+  stage_bundles(staged, dir / "c", {Engine::Unity}, {h, &L, 2.0, {}});
+  staged.commit();
+  for (int s = 0; s < 2; ++s) {
+    const cv::Mat bgra = cv::imread((dir / "c.unity" / ("c.splat" + std::to_string(s) + ".png")).string(), cv::IMREAD_UNCHANGED);
+    ASSERT_EQ(bgra.type(), CV_8UC4);
+    cv::Mat rgba;
+    cv::cvtColor(bgra, rgba, cv::COLOR_BGRA2RGBA);
+    const cv::Scalar mean = cv::mean(rgba);
+    for (int k = 0; k < 4; ++k) EXPECT_NEAR(mean[k], 255.0 * (4 * s + k + 1) / 36.0, 1.0) << "splat" << s << " channel " << k;
+  }
   fs::remove_all(dir);
 }
 

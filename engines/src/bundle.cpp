@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include <opencv2/imgproc.hpp>
+
 #include "reefgen/error.hpp"
 #include "reefgen/io.hpp"
 #include "stages.hpp"
@@ -98,7 +100,10 @@ nlohmann::json stage_unity_tiles(StagedOutputs& staged, const fs::path& dir, con
       std::array<cv::Mat4b, 2> splat;
       if (!staged.resumed(splat_files[0]) || !staged.resumed(splat_files[1])) splat = splat_of(rect, alpha);
       for (int s = 0; s < 2; ++s) {
-        const cv::Mat4b cut = splat[size_t(s)];
+        // The splat maps are RGBA (materials 4s … 4s+3); the PNG writer takes
+        // OpenCV's BGRA: swapped, red and blue would trade materials.
+        cv::Mat4b cut;
+        cv::cvtColor(splat[size_t(s)], cut, cv::COLOR_RGBA2BGRA);
         staged.write(splat_files[s], [cut](const fs::path& p) { write_png(p, cut); });
       }
       files.push_back({{"raw", stem + ".raw"}, {"splat", {stem + ".splat0.png", stem + ".splat1.png"}}, {"x", tx}, {"z", tz}});
