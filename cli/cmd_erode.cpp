@@ -52,6 +52,19 @@ void check_square(const cv::Mat1f& h, const std::string& file) {
                 std::to_string(kMaxErodeSide) + "²; resample it (gdalwarp -ts)");
 }
 
+// The cells erode's equations are calibrated for, m: a 0.1 m lidar grid to a
+// 1 km ocean-basin grid. Outside, the flow routing meets slopes it cannot
+// order (1e-3 m) or erodes nothing (1e5 m).
+constexpr double kMinErodeCellM = 0.1, kMaxErodeCellM = 1000;
+
+void check_cell_size(double mpp, const std::string& input) {
+  if (mpp >= kMinErodeCellM && mpp <= kMaxErodeCellM) return;
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.3g", mpp);
+  throw Error(input + ": cells of " + buf + " m; erode takes 0.1 to 1000 m cells (give the right one with "
+              "--metres-per-px M or --world-size M)");
+}
+
 nlohmann::json realism_json(const cv::Mat1f& h, double mpp) {
   const terrain::RealismStats s = terrain::realism_stats(h, mpp);
   return {{"pits", s.pits}, {"terraces", s.terraces}, {"valleys", s.valleys}, {"max_height_m", s.max_height_m}};
@@ -69,6 +82,7 @@ int run_erode(const ErodeArgs& a0, const GlobalOptions& g) {
   engines::refuse_outputs_over_inputs({a.input}, planned);
   gis::Heightmap in = gis::read_heightmap(a.input, a.units);
   check_square(in.height_m, a.input);
+  check_cell_size(in.metres_per_px, a.input);
   note_bundle_sizes(fin, in.height_m.cols, g.quiet);
   ensure_writable_dir(names.prefix.parent_path());
   const double mpp = in.metres_per_px, world_m = mpp * in.height_m.cols;
@@ -133,7 +147,7 @@ Command add_erode_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--world-size", a->units.world_size_m, "Width of the map in metres (cell size = this / width)")
       ->check(finite_in(1e-3, 1e9));
   sub->add_option("--metres-per-px", a->units.metres_per_px, "Cell size in metres (default: the file's own)")
-      ->check(finite_in(1e-6, 1e6));
+      ->check(finite_in(kMinErodeCellM, kMaxErodeCellM));
   sub->add_option("--sea-level", a->sea_level_m, "Height of the sea in the input's metres; land above it erodes")
       ->check(finite_in(-1e5, 1e5))->capture_default_str();
   sub->add_option("--resistance", a->resistance, "Rock resistance ρ everywhere, 0 (soft) … 1 (hard)")

@@ -11,6 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "reefgen/image_io.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/json_read.hpp"
 #include "reefgen/labels.hpp"
@@ -248,6 +249,32 @@ TEST(Io, ResumableStagingKeepsFinishedFilesForTheNextRun) {
   StagedOutputs outside(work, d / "sub");
   expect_error_naming([&] { outside.write(d / "a.txt", writer("x")); }, "outside");
   fs::remove_all(d);
+}
+
+// Every format a sketch may come in declares its size in its header, and
+// decode_image refuses a declared size past the limit before decoding: a
+// PNG whose IHDR claims 30000² (its data is a few bytes) costs nothing.
+TEST(Io, ImageSizesAreReadFromTheHeaderAndCheckedBeforeDecoding) {
+  const cv::Mat img(37, 53, CV_8UC3, cv::Scalar(10, 200, 30));
+  for (const char* ext : {".png", ".jpg", ".bmp", ".webp", ".tif"}) {
+    std::vector<uchar> buf;
+    ASSERT_TRUE(cv::imencode(ext, img, buf)) << ext;
+    const std::string bytes(buf.begin(), buf.end());
+    EXPECT_EQ(declared_image_size(bytes), cv::Size(53, 37)) << ext;
+    expect_error_naming([&] { decode_image(bytes, std::string("s") + ext, cv::IMREAD_UNCHANGED, 50); }, "53×37 pixels; at most 50");
+    EXPECT_EQ(decode_image(bytes, "s", cv::IMREAD_UNCHANGED, 53).cols, 53) << ext;
+  }
+  // A PNG whose header claims 30000² pixels.
+  std::vector<uchar> buf;
+  cv::imencode(".png", img, buf);
+  std::string liar(buf.begin(), buf.end());
+  for (int k = 0; k < 2; ++k) {
+    const uint32_t v = 30000;
+    for (int b = 0; b < 4; ++b) liar[size_t(16 + 4 * k + b)] = char((v >> (8 * (3 - b))) & 0xff);
+  }
+  EXPECT_EQ(declared_image_size(liar), cv::Size(30000, 30000));
+  expect_error_naming([&] { decode_image(liar, "liar.png", cv::IMREAD_UNCHANGED, 4096); }, "30000×30000 pixels");
+  EXPECT_EQ(declared_image_size("not an image"), cv::Size());
 }
 
 // A resumed run trusts only what it staged itself: a staged file truncated,

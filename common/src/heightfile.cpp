@@ -49,8 +49,8 @@ void write_png16(const fs::path& path, const cv::Mat1f& h, double lo, double hi)
   write_png(path, to_u16(h, lo, hi));
 }
 
-cv::Mat1f read_png16(const fs::path& path, double lo, double hi) {
-  const cv::Mat m = read_image(path, cv::IMREAD_UNCHANGED);
+cv::Mat1f read_png16(const fs::path& path, double lo, double hi, int max_side) {
+  const cv::Mat m = read_image(path, cv::IMREAD_UNCHANGED, max_side);
   if (m.type() != CV_16UC1) throw Error(path.string() + ": not a 16-bit greyscale PNG");
   cv::Mat1f out;
   m.convertTo(out, CV_32F, (hi - lo) / 65535.0, lo);

@@ -2,7 +2,9 @@
 
 #include <zlib.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <cstring>
 
@@ -49,8 +51,76 @@ std::string image_damage(const std::string& b) {
   return "";
 }
 
-cv::Mat decode_image(const std::string& bytes, const std::string& name, int flags) {
+namespace {
+uint32_t be32(const unsigned char* p) { return uint32_t(p[0]) << 24 | uint32_t(p[1]) << 16 | uint32_t(p[2]) << 8 | p[3]; }
+uint32_t le32(const unsigned char* p) { return uint32_t(p[3]) << 24 | uint32_t(p[2]) << 16 | uint32_t(p[1]) << 8 | p[0]; }
+uint16_t be16(const unsigned char* p) { return uint16_t(p[0] << 8 | p[1]); }
+uint16_t le16(const unsigned char* p) { return uint16_t(p[1] << 8 | p[0]); }
+
+// The frame header of a JPEG: the first SOFn marker's height and width.
+cv::Size jpeg_size(const unsigned char* u, size_t n) {
+  size_t p = 2;
+  while (p + 9 < n) {
+    if (u[p] != 0xff) return {};
+    const unsigned char m = u[p + 1];
+    if (m == 0xff) { ++p; continue; }  // fill bytes
+    if (m == 0xd8 || (m >= 0xd0 && m <= 0xd7) || m == 0x01) { p += 2; continue; }
+    const size_t len = be16(u + p + 2);
+    const bool sof = m >= 0xc0 && m <= 0xcf && m != 0xc4 && m != 0xc8 && m != 0xcc;
+    if (sof) return {be16(u + p + 7), be16(u + p + 5)};
+    p += 2 + len;
+  }
+  return {};
+}
+
+// A TIFF's first directory: its ImageWidth (256) and ImageLength (257) tags.
+cv::Size tiff_size(const unsigned char* u, size_t n) {
+  const bool le = u[0] == 'I';
+  auto r16 = [&](size_t p) { return le ? le16(u + p) : be16(u + p); };
+  auto r32 = [&](size_t p) { return le ? le32(u + p) : be32(u + p); };
+  const size_t ifd = r32(4);
+  if (ifd + 2 > n) return {};
+  const size_t count = r16(ifd);
+  int w = 0, h = 0;
+  for (size_t k = 0; k < count && ifd + 2 + 12 * (k + 1) <= n; ++k) {
+    const size_t e = ifd + 2 + 12 * k;
+    const unsigned tag = r16(e), type = r16(e + 2);
+    const int v = int(std::min<uint32_t>(type == 3 ? r16(e + 8) : r32(e + 8), uint32_t(1) << 30));
+    if (tag == 256) w = v;
+    if (tag == 257) h = v;
+  }
+  return w > 0 && h > 0 ? cv::Size(w, h) : cv::Size();
+}
+}  // namespace
+
+cv::Size declared_image_size(const std::string& b) {
+  const auto* u = reinterpret_cast<const unsigned char*>(b.data());
+  const size_t n = b.size();
+  auto capped = [](uint32_t v) { return int(std::min<uint32_t>(v, uint32_t(1) << 30)); };
+  if (n >= 24 && std::memcmp(u, "\x89PNG\r\n\x1a\n", 8) == 0 && std::memcmp(u + 12, "IHDR", 4) == 0)
+    return {capped(be32(u + 16)), capped(be32(u + 20))};
+  if (n >= 4 && u[0] == 0xff && u[1] == 0xd8) return jpeg_size(u, n);
+  if (n >= 26 && u[0] == 'B' && u[1] == 'M')
+    return {capped(uint32_t(std::abs(int32_t(le32(u + 18))))), capped(uint32_t(std::abs(int32_t(le32(u + 22)))))};
+  if (n >= 30 && std::memcmp(u, "RIFF", 4) == 0 && std::memcmp(u + 8, "WEBP", 4) == 0) {
+    if (std::memcmp(u + 12, "VP8X", 4) == 0)
+      return {int(1 + (u[24] | u[25] << 8 | u[26] << 16)), int(1 + (u[27] | u[28] << 8 | u[29] << 16))};
+    if (std::memcmp(u + 12, "VP8L", 4) == 0) {
+      const uint32_t bits = le32(u + 21);
+      return {int(1 + (bits & 0x3fff)), int(1 + ((bits >> 14) & 0x3fff))};
+    }
+    if (std::memcmp(u + 12, "VP8 ", 4) == 0) return {le16(u + 26) & 0x3fff, le16(u + 28) & 0x3fff};
+  }
+  if (n >= 8 && ((u[0] == 'I' && u[1] == 'I' && u[2] == 42) || (u[0] == 'M' && u[1] == 'M' && u[3] == 42)))
+    return tiff_size(u, n);
+  return {};
+}
+
+cv::Mat decode_image(const std::string& bytes, const std::string& name, int flags, int max_side) {
   if (bytes.empty()) throw Error(name + ": empty file, not an image");
+  if (const cv::Size d = declared_image_size(bytes); d.width > max_side || d.height > max_side)
+    throw Error(name + ": " + std::to_string(d.width) + "×" + std::to_string(d.height) + " pixels; at most " +
+                std::to_string(max_side) + " a side here (scale the image down first)");
   if (const std::string bad = image_damage(bytes); !bad.empty())
     throw Error(name + ": " + bad + "; save or download the image again");
   // IMREAD_UNCHANGED also ignores a JPEG's EXIF orientation, so a phone
@@ -67,10 +137,10 @@ cv::Mat decode_image(const std::string& bytes, const std::string& name, int flag
   return img;
 }
 
-cv::Mat read_image(const fs::path& path, int flags) {
+cv::Mat read_image(const fs::path& path, int flags, int max_side) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw Error("cannot read " + path.string() + ": no such file");
-  return decode_image(read_text(path, size_t(256) << 20), path.string(), flags);
+  return decode_image(read_text(path, size_t(256) << 20), path.string(), flags, max_side);
 }
 
 namespace {

@@ -48,9 +48,14 @@ std::string crs_wkt(const std::string& crs) {
   char* wkt = nullptr;
   const bool ok = OSRSetFromUserInput(srs, crs.c_str()) == OGRERR_NONE && OSRExportToWkt(srs, &wkt) == OGRERR_NONE;
   std::string out = ok && wkt ? wkt : "";
+  const bool degrees = ok && OSRIsGeographic(srs) != 0;
   CPLFree(wkt);
   OSRDestroySpatialReference(srs);
   if (out.empty()) throw Error("--crs " + crs + ": GDAL does not know this CRS; use e.g. EPSG:32706 (UTM 6S) or a WKT string");
+  // reefgen's grids are in metres: a CRS in degrees would label metres as degrees.
+  if (degrees)
+    throw Error("--crs " + crs + ": a geographic CRS (degrees); reefgen's grids are in metres: use a projected CRS, "
+                "e.g. EPSG:32706 (UTM 6S)");
   return out;
 }
 
@@ -103,7 +108,7 @@ void write_geotiff(const std::filesystem::path& path, const cv::Mat1f& band, dou
   if (!ok) throw Error("cannot write " + path.string() + ": " + gdal_message());
 }
 
-GeoRaster read_geotiff(const std::filesystem::path& path) {
+GeoRaster read_geotiff(const std::filesystem::path& path, int max_side) {
   init_gdal();
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw Error("cannot read " + path.string() + ": no such file");
@@ -118,8 +123,21 @@ GeoRaster read_geotiff(const std::filesystem::path& path) {
   if (GDALGetGeoTransform(ds, gt) == CE_None && gt[2] == 0 && gt[4] == 0) {
     r.metres_per_px = std::abs(gt[1]);
     r.square_pixels = std::abs(std::abs(gt[1]) - std::abs(gt[5])) <= 1e-9 * std::abs(gt[1]);
+    r.south_up = gt[5] > 0;
   }
   if (const char* p = GDALGetProjectionRef(ds)) r.crs_wkt = p;
+  if (!r.crs_wkt.empty()) {
+    OGRSpatialReferenceH srs = OSRNewSpatialReference(r.crs_wkt.c_str());
+    if (srs) {
+      r.geographic = OSRIsGeographic(srs) != 0;
+      OSRDestroySpatialReference(srs);
+    }
+  }
+  if (W > max_side || H > max_side) {
+    GDALClose(ds);
+    throw Error(path.string() + ": " + std::to_string(W) + "×" + std::to_string(H) + " pixels; at most " +
+                std::to_string(max_side) + " a side here (resample it first: gdalwarp -ts)");
+  }
   GDALRasterBandH b = GDALGetRasterCount(ds) > 0 ? GDALGetRasterBand(ds, 1) : nullptr;
   if (!b || W <= 0 || H <= 0 || int64_t(W) * H > int64_t(1) << 28) {
     GDALClose(ds);

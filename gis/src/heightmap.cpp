@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 
+#include "reefgen/constants.hpp"
 #include "reefgen/gis/geotiff.hpp"
 #include "reefgen/heightfile.hpp"
 #include "reefgen/io.hpp"
@@ -56,14 +57,21 @@ Heightmap read_heightmap(const std::filesystem::path& p, const HeightmapUnits& u
     own_mpp = exr_metres_per_px(attrs);
     m.format = "exr";
   } else if (ext == ".tif" || ext == ".tiff") {
-    GeoRaster r = read_geotiff(p);
+    GeoRaster r = read_geotiff(p, kMaxSidePx);
+    // Degrees read as metres made 0.00028 m cells: hours of erosion, nonsense out.
+    if (r.geographic)
+      throw Error(p.string() + ": its CRS is geographic (degrees, e.g. EPSG:4326); reproject it to metres first, e.g. "
+                  "gdalwarp -t_srs EPSG:32706 (the UTM zone of the place) " + p.string() + " metres.tif");
+    if (r.south_up)
+      throw Error(p.string() + ": it is stored south-up (positive pixel height); make it north-up first: gdalwarp " +
+                  p.string() + " north-up.tif");
     if (!r.square_pixels) throw Error(p.string() + ": its pixels are not square; resample it first (gdalwarp -tr)");
     m.height_m = std::move(r.band);
     own_mpp = r.metres_per_px;
     m.format = "geotiff";
   } else if (ext == ".png") {
     need_range(p, u, "16-bit PNG");
-    m.height_m = read_png16(p, u.lo_m, u.hi_m);
+    m.height_m = read_png16(p, u.lo_m, u.hi_m, kMaxSidePx);
     m.format = "png16";
   } else if (ext == ".r16" || ext == ".raw") {
     m.height_m = read_r16(p, u);

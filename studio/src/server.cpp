@@ -241,7 +241,9 @@ struct StudioServer::Impl {
     if (bytes.empty()) throw BadRequest("empty body: send the sketch as a PNG or JPEG image");
     cv::Mat img;
     try {
-      img = decode_image(bytes, "the sketch", cv::IMREAD_UNCHANGED);
+      // The side is checked from the header before decoding: a small PNG
+      // may declare 30000² pixels (docs/STUDIO.md).
+      img = decode_image(bytes, "the sketch", cv::IMREAD_UNCHANGED, o.max_side);
     } catch (const Error& e) {
       throw BadRequest(e.what());
     }

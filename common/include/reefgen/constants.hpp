@@ -25,5 +25,8 @@ inline constexpr double kHeightCeilingM = 560;
 inline constexpr int kMinGenerateSidePx = 8;
 inline constexpr int kMinInferSidePx = 16;
 inline constexpr int kMaxSidePx = 8192;
+// The largest side any user image is decoded at, px, checked from its header
+// first: 16384² RGBA is 1 GiB (the studio and erode set lower limits).
+inline constexpr int kMaxImageSidePx = 16384;
 
 }  // namespace reefgen

@@ -20,7 +20,7 @@ cv::Mat1w to_u16(const cv::Mat1f& height_m, double lo_m, double hi_m);
 
 // 16-bit greyscale PNG, linear: v = round(65535·(h − lo)/(hi − lo)).
 void write_png16(const std::filesystem::path& path, const cv::Mat1f& height_m, double lo_m, double hi_m);
-cv::Mat1f read_png16(const std::filesystem::path& path, double lo_m, double hi_m);
+cv::Mat1f read_png16(const std::filesystem::path& path, double lo_m, double hi_m, int max_side = kMaxImageSidePx);
 
 // Headerless little-endian uint16, row 0 first, W·H·2 bytes (Unity / Unreal
 // "RAW 16-bit"), same linear mapping as PNG16.

@@ -11,6 +11,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "reefgen/constants.hpp"
 #include "reefgen/files.hpp"
 
 namespace reefgen {
@@ -20,9 +21,15 @@ namespace reefgen {
 // damaged (chunk CRCs, end markers) before OpenCV decodes them, so a cut
 // download is an error naming the file, not a half-grey sketch and libpng's
 // chatter on stderr. `flags` as cv::imread. Throws Error naming the file.
-cv::Mat read_image(const fs::path& path, int flags);
+// The side is checked from the file's header before anything is decoded
+// (a 2.6 MB PNG may declare 30000² pixels: 2.7 GB decoded): larger than
+// `max_side` on either axis is an Error naming the size and the limit.
+cv::Mat read_image(const fs::path& path, int flags, int max_side = kMaxImageSidePx);
 // The same for bytes already in memory (`name` for messages).
-cv::Mat decode_image(const std::string& bytes, const std::string& name, int flags);
+cv::Mat decode_image(const std::string& bytes, const std::string& name, int flags, int max_side = kMaxImageSidePx);
+// The width and height an image's header declares (PNG, JPEG, BMP, WebP,
+// TIFF); {0, 0} when the format is not one of them or the header is cut.
+cv::Size declared_image_size(const std::string& bytes);
 // "" when bytes look like a complete PNG/JPEG (or another format), else what is wrong.
 std::string image_damage(const std::string& bytes);
 

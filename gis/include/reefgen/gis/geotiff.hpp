@@ -40,11 +40,14 @@ struct GeoRaster {
   double metres_per_px = 0;    // from the geotransform (0 = none in the file)
   bool square_pixels = true;   // |pixel width| == |pixel height|
   std::string crs_wkt;         // "" = none
+  bool geographic = false;     // the CRS is in degrees (e.g. EPSG:4326): the pixel size is not metres
+  bool south_up = false;       // positive pixel height: row 0 is the south edge
 };
 // Reads a GeoTIFF (any GDAL raster, in fact) band 1 as float32. Refuses a
-// missing file, a folder, a file GDAL cannot open, and bands holding NaN or
-// no-data pixels (one line naming the file and the fix).
-GeoRaster read_geotiff(const std::filesystem::path& path);
+// missing file, a folder, a file GDAL cannot open, one wider or taller than
+// max_side (before reading its pixels), and bands holding NaN or no-data
+// pixels (one line naming the file and the fix).
+GeoRaster read_geotiff(const std::filesystem::path& path, int max_side = 16384);
 
 // What the sidecar says about a GeoTIFF written with `geo`.
 nlohmann::json geo_json(const GeoReference& geo, int width, int height, double metres_per_px);
