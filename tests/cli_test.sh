@@ -117,6 +117,12 @@ PYEOF
   gdalinfo -stats "$T/er/hs.tif" 2>/dev/null | grep -q "Mean=1[0-9][0-9]" && ok || bad "hillshade mean not mid-grey: $(gdalinfo -stats "$T/er/hs.tif" | grep Mean)"
   gdal_contour -q -fl 0 "$T/er/we.height.tif" "$T/er/c0.csv" -f CSV 2>"$T/err" || bad "gdal_contour: $(cat "$T/err")"
   [ "$(wc -l < "$T/er/c0.csv")" -gt 1 ] && ok || bad "gdal_contour -fl 0 found no coastline"
+  # docs/GIS.md's own example, as written: the atoll's coastline (its motu) is found.
+  mkdir -p "$T/gis"
+  "$BIN" -q generate --preset atoll --size 1025 --layers --geotiff --crs EPSG:32706 --origin 500000,8100000 -o "$T/gis/atoll" >/dev/null 2>"$T/err" \
+    && gdal_contour -q -fl 0 "$T/gis/atoll.height.tif" "$T/gis/atoll.coast.gpkg" 2>"$T/err" \
+    && [ "$(ogrinfo -so "$T/gis/atoll.coast.gpkg" contour 2>/dev/null | sed -n 's/^Feature Count: //p')" -ge 1 ] \
+    && ok || bad "docs/GIS.md's coastline example finds no coastline: $(cat "$T/err")"
   # The 16-bit files get a VRT GDAL reads as metres (Offset/Scale), equal to the EXR within a 16-bit step.
   gdal_translate -q -unscale -ot Float32 "$T/er/we.r16.vrt" "$T/er/r16m.tif" 2>"$T/err" || bad "r16 vrt: $(cat "$T/err")"
   gdalinfo -json -stats "$T/er/r16m.tif" > "$T/er/r16.json" 2>/dev/null
@@ -156,6 +162,24 @@ head -c 1001 /dev/zero > "$T/er/odd.r16"
 "$BIN" -q erode "$T/er/we.r16" --range -100:400 --world-size 6000 -o "$T/er/r" >/dev/null 2>"$T/err" && ok || bad "erode r16: $(cat "$T/err")"
 "$BIN" -q erode "$T/er/w.height.exr" -o "$T/er/w" >/dev/null 2>"$T/err" && bad "erode over its input accepted" || \
   { grep -q "w.height.exr" "$T/err" && ok || bad "over input: $(cat "$T/err")"; }
+# Hostile inputs refused before any work: a PNG16 whose header declares
+# 20000² (checked before decoding), degrees read as metres, cell sizes the
+# erosion cannot route, a geographic --crs.
+"$PY" - "$T/er/we.height.png" "$T/er/liar.png" <<'PYEOF' || bad "could not forge the 20000² PNG"
+import struct, sys
+b = bytearray(open(sys.argv[1], "rb").read()); b[16:24] = struct.pack(">II", 20000, 20000)
+open(sys.argv[2], "wb").write(bytes(b))
+PYEOF
+expect_error "20000×20000 pixels; at most 8192" erode "$T/er/liar.png" --range 0:100 --world-size 6000 -o "$T/e/x"
+expect_error "metres-per-px" erode "$T/er/w.height.exr" --metres-per-px 0.001 -o "$T/e/x"
+expect_error "erode takes 0.1 to 1000 m cells" erode "$T/er/w.height.exr" --world-size 1 -o "$T/e/x"
+expect_error "a geographic CRS" erode "$T/er/w.height.exr" --geotiff --crs EPSG:4326 -o "$T/e/x"
+if command -v gdal_translate >/dev/null; then
+  gdal_translate -q -a_srs EPSG:4326 -a_ullr 150 -17 150.01 -17.01 "$T/er/we.height.tif" "$T/er/deg.tif" 2>/dev/null
+  expect_error "geographic (degrees" erode "$T/er/deg.tif" -o "$T/e/x"
+  gdal_translate -q -a_ullr 0 0 6000 6000 "$T/er/we.height.tif" "$T/er/southup.tif" 2>/dev/null
+  expect_error "south-up" erode "$T/er/southup.tif" -o "$T/e/x"
+fi
 # An input inside the bundle folder the run writes (through ../ too) is refused, untouched.
 "$BIN" -q erode "$T/er/w.height.exr" -o "$T/er/b" --for gis >/dev/null 2>"$T/err" || bad "erode --for gis: $(cat "$T/err")"
 sha_before=$(sha256sum < "$T/er/b.gis/b.height.tif")
@@ -395,8 +419,9 @@ assert json.load(open(d + "/d.json"))["provenance"]["ocean_floor_m"] == -2000
 PYEOF
 expect_error "ocean-floor-m" generate --preset atoll --ocean-floor-m -20000 -o "$T/e/x"
 # A world deepened as a whole: its lowest cell at the depth asked, nothing above the knee moved.
-"$BIN" -q world "$T/reef/a.label.png" --size 257 -o "$T/reef/wa" >/dev/null
-"$BIN" -q world "$T/reef/a.label.png" --size 257 --ocean-floor-m -2000 -o "$T/reef/wd" >/dev/null \
+"$BIN" -q generate --preset young-volcano --size 257 -o "$T/reef/yv" >/dev/null
+"$BIN" -q world "$T/reef/yv.label.png" --size 257 -o "$T/reef/wa" >/dev/null
+"$BIN" -q world "$T/reef/yv.label.png" --size 257 --ocean-floor-m -2000 -o "$T/reef/wd" >/dev/null \
   && OPENCV_IO_ENABLE_OPENEXR=1 "$PY" - "$T/reef" <<'PYEOF' && ok || bad "world --ocean-floor-m"
 import cv2, json, sys, numpy as np
 d = sys.argv[1]
