@@ -728,12 +728,20 @@ TEST(Erosion, WorldBandsAreInvisible) {
   label.setTo(uint8_t(kIsland), h > 0);
   const double world_m = 96 * kModelMetresPerPx;
   const WorldBands small{200, 64, 16};
+  // Bands of 64 and of 100 rows: equal but where a band's pit draining saw
+  // a depression crossing its halo. With the roughness and lobes of 0.5.x
+  // there is none on this cone; with today's rougher defaults one crosses,
+  // and the bands differ there by centimetres.
+  terrain::ErosionParams calm;
+  calm.amplify_roughness = 0.35;
+  calm.amplify_lobe_m = 300;
+  const cv::Mat1f a0 = amplify_world(h, label, 385, world_m, 5, calm, {}, small);
+  const cv::Mat1f b0 = amplify_world(h, label, 385, world_m, 5, calm, {}, WorldBands{200, 100, 16});
+  EXPECT_EQ(cv::norm(a0, b0, cv::NORM_INF), 0.0);
   const cv::Mat1f a = amplify_world(h, label, 385, world_m, 5, {}, {}, small);
   ASSERT_EQ(a.size(), cv::Size(385, 385));
-  // Bands of 64 and of 100 rows: equal but where a band's pit draining saw
-  // a depression crossing its halo (none here).
   const cv::Mat1f b = amplify_world(h, label, 385, world_m, 5, {}, {}, WorldBands{200, 100, 16});
-  EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0);
+  EXPECT_LE(cv::norm(a, b, cv::NORM_INF), 0.05);
   const RealismStats st = realism_stats(a, world_m / 385);
   EXPECT_LE(st.pits, 0.01);
   EXPECT_LT(st.seams_rows, 2.5) << "the bands' borders run along rows";
