@@ -418,6 +418,16 @@ assert np.array_equal(ha[ha > -60], hb[ha > -60])  # above the knee nothing move
 assert json.load(open(d + "/d.json"))["provenance"]["ocean_floor_m"] == -2000
 PYEOF
 expect_error "ocean-floor-m" generate --preset atoll --ocean-floor-m -20000 -o "$T/e/x"
+# A subsided (dark) sketch through world keeps its abyss deep: the pass is
+# padded with the sketch's own subsidence, not a bright frame (which made the
+# network answer -47 m for the dark abyss where infer answers -88 m).
+"$BIN" -q world "$T/reef/a.label.png" --raw -o "$T/reef/wraw" >/dev/null \
+  && OPENCV_IO_ENABLE_OPENEXR=1 "$PY" - "$T/reef/wraw.height.exr" <<'PYEOF' && ok || bad "world: a dark sketch's abyss is shallow"
+import cv2, sys, numpy as np
+h = cv2.imread(sys.argv[1], cv2.IMREAD_UNCHANGED)
+b = np.concatenate([h[:8].ravel(), h[-8:].ravel(), h[:, :8].ravel(), h[:, -8:].ravel()])
+assert np.median(b) < -80, np.median(b)
+PYEOF
 # A world deepened as a whole: its lowest cell at the depth asked, nothing above the knee moved.
 "$BIN" -q generate --preset young-volcano --size 257 -o "$T/reef/yv" >/dev/null
 "$BIN" -q world "$T/reef/yv.label.png" --size 257 -o "$T/reef/wa" >/dev/null

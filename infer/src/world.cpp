@@ -32,15 +32,16 @@ cv::Mat1f forward_heights(model::GeneratorFile& g, const cv::Mat1b& label, const
   return model::tensor_to_height(y[0], g.range);
 }
 
-// Pads label/λ with bright abyss to a square side that is a multiple of unit,
-// the content centred; returns the offset of the content.
+// Pads label/λ with abyss to a square side that is a multiple of unit, the
+// content centred, its λ continued from the edge (a bright frame round a
+// dark sketch made the network answer -47 m for a dark abyss that infer
+// answers at -88 m); returns the offset of the content.
 cv::Point pad_square(cv::Mat1b& label, cv::Mat1f& sub, int unit) {
   const int side = (std::max(label.rows, label.cols) + unit - 1) / unit * unit;
   const int top = (side - label.rows) / 2, left = (side - label.cols) / 2;
   cv::copyMakeBorder(label, label, top, side - label.rows - top, left, side - label.cols - left, cv::BORDER_CONSTANT,
                      cv::Scalar(kAbyss));
-  cv::copyMakeBorder(sub, sub, top, side - sub.rows - top, left, side - sub.cols - left, cv::BORDER_CONSTANT,
-                     cv::Scalar(0.f));
+  cv::copyMakeBorder(sub, sub, top, side - sub.rows - top, left, side - sub.cols - left, cv::BORDER_REPLICATE);
   return {left, top};
 }
 

@@ -47,8 +47,8 @@ void keep_painted_land(cv::Mat1f& height_m, const cv::Mat1b& label);
 // The generator's heights (m) over the whole sketch, at the model's scale:
 // sketch_metres_per_px / kModelMetresPerPx times the sketch's size. The
 // sketch is resampled to that scale (regions by nearest neighbour,
-// subsidence bilinear), given a reflected margin, padded with bright abyss to
-// a square multiple of 2^depth, answered in one forward and cropped back.
+// subsidence bilinear), given a reflected margin, padded with abyss (λ from
+// the edge) to a square multiple of 2^depth, answered in one forward and cropped back.
 // An island larger than kLargeIslandRadiusPx is answered by a coarse pass
 // of the island alone at kCoarseIslandRadiusPx (the whole-sketch pass draws
 // it as a plateau ringed by ridges, with no summit): the coarse answer,
