@@ -76,6 +76,18 @@ class WorldCheckpoint {
   }
   bool resumed() const { return resumed_; }
   const fs::path& dir() const { return dir_; }
+  // Whether anything but the key is in it: a refusal before any work (a
+  // size, a scale) leaves nothing to resume.
+  bool holds_work() const {
+    std::error_code ec;
+    for (const auto& e : fs::directory_iterator(dir_, ec))
+      if (e.path().filename() != "key.json") return true;
+    return false;
+  }
+  void remove() const {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
   // A field saved by an earlier run of this command, if any, and intact
   // (the checksum recorded when it was saved); else it is made again.
   std::optional<cv::Mat1f> load(const std::string& name) const {
@@ -381,6 +393,10 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
               const WorldFields w = world_fields(*a, fin, gen, s, mpp_sketch, io, checkpoint, g.quiet);
               write_world(*a, fin, w, prefix, model_path, gen.train_step, mpp_sketch, checkpoint, threads, g.quiet);
             } catch (const Error& e) {
+              if (!checkpoint.holds_work()) {
+                checkpoint.remove();
+                throw;
+              }
               throw Error(std::string(e.what()) + " (the work so far is kept in " + checkpoint.dir().string() +
                           ": the same command resumes it)");
             }

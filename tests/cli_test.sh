@@ -809,6 +809,9 @@ assert a.shape == (2734, 2734, 4) and ((a.sum(2) + b.sum(2)) == 255).all()
 PYEOF
   gdalinfo "$T/w/wide.layers/wide.flow.vrt" | grep -q "Size is 8200, 5467" && ok || bad "world layers: the flow VRT is not the whole world"
 else bad "world --size 8200 --layers: $(cat "$T/err")"; fi
+# A scale the pass cannot take is refused from the numbers, in one line
+# naming the fix that works, and leaves no PREFIX.partial behind.
+expect_error "a smaller --metres-per-px or --world-size" world "$T/w/big.png" --world-size 1e8 -o "$T/e/x"
 expect_error "say the same thing" world "$T/w/big.png" --world-size 9000 --metres-per-px 20 -o "$T/e/x"
 [ ! -e "$T/w/x.height.exr" ] && ok || bad "a failed world wrote its output"
 

@@ -91,14 +91,24 @@ cv::Mat1f world_model_heights(model::GeneratorFile& g, const DecodedSketch& sket
                               const InferOptions& o) {
   if (!(sketch_metres_per_px > 0) || !std::isfinite(sketch_metres_per_px))
     throw Error("world: metres per pixel must be a positive number");
+  // Checked from the numbers before resampling: --world-size 1e8 would ask
+  // for terabytes before the refusal.
+  const double f = sketch_metres_per_px / kModelMetresPerPx;
+  const double longest = std::max(sketch.label.cols, sketch.label.rows) * f;
+  const int M = kWorldMarginPx;
+  if (longest + 2 * M > kMaxWorldPassPx)
+    throw Error("world: the sketch is " + std::to_string(std::lround(std::min(longest, 1e12))) +
+                " px a side at the model's scale (23.4 m a pixel); one pass takes up to " +
+                std::to_string(kMaxWorldPassPx - 2 * M) +
+                " px: use a smaller sketch, or a smaller --metres-per-px or --world-size (less ground per pixel)");
   const DecodedSketch s = at_model_scale(sketch, sketch_metres_per_px);
-  const int W = s.label.cols, H = s.label.rows, M = kWorldMarginPx;
+  const int W = s.label.cols, H = s.label.rows;
   const int unit = 1 << g.g->options().depth;
   const int side = (std::max(W, H) + 2 * M + unit - 1) / unit * unit;
   if (side > kMaxWorldPassPx)
     throw Error("world: the sketch is " + std::to_string(W) + "×" + std::to_string(H) +
                 " px at the model's scale; one pass takes up to " + std::to_string(kMaxWorldPassPx - 2 * M) +
-                " px a side: use a smaller sketch or a larger --metres-per-px");
+                " px a side: use a smaller sketch, or a smaller --metres-per-px or --world-size");
   // Reflect the margin (at most the sketch's own size: a tiny sketch takes
   // what it has), then bright abyss up to the square side.
   const int my = std::min(M, H - 1), mx = std::min(M, W - 1);
