@@ -11,6 +11,7 @@
 #include "reefgen/image_io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/stats.hpp"
+#include "reefgen/terrain/flat_channels.hpp"
 #include "reefgen/terrain/realism.hpp"
 #include "reefgen/terrain/reef_stats.hpp"
 
@@ -28,6 +29,7 @@ struct RealismArgs {
   bool json = false;
   bool stream = false;
   bool reef = false;
+  bool channels = false;
   double grid_period_px = 0;
   std::string sketch;
 };
@@ -52,6 +54,7 @@ struct FileStats {
   std::optional<terrain::SketchAgreement> agree;
   terrain::ReefStats reef;
   bool has_reef = false;
+  std::optional<terrain::FlatChannelStats> channels;
 };
 
 // The statistics (and the sketch's agreement) of `file`: whole, or a band of rows at a time.
@@ -62,7 +65,8 @@ FileStats stats_of(const std::string& file, const RealismArgs& a, const std::opt
   r.metres_per_px = cell_size(a, reader.attributes(), r.size.width, file);
   if (sketch) r.agree = terrain::SketchAgreement{};
   if (a.stream || int64_t(r.size.area()) > kRealismWholeMaxCells) {
-    if (a.reef) throw Error(file + ": --reef reads the whole file; it cannot run with --stream or past 16385²");
+    if (a.reef || a.channels)
+      throw Error(file + ": --reef and --channels read the whole file; they cannot run with --stream or past 16385²");
     const terrain::StreamBands bands;
     for (int y0 = 0; y0 < r.size.height && sketch; y0 += bands.band_rows) {
       const int n = std::min(bands.band_rows, r.size.height - y0);
@@ -74,6 +78,7 @@ FileStats stats_of(const std::string& file, const RealismArgs& a, const std::opt
   }
   const cv::Mat1f h = reader.rows(0, r.size.height);
   if (a.reef) r.reef = terrain::reef_stats(h, r.metres_per_px, a.grid_period_px), r.has_reef = true;
+  if (a.channels) r.channels = terrain::flat_channel_stats(h, r.metres_per_px);
   if (sketch) r.agree = terrain::sketch_agreement(h, sketch->label, sketch->subsidence);
   r.st = realism_stats(h, r.metres_per_px);
   return r;
@@ -91,7 +96,8 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                                  "  reefgen realism dem.exr --metres-per-px 90\n"
                                  "  reefgen realism out/sea.height.exr --sketch sea.png   # painted land above the sea, abyss deep\n"
                                  "  reefgen realism out/atoll.height.exr --reef            # crest, reef flat, lagoon, passes, motu, floor\n"
-                                 "  reefgen realism w/world.height.exr --reef --grid-period 8   # and the model grid at 1:1");
+                                 "  reefgen realism w/world.height.exr --reef --grid-period 8   # and the model grid at 1:1\n"
+                                 "  reefgen realism w/world.height.exr --channels             # straight flat channels on land");
   sub->add_option("files", a->files, "Height files (OpenEXR, metres, sea level 0)")->required();
   sub->add_option("--metres-per-px", a->metres_per_px, "Cell size in metres (default: the file's own)")
       ->check(finite_in(1e-6, 1e6));
@@ -108,6 +114,10 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                   "With --reef: the model grid's period in pixels (output side / 256) whose Fourier amplitude "
                   "on underwater slopes is reported")
       ->check(finite_in(2, 4096));
+  sub->add_flag("--channels", a->channels,
+                "Also the straight flat channels on land: components of land cells with slope < 0.5 %, at least "
+                "25 px long and 5x longer than wide, inland (per 1000 km2 of land) and along the coast apart "
+                "(docs/REALISM.md)");
   sub->add_option("--sketch", a->sketch,
                   "The sketch the heights were drawn from: also the painted land above the sea and the painted "
                   "bright abyss below -20 m (any resolution over the same ground)");
@@ -152,6 +162,12 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                                {"motu_widths_m", e.motu_widths_m},   {"flat_floor_share", e.flat_floor_share},
                                {"grid_amplitude_m", num(e.grid_amplitude_m)}, {"grid_ring_ratio", num(e.grid_ring_ratio)}};
                 }
+                if (r.channels)
+                  j["straight_flat_channels"] = {{"count", r.channels->channels},
+                                                 {"coastal", r.channels->coastal},
+                                                 {"per_1000_km2_land", r.channels->per_1000_km2},
+                                                 {"land_km2", r.channels->land_km2},
+                                                 {"longest_px", r.channels->longest_px}};
                 if (agree) {
                   j["painted_land_above_sea"] = agree->land_above_sea;
                   j["painted_abyss_below_20m"] = agree->abyss_below_bar;
@@ -173,6 +189,11 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                     std::printf("%-40s model grid (%.0f px): %.4f m, %.2fx its ring's median\n", "", a->grid_period_px,
                                 e.grid_amplitude_m, e.grid_ring_ratio);
                 }
+                if (r.channels)
+                  std::printf("%-40s straight flat channels: %lld inland (%.2f per 1000 km2 of %.1f km2 land; longest %.0f px), "
+                              "%lld flat strips along the coast\n",
+                              "", (long long)r.channels->channels, r.channels->per_1000_km2, r.channels->land_km2,
+                              r.channels->longest_px, (long long)r.channels->coastal);
                 if (agree)
                   std::printf("%-40s painted land above sea %.2f%% (%lld cells), bright abyss below -20 m %.2f%% (%lld cells)\n",
                               "", 100 * agree->land_above_sea, (long long)agree->land_cells, 100 * agree->abyss_below_bar,

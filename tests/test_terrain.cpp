@@ -19,6 +19,7 @@
 #include "reefgen/terrain/drainage.hpp"
 #include "reefgen/terrain/eroders.hpp"
 #include "reefgen/terrain/erosion.hpp"
+#include "reefgen/terrain/flat_channels.hpp"
 #include "reefgen/terrain/flow.hpp"
 #include "reefgen/terrain/layers.hpp"
 #include "reefgen/terrain/world_layers.hpp"
@@ -411,4 +412,42 @@ TEST(FlowGraph, EveryVectorPathGivesTheReferenceReceivers) {
       }
     }
   }
+}
+
+// Straight flat channels, on a cone whose every cell falls 2 %: a flat,
+// straight 40×4 px strip (its 38×2 interior is flat by central differences)
+// counts once; a flat strip that bends (an L of two 22 px legs), a round
+// flat pond 30 px across, a flat strip 24 px long and the flat sea count
+// nothing; a flat spit into the sea counts apart.
+TEST(FlatChannels, CountsStraightFlatStripsOnLandOnly) {
+  const int n = 256;
+  const double mpp = 10;
+  cv::Mat1f h(n, n);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) h(y, x) = float(20 - 0.02 * mpp * std::hypot(x - 128.0, y - 128.0));
+  h.setTo(-5, h <= 0);
+  const auto none = flat_channel_stats(h, mpp);
+  EXPECT_EQ(none.channels, 0);
+  EXPECT_NEAR(none.land_km2, M_PI * 100 * 100 * mpp * mpp * 1e-6, 0.01);  // the cone meets the sea 100 px out
+  h(cv::Rect(60, 100, 40, 4)).setTo(12);
+  const auto one = flat_channel_stats(h, mpp);
+  EXPECT_EQ(one.channels, 1);
+  EXPECT_NEAR(one.longest_px, 38, 1e-3);
+  EXPECT_NEAR(one.per_1000_km2, 1000.0 / one.land_km2, 1e-9);
+  h(cv::Rect(150, 60, 24, 4)).setTo(5);
+  h(cv::Rect(170, 60, 4, 24)).setTo(5);
+  cv::circle(h, {170, 170}, 15, cv::Scalar(8), cv::FILLED);
+  h(cv::Rect(60, 170, 26, 4)).setTo(6);
+  EXPECT_EQ(flat_channel_stats(h, mpp).channels, 1);
+  // The same strip turned 45°: still one straight channel.
+  for (int i = 0; i < 40; ++i) h(cv::Rect(100 + i, 50 + i, 4, 1)).setTo(4);
+  EXPECT_EQ(flat_channel_stats(h, mpp).channels, 2);
+  // A flat spit running out into the sea is counted apart, as a coastal strip.
+  h(cv::Rect(200, 126, 40, 4)).setTo(0.5f);
+  const auto spit = flat_channel_stats(h, mpp);
+  EXPECT_EQ(spit.channels, 2);
+  EXPECT_EQ(spit.coastal, 1);
+  EXPECT_EQ(one.coastal, 0);
+  EXPECT_THROW(flat_channel_stats(cv::Mat1f(), mpp), reefgen::Error);
+  EXPECT_THROW(flat_channel_stats(h, 0), reefgen::Error);
 }

@@ -89,7 +89,7 @@ cv::Mat1f amplify_world(const cv::Mat1f& coarse_m, const cv::Mat1b& label, int s
     const int y0 = b * wb.rows_px, y1 = std::min(size, y0 + wb.rows_px);
     const int h0 = std::max(0, y0 - wb.halo_px), h1 = std::min(size, y1 + wb.halo_px);
     cv::Mat1f band = band_of(level, size, h0, h1, world_size_m, seed, p);
-    drain_pits(band, kPitDepthM, float(p.pit_breach_m));
+    drain_pits(band, kPitDepthM, float(p.pit_breach_m), world_size_m / size);
     band(cv::Rect(0, y0 - h0, size, y1 - y0)).copyTo(out(cv::Rect(0, y0, size, y1 - y0)));
     if (progress) progress(b + 1, bands);
   }

@@ -206,7 +206,7 @@ cv::Mat1f erode_island(const cv::Mat1f& h_N, const cv::Mat1f& rho_N, double worl
     return cv::Mat1f(d + fractal_detail(L, up, world_size_m, seed));
   };
   cv::Mat1f out = refine_heights(base, h_N, rho_N, world_size_m, seed, p, detail);
-  drain_pits(out, kPitDepthM, float(p.pit_breach_m));
+  drain_pits(out, kPitDepthM, float(p.pit_breach_m), world_size_m / N);
   return out;
 }
 

@@ -1,62 +1,142 @@
 #include "reefgen/terrain/pits.hpp"
 
 #include <algorithm>
+#include <cmath>
+#include <unordered_map>
 #include <vector>
 
+#include "reefgen/terrain/erosion.hpp"
 #include "reefgen/terrain/flow.hpp"
 
 namespace reefgen::terrain {
 
-int64_t drain_pits(cv::Mat1f& h, float max_depth_m, float breach_m) {
+namespace {
+
+// Distance (m) from each depression cell (below its spill level) along the
+// flood's path to the first cell that is not, and the index of that cell
+// (the spill point): a forward sweep over the flood's order, where every
+// receiver comes before its donors. -1 outside depressions.
+struct SpillPaths {
+  std::vector<float> dist_m;
+  std::vector<int> spill_cell;
+};
+SpillPaths spill_paths(const FloodRoute& fr, const float* z, const float* spill, int cols, double cell_m) {
+  const size_t n = fr.receiver.size();
+  SpillPaths s{std::vector<float>(n, 0.f), std::vector<int>(n, -1)};
+  for (const int i : fr.order) {
+    if (!(z[i] < spill[i])) continue;
+    const int r = fr.receiver[size_t(i)];
+    if (r == i) continue;
+    const bool diagonal = (i % cols != r % cols) && (i / cols != r / cols);
+    const float step = float(cell_m * (diagonal ? M_SQRT2 : 1.0));
+    const bool r_in = z[r] < spill[r] && s.spill_cell[size_t(r)] >= 0;
+    s.spill_cell[size_t(i)] = r_in ? s.spill_cell[size_t(r)] : r;
+    s.dist_m[size_t(i)] = (r_in ? s.dist_m[size_t(r)] : 0.f) + step;
+  }
+  return s;
+}
+
+// The banks of a breach: every cell within kBreachBankMaxPx of a cut cell c
+// is lowered to at most z_c + kBreachBankSlope · distance, so the cut is a
+// V-shaped notch with valley sides rather than a slot one cell wide.
+void cut_banks(cv::Mat1f& h, const std::vector<int>& cut, const std::vector<float>& depth_m, double cell_m) {
+  const int W = h.cols, H = h.rows;
+  const float rise_per_px = float(kBreachBankSlope * cell_m);
+  for (size_t k = 0; k < cut.size(); ++k) {
+    const int cy = cut[k] / W, cx = cut[k] % W;
+    const float zc = h(cy, cx);
+    const int r = std::min(kBreachBankMaxPx, int(std::ceil(depth_m[k] / rise_per_px)));
+    for (int dy = -r; dy <= r; ++dy)
+      for (int dx = -r; dx <= r; ++dx) {
+        const int y = cy + dy, x = cx + dx;
+        if (y < 0 || x < 0 || y >= H || x >= W || !(h(y, x) > 0)) continue;
+        const float d = std::sqrt(float(dx * dx + dy * dy));
+        if (d > float(r)) continue;
+        h(y, x) = std::min(h(y, x), zc + rise_per_px * d);
+      }
+  }
+}
+
+}  // namespace
+
+int64_t drain_pits(cv::Mat1f& h, float max_depth_m, float breach_m, double cell_m) {
   if (!h.isContinuous()) h = h.clone();
   const FloodRoute fr = flood_route(h, sea_and_edge_roles(h));
   const int n = h.rows * h.cols;
+  const cv::Mat1f before = h.clone();
   float* z = h.ptr<float>();
   const float* spill = fr.filled.ptr<float>();
+  const bool valley = cell_m > 0;
+  const float slope = valley ? float(kDrainFloorSlope) : 0.f;
+  // Shaped like a valley: each depression's floor falls towards its spill
+  // point at kDrainFloorSlope, lowest there, as high as the flat floor at the
+  // depression's far end.
+  SpillPaths paths;
+  std::unordered_map<int, float> longest_m;
+  if (valley) {
+    paths = spill_paths(fr, z, spill, h.cols, cell_m);
+    for (int i = 0; i < n; ++i)
+      if (z[i] > 0 && z[i] < spill[i] - max_depth_m && paths.spill_cell[size_t(i)] >= 0) {
+        float& l = longest_m[paths.spill_cell[size_t(i)]];
+        l = std::max(l, paths.dist_m[size_t(i)]);
+      }
+  }
   // Filled: a closed depression deeper than breach_m is raised to breach_m
-  // below its spill level (a lake floor); what is left, at most breach_m, is
-  // breached below.
+  // below its spill level (a lake floor; falling to the spill point when
+  // shaped like a valley); what is left is breached below.
   const float lake_floor_m = std::max(max_depth_m, breach_m);
-  std::vector<uint8_t> moved(size_t(n), 0);
   std::vector<int> pits;
   for (int i = 0; i < n; ++i) {
     if (!(z[i] > 0 && z[i] < spill[i] - max_depth_m)) continue;
-    if (z[i] < spill[i] - lake_floor_m) {
-      z[i] = spill[i] - lake_floor_m;
-      moved[size_t(i)] = 1;
-    }
+    float floor = spill[i] - lake_floor_m;
+    if (valley && paths.spill_cell[size_t(i)] >= 0)
+      floor -= slope * (longest_m[paths.spill_cell[size_t(i)]] - paths.dist_m[size_t(i)]);
+    if (z[i] < floor) z[i] = floor;
     pits.push_back(i);
   }
-  if (breach_m > max_depth_m) {
+  std::vector<int> cut;
+  std::vector<float> cut_depth_m;
+  if (breach_m > max_depth_m || valley) {
     // Breached (Lindsay 2016): a shallow depression keeps its own relief and
     // its outflow path is cut down instead. Filling it would leave a dead-flat
     // floor; behind a coast's thin rim these floors were a ring of flats
     // around every island (docs/EROSION.md). From the lowest depression cell
     // up, the flood's route to the outlet (through the spill point) is made
-    // non-ascending by lowering the cells above the level carried along it.
-    // A walk stops on a cell an earlier, lower walk already made drain: from
-    // there on the path is non-ascending below that cell.
+    // non-ascending by lowering the cells above the level carried along it —
+    // falling kDrainFloorSlope a metre when shaped like a valley, so a breach
+    // is never a flat canal. A walk stops on a cell an earlier, lower walk
+    // already made drain: from there on the path is non-ascending below that
+    // cell.
     std::sort(pits.begin(), pits.end(), [&](int a, int b) { return z[a] < z[b] || (z[a] == z[b] && a < b); });
     std::vector<uint8_t> drains(size_t(n), 0);
     for (const int i : pits) {
       float level = z[i];
+      int from = i;
       for (int j = fr.receiver[size_t(i)]; j != i;) {
+        const bool diagonal = (from % h.cols != j % h.cols) && (from / h.cols != j / h.cols);
+        // Never below the land's floor (kLandFloorM): on a low plain a fall
+        // carried to the sea would cut a straight slot down to 0 m.
+        const float target =
+            std::max(level - slope * float(cell_m * (diagonal ? M_SQRT2 : 1.0)), std::min(level, kLandFloorM));
         if (drains[size_t(j)] && z[j] <= level) break;
-        if (z[j] > level) {
-          z[j] = level;
-          moved[size_t(j)] = 1;
+        if (z[j] > target && (valley || z[j] > level)) {
+          if (valley) cut.push_back(j), cut_depth_m.push_back(z[j] - target);
+          z[j] = valley ? target : level;
         }
         level = z[j];
         drains[size_t(j)] = 1;
         const int next = fr.receiver[size_t(j)];
         if (next == j) break;  // an outlet: the sea or the canvas edge
+        from = j;
         j = next;
       }
       drains[size_t(i)] = 1;
     }
   }
+  if (valley) cut_banks(h, cut, cut_depth_m, cell_m);
   int64_t changed = 0;
-  for (const uint8_t m : moved) changed += m;
+  const float* b = before.ptr<float>();
+  for (int i = 0; i < n; ++i) changed += z[i] != b[i];
   return changed;
 }
 
