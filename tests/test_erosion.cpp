@@ -100,6 +100,63 @@ TEST(Flood, DrainPitsBreachesShallowDepressionsAndFillsDeepOnes) {
     }
 }
 
+// Drained with a cell size, a depression is shaped like a valley: a dammed
+// valley (floor falling 1 % to the sea, sides 5 %, a dam 3 cells thick
+// across it, a lake behind 5.4 m deep at the dam) drains with no pit left;
+// every cell the drain moved falls to a neighbour at 1 % or more (no flat
+// floor, no flat slot); the floor is never raised above the flat fill's; the
+// dam is notched with banks, not slotted one cell wide.
+TEST(Flood, DrainPitsShapedLikeAValleyLeaveNothingFlat) {
+  const int H = 41, W = 120;
+  const double cell_m = 2;
+  cv::Mat1f valley(H, W);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      valley(y, x) = x >= 112 ? -5.f : float(20 - 0.01 * cell_m * x + 0.05 * cell_m * std::abs(y - 20));
+  for (int y = 0; y < H; ++y)
+    for (int x = 70; x < 73; ++x) valley(y, x) = std::max(valley(y, x), 24.f);
+  // The canvas edge is an outlet: walled, so the lake spills over the dam.
+  for (int x = 0; x < 112; ++x) valley(0, x) = valley(H - 1, x) = 40.f;
+  for (int y = 0; y < H; ++y) valley(y, 0) = 40.f;
+  auto in_pits = [](const cv::Mat1f& h) {
+    const FloodRoute r = flood_route(h, sea_and_edge_roles(h));
+    int n = 0;
+    for (int y = 0; y < h.rows; ++y)
+      for (int x = 0; x < h.cols; ++x) n += h(y, x) > 0 && r.filled(y, x) - h(y, x) > 0.5f + 1e-4f;
+    return n;
+  };
+  ASSERT_GT(in_pits(valley), 100);
+  cv::Mat1f flat = valley.clone(), shaped = valley.clone();
+  drain_pits(flat, 0.5f, 5.f);
+  ASSERT_GT(drain_pits(shaped, 0.5f, 5.f, cell_m), 0);
+  EXPECT_EQ(in_pits(shaped), 0);
+  int moved = 0;
+  for (int y = 1; y < H - 1; ++y)
+    for (int x = 1; x < W - 1; ++x) {
+      if (shaped(y, x) == valley(y, x) || shaped(y, x) <= 0) continue;
+      ++moved;
+      double steepest = 0;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx)
+          if (dx || dy)
+            steepest = std::max(steepest, (shaped(y, x) - shaped(y + dy, x + dx)) / (cell_m * std::hypot(dx, dy)));
+      EXPECT_GE(steepest, 0.99 * kDrainFloorSlope) << "a flat moved cell at (" << x << ", " << y << ")";
+      if (shaped(y, x) > valley(y, x)) {
+        EXPECT_LE(shaped(y, x), flat(y, x) + 1e-4f) << "raised above the flat fill at (" << x << ", " << y << ")";
+      }
+    }
+  EXPECT_GT(moved, 50);
+  // The notch: the dam's cells either side of the cut are lowered too, and
+  // rise away from it.
+  int cut_y = 0;
+  for (int y = 0; y < H; ++y)
+    if (shaped(y, 71) < shaped(cut_y, 71)) cut_y = y;
+  EXPECT_LT(shaped(cut_y + 1, 71), 24.f);
+  EXPECT_LT(shaped(cut_y - 1, 71), 24.f);
+  EXPECT_GT(shaped(cut_y + 2, 71), shaped(cut_y + 1, 71));
+  EXPECT_GT(shaped(cut_y - 2, 71), shaped(cut_y - 1, 71));
+}
+
 // flood_route's queue (a radix-sorted list walked by a pointer) against the textbook Priority-Flood
 // with a binary heap on the same (height, index) order: the same pop order,
 // receivers and filled surface on rough fields with many depressions (the
