@@ -89,8 +89,14 @@ int64_t drain_pits(cv::Mat1f& h, float max_depth_m, float breach_m, double cell_
   for (int i = 0; i < n; ++i) {
     if (!(z[i] > 0 && z[i] < spill[i] - max_depth_m)) continue;
     float floor = spill[i] - lake_floor_m;
-    if (valley && paths.spill_cell[size_t(i)] >= 0)
-      floor -= slope * (longest_m[paths.spill_cell[size_t(i)]] - paths.dist_m[size_t(i)]);
+    if (valley && paths.spill_cell[size_t(i)] >= 0) {
+      const float longest = longest_m[paths.spill_cell[size_t(i)]];
+      // Near sea level the floor is left room to fall: a cut that reached the
+      // land's floor would run on flat (a slot at 0.1 m to the sea).
+      const float depth = std::clamp(spill[i] - kLandFloorM - float(kBreachRoomM) - slope * longest, max_depth_m,
+                                     lake_floor_m);
+      floor = spill[i] - depth - slope * (longest - paths.dist_m[size_t(i)]);
+    }
     if (z[i] < floor) z[i] = floor;
     pits.push_back(i);
   }

@@ -21,6 +21,10 @@ constexpr double kDrainFloorSlope = 0.01;
 // a valley side), over at most kBreachBankMaxPx cells.
 constexpr double kBreachBankSlope = 0.6;
 constexpr int kBreachBankMaxPx = 4;
+// Fall left to a breach (m) when a depression lies near sea level: its floor
+// is raised so that the cut can fall this much before it reaches the land's
+// floor (kLandFloorM), where it would run on flat.
+constexpr double kBreachRoomM = 0.5;
 
 // Drains the closed depressions of the land that are deeper than
 // `max_depth_m` (the remaining pits of an eroded or predicted field): one
@@ -30,7 +34,8 @@ constexpr int kBreachBankMaxPx = 4;
 // (flat floors). Returns the cells changed.
 // With cell_m > 0 (metres per pixel) the drained depression is shaped like a
 // valley instead: its raised floor falls towards the spill point at
-// kDrainFloorSlope (lowest there, at most the flat floor's height), every
+// kDrainFloorSlope (lowest there, at most the flat floor's height unless the
+// depression lies so near sea level that the cut needs kBreachRoomM), every
 // breach cut falls at kDrainFloorSlope too, and its banks are opened to
 // kBreachBankSlope — no flat floor, no flat slot.
 int64_t drain_pits(cv::Mat1f& height_m, float max_depth_m = kPitDepthM, float breach_m = 0.f, double cell_m = 0);
