@@ -125,7 +125,9 @@ int64_t drain_pits(cv::Mat1f& h, float max_depth_m, float breach_m, double cell_
         const float target =
             std::max(level - slope * float(cell_m * (diagonal ? M_SQRT2 : 1.0)), std::min(level, kLandFloorM));
         if (drains[size_t(j)] && z[j] <= level) break;
-        if (z[j] > target && (valley || z[j] > level)) {
+        // Only where the route would rise or run level: a cut carried on down
+        // ground that already falls (if gently) would trench a plain to the sea.
+        if (valley ? z[j] >= level && z[j] > target : z[j] > level) {
           if (valley) cut.push_back(j), cut_depth_m.push_back(z[j] - target);
           z[j] = valley ? target : level;
         }
