@@ -160,6 +160,43 @@ TEST_F(Studio, InferAnswersWhatTheCliComputes) {
   EXPECT_GT(got.meta["max_m"].get<double>(), 50.0) << "the painted island has land";
 }
 
+// A burst of inference requests, some of them corrupt: every one is answered
+// (200, 409 when a newer one superseded it, 400 for the corrupt ones), and
+// afterwards the studio still answers with the CLI's heights — the decode
+// slots (at most two decoded sketches held at once) are given back on every
+// path, errors included.
+TEST_F(Studio, ABurstOfInferRequestsIsAnsweredAndLeavesNoSlotHeld) {
+  const fs::path sketch = kRoot / "docs" / "examples" / "painted-sketch.png";
+  const std::string png = file_bytes(sketch);
+  std::vector<int> status(12, 0);
+  std::vector<std::thread> burst;
+  for (size_t i = 0; i < status.size(); ++i)
+    burst.emplace_back([&, i] {
+      httplib::Client c("127.0.0.1", port);
+      c.set_read_timeout(120, 0);
+      const bool corrupt = i % 3 == 1;
+      auto r = c.Post("/api/infer", corrupt ? png.substr(0, png.size() / 2) : png, "image/png");
+      status[i] = r ? r->status : -1;
+    });
+  for (auto& t : burst) t.join();
+  int ok = 0;
+  for (size_t i = 0; i < status.size(); ++i) {
+    if (i % 3 == 1) {
+      EXPECT_TRUE(status[i] == 400 || status[i] == 409) << i << ": " << status[i];
+    } else {
+      EXPECT_TRUE(status[i] == 200 || status[i] == 409) << i << ": " << status[i];
+    }
+    ok += status[i] == 200;
+  }
+  EXPECT_GE(ok, 1);
+  auto r = client->Post("/api/infer", png, "image/png");
+  ASSERT_TRUE(r) << "the studio stopped answering after the burst";
+  ASSERT_EQ(r->status, 200) << r->body;
+  model::GeneratorFile g = model::load_generator(kRoot / "models" / "reef-256.pt");
+  infer::InferOptions io;
+  EXPECT_EQ(cv::norm(parse_heights(r->body).h, infer::infer_heights(g, {read_sketch(sketch)}, io)[0], cv::NORM_INF), 0.0);
+}
+
 // Issue 36 item 6: transparent pixels are open ocean whatever their colour,
 // through the raw canvas path as through a PNG with alpha (the raw path
 // dropped alpha: transparent yellow came out +377 m high).

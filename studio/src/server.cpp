@@ -5,6 +5,7 @@
 #include <sys/socket.h>
 
 #include <chrono>
+#include <condition_variable>
 #include <cstring>
 #include <cmath>
 #include <mutex>
@@ -161,12 +162,56 @@ std::string content_type_of(const fs::path& p) {
 
 }  // namespace
 
+// Inference requests holding a decoded sketch at once (each ~70 MB at
+// 4096²: label maps waiting for the compute lock; 64 request threads could
+// hold 4.5 GB). Two: one computing, one decoded and ready; the others wait
+// before decoding, and are answered 409 without decoding when superseded.
+// (Layer and export requests decode under the compute lock, one at a time.)
+constexpr int kStudioDecodeSlots = 2;
+
+// A counting semaphore (C++17 has none): take() blocks while every slot is
+// held; the Slot returned gives it back when it goes out of scope. Outside the
+// anonymous namespace: a member of Impl.
+class DecodeSlots {
+ public:
+  explicit DecodeSlots(int n) : free_(n) {}
+  class Slot {
+   public:
+    explicit Slot(DecodeSlots& s) : s_(s) {}
+    Slot(const Slot&) = delete;
+    Slot& operator=(const Slot&) = delete;
+    ~Slot() {
+      {
+        std::lock_guard<std::mutex> lock(s_.m_);
+        ++s_.free_;
+      }
+      s_.cv_.notify_one();
+    }
+
+   private:
+    DecodeSlots& s_;
+  };
+  Slot take() {
+    std::unique_lock<std::mutex> lock(m_);
+    cv_.wait(lock, [&] { return free_ > 0; });
+    --free_;
+    return Slot(*this);
+  }
+
+ private:
+  std::mutex m_;
+  std::condition_variable cv_;
+  int free_;
+};
+
+
 struct StudioServer::Impl {
   StudioOptions o;
   model::GeneratorFile gen;
   infer::InferOptions io;
   httplib::Server svr;
   std::mutex compute;          // one inference / generation at a time
+  DecodeSlots decodes{kStudioDecodeSlots};  // sketches decoded at once (outside `compute`)
   std::atomic<uint64_t> latest{0};
   int port = -1;               // the bound public port (Host checks)
   std::unique_ptr<FrontDoor> front;  // owns the public port (front_door.hpp)
@@ -456,17 +501,24 @@ struct StudioServer::Impl {
     res.set_content(body, "application/octet-stream");
   }
 
-  // Runs f under the compute lock unless a newer request came in meanwhile.
+  // Runs f under the compute lock unless a newer request came in meanwhile
+  // (the ticket: ++latest when the request arrived).
+  template <class F>
+  void latest_wins(httplib::Response& res, uint64_t ticket, F&& f) {
+    std::lock_guard<std::mutex> lock(compute);
+    if (superseded(res, ticket)) return;
+    f();
+  }
   template <class F>
   void latest_wins(httplib::Response& res, F&& f) {
-    const uint64_t ticket = ++latest;
-    std::lock_guard<std::mutex> lock(compute);
-    if (ticket != latest.load()) {
-      res.status = 409;
-      res.set_content(json{{"error", "superseded by a newer request"}}.dump(), "application/json");
-      return;
-    }
-    f();
+    latest_wins(res, ++latest, std::forward<F>(f));
+  }
+  // Answers 409 when a newer request came in after `ticket`.
+  bool superseded(httplib::Response& res, uint64_t ticket) {
+    if (ticket == latest.load()) return false;
+    res.status = 409;
+    res.set_content(json{{"error", "superseded by a newer request"}}.dump(), "application/json");
+    return true;
   }
 
   static void fail(httplib::Response& res, int status, const std::string& msg) {
@@ -531,8 +583,15 @@ struct StudioServer::Impl {
 
   void answer_infer(const httplib::Request& req, httplib::Response& res) {
     const bool raw = lower(req.get_header_value("Content-Type")).rfind("application/x-reefgen-rgba", 0) == 0;
+    const uint64_t ticket = ++latest;
+    // The slot is held until the answer is sent: a decoded sketch waiting for
+    // the compute lock holds its label maps (~70 MB at 4096²), and 32
+    // requests waiting held 3.8 GB. A request superseded while it waited for
+    // a slot is answered without decoding.
+    const auto slot = decodes.take();
+    if (superseded(res, ticket)) return;
     const DecodedSketch s = raw ? sketch_of_rgba(req) : sketch_of(req.body);
-    latest_wins(res, [&] {
+    latest_wins(res, ticket, [&] {
       const auto t0 = std::chrono::steady_clock::now();
       const cv::Mat1f h = infer::infer_heights(gen, {s}, io)[0];
       const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
