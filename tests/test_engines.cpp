@@ -261,6 +261,11 @@ TEST(Engines, GodotBundleIsRegionAlignedAndItsControlMapDecodes) {
   EXPECT_EQ(cv::norm(height(cv::Rect(pad, pad, n, n)), h, cv::NORM_INF), 0);
   EXPECT_EQ(height(0, 0), h(0, 0));
   EXPECT_EQ(height(side - 1, side - 1), h(n - 1, n - 1));
+  // Terrain3D 1.0's importer puts the map's top-left sample at the Import
+  // Position (a Vector2i in samples): sample (x, z) lands at (x + px, z + pz)
+  // · spacing, so the island's centre sample must land on (0, 0).
+  const int px = j["godot"]["import_position_px"][0], pz = j["godot"]["import_position_px"][1];
+  EXPECT_EQ(height(-pz, -px), h((n - 1) / 2, (n - 1) / 2));
   for (int r = 0; r < n; r += 7)
     for (int c = 0; c < n; c += 5) {
       uint32_t bits;
@@ -506,7 +511,7 @@ TEST(WorldBundles, LayerTilesShareTheWorldsScales) {
 // Terrain3D: tiles of whole regions, each with its height (metres), control
 // and colour maps and an import position at its centre; side by side they
 // are the world resampled to the tiles' side.
-TEST(WorldBundles, GodotTilesAreWholeRegionsImportedAtTheirCentres) {
+TEST(WorldBundles, GodotTilesAreWholeRegionsImportedAtTheirCorners) {
   const World w;
   WorldTiling t;
   t.godot_region_px = 32, t.godot_tile_px = 64, t.godot_tiles_per_axis = 2;
@@ -533,8 +538,12 @@ TEST(WorldBundles, GodotTilesAreWholeRegionsImportedAtTheirCentres) {
         ASSERT_LT(d.base, terrain::kNumMaterials);
         ASSERT_LT(d.overlay, terrain::kNumMaterials);
       }
-    EXPECT_DOUBLE_EQ(tile["import_position_m"][0].get<double>(), (i * 64 + 32 - 64) * spacing);
-    EXPECT_DOUBLE_EQ(tile["import_position_m"][2].get<double>(), (y * 64 + 32 - 64) * spacing);
+    // Terrain3D's importer places the map's top-left corner at the Import
+    // Position (samples): the tiles meet edge to edge round (0, 0).
+    EXPECT_EQ(tile["import_position_px"][0].get<int>(), i * 64 - 64);
+    EXPECT_EQ(tile["import_position_px"][1].get<int>(), y * 64 - 64);
+    EXPECT_DOUBLE_EQ(tile["centre_m"][0].get<double>(), (i * 64 + 32 - 64) * spacing);
+    EXPECT_DOUBLE_EQ(tile["centre_m"][2].get<double>(), (y * 64 + 32 - 64) * spacing);
     EXPECT_TRUE(fs::exists(dir / "w.godot" / tile["color_map"].get<std::string>()));
   }
   fs::remove_all(dir);

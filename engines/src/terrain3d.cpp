@@ -96,6 +96,9 @@ nlohmann::json stage_godot(StagedOutputs& staged, const fs::path& dir, const std
                    threads);
   double lo = 0, hi = 0;
   cv::minMaxLoc(in.height_m, &lo, &hi);
+  // Terrain3D's importer (1.0) places a map's top-left corner at its Import
+  // Position (samples): the island's centre sample, pad + (n − 1)/2 in, at 0.
+  const int centre = pad + (n - 1) / 2;
   std::string readme =
       "reefgen island for Godot 4 with Terrain3D (1.0 or later)\n\n"
       "Maps: " + std::to_string(side) + "x" + std::to_string(side) + " samples (the island's " + std::to_string(n) +
@@ -113,12 +116,15 @@ nlohmann::json stage_godot(StagedOutputs& staged, const fs::path& dir, const std
       "3. Open addons/terrain_3d/tools/importer.tscn, select Importer: Height File " + name +
       ".height.exr, Control File " + name + ".control.exr, Color File " + name +
       ".color.png,\n"
-      "   Import Position (0, 0, 0) (the island's centre), Import Scale 1, Height Offset 0 (heights are metres).\n"
+      "   Import Position (" + std::to_string(-centre) + ", " + std::to_string(-centre) +
+      ") (the maps' top-left corner in samples; Terrain3D multiplies it by the Vertex Spacing,\n"
+      "   so the island's centre sample lands on (0, 0)), Import Scale 1, Height Offset 0 (heights are metres).\n"
       "4. Run Import, then save the Terrain3D data.\n";
   stage_text(staged, dir / "README.txt", readme);
   return {{"engine", "godot"},      {"heightmap", name + ".height.exr"}, {"control_map", name + ".control.exr"},
           {"color_map", name + ".color.png"}, {"side_px", side},        {"padding_px", pad},
           {"resampled_from_px", n}, {"region_side_px", region},          {"vertex_spacing_m", in.metres_per_px},
+          {"import_position_px", {-centre, -centre}},
           {"control_bits", "base id << 27 | overlay id << 22 | blend << 14"}, {"texture_ids", [] {
              nlohmann::json ids = nlohmann::json::array();
              for (int m = 0; m < terrain::kNumMaterials; ++m) ids.push_back(terrain::material_name(m));
@@ -154,11 +160,14 @@ nlohmann::json stage_godot_world(StagedOutputs& staged, const fs::path& dir, con
                         {files[1], [control](const fs::path& p) { write_exr_channel(p, control, "R", {}, kExrZipLevel); }},
                         {files[2], [colour](const fs::path& p) { write_png(p, colour); }}},
                        3);
-      // Terrain3D centres an imported map on its Import Position: the tile's centre, the world's at (0, 0).
-      const double x = (i * tile + tile / 2.0 - side / 2.0) * mpp, z = (j * tile + tile / 2.0 - side / 2.0) * mpp;
+      // Terrain3D's importer (1.0) places a map's top-left (−X, −Z) corner at its
+      // Import Position, a Vector2i in samples it multiplies by the vertex
+      // spacing: the tile's top-left sample, the world's centre at (0, 0).
+      const int px = i * tile - side / 2, pz = j * tile - side / 2;
+      const double cx = (px + tile / 2.0) * mpp, cz = (pz + tile / 2.0) * mpp;
       tiles.push_back({{"x", i}, {"y", j}, {"heightmap", stem + ".height.exr"}, {"control_map", stem + ".control.exr"},
-                       {"color_map", stem + ".color.png"}, {"import_position_m", {x, 0.0, z}}});
-      positions += "   " + stem + ": (" + fmt("%.3f", x) + ", 0, " + fmt("%.3f", z) + ")\n";
+                       {"color_map", stem + ".color.png"}, {"import_position_px", {px, pz}}, {"centre_m", {cx, 0.0, cz}}});
+      positions += "   " + stem + ": (" + std::to_string(px) + ", " + std::to_string(pz) + ")\n";
     }
   double lo = 0, hi = 0;
   cv::minMaxLoc(h, &lo, &hi);
@@ -178,7 +187,8 @@ nlohmann::json stage_godot_world(StagedOutputs& staged, const fs::path& dir, con
   for (int m = 0; m < terrain::kNumMaterials; ++m) readme += "   " + std::to_string(m) + " " + terrain::material_name(m) + "\n";
   readme +=
       "3. For each tile, in addons/terrain_3d/tools/importer.tscn select Importer: its Height, Control and Color files,\n"
-      "   Import Scale 1, Height Offset 0, and this Import Position (the tile's centre; the world is centred on 0, 0),\n"
+      "   Import Scale 1, Height Offset 0, and this Import Position (the tile's top-left corner in samples; Terrain3D\n"
+      "   multiplies it by the Vertex Spacing; the world is centred on 0, 0; tiles that share a border meet there),\n"
       "   then Run Import:\n" + positions +
       "4. Save the Terrain3D data.\n";
   stage_text(staged, dir / "README.txt", readme);
