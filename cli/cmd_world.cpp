@@ -337,7 +337,8 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
       "world",
       "A sketch of a whole sea, read at the model's own scale (23.4 m a pixel), into one drained height field.\n"
       "Past 8192² the layers and bundles come in tiles. An interrupted run (Ctrl-C, a full disk) keeps its\n"
-      "finished work in PREFIX.partial/: the same command resumes it.\n\n"
+      "finished work in PREFIX.partial/: the same command resumes it. The engine bundles (--for unity, unreal,\n"
+      "godot, blender) take square worlds only (paint a square sketch); --for gis takes any shape.\n\n"
       "Examples:\n"
       "  reefgen sketch random --size 2048x2048 --seed 1 -o sea.png\n"
       "  reefgen world sea.png -o out/sea --size 8192 --preview      # 48 km across, 5.9 m a pixel\n"

@@ -11,7 +11,7 @@
 //           4096² making one 16384² Landscape, weight layers
 //           NAME_<material>_x{i}_y{j}.png
 //   godot   Terrain3D maps NAME_x{i}_y{j}.{height.exr,control.exr,color.png}
-//           in 4 × 4 tiles of 4 × 4 regions of 1024, each imported at its centre
+//           in 4 × 4 tiles of 4 × 4 regions of 1024, each imported at its top-left corner
 //   gis     NAME_x{i}_y{j}.height.tif (+ the float layers) and VRT mosaics
 // Blender takes worlds up to one file (a mesh of 268 M vertices is no asset).
 #include <filesystem>
@@ -38,7 +38,7 @@ struct WorldTiling {
   // components of one 127-quad section, so Unreal does not resample it.
   int unreal_tile_px = 4096, unreal_tiles_per_axis = 4, unreal_section_quads = 127;
   // Terrain3D: per_axis² tiles of tile_px² samples, each region_px regions a
-  // side, imported one by one at their centres: 16384² is 16 × 16 regions of
+  // side, imported one by one at their top-left corners: 16384² is 16 × 16 regions of
   // 1024, within Terrain3D's 32 × 32.
   int godot_region_px = 1024, godot_tile_px = 4096, godot_tiles_per_axis = 4;
   // GeoTIFF and layer tiles: at most this many pixels a side.
