@@ -19,6 +19,8 @@
 #include <algorithm>
 #include <cstring>
 #include <map>
+#include <set>
+#include <sstream>
 #include <opencv2/imgcodecs.hpp>
 
 using namespace reefgen;
@@ -370,6 +372,55 @@ TEST(DatasetBuild, OtherLayoutsAreDeterministicAndResumable) {
   o.layout = DatasetLayout::Pix2pix;
   o.layers = true;
   test::expect_error_naming([&] { build_dataset(p, o); }, "--layers is for reefgen's layout");
+  fs::remove_all(d);
+}
+
+// What a columnar loader (Hugging Face's imagefolder builder, pyarrow) infers
+// from a JSON row: every key, nested, with its type.
+std::string features_of(const nlohmann::json& v) {
+  if (v.is_object()) {
+    std::string s = "{";
+    for (const auto& [k, x] : v.items()) s += k + ":" + features_of(x) + ",";
+    return s + "}";
+  }
+  if (v.is_array()) return "[" + (v.empty() ? std::string() : features_of(v.front())) + "]";
+  if (v.is_number_integer()) return "int";
+  if (v.is_number()) return "float";
+  return v.type_name();
+}
+
+// imagefolder's metadata.jsonl: every row of every split has the same
+// features (Hugging Face refuses "different features"), though pairs differ
+// in their augmentations (pasted, translated, affine or none; test pairs
+// none); the augmentation record reads back from its string.
+TEST(DatasetBuild, ImageFolderMetadataRowsShareTheirFeatures) {
+  const fs::path d = test::temp_dir("imagefolder");
+  DatasetParams p;
+  p.count = 24;
+  p.size_px = 32;
+  p.val_fraction = 0.2;
+  p.test_fraction = 0.2;
+  p.p_paste = 0.5;
+  p.p_translate = 0.5;
+  BuildOptions o;
+  o.quiet = true;
+  o.layout = DatasetLayout::ImageFolder;
+  o.out = d / "hf";
+  build_dataset(p, o);
+  std::set<std::string> features, augmentations;
+  int rows = 0;
+  for (const char* split : {"train", "val", "test"}) {
+    std::istringstream lines(read_text(o.out / split / "metadata.jsonl"));
+    for (std::string line; std::getline(lines, line); ++rows) {
+      const nlohmann::json row = nlohmann::json::parse(line);
+      features.insert(features_of(row));
+      const nlohmann::json aug = nlohmann::json::parse(row["augmentation"].get<std::string>());
+      augmentations.insert(features_of(aug));
+    }
+  }
+  EXPECT_EQ(rows, 24);
+  EXPECT_EQ(features.size(), 1u) << *features.begin() << "\n" << *features.rbegin();
+  EXPECT_GE(augmentations.size(), 3u) << "the pairs' augmentations differ, so the test means something";
   fs::remove_all(d);
 }
 

@@ -82,6 +82,10 @@ PairFiles write_pair(DatasetLayout layout, const fs::path& dir, const std::strin
   // metadata.jsonl: the pair's record with the names Hugging Face joins on.
   const std::string name = fs::path(stem).filename().string();
   json meta = out.record;
+  // The augmentation record as one JSON string: its keys differ from pair to
+  // pair (paste, translate_skipped, affine ...), and Hugging Face's folder
+  // builder refuses metadata whose rows have different features.
+  meta["augmentation"] = out.record["augmentation"].dump();
   meta.update({{"file_name", name + ".png"}, {"height_file", name + ".height.npy"}});
   out.metadata_line = meta.dump();
   out.record.update({{"label", stem + ".png"},
