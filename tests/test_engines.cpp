@@ -4,6 +4,8 @@
 // and regions, the Blender GLB's tangent-space normals.
 #include <gtest/gtest.h>
 
+#include <regex>
+
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -266,6 +268,12 @@ TEST(Engines, GodotBundleIsRegionAlignedAndItsControlMapDecodes) {
   // · spacing, so the island's centre sample must land on (0, 0).
   const int px = j["godot"]["import_position_px"][0], pz = j["godot"]["import_position_px"][1];
   EXPECT_EQ(height(-pz, -px), h((n - 1) / 2, (n - 1) / 2));
+  // The README tells the user the same numbers.
+  std::smatch m;
+  const std::string readme = read_text(b / "README.txt");
+  ASSERT_TRUE(std::regex_search(readme, m, std::regex(R"(Import Position \((-?\d+), (-?\d+)\))"))) << readme;
+  EXPECT_EQ(std::stoi(m[1]), px);
+  EXPECT_EQ(std::stoi(m[2]), pz);
   for (int r = 0; r < n; r += 7)
     for (int c = 0; c < n; c += 5) {
       uint32_t bits;
