@@ -12,6 +12,7 @@ docs/PYTHON.md has the details and reefgen.torch the PyTorch datasets.
 """
 import json as _json
 import math as _math
+import operator as _operator
 import os as _os
 
 from ._reefgen import Error, ConfigError, __version__
@@ -34,18 +35,29 @@ def _config_json(config):
         raise Error(f"cannot read {path}: {e.strerror}; give a dataset config JSON (configs/dataset/*.json)") from None
 
 
+def _seed(seed, name="seed"):
+    """A seed as the command line takes it: a whole number in [0, 2^64 - 1] (numpy integers too)."""
+    try:
+        value = None if isinstance(seed, bool) else _operator.index(seed)
+    except TypeError:
+        value = None
+    if value is None or not 0 <= value < 2**64:
+        raise Error(f"{name} {seed!r} must be a whole number in [0, {2**64 - 1}]")
+    return value
+
+
 def pair(config=None, seed=0, index=0):
     """(heights, labels) of pair `index` of `reefgen dataset build --config CONFIG --seed SEED`.
 
     heights: (S, S) float32 metres, sea level 0, the values of INDEX.height.exr;
     labels: (S, S, 3) uint8 RGB, the pixels of INDEX.label.png.
     """
-    return _reefgen.pair(_config_json(config), int(seed), int(index))
+    return _reefgen.pair(_config_json(config), _seed(seed), int(index))
 
 
 def pair_info(config=None, seed=0, index=0):
     """What the manifest says of pair `index`: split, configuration, level, subsidence, augmentation."""
-    info = _reefgen.pair_info(_config_json(config), int(seed), int(index))
+    info = _reefgen.pair_info(_config_json(config), _seed(seed), int(index))
     info["augmentation"] = _json.loads(info["augmentation"])
     return info
 
@@ -63,8 +75,12 @@ def generate(spec="young-volcano", size=256, seed=None, subsidence=None):
             spec_json = f.read()
     else:
         preset = str(spec)  # unknown: the C++ error lists the presets
-    return _reefgen.generate(preset, spec_json, int(size), seed,
-                             _math.nan if subsidence is None else float(subsidence))
+    if subsidence is not None:
+        subsidence = float(subsidence)
+        if not (0.0 <= subsidence <= 1.0):  # NaN too: it meant "not given" here
+            raise Error(f"generate: subsidence {subsidence} must be a finite number in [0, 1] (None: the spec's own)")
+    return _reefgen.generate(preset, spec_json, int(size), None if seed is None else _seed(seed),
+                             _math.nan if subsidence is None else subsidence)
 
 
 def default_model():
@@ -101,7 +117,7 @@ def infer(sketch, size=0, model=None, seed=0, raw=False, precision="fp32", engin
                     f"bash scripts/install-deps.sh, then rebuild): {e}") from None
     if model is None:
         model = default_model() or ""  # "": the build's source tree (the C++ look-up names the fix)
-    return _reefgen_infer.infer(sketch, int(size), _os.fspath(model), int(seed),
+    return _reefgen_infer.infer(sketch, int(size), _os.fspath(model), _seed(seed),
                                 bool(raw), str(precision), str(engine), bool(stochastic),
                                 None if threads is None else int(threads),
                                 None if world_size_m is None else float(world_size_m))

@@ -70,6 +70,9 @@ cv::Mat bgr_of(const py::array& sketch) {
     throw Error("infer: the sketch must be a (H, W, 3) RGB or (H, W, 4) RGBA array of uint8 or uint16 "
                 "(a painted label map: PIL's np.asarray(Image.open(path)))");
   const int rows = int(sketch.shape(0)), cols = int(sketch.shape(1));
+  if (rows < 1 || cols < 1)
+    throw Error("infer: the sketch is empty (" + std::to_string(cols) + "x" + std::to_string(rows) +
+                "); give a painted label map of at least 1x1 pixels");
   if (rows > kMaxSketchSide || cols > kMaxSketchSide)
     throw Error("infer: the sketch is " + std::to_string(cols) + "x" + std::to_string(rows) + "; at most " +
                 std::to_string(kMaxSketchSide) + " a side");

@@ -48,15 +48,19 @@ augment::DatasetParams dataset_params(const std::string& config_json) {
   return augment::dataset_params_from_json(nlohmann::json::parse(config_json), "dataset config");
 }
 
+// A pair does not depend on the dataset's count: index i is the pair any
+// dataset of more than i pairs holds, up to the largest count allowed.
+void check_pair_index(int64_t index) {
+  if (index < 0 || index >= kMaxPairIndex)
+    throw Error("pair index " + std::to_string(index) + " is outside [0, " + std::to_string(kMaxPairIndex) +
+                "), the pairs a dataset can hold");
+}
+
 // `reefgen dataset build`'s pair `index` for (config, seed): heights in
 // metres and the label map, the same numbers as its files hold.
 py::tuple pair(const std::string& config_json, uint64_t seed, int64_t index) {
   const augment::DatasetParams p = dataset_params(config_json);
-  // A pair does not depend on the dataset's count: index i is the pair any
-  // dataset of more than i pairs holds, up to the largest count allowed.
-  if (index < 0 || index >= kMaxPairIndex)
-    throw Error("pair index " + std::to_string(index) + " is outside [0, " + std::to_string(kMaxPairIndex) +
-                "), the pairs a dataset can hold");
+  check_pair_index(index);
   cv::Mat1f height;
   cv::Mat3b label;
   {
@@ -69,6 +73,7 @@ py::tuple pair(const std::string& config_json, uint64_t seed, int64_t index) {
 }
 
 py::dict pair_info(const std::string& config_json, uint64_t seed, int64_t index) {
+  check_pair_index(index);
   const augment::PairInfo info = augment::pair_info(seed, index, dataset_params(config_json));
   py::dict d;
   d["index"] = info.index;

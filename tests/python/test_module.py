@@ -86,6 +86,20 @@ class Module(unittest.TestCase):
         self.assertNotIn("\n", str(e.exception))
         with self.assertRaises(reefgen.Error):
             reefgen.pair(os.path.join(self.tmp, "missing.json"))
+        # The arguments the command line refuses are reefgen.Error here too, one line each, never
+        # a raw cast error or a silent default: a negative index, a negative seed, a NaN subsidence.
+        for call, needle in ((lambda: reefgen.pair_info(None, 0, -5), "outside [0,"),
+                             (lambda: reefgen.pair(seed=-1), "whole number in [0,"),
+                             (lambda: reefgen.pair(seed=2**64), "whole number in [0,"),
+                             (lambda: reefgen.pair(seed=1.5), "whole number in [0,"),
+                             (lambda: reefgen.generate("atoll", size=32, seed=-1), "whole number in [0,"),
+                             (lambda: reefgen.generate("atoll", size=32, subsidence=float("nan")), "finite number in [0, 1]"),
+                             (lambda: reefgen.generate("atoll", size=32, subsidence=2), "finite number in [0, 1]")):
+            with self.assertRaises(reefgen.Error) as e:
+                call()
+            self.assertIn(needle, str(e.exception))
+            self.assertNotIn("\n", str(e.exception))
+        self.assertEqual(reefgen.pair_info(None, np.uint64(3), 0)["index"], 0)  # numpy integers are seeds too
 
     def test_infer_equals_the_cli(self):
         if not TORCH_BIN:
@@ -115,6 +129,11 @@ class Module(unittest.TestCase):
         self.assertIn("region colour", str(e.exception))
         with self.assertRaises(reefgen.Error):
             reefgen.infer(labels.astype(np.float32))
+        with self.assertRaises(reefgen.Error) as e:
+            reefgen.infer(np.zeros((0, 0, 3), np.uint8))
+        self.assertIn("empty", str(e.exception))
+        with self.assertRaises(reefgen.Error):
+            reefgen.infer(labels, seed=-1)
         with self.assertRaises(reefgen.Error) as e:
             reefgen.infer(labels, engine="onednn", stochastic=True)
         self.assertIn("stochastic=True needs engine=torch", str(e.exception))  # its keywords, not the flags
