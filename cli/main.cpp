@@ -185,6 +185,7 @@ int run_command(const std::vector<reefgen::Command>& commands) {
     std::string what = e.what();
     what = what.substr(0, what.find('\n'));
     std::fprintf(stderr, "reefgen: error: %s\n", what.c_str());
+    reefgen::remove_empty_made_dirs();
     return 1;
   }
   return 0;

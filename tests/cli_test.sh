@@ -9,6 +9,16 @@ fail=0; pass=0
 PY=/usr/bin/python3; [ -x "$PY" ] || PY=python3
 ok() { pass=$((pass+1)); }
 bad() { echo "FAIL: $*"; fail=$((fail+1)); }
+# Errors: one line on stderr, non-zero exit, nothing written (under $T/e).
+expect_error() {  # expect_error NEEDLE ARGS...
+  local needle="$1"; shift
+  rm -rf "$T/e"; mkdir -p "$T/e"
+  if "$BIN" "$@" >/dev/null 2>"$T/err"; then bad "no error for: $*"; return; fi
+  [ "$(wc -l < "$T/err")" = 1 ] || bad "not one line for: $* -> $(cat "$T/err")"
+  grep -q -- "$needle" "$T/err" || bad "message lacks '$needle' for: $* -> $(cat "$T/err")"
+  [ -z "$(ls -A "$T/e")" ] || bad "files left for: $*: $(ls "$T/e")"
+  ok
+}
 skipped=0
 skip() { echo "SKIP: $*"; skipped=$((skipped+1)); }
 
@@ -191,15 +201,6 @@ sha_before=$(sha256sum < "$T/er/b.gis/b.height.tif")
 [ -e "$T/er/c.height.exr" ] && bad "unknown CRS: files written" || ok
 
 # 3. Errors: one line on stderr, non-zero exit, nothing written.
-expect_error() {  # expect_error NEEDLE ARGS...
-  local needle="$1"; shift
-  rm -rf "$T/e"; mkdir -p "$T/e"
-  if "$BIN" "$@" >/dev/null 2>"$T/err"; then bad "no error for: $*"; return; fi
-  [ "$(wc -l < "$T/err")" = 1 ] || bad "not one line for: $* -> $(cat "$T/err")"
-  grep -q -- "$needle" "$T/err" || bad "message lacks '$needle' for: $* -> $(cat "$T/err")"
-  [ -z "$(ls -A "$T/e")" ] || bad "files left for: $*: $(ls "$T/e")"
-  ok
-}
 echo '{"subsidence": 2}' > "$T/range.json"
 echo '{"outlines": [0.3, ' > "$T/broken.json"
 echo '{"wind": [], "profle": [0.5, 0.1]}' > "$T/typo.json"
@@ -758,6 +759,15 @@ else bad "world --size on a sketch that is not square: $(cat "$T/err")"; fi
   && ok || bad "infer of a 768x512 sketch does not point to reefgen world"
 expect_error "the engine bundles take square worlds" world "$T/w/sea.png" --size 1024 --for unity -o "$T/e/x"
 expect_error "no such sketch file" world "$T/w/none.png" -o "$T/w/x"
+# A sketch too small or not square for a bundle: one line naming --size, no
+# empty bundle folder (nor the output folders the run made) left behind, and
+# the fix it names works.
+"$PY" -c "import cv2, numpy as np, sys; cv2.imwrite(sys.argv[1], np.full((1, 1, 3), (255, 120, 0), np.uint8)); \
+cv2.imwrite(sys.argv[2], np.full((1, 40, 3), (255, 120, 0), np.uint8))" "$T/w/dot.png" "$T/w/row.png"
+expect_error "pass --size N" infer "$T/w/dot.png" --for unity -o "$T/e/deep/c"
+expect_error "pass --size N" infer "$T/w/row.png" --for godot,gis -o "$T/e/deep/r"
+"$BIN" -q infer "$T/w/row.png" --for unity --size 65 -o "$T/w/dot-fixed" >/dev/null 2>"$T/err" \
+  && [ -s "$T/w/dot-fixed.unity/dot-fixed.raw" ] && ok || bad "infer --size 65 (the fix named) failed: $(cat "$T/err")"
 # A world stopped part way (here an output path that is a folder; Ctrl-C
 # keeps the same) leaves nothing in place but its work in PREFIX.partial/;
 # the same command resumes it and makes the bytes of an uninterrupted run.

@@ -49,9 +49,35 @@ void untrack_temp(const fs::path& tmp) {
     if (t.ready && tmp.native() == t.path) t.ready = false;
 }
 
+// Folders this process created (ensure_writable_dir), outermost first, for a
+// failed or killed run to remove again while they are still empty: rmdir
+// removes only empty folders and is async-signal-safe.
+constexpr size_t kMadeDirs = 64;
+LiveTemp g_made[kMadeDirs];
+std::atomic<uint64_t> g_made_next{0};
+
+void track_made_dir(const fs::path& dir) {
+  const std::string& s = dir.native();
+  if (s.size() >= kLiveTempPath) return;
+  LiveTemp& t = g_made[g_made_next.fetch_add(1) % kMadeDirs];
+  t.ready = false;
+  std::memcpy(t.path, s.c_str(), s.size() + 1);
+  t.ready = true;
+}
+
+// The innermost (latest) first, so a parent made with its child goes too.
+void rmdir_made_dirs() {
+  const uint64_t n = g_made_next.load();
+  for (uint64_t k = n; k > 0 && n - k < kMadeDirs; --k) {
+    LiveTemp& t = g_made[(k - 1) % kMadeDirs];
+    if (t.ready) ::rmdir(t.path);
+  }
+}
+
 extern "C" void unlink_temps_and_die(int sig) {
   for (LiveTemp& t : g_live)
     if (t.ready) ::unlink(t.path);
+  rmdir_made_dirs();
   ::signal(sig, SIG_DFL);
   ::raise(sig);
 }
@@ -102,6 +128,8 @@ using detail::temp_path_for;
 void remove_temps_on_fatal_signals() {
   for (int sig : {SIGTERM, SIGHUP, SIGINT}) ::signal(sig, unlink_temps_and_die);
 }
+
+void remove_empty_made_dirs() { rmdir_made_dirs(); }
 
 void write_file_atomic(const fs::path& path, const void* data, size_t size) {
   const fs::path tmp = temp_path_for(path);
@@ -398,8 +426,16 @@ void write_json_atomic(const fs::path& path, const nlohmann::json& j) {
 void ensure_writable_dir(const fs::path& dir) {
   std::error_code ec;
   if (!dir.empty() && !fs::exists(dir, ec)) {
+    // The folders missing, outermost first: a failed run removes them again.
+    std::vector<fs::path> missing;
+    for (fs::path p = fs::absolute(dir, ec).lexically_normal(); !p.empty() && !fs::exists(p, ec);
+         p = p.parent_path()) {
+      missing.insert(missing.begin(), p);
+      if (p == p.parent_path()) break;
+    }
     fs::create_directories(dir, ec);
     if (ec) throw Error("cannot create folder " + dir.string() + ": " + ec.message());
+    for (const fs::path& p : missing) track_made_dir(p);
   }
   const fs::path d = dir.empty() ? fs::path(".") : dir;
   if (!fs::is_directory(d, ec)) throw Error(d.string() + " is not a folder");

@@ -123,6 +123,16 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
       for (size_t k = i; k < std::min(inputs.size(), i + kChunk); ++k) {
         sketches.push_back(read_sketch(inputs[k]));
         const cv::Size sz = sketches.back().label.size();
+        // The output is the sketch's size unless --size: its layers and
+        // bundles take at least 2 samples a side, the bundles a square.
+        const cv::Size out = io.size_px > 0 ? cv::Size(io.size_px, io.size_px) : sz;
+        const std::string would = inputs[k].string() + ": the output would be " + std::to_string(out.width) + "x" +
+                                  std::to_string(out.height) + "; ";
+        if (std::min(out.width, out.height) < 2 && (job.layers || job.geotiff || !job.bundles.empty()))
+          throw Error(would + "layers, GeoTIFFs and engine bundles need at least 2 samples a side: pass --size N "
+                              "(e.g. --size 257)");
+        if (out.width != out.height && !job.bundles.empty())
+          throw Error(would + "engine bundles take a square field: pass --size N (e.g. --size 257)");
         if (std::max(sz.width, sz.height) > kWorldHintSidePx)
           r.world_notes.push_back(inputs[k].string() + ": " + std::to_string(sz.width) + "x" + std::to_string(sz.height) +
                                   " read as one " + std::to_string(int(io.world_size_m / 1000)) +

@@ -130,6 +130,10 @@ int remove_stale_temps(const fs::path& dir);
 // *.tmp.* behind. Commands with their own graceful stop (train, studio)
 // install theirs afterwards for the signals they handle.
 void remove_temps_on_fatal_signals();
+// Removes the folders ensure_writable_dir created in this process that are
+// still empty (innermost first): a run that failed leaves no empty bundle
+// folder behind. The fatal-signal handler does the same.
+void remove_empty_made_dirs();
 
 // Throws Error when an output path is one of the inputs (same file by inode,
 // or the same path): a run must never overwrite what it reads.
