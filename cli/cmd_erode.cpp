@@ -83,7 +83,7 @@ int run_erode(const ErodeArgs& a0, const GlobalOptions& g) {
   gis::Heightmap in = gis::read_heightmap(a.input, a.units);
   check_square(in.height_m, a.input);
   check_cell_size(in.metres_per_px, a.input);
-  note_bundle_sizes(fin, in.height_m.cols, g.quiet);
+  note_bundle_sizes(fin, in.height_m.cols, g.quiet, "");
   ensure_writable_dir(names.prefix.parent_path());
   const double mpp = in.metres_per_px, world_m = mpp * in.height_m.cols;
   cv::Mat1f before = in.height_m - float(a.sea_level_m);

@@ -24,10 +24,10 @@ FinishFlags::Parsed FinishFlags::parse() const {
   return p;
 }
 
-void note_bundle_sizes(const FinishFlags::Parsed& fin, int side, bool quiet) {
+void note_bundle_sizes(const FinishFlags::Parsed& fin, int side, bool quiet, const std::string& fix) {
   if (quiet) return;
   for (const engines::Engine e : fin.bundles)
-    if (const std::string note = engines::size_note(e, side); !note.empty()) std::fprintf(stderr, "note: %s\n", note.c_str());
+    if (const std::string note = engines::size_note(e, side, fix); !note.empty()) std::fprintf(stderr, "note: %s\n", note.c_str());
 }
 
 void add_finish_flags(CLI::App* sub, FinishFlags& f) {

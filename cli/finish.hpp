@@ -33,7 +33,8 @@ struct FinishFlags {
 
 // One stderr line per bundle that resamples a field of `side` samples (the
 // README in the bundle says it too); nothing when quiet.
-void note_bundle_sizes(const FinishFlags::Parsed& fin, int side, bool quiet);
+// `fix` as engines::size_note's: "" for erode, which takes its input's size.
+void note_bundle_sizes(const FinishFlags::Parsed& fin, int side, bool quiet, const std::string& fix = "--size");
 
 void add_finish_flags(CLI::App* sub, FinishFlags& f);
 

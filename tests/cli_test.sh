@@ -192,6 +192,9 @@ if command -v gdal_translate >/dev/null; then
 fi
 # An input inside the bundle folder the run writes (through ../ too) is refused, untouched.
 "$BIN" -q erode "$T/er/w.height.exr" -o "$T/er/b" --for gis >/dev/null 2>"$T/err" || bad "erode --for gis: $(cat "$T/err")"
+# erode takes its input's size: a Unity note tells to resample the input, not a --size it has not got.
+"$BIN" erode "$T/er/w.height.exr" -o "$T/er/u" --for unity 2>&1 >/dev/null | grep "note: --for unity" > "$T/note" || true
+grep -q "resample the input to" "$T/note" && ! grep -q -- "--size" "$T/note" && ok || bad "erode's Unity note: $(cat "$T/note")"
 sha_before=$(sha256sum < "$T/er/b.gis/b.height.tif")
 "$BIN" -q erode "$T/er/b.gis/b.height.tif" -o "$T/er/../er/b" --for gis >/dev/null 2>"$T/err" && bad "erode into its input's bundle accepted" || \
   { grep -q "lies in .*b.gis, which this run writes" "$T/err" && [ "$(sha256sum < "$T/er/b.gis/b.height.tif")" = "$sha_before" ] \

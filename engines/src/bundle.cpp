@@ -315,8 +315,13 @@ nlohmann::json stage_bundles(StagedOutputs& staged, const fs::path& prefix, cons
   return out;
 }
 
-std::string size_note(Engine e, int side) {
+std::string size_note(Engine e, int side, const std::string& fix) {
   const std::string n = std::to_string(side) + "²";
+  auto avoid = [&](int want) {
+    const std::string w = std::to_string(want);
+    return fix.empty() ? "resample the input to " + w + "² first (e.g. gdalwarp -ts " + w + " " + w + ") to avoid it"
+                       : "use " + fix + " " + w + " to avoid it";
+  };
   if (e == Engine::Unity) {
     if (unity_tiles(side) > 1)
       return "--for unity: " + n + " is past Unity's 4097²: resampled to " +
@@ -324,11 +329,11 @@ std::string size_note(Engine e, int side) {
              "×" + std::to_string(unity_tiles(side)) + " tiles of 4097²";
     if (unity_side(side) != side)
       return "--for unity: " + n + " resampled to " + std::to_string(unity_side(side)) +
-             "² (Unity takes 2^n+1: 33, 65, …, 4097; use --size " + std::to_string(unity_side(side)) + " to avoid it)";
+             "² (Unity takes 2^n+1: 33, 65, …, 4097; " + avoid(unity_side(side)) + ")";
   }
   if (e == Engine::Unreal && unreal_side(side) != side)
     return "--for unreal: " + n + " resampled to " + std::to_string(unreal_side(side)) +
-           "² (Landscape sizes 505, 1009, 2017, 4033, 8129; use --size " + std::to_string(unreal_side(side)) + " to avoid it)";
+           "² (Landscape sizes 505, 1009, 2017, 4033, 8129; " + avoid(unreal_side(side)) + ")";
   return "";
 }
 

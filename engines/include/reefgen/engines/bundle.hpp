@@ -106,7 +106,10 @@ nlohmann::json stage_bundles(StagedOutputs& staged, const std::filesystem::path&
 // One line saying how `e` changes a field of `side` samples a side (Unity's
 // 2ⁿ + 1 or its tiles, Unreal's nearest Landscape size, Terrain3D's region
 // padding), or "" when the engine takes it as it is.
-std::string size_note(Engine e, int side);
+// `fix`: how the user picks another size, e.g. "--size" (the note then says
+// "use --size N to avoid it"); empty for a command that takes its input's
+// size (erode): the note says to resample the input to N² first.
+std::string size_note(Engine e, int side, const std::string& fix = "--size");
 
 // Every path a command with output prefix PREFIX may write: the height
 // files, sidecar, meshes, layer files and GeoTIFFs, and the folders of the
