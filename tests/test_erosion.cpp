@@ -45,6 +45,14 @@ cv::Mat1f cone(int W, float peak, float noise = 0.f, uint64_t seed = 1) {
   return h;
 }
 
+// Land cells in closed depressions deeper than drain_pits leaves (0.5 m).
+int cells_in_pits(const cv::Mat1f& h) {
+  const FloodRoute r = flood_route(h, sea_and_edge_roles(h));
+  int n = 0;
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x) n += h(y, x) > 0 && r.filled(y, x) - h(y, x) > 0.5f + 1e-4f;
+  return n;
+}
 }  // namespace
 
 // A coastal plain behind a thin rim (the generator's coasts): a shallow
@@ -62,25 +70,18 @@ TEST(Flood, DrainPitsBreachesShallowDepressionsAndFillsDeepOnes) {
   plain(12, 12) = 1.5f;  // a deep pit in the middle: 4.5 m below the spill
   // How many of these cells sit in depressions deeper than 0.5 m, and how
   // many distinct heights the plain keeps (a flat floor has one).
-  auto in_pits = [](const cv::Mat1f& h) {
-    const FloodRoute r = flood_route(h, sea_and_edge_roles(h));
-    int n = 0;
-    for (int y = 0; y < h.rows; ++y)
-      for (int x = 0; x < h.cols; ++x) n += h(y, x) > 0 && r.filled(y, x) - h(y, x) > 0.5f + 1e-4f;
-    return n;
-  };
   auto plain_levels = [&](const cv::Mat1f& h) {
     std::set<float> v;
     for (int y = 3; y < W - 3; ++y)
       for (int x = 3; x < W - 3; ++x) v.insert(h(y, x));
     return v.size();
   };
-  ASSERT_GT(in_pits(plain), 300);
+  ASSERT_GT(cells_in_pits(plain), 300);
   cv::Mat1f filled = plain.clone(), breached = plain.clone();
   const int64_t n_fill = drain_pits(filled, 0.5f, 0.f);
   const int64_t n_breach = drain_pits(breached, 0.5f, 3.f);
-  EXPECT_EQ(in_pits(filled), 0);
-  EXPECT_EQ(in_pits(breached), 0);
+  EXPECT_EQ(cells_in_pits(filled), 0);
+  EXPECT_EQ(cells_in_pits(breached), 0);
   EXPECT_LE(plain_levels(filled), 6u);     // a floor at 5.5 m, and the cells above it
   EXPECT_GE(plain_levels(breached), 30u);  // the plain's own bumps
   EXPECT_LT(n_breach * 4, n_fill) << n_breach << " cells cut, " << n_fill << " filled";
@@ -118,18 +119,11 @@ TEST(Flood, DrainPitsShapedLikeAValleyLeaveNothingFlat) {
   // The canvas edge is an outlet: walled, so the lake spills over the dam.
   for (int x = 0; x < 112; ++x) valley(0, x) = valley(H - 1, x) = 40.f;
   for (int y = 0; y < H; ++y) valley(y, 0) = 40.f;
-  auto in_pits = [](const cv::Mat1f& h) {
-    const FloodRoute r = flood_route(h, sea_and_edge_roles(h));
-    int n = 0;
-    for (int y = 0; y < h.rows; ++y)
-      for (int x = 0; x < h.cols; ++x) n += h(y, x) > 0 && r.filled(y, x) - h(y, x) > 0.5f + 1e-4f;
-    return n;
-  };
-  ASSERT_GT(in_pits(valley), 100);
+  ASSERT_GT(cells_in_pits(valley), 100);
   cv::Mat1f flat = valley.clone(), shaped = valley.clone();
   drain_pits(flat, 0.5f, 5.f);
   ASSERT_GT(drain_pits(shaped, 0.5f, 5.f, cell_m), 0);
-  EXPECT_EQ(in_pits(shaped), 0);
+  EXPECT_EQ(cells_in_pits(shaped), 0);
   int moved = 0;
   for (int y = 1; y < H - 1; ++y)
     for (int x = 1; x < W - 1; ++x) {

@@ -35,14 +35,19 @@ struct LiveTemp {
 LiveTemp g_live[kLiveTemps];
 std::atomic<uint64_t> g_live_next{0};
 
-void track_temp(const fs::path& tmp) {
-  const std::string& s = tmp.native();
+// Publishes `path` in the next slot of a signal handler's table (the oldest
+// is reused when all are taken).
+template <size_t N>
+void publish(LiveTemp (&table)[N], std::atomic<uint64_t>& next, const fs::path& path) {
+  const std::string& s = path.native();
   if (s.size() >= kLiveTempPath) return;
-  LiveTemp& t = g_live[g_live_next.fetch_add(1) % kLiveTemps];
+  LiveTemp& t = table[next.fetch_add(1) % N];
   t.ready = false;
   std::memcpy(t.path, s.c_str(), s.size() + 1);
   t.ready = true;
 }
+
+void track_temp(const fs::path& tmp) { publish(g_live, g_live_next, tmp); }
 
 void untrack_temp(const fs::path& tmp) {
   for (LiveTemp& t : g_live)
@@ -56,14 +61,7 @@ constexpr size_t kMadeDirs = 64;
 LiveTemp g_made[kMadeDirs];
 std::atomic<uint64_t> g_made_next{0};
 
-void track_made_dir(const fs::path& dir) {
-  const std::string& s = dir.native();
-  if (s.size() >= kLiveTempPath) return;
-  LiveTemp& t = g_made[g_made_next.fetch_add(1) % kMadeDirs];
-  t.ready = false;
-  std::memcpy(t.path, s.c_str(), s.size() + 1);
-  t.ready = true;
-}
+void track_made_dir(const fs::path& dir) { publish(g_made, g_made_next, dir); }
 
 // The innermost (latest) first, so a parent made with its child goes too.
 void rmdir_made_dirs() {

@@ -39,7 +39,8 @@ SpillPaths spill_paths(const FloodRoute& fr, const float* z, const float* spill,
 // The banks of a breach: every cell within kBreachBankMaxPx of a cut cell c
 // is lowered to at most z_c + kBreachBankSlope · distance, so the cut is a
 // V-shaped notch with valley sides rather than a slot one cell wide.
-void cut_banks(cv::Mat1f& h, const std::vector<int>& cut, const std::vector<float>& depth_m, double cell_m) {
+void cut_banks(cv::Mat1f& h, const std::vector<int>& cut, const std::vector<float>& depth_m, double cell_m,
+               std::vector<uint8_t>& moved) {
   const int W = h.cols, H = h.rows;
   const float rise_per_px = float(kBreachBankSlope * cell_m);
   for (size_t k = 0; k < cut.size(); ++k) {
@@ -52,7 +53,7 @@ void cut_banks(cv::Mat1f& h, const std::vector<int>& cut, const std::vector<floa
         if (y < 0 || x < 0 || y >= H || x >= W || !(h(y, x) > 0)) continue;
         const float d = std::sqrt(float(dx * dx + dy * dy));
         if (d > float(r)) continue;
-        h(y, x) = std::min(h(y, x), zc + rise_per_px * d);
+        if (zc + rise_per_px * d < h(y, x)) h(y, x) = zc + rise_per_px * d, moved[size_t(y * W + x)] = 1;
       }
   }
 }
@@ -63,8 +64,8 @@ int64_t drain_pits(cv::Mat1f& h, float max_depth_m, float breach_m, double cell_
   if (!h.isContinuous()) h = h.clone();
   const FloodRoute fr = flood_route(h, sea_and_edge_roles(h));
   const int n = h.rows * h.cols;
-  const cv::Mat1f before = h.clone();
   float* z = h.ptr<float>();
+  std::vector<uint8_t> moved(size_t(n), 0);
   const float* spill = fr.filled.ptr<float>();
   const bool valley = cell_m > 0;
   const float slope = valley ? float(kDrainFloorSlope) : 0.f;
@@ -97,7 +98,7 @@ int64_t drain_pits(cv::Mat1f& h, float max_depth_m, float breach_m, double cell_
                                      lake_floor_m);
       floor = spill[i] - depth - slope * (longest - paths.dist_m[size_t(i)]);
     }
-    if (z[i] < floor) z[i] = floor;
+    if (z[i] < floor) z[i] = floor, moved[size_t(i)] = 1;
     pits.push_back(i);
   }
   std::vector<int> cut;
@@ -130,6 +131,7 @@ int64_t drain_pits(cv::Mat1f& h, float max_depth_m, float breach_m, double cell_
         if (valley ? z[j] >= level && z[j] > target : z[j] > level) {
           if (valley) cut.push_back(j), cut_depth_m.push_back(z[j] - target);
           z[j] = valley ? target : level;
+          moved[size_t(j)] = 1;
         }
         level = z[j];
         drains[size_t(j)] = 1;
@@ -141,10 +143,9 @@ int64_t drain_pits(cv::Mat1f& h, float max_depth_m, float breach_m, double cell_
       drains[size_t(i)] = 1;
     }
   }
-  if (valley) cut_banks(h, cut, cut_depth_m, cell_m);
+  if (valley) cut_banks(h, cut, cut_depth_m, cell_m, moved);
   int64_t changed = 0;
-  const float* b = before.ptr<float>();
-  for (int i = 0; i < n; ++i) changed += z[i] != b[i];
+  for (const uint8_t m : moved) changed += m;
   return changed;
 }
 
