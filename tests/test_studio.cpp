@@ -179,16 +179,18 @@ TEST_F(Studio, ABurstOfInferRequestsIsAnsweredAndLeavesNoSlotHeld) {
       status[i] = r ? r->status : -1;
     });
   for (auto& t : burst) t.join();
-  int ok = 0;
+  // The newest request is never superseded, so at least one answer is not a
+  // 409; it may be a corrupt one (400) when that arrived last.
+  int answered = 0;
   for (size_t i = 0; i < status.size(); ++i) {
     if (i % 3 == 1) {
       EXPECT_TRUE(status[i] == 400 || status[i] == 409) << i << ": " << status[i];
     } else {
       EXPECT_TRUE(status[i] == 200 || status[i] == 409) << i << ": " << status[i];
     }
-    ok += status[i] == 200;
+    answered += status[i] == 200 || status[i] == 400;
   }
-  EXPECT_GE(ok, 1);
+  EXPECT_GE(answered, 1);
   auto r = client->Post("/api/infer", png, "image/png");
   ASSERT_TRUE(r) << "the studio stopped answering after the burst";
   ASSERT_EQ(r->status, 200) << r->body;
