@@ -15,10 +15,10 @@ import math as _math
 import operator as _operator
 import os as _os
 
-from ._reefgen import Error, ConfigError, __version__
+from ._reefgen import Error, ConfigError, HEIGHT_RANGE_M, __version__
 from . import _reefgen
 
-__all__ = ["generate", "pair", "pair_info", "infer", "default_model", "realism", "presets", "Error", "ConfigError", "__version__"]
+__all__ = ["generate", "pair", "pair_info", "infer", "default_model", "realism", "presets", "Error", "ConfigError", "HEIGHT_RANGE_M", "__version__"]
 
 
 def _config_json(config):

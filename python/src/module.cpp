@@ -74,7 +74,15 @@ py::tuple pair(const std::string& config_json, uint64_t seed, int64_t index) {
 
 py::dict pair_info(const std::string& config_json, uint64_t seed, int64_t index) {
   check_pair_index(index);
-  const augment::PairInfo info = augment::pair_info(seed, index, dataset_params(config_json));
+  const augment::DatasetParams p = dataset_params(config_json);
+  // The augmentation record is known only once the pair is made (how many
+  // islands a paste placed, whether a translation was skipped): made here as
+  // `dataset build` makes it, so the record is the manifest's.
+  augment::PairInfo info;
+  {
+    py::gil_scoped_release free_python;
+    augment::make_pair(seed, index, p, &info);
+  }
   py::dict d;
   d["index"] = info.index;
   d["configuration"] = info.configuration;
@@ -83,6 +91,19 @@ py::dict pair_info(const std::string& config_json, uint64_t seed, int64_t index)
   d["split"] = augment::split_name(info.split);
   d["augmentation"] = info.augmentation.dump();
   return d;
+}
+
+// The splits of pairs start … start + count − 1, one letter each ('t'
+// train, 'v' val, 's' test), without making any pair: PairStream's filter.
+std::string pair_splits(const std::string& config_json, uint64_t seed, int64_t start, int64_t count) {
+  if (count < 0) throw Error("pair_splits: count must be >= 0");
+  check_pair_index(start);
+  if (count > 0) check_pair_index(start + count - 1);
+  const augment::DatasetParams p = dataset_params(config_json);
+  static constexpr char kLetter[3] = {'t', 'v', 's'};
+  std::string out(size_t(count), 't');
+  for (int64_t k = 0; k < count; ++k) out[size_t(k)] = kLetter[int(augment::pair_info(seed, start + k, p).split)];
+  return out;
 }
 
 procgen::IslandSpec spec_of(const std::string& preset, const std::string& spec_json) {
@@ -148,8 +169,11 @@ PYBIND11_MODULE(_reefgen, m) {
   // nlohmann's parse errors name the byte: the same one line as the CLI's.
   py::register_exception<nlohmann::json::exception>(m, "ConfigError", PyExc_ValueError);
   m.attr("__version__") = reefgen::kVersion;
+  // The range the networks map to [-1, 1] (m): to_tensors' height_range_m for reefgen's models.
+  m.attr("HEIGHT_RANGE_M") = py::make_tuple(reefgen::kAbyssFloorM, reefgen::kHeightCeilingM);
   m.def("pair", &pair, py::arg("config_json"), py::arg("seed"), py::arg("index"));
   m.def("pair_info", &pair_info, py::arg("config_json"), py::arg("seed"), py::arg("index"));
+  m.def("pair_splits", &pair_splits, py::arg("config_json"), py::arg("seed"), py::arg("start"), py::arg("count"));
   m.def("generate", &generate, py::arg("preset"), py::arg("spec_json"), py::arg("size"), py::arg("seed"),
         py::arg("subsidence"));
   m.def("realism", &realism, py::arg("heights"), py::arg("metres_per_px"));

@@ -65,6 +65,9 @@ class Module(unittest.TestCase):
             self.assertTrue(np.array_equal(labels, png), i)
             info = reefgen.pair_info(self.config, seed=SEED, index=i)
             self.assertEqual((info["split"], info["subsidence"]), (r["split"], r["subsidence"]))
+            # The whole record, augmentation included (it was None on every pair).
+            self.assertEqual(info["augmentation"], r["augmentation"], i)
+            self.assertEqual(info["configuration"], r["configuration"], i)
 
     def test_generate_equals_the_cli(self):
         prefix = os.path.join(self.tmp, "volcano")
@@ -171,6 +174,50 @@ class Module(unittest.TestCase):
         parts = [self.stream(2, rank=r, world_size=3) for r in range(3)]
         seen = [i for part in parts for i, _, _ in part]
         self.assertEqual(sorted(seen), list(range(12)))
+
+    def test_stream_deals_whole_batches_whatever_the_workers(self):
+        # DataLoader batches of 8 from 20 pairs: [0..7], [8..15], [16..19] with 0, 2 or 4 workers
+        # (dealt per index, 2 workers gave [0, 2, 4, ..., 14] first).
+        want = [list(range(0, 8)), list(range(8, 16)), list(range(16, 20))]
+        for workers in (0, 2, 4):
+            ds = rtorch.PairStream(self.config, seed=SEED, count=20, with_index=True, batch_size=8)
+            got = [b[2].tolist() for b in DataLoader(ds, batch_size=8, num_workers=workers)]
+            self.assertEqual(got, want, workers)
+
+    def test_stream_split_and_shuffle_over_ranks_and_workers(self):
+        train = sorted(i for i, r in self.rows.items() if r["split"] == "train")
+        self.assertTrue(0 < len(train) < CONFIG["count"])
+
+        def epoch(e):
+            seen = []
+            for rank in range(2):
+                ds = rtorch.PairStream(self.config, seed=SEED, count=CONFIG["count"], split="train", shuffle=True,
+                                       with_index=True, batch_size=4, rank=rank, world_size=2)
+                ds.set_epoch(e)
+                for _, _, idx in DataLoader(ds, batch_size=4, num_workers=2):
+                    seen += idx.tolist()
+            return seen
+
+        first = epoch(0)
+        self.assertEqual(sorted(first), train)  # every train pair once, no val or test pair
+        ds = rtorch.PairStream(self.config, seed=SEED, count=CONFIG["count"], split="train", shuffle=True)
+        order0 = list(ds.order())
+        self.assertEqual(order0, list(ds.order()))  # the same seed and epoch: the same order
+        self.assertNotEqual(order0, train)
+        ds.set_epoch(1)
+        order1 = list(ds.order())
+        self.assertEqual(sorted(order1), train)
+        self.assertNotEqual(order1, order0)  # another epoch, another order
+        other = rtorch.PairStream(self.config, seed=SEED + 1, count=CONFIG["count"], split="val")
+        val = sorted(i for i, r in self.rows.items() if r["split"] == "val")
+        self.assertNotEqual(list(other.order()), val)  # the split follows the seed, as dataset build's
+        same = rtorch.PairStream(self.config, seed=SEED, count=CONFIG["count"], split="val")
+        self.assertEqual(list(same.order()), val)
+        # A bad config is refused when the stream is made, not in a worker at the first pair.
+        with self.assertRaises(reefgen.Error):
+            rtorch.PairStream({"count": 0})
+        with self.assertRaises(ValueError):
+            rtorch.PairStream(self.config, split="validation")
 
     def test_pair_folder_checks_the_manifest(self):
         train = rtorch.PairFolder(self.data, "train")
