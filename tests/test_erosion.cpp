@@ -22,6 +22,8 @@
 #include "reefgen/infer/amplify.hpp"
 #include "reefgen/terrain/flow.hpp"
 #include "reefgen/terrain/pits.hpp"
+#include "reefgen/terrain/flat_channels.hpp"
+#include "reefgen/error.hpp"
 #include "reefgen/terrain/realism.hpp"
 #include "test_util.hpp"
 
@@ -149,6 +151,46 @@ TEST(Flood, DrainPitsShapedLikeAValleyLeaveNothingFlat) {
   EXPECT_LT(shaped(cut_y - 1, 71), 24.f);
   EXPECT_GT(shaped(cut_y + 2, 71), shaped(cut_y + 1, 71));
   EXPECT_GT(shaped(cut_y - 2, 71), shaped(cut_y - 1, 71));
+}
+
+// Graded, a straight flat lowland valley (the kind erosion leaves cut down
+// to the land's floor: 130 cells at 0.1 m between sides rising 5 %) falls
+// towards the sea at kLandMinSlope: no straight flat channel is left, every
+// land cell off the canvas edge falls that much to a neighbour, nothing is
+// lowered, and ground above the graded floor does not move.
+TEST(Flood, GradeLandLeavesNoFlatOnLand) {
+  const int H = 61, W = 160;
+  const double cell_m = 3;
+  cv::Mat1f h(H, W);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const double side = 0.05 * cell_m * std::max(0, std::abs(y - 30) - 1);
+      h(y, x) = x >= 140 ? -10.f : float(kLandFloorM + side);
+    }
+  // The canvas edge is an outlet: walled in the west, so the valley drains to the sea.
+  for (int y = 0; y < H; ++y) h(y, 0) = 40.f;
+  ASSERT_EQ(flat_channel_stats(h, cell_m).channels, 0) << "at the coast: a strip, not a channel";
+  ASSERT_EQ(flat_channel_stats(h, cell_m).coastal, 1);
+  cv::Mat1f g = h.clone();
+  ASSERT_GT(grade_land(g, cell_m), 100);
+  const FlatChannelStats after = flat_channel_stats(g, cell_m);
+  EXPECT_EQ(after.channels + after.coastal, 0);
+  // The floor's head rises by the fall of its length, no more.
+  const float head_m = float(kLandFloorM + kLandMinSlope * cell_m * 138);
+  EXPECT_NEAR(g(30, 1), head_m, 0.05);
+  for (int y = 1; y < H - 1; ++y)
+    for (int x = 1; x < W - 1; ++x) {
+      EXPECT_GE(g(y, x), h(y, x)) << "lowered at (" << x << ", " << y << ")";
+      if (h(y, x) > head_m + 0.2f) EXPECT_EQ(g(y, x), h(y, x)) << "moved above the graded floor at (" << x << ", " << y << ")";
+      if (g(y, x) <= 0) continue;
+      double steepest = 0;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx)
+          if (dx || dy)
+            steepest = std::max(steepest, (g(y, x) - g(y + dy, x + dx)) / (cell_m * std::hypot(dx, dy)));
+      EXPECT_GE(steepest, 0.99 * kLandMinSlope) << "flat at (" << x << ", " << y << ")";
+    }
+  EXPECT_THROW(grade_land(g, 0), Error);
 }
 
 // flood_route's queue (a radix-sorted list walked by a pointer) against the textbook Priority-Flood

@@ -293,6 +293,7 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
     if (p.enabled) finish_painted_reef(land, label_s, world_size_m, seed);
     if (p.enabled) fill_ponds(land, label, world_size_m / N, p.amplify_pond_max_m2);
     drain_pits(land, kPitDepthM, float(p.pit_breach_m), world_size_m / N);
+    grade_land(land, world_size_m / N);
     return land;
   }
   auto detail = [&](int L, const cv::Mat1f& up) { return fractal_detail(L, up, world_size_m, seed); };
@@ -302,6 +303,7 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
   finish_painted_reef(out, label_s, world_size_m, seed);
   fill_ponds(out, label, world_size_m / N, p.amplify_pond_max_m2);
   drain_pits(out, kPitDepthM, float(p.pit_breach_m), world_size_m / N);
+  grade_land(out, world_size_m / N);
   return out;
 }
 

@@ -207,6 +207,7 @@ cv::Mat1f erode_island(const cv::Mat1f& h_N, const cv::Mat1f& rho_N, double worl
   };
   cv::Mat1f out = refine_heights(base, h_N, rho_N, world_size_m, seed, p, detail);
   drain_pits(out, kPitDepthM, float(p.pit_breach_m), world_size_m / N);
+  grade_land(out, world_size_m / N);
   return out;
 }
 

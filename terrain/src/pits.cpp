@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <unordered_map>
 #include <vector>
 
+#include "reefgen/error.hpp"
 #include "reefgen/terrain/erosion.hpp"
 #include "reefgen/terrain/flow.hpp"
 
@@ -58,7 +60,44 @@ void cut_banks(cv::Mat1f& h, const std::vector<int>& cut, const std::vector<floa
   }
 }
 
+// grade_land's sweep, marking the cells it raises in `moved`. A cell is
+// held to its lowest neighbour already final (every receiver is, by the
+// flood's order), not to its receiver alone: in a flat of equal heights the
+// flood routes cells through one another in queue order, and a cell with a
+// lower neighbour beside it would be raised along that chain.
+void grade_into(cv::Mat1f& h, double cell_m, double slope, std::vector<uint8_t>& moved) {
+  const cv::Mat1b role = sea_and_edge_roles(h);
+  const FloodRoute fr = flood_route(h, role);
+  float* z = h.ptr<float>();
+  const int W = h.cols, H = h.rows;
+  std::vector<uint8_t> final_(h.total());
+  for (size_t i = 0; i < final_.size(); ++i) final_[i] = role.ptr<uint8_t>()[i] != kActive;
+  const float rise[2] = {float(slope * cell_m), float(slope * cell_m * M_SQRT2)};
+  for (const int i : fr.order) {
+    const int x = i % W, y = i / W;
+    float least = std::numeric_limits<float>::max();
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int nx = x + dx, ny = y + dy, j = ny * W + nx;
+        if ((dx == 0 && dy == 0) || nx < 0 || ny < 0 || nx >= W || ny >= H || !final_[size_t(j)]) continue;
+        least = std::min(least, z[j] > 0 ? z[j] + rise[dx != 0 && dy != 0] : kLandFloorM);
+      }
+    if (z[i] < least) z[i] = least, moved[size_t(i)] = 1;
+    final_[size_t(i)] = 1;
+  }
+}
+
 }  // namespace
+
+int64_t grade_land(cv::Mat1f& h, double cell_m, double slope) {
+  if (!(cell_m > 0) || !(slope >= 0)) throw Error("grade_land: the cell size must be > 0 m and the slope ≥ 0");
+  if (!h.isContinuous()) h = h.clone();
+  std::vector<uint8_t> moved(h.total(), 0);
+  grade_into(h, cell_m, slope, moved);
+  int64_t changed = 0;
+  for (const uint8_t m : moved) changed += m;
+  return changed;
+}
 
 int64_t drain_pits(cv::Mat1f& h, float max_depth_m, float breach_m, double cell_m) {
   if (!h.isContinuous()) h = h.clone();

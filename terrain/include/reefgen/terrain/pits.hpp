@@ -26,6 +26,12 @@ constexpr int kBreachBankMaxPx = 4;
 // floor (kLandFloorM), where it would run on flat.
 constexpr double kBreachRoomM = 0.5;
 
+// The least fall a land cell keeps along its route to the sea after
+// grade_land (m per m), 0.7 %: above the 0.5 % below which the realism
+// report calls ground flat (docs/REALISM.md "Straight flat channels"), with
+// room for the central difference's loss where two routes part.
+constexpr double kLandMinSlope = 0.007;
+
 // Drains the closed depressions of the land that are deeper than
 // `max_depth_m` (the remaining pits of an eroded or predicted field): one
 // deeper than `breach_m` is first raised to breach_m below its spill level,
@@ -39,5 +45,16 @@ constexpr double kBreachRoomM = 0.5;
 // breach cut falls at kDrainFloorSlope too, and its banks are opened to
 // kBreachBankSlope — no flat floor, no flat slot.
 int64_t drain_pits(cv::Mat1f& height_m, float max_depth_m = kPitDepthM, float breach_m = 0.f, double cell_m = 0);
+
+// Every land cell falls at least `slope` (m per m) along its route to the
+// sea: z_i ≥ z_r + slope·|i − r| for its flood receiver r, and z_i ≥
+// kLandFloorM next to the sea. Priority-Flood+ε (Barnes, Lehman & Mulla 2014,
+// Computers & Geosciences 62) with ε the fall of one step at `slope`: a flat
+// (a lowland held at the land's floor, a filled floor, a shallow pit's fill)
+// gets a gradient towards its outlet; ground that already falls that much
+// is untouched, and nothing is lowered. Returns the cells raised.
+// Whole fields only: on a band of a larger field the band's edges would be
+// outlets, and two bands would grade one flat towards different edges.
+int64_t grade_land(cv::Mat1f& height_m, double cell_m, double slope = kLandMinSlope);
 
 }  // namespace reefgen::terrain
