@@ -13,6 +13,7 @@
 #include "finish.hpp"
 #include "reefgen/constants.hpp"
 #include "reefgen/engines/world_bundle.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/heightfile.hpp"
 #include "reefgen/infer/amplify.hpp"
 #include "reefgen/infer/world.hpp"
@@ -144,7 +145,10 @@ nlohmann::json world_key(const WorldArgs& a, const std::string& model_path, int6
   if (model_sha256.empty()) throw Error(model_path + ": cannot read the model (check the path and its permissions)");
   std::string rules;
   if (!a.finish.layer_rules.empty()) rules = read_text(a.finish.layer_rules, size_t(1) << 20);
+  // The program by its bytes too: a checkpoint an older reefgen left holds
+  // heights its code computed, and a resume would mix two versions' work.
   return {{"sketch_sha256", sha256_hex(sketch.data(), sketch.size())},
+          {"program_sha256", sha256_of_file("/proc/self/exe")},
           {"model", fs::absolute(model_path).string()},
           {"model_sha256", model_sha256},
           {"train_step", train_step},
@@ -389,6 +393,11 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
             io.precision = infer::precision_from_string(a->precision);
             io.engine = infer::engine_from_string(a->engine);
             io.seed = a->seed;
+            // Two runs with one -o would remove each other's checkpoint and
+            // stage into one folder: the second is refused.
+            const fs::path out_dir = prefix.has_parent_path() ? prefix.parent_path() : fs::path(".");
+            const DirLock lock(out_dir, "world's outputs (" + prefix.filename().string() + ")",
+                               "." + prefix.filename().string() + ".world.lock", true);
             const WorldCheckpoint checkpoint(prefix, world_key(*a, model_path, gen.train_step), g.quiet);
             try {
               const WorldFields w = world_fields(*a, fin, gen, s, mpp_sketch, io, checkpoint, g.quiet);

@@ -472,7 +472,7 @@ std::string file_checksum(const fs::path& path) {
 }
 
 
-DirLock::DirLock(const fs::path& dir, const std::string& what, const std::string& lock_name) {
+DirLock::DirLock(const fs::path& dir, const std::string& what, const std::string& lock_name, bool remove_when_done) {
   const fs::path lock = dir / lock_name;
   fd_ = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
   if (fd_ < 0) throw Error(lock.string() + ": cannot create the lock file (" + std::strerror(errno) + "); check the folder's permissions");
@@ -484,9 +484,12 @@ DirLock::DirLock(const fs::path& dir, const std::string& what, const std::string
     throw Error(dir.string() + ": another reefgen process is using this " + what +
                 "; wait for it to finish or choose another folder");
   }
+  if (remove_when_done) remove_ = lock;
 }
 
 DirLock::~DirLock() {
+  // Unlinked while still held: no other process can have taken it.
+  if (fd_ >= 0 && !remove_.empty()) ::unlink(remove_.c_str());
   if (fd_ >= 0) ::close(fd_);  // releases the flock
 }
 

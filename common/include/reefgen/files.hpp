@@ -110,15 +110,20 @@ void ensure_writable_dir(const fs::path& dir);
 // for the object's lifetime through DIR/.reefgen.lock (flock: released by the
 // kernel when the process dies, so a kill -9 never leaves a stale lock).
 // Throws Error naming the folder and the other process when it is taken.
+// With remove_when_done the lock file is unlinked when the lock is released
+// (a lock beside a user's own files, not left behind by a run that ends;
+// a killed run leaves an empty file that the next run reuses).
 class DirLock {
  public:
-  DirLock(const fs::path& dir, const std::string& what, const std::string& lock_name = ".reefgen.lock");
+  DirLock(const fs::path& dir, const std::string& what, const std::string& lock_name = ".reefgen.lock",
+          bool remove_when_done = false);
   ~DirLock();
   DirLock(const DirLock&) = delete;
   DirLock& operator=(const DirLock&) = delete;
 
  private:
   int fd_ = -1;
+  fs::path remove_;
 };
 
 // Removes temporary files left by killed processes in `dir` (not recursive):
