@@ -126,7 +126,8 @@ int run_infer(const InferArgs& a, const GlobalOptions& g) {
     for (const auto& n : r.r16_notes) std::fprintf(stderr, "%s", n.c_str());
     for (const auto& n : r.world_notes) std::fprintf(stderr, "note: %s\n", n.c_str());
   }
-  for (const auto& h : r.heights) std::printf("%s\n", h.c_str());
+  // Data on stdout: every file written, as `generate` lists them.
+  for (const auto& f : r.files) std::printf("%s\n", f.c_str());
   return 0;
 }
 

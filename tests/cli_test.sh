@@ -157,8 +157,11 @@ assert "Unity cannot import this file" in j["import_note"] and "Flip Vertically"
 assert abs(u["terrain_width_m"] - 127 * 6000 / 128) < 1e-6, u["terrain_width_m"]
 PYEOF
 # infer gets the same layers (the sketch's regions) and GeoTIFFs.
-"$BIN" -q infer "$(dirname "$0")/../docs/examples/painted-sketch.png" --size 96 --layers --geotiff -o "$T/er/inf" >/dev/null 2>"$T/err" || bad "infer --layers: $(cat "$T/err")"
+"$BIN" -q infer "$(dirname "$0")/../docs/examples/painted-sketch.png" --size 96 --layers --geotiff -o "$T/er/inf" >"$T/out" 2>"$T/err" || bad "infer --layers: $(cat "$T/err")"
 for s in splat0.png splat1.png flow.png height.tif slope.tif; do [ -s "$T/er/inf.$s" ] || bad "infer --layers: no $s"; done
+# stdout lists every file written, as generate's does (it listed the EXR alone).
+[ "$(sort "$T/out")" = "$(find "$T/er" -maxdepth 1 -name 'inf.*' -type f | sort)" ] && ok \
+  || bad "infer's stdout is not the files it wrote: $(cat "$T/out")"
 # --running-stats on the shipped (instance-norm) model: said to change nothing, and the sidecar agrees.
 "$BIN" infer "$(dirname "$0")/../docs/examples/painted-sketch.png" --raw --running-stats -o "$T/er/rs" 2>&1 >/dev/null |
   grep -q "running-stats changes nothing" && grep -q '"batchnorm": "none (the generator uses instance norm)"' "$T/er/rs.json" \
@@ -802,9 +805,33 @@ if [ -f "$T/w/r3/x.partial/files/x.height.exr" ] && [ -f "$T/w/r3/x.partial/mode
     && cmp -s "$T/w/r2.sha" "$T/w/r3.sha" && [ ! -L "$T/w/r3/x.json" ] && ok \
     || bad "a world resumed over a truncated, corrupt or linked staged file: $(cat "$T/err")"
 else bad "the interrupted world left no staged height file or model field"; fi
+# A checkpoint another build of reefgen left is not resumed: its heights are
+# another program's work (the same binary with one byte appended stands for it).
+mkdir -p "$T/w/r5/x.unity/x.splat1.png"
+"$BIN" -q world "$T/w/big.png" --size 1025 --layers --for unity -o "$T/w/r5/x" >/dev/null 2>&1
+rmdir "$T/w/r5/x.unity/x.splat1.png"
+cp "$BIN" "$T/w/reefgen-other" && printf x >> "$T/w/reefgen-other"
+if [ -f "$T/w/r5/x.partial/heights.exr" ] \
+   && "$T/w/reefgen-other" world "$T/w/big.png" -m "$SHIPPED" --size 1025 --layers --for unity \
+        -o "$T/w/r5/x" >/dev/null 2>"$T/err"; then
+  grep -q "holds another world's work; starting again" "$T/err" && ! grep -q "resumed" "$T/err" \
+    && (cd "$T/w/r5" && find . -type f ! -name '*.json' | sort | xargs sha256sum) > "$T/w/r5.sha" \
+    && cmp -s "$T/w/r2.sha" "$T/w/r5.sha" && ok || bad "another build resumed a world's checkpoint: $(cat "$T/err")"
+else bad "another build's world run: $(cat "$T/err")"; fi
 mkdir -p "$T/w/r4/x.partial" && echo mine > "$T/w/r4/x.partial/notes.txt"
 expect_error "x.partial: exists and is not a checkpoint of" world "$T/w/big.png" --size 1025 -o "$T/w/r4/x"
 [ "$(cat "$T/w/r4/x.partial/notes.txt")" = mine ] && ok || bad "world deleted a PREFIX.partial it did not make"
+# Two worlds with one -o at once: the second is refused (they removed each
+# other's checkpoint), the first finishes, and no lock file is left.
+mkdir -p "$T/w/r6"
+"$BIN" -q world "$T/w/big.png" --size 2049 -o "$T/w/r6/x" >/dev/null 2>"$T/err6" &
+first=$!
+for _ in $(seq 200); do [ -e "$T/w/r6/.x.world.lock" ] && break; sleep 0.1; done
+if [ -e "$T/w/r6/.x.world.lock" ]; then
+  expect_error "another reefgen process is using this world's outputs" world "$T/w/big.png" --size 2049 -o "$T/w/r6/x"
+else bad "the first world took no lock"; fi
+wait $first && [ -s "$T/w/r6/x.height.exr" ] && [ ! -e "$T/w/r6/.x.world.lock" ] && [ ! -e "$T/w/r6/x.partial" ] && ok \
+  || bad "the first of two worlds with one -o: $(cat "$T/err6")"
 expect_error "--for blender: a world past 8192² is written in tiles" world "$T/w/big.png" --size 9000 --for blender -o "$T/e/x"
 # Past 8192² the layers come in tiles on the GeoTIFF grid, with the world's
 # scales in the sidecar and a VRT mosaic per float layer that GDAL opens.

@@ -510,6 +510,14 @@ TEST(WorldBundles, LayerTilesShareTheWorldsScales) {
   ASSERT_EQ(a.type(), CV_16UC1);
   EXPECT_NEAR(a.at<uint16_t>(64, 64), b.at<uint16_t>(64, 0), 0.02 * 65535);
   EXPECT_GT(a.at<uint16_t>(64, 64), 0.4 * 65535);
+  // 0 is the sea only: every land pixel of every tile has a code of at least 1.
+  for (const auto& tile : j["layer_tiles"]) {
+    const cv::Mat f = cv::imread((dir / "w.layers" / tile["files"]["flow"].get<std::string>()).string(), cv::IMREAD_UNCHANGED);
+    const int x0 = tile["x"] == 0 ? 0 : 65, y0 = tile["y"] == 0 ? 0 : 65;
+    for (int y = 0; y < f.rows; ++y)
+      for (int x = 0; x < f.cols; ++x)
+        ASSERT_EQ(f.at<uint16_t>(y, x) == 0, !(w.h(y0 + y, x0 + x) > 0)) << "tile " << tile << " at " << x << "," << y;
+  }
   EXPECT_FALSE(fs::exists(dir / "w.layers" / "w_x0_y0.flow.tif"));
   EXPECT_THROW(stage_world_bundle(staged, dir / "w.blender", "w", Engine::Blender, {w.h, &w.field, 10.0, {}, {}, t}),
                reefgen::Error);

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <string>
 
+#include <gdal.h>
 #include <opencv2/core.hpp>
 
 #include "reefgen/gis/geotiff.hpp"
@@ -87,6 +88,15 @@ TEST(GeoTiff, TilesAndTheirMosaicAreTheWholeField) {
   EXPECT_EQ(cv::norm(mosaic.band, h, cv::NORM_INF), 0.0);
   EXPECT_DOUBLE_EQ(mosaic.metres_per_px, 12.5);
   EXPECT_NE(mosaic.crs_wkt.find("UTM zone 6S"), std::string::npos) << mosaic.crs_wkt;
+  // GDAL names the mosaic's band and its unit as the tiles' (QGIS showed "Band 1").
+  GDALAllRegister();
+  GDALDatasetH vrt = GDALOpen((d / "w.gis" / "w.height.vrt").c_str(), GA_ReadOnly);
+  ASSERT_NE(vrt, nullptr);
+  GDALRasterBandH band = GDALGetRasterBand(vrt, 1);
+  EXPECT_EQ(std::string(GDALGetDescription(band)), height_band().description);
+  EXPECT_EQ(std::string(GDALGetRasterUnitType(band)), height_band().units);
+  EXPECT_FALSE(height_band().description.empty());
+  GDALClose(vrt);
   // The south-east tile: the remainder, where its geotransform says.
   const GeoRaster last = read_geotiff(d / "w.gis" / "w_x2_y2.height.tif");
   ASSERT_EQ(last.band.size(), cv::Size(250 - 168, 230 - 154));

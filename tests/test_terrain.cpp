@@ -184,6 +184,33 @@ reefgen::procgen::IslandFields eroded_island(int W) {
 }
 }  // namespace
 
+// Ground the finishing raised is a deposit only where it is fill: a cone
+// whose summit and flanks were raised 30 m (as the amplification raises
+// relief) has no deposit there, while a crater filled 8 m deep (flat, as a
+// basin drained by filling) is deposit, 8 m.
+TEST(Layers, DepositIsFillNotRaisedRelief) {
+  const int W = 96;
+  const double dx = 20;
+  cv::Mat1f before(W, W), h(W, W);
+  for (int y = 0; y < W; ++y)
+    for (int x = 0; x < W; ++x) {
+      const double r = std::hypot(x - 47.5, y - 47.5) * dx;
+      const double cone = 300 - 0.4 * r;  // 22° flanks down to the sea
+      before(y, x) = float(cone);
+      h(y, x) = float(cone + 30 * std::max(0.0, 1 - r / 400));  // the summit raised 30 m, fading out by 400 m
+    }
+  // A crater on the south flank, filled flat at 100 m: its floor 8 m above
+  // where it was.
+  for (int y = 68; y < 76; ++y)
+    for (int x = 44; x < 52; ++x) h(y, x) = 100.f, before(y, x) = 92.f;
+  const Layers L = compute_layers(h, before, cv::Mat1b(), dx);
+  double summit = 0;
+  for (int y = 40; y < 56; ++y)
+    for (int x = 40; x < 56; ++x) summit = std::max(summit, double(L.deposit_m(y, x)));
+  EXPECT_LT(summit, 1.0) << "raised relief on the summit is no sediment";
+  EXPECT_GE(L.deposit_m(72, 48), 7.9f) << "the filled crater is";
+}
+
 TEST(Layers, WeightsSumTo255AtEveryPixelAndMassIsKept) {
   const auto f = eroded_island(160);
   ASSERT_FALSE(f.uneroded_m.empty());

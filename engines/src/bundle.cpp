@@ -79,7 +79,7 @@ namespace detail {
 
 nlohmann::json stage_unity_tiles(StagedOutputs& staged, const fs::path& dir, const std::string& name,
                                  const cv::Mat1f& h, int resampled_from, double mpp, int max_tile_side,
-                                 const UnitySplats& splat_of) {
+                                 const UnitySplats& splat_of, const std::string& kind) {
   const int side = h.cols, tiles = side <= max_tile_side ? 1 : (side - 1) / (max_tile_side - 1);
   const HeightRange r = export_range(h);
   const int tile_side = tiles == 1 ? side : max_tile_side, alpha = tile_side - 1;
@@ -110,7 +110,7 @@ nlohmann::json stage_unity_tiles(StagedOutputs& staged, const fs::path& dir, con
     }
   const double width_m = mpp * (tile_side - 1), height_m = r.hi_m - r.lo_m;
   std::string readme =
-      "reefgen island for Unity (Terrain), " + std::to_string(tiles * tiles) + " tile(s)\n\n"
+      "reefgen " + kind + " for Unity (Terrain), " + std::to_string(tiles * tiles) + " tile(s)\n\n"
       "Heights: " + std::to_string(tile_side) + "x" + std::to_string(tile_side) +
       " samples per tile, 16-bit little-endian RAW, southern row first (no flip needed).\n"
       "Range: " + fmt("%.1f", r.lo_m) + " m ... " + fmt("%.1f", r.hi_m) + " m -> 0 ... 65535 (linear).\n" +
@@ -132,9 +132,12 @@ nlohmann::json stage_unity_tiles(StagedOutputs& staged, const fs::path& dir, con
   for (int m = 0; m < terrain::kNumMaterials; ++m) readme += std::string(m ? ", " : "") + terrain::material_name(m);
   readme += "\n";
   stage_text(staged, dir / "README.txt", readme);
-  return {{"engine", "unity"}, {"tiles", files}, {"tiles_per_axis", tiles}, {"tile_side_px", tile_side},
-          {"alphamap_px", alpha}, {"resampled_from_px", resampled_from}, {"side_px", side}, {"range_m", {r.lo_m, r.hi_m}},
-          {"terrain_size_m", {width_m, height_m, width_m}}, {"position_y_m", r.lo_m}, {"row_order", "south first"}};
+  nlohmann::json j = {{"engine", "unity"}, {"tiles", files}, {"tiles_per_axis", tiles}, {"tile_side_px", tile_side},
+                      {"alphamap_px", alpha}, {"side_px", side}, {"range_m", {r.lo_m, r.hi_m}},
+                      {"terrain_size_m", {width_m, height_m, width_m}}, {"position_y_m", r.lo_m},
+                      {"row_order", "south first"}};
+  if (side != resampled_from) j["resampled_from_px"] = resampled_from;  // only when resampled
+  return j;
 }
 
 
@@ -186,9 +189,10 @@ nlohmann::json stage_unreal(StagedOutputs& staged, const fs::path& dir, const st
     readme += std::string("   ") + terrain::material_name(m) + ": " + name + "_" + terrain::material_name(m) + ".png\n";
   readme += "   (8-bit greyscale, same size as the heights; the eight sum to 255 at every pixel)\n";
   stage_text(staged, dir / "README.txt", readme);
-  return {{"engine", "unreal"}, {"heightmap", name + ".png"}, {"weight_layers", layers}, {"side_px", side},
-          {"resampled_from_px", n}, {"range_m", {r.lo_m, r.hi_m}}, {"scale_cm", at.scale_json()},
-          {"location_cm", at.location_json()}};
+  nlohmann::json j = {{"engine", "unreal"}, {"heightmap", name + ".png"}, {"weight_layers", layers}, {"side_px", side},
+                      {"range_m", {r.lo_m, r.hi_m}}, {"scale_cm", at.scale_json()}, {"location_cm", at.location_json()}};
+  if (side != n) j["resampled_from_px"] = n;  // only when resampled
+  return j;
 }
 
 nlohmann::json stage_gis(StagedOutputs& staged, const fs::path& dir, const std::string& name, const BundleInput& in,
@@ -323,10 +327,12 @@ std::string size_note(Engine e, int side, const std::string& fix) {
                        : "use " + fix + " " + w + " to avoid it";
   };
   if (e == Engine::Unity) {
-    if (unity_tiles(side) > 1)
-      return "--for unity: " + n + " is past Unity's 4097²: resampled to " +
-             std::to_string(unity_tiles(side) * (kUnityMaxSide - 1) + 1) + "² in " + std::to_string(unity_tiles(side)) +
-             "×" + std::to_string(unity_tiles(side)) + " tiles of 4097²";
+    if (unity_tiles(side) > 1) {
+      const int tiles = unity_tiles(side), tiled = tiles * (kUnityMaxSide - 1) + 1;
+      const std::string grid = std::to_string(tiles) + "×" + std::to_string(tiles) + " tiles of 4097²";
+      if (tiled == side) return "--for unity: " + n + " is past Unity's 4097²: written as " + grid + " (no resampling)";
+      return "--for unity: " + n + " is past Unity's 4097²: resampled to " + std::to_string(tiled) + "² in " + grid;
+    }
     if (unity_side(side) != side)
       return "--for unity: " + n + " resampled to " + std::to_string(unity_side(side)) +
              "² (Unity takes 2^n+1: 33, 65, …, 4097; " + avoid(unity_side(side)) + ")";

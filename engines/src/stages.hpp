@@ -49,10 +49,10 @@ using UnitySplats = std::function<std::array<cv::Mat4b, 2>(const cv::Rect& rect,
 // Unity's bundle of heights `h` already at Unity's sides (2ⁿ + 1 up to
 // tile_side, or tiles · (tile_side − 1) + 1: NAME_X_Z tiles whose shared
 // edges are equal), each tile's splat maps from splat_of, made as the tile
-// is written.
+// is written. `kind` heads the README ("island", "world").
 nlohmann::json stage_unity_tiles(StagedOutputs& staged, const std::filesystem::path& dir, const std::string& name,
                                  const cv::Mat1f& h, int resampled_from, double metres_per_px, int tile_side,
-                                 const UnitySplats& splat_of);
+                                 const UnitySplats& splat_of, const std::string& kind = "island");
 
 // Terrain3D's maps of a world in tiles of whole regions, each imported at its
 // own position (stage_godot_world).

@@ -40,7 +40,7 @@ nlohmann::json stage_unity_world(StagedOutputs& staged, const fs::path& dir, con
   return detail::stage_unity_tiles(staged, dir, name, h, n, mpp, in.tiling.unity_tile_side, [&](const cv::Rect& rect, int alpha) {
     const terrain::Layers L = terrain::world_layers_tile(h, f, rect, in.rules, threads);
     return terrain::splat_maps(detail::weights_at(L, alpha));
-  });
+  }, "world");
 }
 
 nlohmann::json stage_unreal_world(StagedOutputs& staged, const fs::path& dir, const std::string& name,
@@ -104,10 +104,12 @@ nlohmann::json stage_unreal_world(StagedOutputs& staged, const fs::path& dir, co
     readme += std::string("   ") + terrain::material_name(m) + ": " + name + "_" + terrain::material_name(m) + "_x0_y0.png\n";
   readme += "   (8-bit greyscale, tiled as the heights; the eight sum to 255 at every pixel)\n";
   stage_text(staged, dir / "README.txt", readme);
-  return {{"engine", "unreal"}, {"tiles", tiles}, {"tiles_per_axis", per_axis}, {"tile_px", tile_px},
-          {"side_px", side}, {"resampled_from_px", n}, {"section_quads", quads},
-          {"components_per_axis", components}, {"range_m", {r.lo_m, r.hi_m}},
-          {"scale_cm", at.scale_json()}, {"location_cm", at.location_json()}};
+  nlohmann::json j = {{"engine", "unreal"}, {"tiles", tiles}, {"tiles_per_axis", per_axis}, {"tile_px", tile_px},
+                      {"side_px", side}, {"section_quads", quads},
+                      {"components_per_axis", components}, {"range_m", {r.lo_m, r.hi_m}},
+                      {"scale_cm", at.scale_json()}, {"location_cm", at.location_json()}};
+  if (side != n) j["resampled_from_px"] = n;  // only when the bundle's side is not the world's
+  return j;
 }
 
 nlohmann::json stage_godot_world(StagedOutputs& staged, const fs::path& dir, const std::string& name,
@@ -179,7 +181,7 @@ nlohmann::json stage_world_layers(StagedOutputs& staged, const fs::path& dir, co
                                   const WorldInput& in, bool geotiff, int threads) {
   if (!in.field) throw Error("internal: the world's layers need their field");
   const cv::Mat1f& h = in.height_m;
-  const terrain::LayerScales scales = terrain::world_layer_scales(h, *in.field);
+  const terrain::LayerScales scales = terrain::world_layer_scales(h, *in.field, in.rules);
   nlohmann::json files = nlohmann::json::array();
   // Each tile's layer files are staged as the tile is made; its float layers
   // go to the GeoTIFF tiles (none without --geotiff).

@@ -29,6 +29,8 @@ class Mosaic {
     if (!wkt.empty()) vrt_ << "  <SRS>" << xml_escaped(wkt) << "</SRS>\n";
     vrt_ << "  <GeoTransform>" << ox << ", " << mpp << ", 0, " << oy << ", 0, " << -mpp << "</GeoTransform>\n";
     vrt_ << "  <VRTRasterBand dataType=\"Float32\" band=\"1\">\n";
+    // The tiles' band description, so GIS tools name the mosaic's band as the tiles' (not "Band 1").
+    if (!b.description.empty()) vrt_ << "    <Description>" << xml_escaped(b.description) << "</Description>\n";
     if (!b.units.empty()) vrt_ << "    <UnitType>" << xml_escaped(b.units) << "</UnitType>\n";
   }
   void add(const std::string& file, const cv::Rect& r) {

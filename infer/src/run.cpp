@@ -177,6 +177,7 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
     if (done) done(i + 1);
   }
   staged.commit();
+  r.files = staged.finals();
   return r;
 }
 

@@ -53,7 +53,7 @@ nlohmann::json layer_files_description(double dx, const LayerParams& params, con
   nlohmann::json materials = nlohmann::json::array();
   for (int m = 0; m < kNumMaterials; ++m)
     materials.push_back({{"name", material_name(m)}, {"file", m < 4 ? "splat0" : "splat1"}, {"channel", std::string(1, "RGBA"[m % 4])}});
-  return {{"flow", {{"encoding", "area_m2 = cell_area_m2 * 10^(value / 65535 * log10_max); 0 = sea"},
+  return {{"flow", {{"encoding", "area_m2 = cell_area_m2 * 10^((value - 1) / 65534 * log10_max) on land (value >= 1); 0 = sea"},
                     {"cell_area_m2", dx * dx}, {"log10_max", s.flow_log10_max(dx)}}},
           {"slope", {{"encoding", "degrees = value * 90 / 255"}}},
           {"wear", {{"encoding", "metres = value * scale_m / 255"}, {"scale_m", s.wear_scale_m()}}},
@@ -70,14 +70,15 @@ nlohmann::json stage_layer_files(StagedOutputs& staged, const std::string& prefi
   const double cell_m2 = dx * dx;
   // This field's own maxima unless the scales are given (a world's tiles share the world's).
   const LayerScales scales = given ? *given : LayerScales{max_of(L.flow_area_m2), max_of(L.wear_m), max_of(L.deposit_m)};
-  // Flow: v = 65535 · log10(A / a) / log10(A_max / a) on land, 0 at sea and
-  // where a cell drains only itself.
+  // Flow: v = 1 + 65534 · log10(A / a) / log10(A_max / a) on land (A at
+  // least one cell a), 0 at sea only: a land cell draining only itself (or,
+  // routed with shared flow across a world tile, less) was 0, read as sea.
   const double log_max = scales.flow_log10_max(dx);
   cv::Mat1w flow(H, W);
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
       const double a = L.flow_area_m2(y, x);
-      flow(y, x) = a > 0 ? cv::saturate_cast<uint16_t>(65535.0 * std::log10(std::max(1.0, a / cell_m2)) / log_max) : 0;
+      flow(y, x) = a > 0 ? cv::saturate_cast<uint16_t>(1.0 + 65534.0 * std::log10(std::max(1.0, a / cell_m2)) / log_max) : 0;
     }
   const double wear_scale = scales.wear_scale_m(), deposit_scale = scales.deposit_scale_m();
   // Each file is prepared and encoded in its own job: the jobs run together.

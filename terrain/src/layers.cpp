@@ -197,13 +197,19 @@ Layers compute_layers(const cv::Mat1f& h, const cv::Mat1f& before, const cv::Mat
   FlowGraph graph;
   cv::Rect box;
   L.flow_area_m2 = drainage_area(h, dx, graph, box);
+  // Every land cell drains at least itself (the canvas edge's cells are
+  // outlets of the routing, with nothing accumulated): 0 is the sea's.
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      if (h(y, x) > 0) L.flow_area_m2(y, x) = std::max(L.flow_area_m2(y, x), float(dx * dx));
   L.wear_m = cv::Mat1f(H, W, 0.f);
   L.deposit_m = cv::Mat1f(H, W, 0.f);
   if (!before.empty())
     for (int y = 0; y < H; ++y)
       for (int x = 0; x < W; ++x) {
         const float d = h(y, x) - before(y, x);
-        (d > 0 ? L.deposit_m : L.wear_m)(y, x) = std::abs(d);
+        if (d < 0) L.wear_m(y, x) = -d;
+        else if (raised_is_fill(h, y, x, L.slope_deg(y, x), p.settle_deg)) L.deposit_m(y, x) = d;
       }
   settle_sediment(graph, box, h, L.wear_m, L.slope_deg, dx, p.settle_deg, L.deposit_m);
   const cv::Mat1b region = region_in.empty() ? regions_of_heights(h, p) : region_in;

@@ -1,6 +1,7 @@
 #pragma once
 // Pieces of the layer computation that the whole-field layers (layers.cpp)
 // and a world's tiled layers (world_layers.cpp) share. terrain/src only.
+#include <algorithm>
 #include <functional>
 
 #include <opencv2/core.hpp>
@@ -23,6 +24,17 @@ cv::Mat1f drainage_area(const cv::Mat1f& h, double dx, FlowGraph& graph, cv::Rec
 // Adds to deposit_m where the worn material settles along graph's receivers.
 void settle_sediment(const FlowGraph& g, const cv::Rect& box, const cv::Mat1f& h_full, const cv::Mat1f& wear_full,
                      const cv::Mat1f& slope_full, double dx, double settle_deg, cv::Mat1f& deposit_full);
+// Whether ground the finishing raised at (y, x) of h is fill, laid down:
+// gentler than settle_deg and not convex (its four neighbours' mean at
+// least its height; the canvas edge replicated). The amplification raises
+// summits and their flanks too (tens of metres above the answer it
+// started from): that is relief, not sediment, and a deposit mask of it
+// was 80 m next to the summits.
+inline bool raised_is_fill(const cv::Mat1f& h, int y, int x, float slope_deg, double settle_deg) {
+  if (!(slope_deg < settle_deg)) return false;
+  auto at = [&](int yy, int xx) { return h(std::clamp(yy, 0, h.rows - 1), std::clamp(xx, 0, h.cols - 1)); };
+  return at(y - 1, x) + at(y + 1, x) + at(y, x - 1) + at(y, x + 1) >= 4.f * h(y, x);
+}
 // Throws reefgen::Error when the inputs cannot make layers.
 void check_inputs(const cv::Mat1f& h, const cv::Mat1f& before, const cv::Mat1b& region, double dx);
 

@@ -48,8 +48,8 @@ void check_tile(const cv::Mat1f& h, const WorldLayerField& f, const cv::Rect& ti
 }
 
 // The direct wear and deposit (h − before) and the settled sediment of `tile`.
-void wear_and_deposit(const cv::Mat1f& h, const WorldLayerField& f, const cv::Rect& tile, cv::Mat1f& wear_m,
-                      cv::Mat1f& deposit_m) {
+void wear_and_deposit(const cv::Mat1f& h, const WorldLayerField& f, const cv::Rect& tile, const cv::Mat1f& slope_deg,
+                      double settle_deg, cv::Mat1f& wear_m, cv::Mat1f& deposit_m) {
   deposit_m = sample_at(f.settled_m, h.size(), tile, cv::INTER_LINEAR);
   wear_m = cv::Mat1f(tile.size(), 0.f);
   if (f.before_m.empty()) return;
@@ -57,8 +57,8 @@ void wear_and_deposit(const cv::Mat1f& h, const WorldLayerField& f, const cv::Re
   for (int y = 0; y < tile.height; ++y)
     for (int x = 0; x < tile.width; ++x) {
       const float d = h(tile.y + y, tile.x + x) - before(y, x);
-      if (d > 0) deposit_m(y, x) += d;
-      else wear_m(y, x) = -d;
+      if (d < 0) wear_m(y, x) = -d;
+      else if (raised_is_fill(h, tile.y + y, tile.x + x, slope_deg(y, x), settle_deg)) deposit_m(y, x) += d;
     }
 }
 
@@ -111,7 +111,7 @@ Layers world_layers_tile(const cv::Mat1f& h, const WorldLayerField& f, const cv:
   const cv::Rect inner = tile - halo.tl();
   L.slope_deg = slope(inner).clone();
   L.normal = normal(inner).clone();
-  wear_and_deposit(h, f, tile, L.wear_m, L.deposit_m);
+  wear_and_deposit(h, f, tile, L.slope_deg, p.settle_deg, L.wear_m, L.deposit_m);
   L.flow_area_m2 = sample_at(f.flow_area_m2, h.size(), tile, cv::INTER_LINEAR);
   const cv::Mat1f abyss = sample_at(f.abyss, h.size(), tile, cv::INTER_LINEAR),
                   reef = sample_at(f.reef, h.size(), tile, cv::INTER_LINEAR),
@@ -120,8 +120,10 @@ Layers world_layers_tile(const cv::Mat1f& h, const WorldLayerField& f, const cv:
   for_rows(tile.height, threads, [&](int y) {
     for (int x = 0; x < tile.width; ++x) {
       const float v = h(tile.y + y, tile.x + x);
-      // Drainage is land's: the sea drains nothing (as compute_layers).
-      if (!(v > 0)) L.flow_area_m2(y, x) = 0.f;
+      // Drainage is land's: the sea drains nothing (as compute_layers), and a
+      // land sample drains at least itself (the coarse grid, sampled along a
+      // coast, gave land samples next to its sea cells less, or nothing).
+      L.flow_area_m2(y, x) = v > 0 ? std::max(L.flow_area_m2(y, x), float(dx * dx)) : 0.f;
       float w[kNumMaterials];
       material_weights({v, L.slope_deg(y, x), L.flow_area_m2(y, x), L.deposit_m(y, x), abyss(y, x), reef(y, x),
                         beach(y, x)},
@@ -132,13 +134,18 @@ Layers world_layers_tile(const cv::Mat1f& h, const WorldLayerField& f, const cv:
   return L;
 }
 
-LayerScales world_layer_scales(const cv::Mat1f& h, const WorldLayerField& f) {
+LayerScales world_layer_scales(const cv::Mat1f& h, const WorldLayerField& f, const LayerParams& p) {
   LayerScales s;
   cv::minMaxLoc(f.flow_area_m2, nullptr, &s.flow_area_m2);
+  const double dx = spacing_of(h, f);
   for (int y0 = 0; y0 < h.rows; y0 += kScaleBandRows) {
     const cv::Rect band(0, y0, h.cols, std::min(kScaleBandRows, h.rows - y0));
-    cv::Mat1f wear, deposit;
-    wear_and_deposit(h, f, band, wear, deposit);
+    // The band's slopes as its tiles read them (one row round it).
+    const cv::Rect halo = (band + cv::Size(0, 2) - cv::Point(0, 1)) & cv::Rect(0, 0, h.cols, h.rows);
+    cv::Mat1f slope, wear, deposit;
+    cv::Mat3f normal;
+    slope_and_normals(h(halo), dx, slope, normal, 1);
+    wear_and_deposit(h, f, band, slope(band - halo.tl()), p.settle_deg, wear, deposit);
     double w = 0, d = 0;
     cv::minMaxLoc(wear, nullptr, &w);
     cv::minMaxLoc(deposit, nullptr, &d);

@@ -40,6 +40,7 @@ struct InferJob {
 };
 struct InferResult {
   std::vector<fs::path> heights;       // the EXR of each sketch, in input order
+  std::vector<fs::path> files;         // every file written (bundles' included), as `generate` lists them
   std::vector<std::string> r16_notes;  // R16 import notes (with --r16), one per sketch
   // One per sketch much larger than the model's side (kWorldHintSidePx): it
   // was read as one 6 km island; `reefgen world` reads it at the model's scale.

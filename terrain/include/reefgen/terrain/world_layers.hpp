@@ -42,7 +42,7 @@ Layers world_layers_tile(const cv::Mat1f& height_m, const WorldLayerField& f, co
 
 // The scales of a world's tiled layer files: the coarse field's largest
 // drainage area (no tile's is larger), the whole world's largest wear and
-// deposit (read in bands of rows).
-LayerScales world_layer_scales(const cv::Mat1f& height_m, const WorldLayerField& f);
+// deposit (read in bands of rows; the deposit by p's settle_deg, as the tiles').
+LayerScales world_layer_scales(const cv::Mat1f& height_m, const WorldLayerField& f, const LayerParams& p = {});
 
 }  // namespace reefgen::terrain
