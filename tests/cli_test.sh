@@ -806,11 +806,12 @@ if [ -f "$T/w/r3/x.partial/files/x.height.exr" ] && [ -f "$T/w/r3/x.partial/mode
     || bad "a world resumed over a truncated, corrupt or linked staged file: $(cat "$T/err")"
 else bad "the interrupted world left no staged height file or model field"; fi
 # A checkpoint another build of reefgen left is not resumed: its heights are
-# another program's work (the same binary with one byte appended stands for it).
+# another program's work (the same binary with one byte appended stands for
+# it: reefgen-torch, the program `reefgen world` runs).
 mkdir -p "$T/w/r5/x.unity/x.splat1.png"
 "$BIN" -q world "$T/w/big.png" --size 1025 --layers --for unity -o "$T/w/r5/x" >/dev/null 2>&1
 rmdir "$T/w/r5/x.unity/x.splat1.png"
-cp "$BIN" "$T/w/reefgen-other" && printf x >> "$T/w/reefgen-other"
+cp "$(dirname "$BIN")/reefgen-torch" "$T/w/reefgen-other" && printf x >> "$T/w/reefgen-other"
 if [ -f "$T/w/r5/x.partial/heights.exr" ] \
    && "$T/w/reefgen-other" world "$T/w/big.png" -m "$SHIPPED" --size 1025 --layers --for unity \
         -o "$T/w/r5/x" >/dev/null 2>"$T/err"; then

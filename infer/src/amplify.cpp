@@ -293,6 +293,7 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
     if (p.enabled) finish_painted_reef(land, label_s, world_size_m, seed);
     if (p.enabled) fill_ponds(land, label, world_size_m / N, p.amplify_pond_max_m2);
     drain_pits(land, kPitDepthM, float(p.pit_breach_m), world_size_m / N);
+    if (p.enabled) add_lowland_relief(land, 0, seed);
     grade_land(land, world_size_m / N);
     return land;
   }
@@ -303,8 +304,23 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
   finish_painted_reef(out, label_s, world_size_m, seed);
   fill_ponds(out, label, world_size_m / N, p.amplify_pond_max_m2);
   drain_pits(out, kPitDepthM, float(p.pit_breach_m), world_size_m / N);
+  add_lowland_relief(out, 0, seed);
   grade_land(out, world_size_m / N);
   return out;
+}
+
+void add_lowland_relief(cv::Mat1f& h, int y0, uint64_t seed) {
+  const NoiseTile& tile = NoiseTile::get(2);
+  Rng rng(seed, 0, "lowland-relief");
+  const float u0 = float(rng.uniform(0, NoiseTile::kSize)), v0 = float(rng.uniform(0, NoiseTile::kSize));
+  const float texels_per_px = float(NoiseTile::kBaseCell) / kLowlandFeaturePx;
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x) {
+      const float z = h(y, x);
+      if (!(z > 0) || z >= kLowlandTopM) continue;
+      const float n = tile.sample_cubic(float(x) * texels_per_px + u0, float(y0 + y) * texels_per_px + v0);
+      h(y, x) = z + kLowlandReliefM * (1.f - z / kLowlandTopM) * 0.5f * (1.f + std::clamp(n, -1.f, 1.f));
+    }
 }
 
 }  // namespace reefgen::infer

@@ -5,8 +5,6 @@
 
 #include "reefgen/error.hpp"
 #include "reefgen/infer/amplify.hpp"
-#include "reefgen/rng.hpp"
-#include "reefgen/terrain/noise.hpp"
 #include "reefgen/terrain/pits.hpp"
 
 namespace reefgen::infer {
@@ -15,36 +13,6 @@ using namespace reefgen::terrain;
 
 namespace {
 constexpr float kBandDiffusion = 0.15f;
-// Low land keeps a little relief of its own at the last doubling (beach
-// ridges and swales on a coastal plain, the berm of a motu): up to
-// kLowlandReliefM, fading out by kLowlandTopM, one feature every
-// kLowlandFeaturePx cells (~23 m at 2.9 m cells: beach cusps, berms and dunes are 0.5–2 m over 20–50 m). The fractal detail fades
-// with height (a fifth at 1 m) and the whole-field grading (grade_land) does
-// not run on bands, so without it a low islet's crest and a plain at the
-// land's floor were dead flat, long and straight (docs/REALISM.md "Straight
-// flat channels"). Only added, never taken: a dip would be clamped flat at
-// the land's floor. Added after the band's pits are drained: the hollows
-// between its bumps (under kLowlandReliefM, shallower than kPitDepthM) are
-// no pits, and the draining does not depend on them (it sees a depression
-// crossing a band's halo only in part).
-constexpr float kLowlandReliefM = 0.3f;
-constexpr float kLowlandTopM = 3.f;
-constexpr float kLowlandFeaturePx = 8.f;
-
-void add_lowland_relief(cv::Mat1f& up, int y0, uint64_t seed) {
-  const NoiseTile& tile = NoiseTile::get(2);
-  Rng rng(seed, 0, "lowland-relief");
-  const float u0 = float(rng.uniform(0, NoiseTile::kSize)), v0 = float(rng.uniform(0, NoiseTile::kSize));
-  const float texels_per_px = float(NoiseTile::kBaseCell) / kLowlandFeaturePx;
-  for (int y = 0; y < up.rows; ++y)
-    for (int x = 0; x < up.cols; ++x) {
-      const float h = up(y, x);
-      if (!(h > 0) || h >= kLowlandTopM) continue;
-      const float n = tile.sample_cubic(float(x) * texels_per_px + u0, float(y0 + y) * texels_per_px + v0);
-      up(y, x) = h + kLowlandReliefM * (1.f - h / kLowlandTopM) * 0.5f * (1.f + std::clamp(n, -1.f, 1.f));
-    }
-}
-
 // Rows [y0, y1) of `fine` (side N): `level` (side M) sampled bicubically at
 // each cell's centre, as cv::resize maps half-pixel centres, plus the level's
 // fractal detail on land.

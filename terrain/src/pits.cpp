@@ -9,10 +9,16 @@
 #include "reefgen/error.hpp"
 #include "reefgen/terrain/erosion.hpp"
 #include "reefgen/terrain/flow.hpp"
+#include "reefgen/terrain/noise.hpp"
 
 namespace reefgen::terrain {
 
 namespace {
+
+// grade_land's fall: kLandMinSlope to 1.85 times it (0.7–1.3 %), over
+// features ~32 cells apart.
+constexpr float kGradeVariation = 0.85f;
+constexpr float kGradeFeaturePx = 32.f;
 
 // Distance (m) from each depression cell (below its spill level) along the
 // flood's path to the first cell that is not, and the index of that cell
@@ -72,15 +78,21 @@ void grade_into(cv::Mat1f& h, double cell_m, double slope, std::vector<uint8_t>&
   const int W = h.cols, H = h.rows;
   std::vector<uint8_t> final_(h.total());
   for (size_t i = 0; i < final_.size(); ++i) final_[i] = role.ptr<uint8_t>()[i] != kActive;
-  const float rise[2] = {float(slope * cell_m), float(slope * cell_m * M_SQRT2)};
+  // The fall varies over the ground, `slope` to (1 + kGradeVariation) times
+  // it, one feature every kGradeFeaturePx cells: one fall everywhere made a
+  // graded plain a perfect cone, every row of it one step apart.
+  const NoiseTile& tile = NoiseTile::get(2);
+  const float texels_per_px = float(NoiseTile::kBaseCell) / kGradeFeaturePx;
   for (const int i : fr.order) {
     const int x = i % W, y = i / W;
+    const float n = std::clamp(tile.sample_cubic(float(x) * texels_per_px, float(y) * texels_per_px), -1.f, 1.f);
+    const float rise = float(slope * cell_m) * (1.f + kGradeVariation * 0.5f * (1.f + n));
     float least = std::numeric_limits<float>::max();
     for (int dy = -1; dy <= 1; ++dy)
       for (int dx = -1; dx <= 1; ++dx) {
         const int nx = x + dx, ny = y + dy, j = ny * W + nx;
         if ((dx == 0 && dy == 0) || nx < 0 || ny < 0 || nx >= W || ny >= H || !final_[size_t(j)]) continue;
-        least = std::min(least, z[j] > 0 ? z[j] + rise[dx != 0 && dy != 0] : kLandFloorM);
+        least = std::min(least, z[j] > 0 ? z[j] + rise * (dx != 0 && dy != 0 ? float(M_SQRT2) : 1.f) : kLandFloorM);
       }
     if (z[i] < least) z[i] = least, moved[size_t(i)] = 1;
     final_[size_t(i)] = 1;

@@ -11,6 +11,22 @@
 
 namespace reefgen::infer {
 
+// Low land keeps a little relief of its own (beach ridges and swales on a
+// coastal plain, the berm of a motu): up to kLowlandReliefM, fading out by
+// kLowlandTopM, one feature every kLowlandFeaturePx cells (~23 m at a
+// world's 2.9 m cells: beach cusps, berms and dunes are 0.5–2 m over
+// 20–50 m). The amplification's fractal detail fades with height (a fifth
+// at 1 m) and the land's floor holds what erosion cut to base level, so
+// low land was dead flat: long straight flat strips, and graded (grade_land)
+// a featureless cone round every island. Only added, never taken (a dip
+// would be clamped flat at the land's floor); its hollows are shallower than
+// kPitDepthM, so no pit is drained for them. Rows are numbered from y0 (a
+// band's first row in its field), so bands of one field agree.
+inline constexpr float kLowlandReliefM = 0.3f;
+inline constexpr float kLowlandTopM = 3.f;
+inline constexpr float kLowlandFeaturePx = 8.f;
+void add_lowland_relief(cv::Mat1f& height_m, int y0, uint64_t seed);
+
 // Amplification of a coarse height field (a 256² model answer) to size×size
 // (infer --size N): the coarse field's land is roughened (amplify_roughness)
 // and eroded once on its own grid (pits

@@ -47,7 +47,8 @@ constexpr double kLandMinSlope = 0.007;
 int64_t drain_pits(cv::Mat1f& height_m, float max_depth_m = kPitDepthM, float breach_m = 0.f, double cell_m = 0);
 
 // Every land cell falls at least `slope` (m per m) along its route to the
-// sea: z_i ≥ z_r + slope·|i − r| for its flood receiver r, and z_i ≥
+// sea: z_i ≥ z_r + s·|i − r| for its lowest neighbour r already graded, s
+// varying over the ground from `slope` to 1.85 times it, and z_i ≥
 // kLandFloorM next to the sea. Priority-Flood+ε (Barnes, Lehman & Mulla 2014,
 // Computers & Geosciences 62) with ε the fall of one step at `slope`: a flat
 // (a lowland held at the land's floor, a filled floor, a shallow pit's fill)
