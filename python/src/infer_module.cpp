@@ -27,6 +27,7 @@
 #include "reefgen/model/generator_file.hpp"
 #include "reefgen/model/shipped.hpp"
 #include "reefgen/parallel.hpp"
+#include "interrupt_hook.hpp"
 #include "numpy_mat.hpp"
 
 namespace py = pybind11;
@@ -163,6 +164,7 @@ PYBIND11_MODULE(_reefgen_infer, m) {
       PyErr_SetString(error_type.ptr(), e.what());
     }
   });
+  reefgen::python::install_interrupt_hook();
   m.def("infer", &infer_sketch, py::arg("sketch"), py::arg("size"), py::arg("model"), py::arg("seed"), py::arg("raw"),
         py::arg("precision"), py::arg("engine"), py::arg("stochastic"), py::arg("threads"), py::arg("world_size_m"));
 }

@@ -20,6 +20,7 @@
 #include "reefgen/procgen/spec.hpp"
 #include "reefgen/terrain/realism.hpp"
 #include "reefgen/version.hpp"
+#include "interrupt_hook.hpp"
 #include "numpy_mat.hpp"
 
 namespace py = pybind11;
@@ -168,6 +169,7 @@ PYBIND11_MODULE(_reefgen, m) {
   py::register_exception<reefgen::Error>(m, "Error", PyExc_RuntimeError);
   // nlohmann's parse errors name the byte: the same one line as the CLI's.
   py::register_exception<nlohmann::json::exception>(m, "ConfigError", PyExc_ValueError);
+  reefgen::python::install_interrupt_hook();
   m.attr("__version__") = reefgen::kVersion;
   // The range the networks map to [-1, 1] (m): to_tensors' height_range_m for reefgen's models.
   m.attr("HEIGHT_RANGE_M") = py::make_tuple(reefgen::kAbyssFloorM, reefgen::kHeightCeilingM);

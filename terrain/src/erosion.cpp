@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "reefgen/error.hpp"
+#include "reefgen/interrupt.hpp"
 #include "reefgen/rng.hpp"
 #include "reefgen/terrain/drainage.hpp"
 #include "reefgen/terrain/eroders.hpp"
@@ -110,6 +111,7 @@ void erode_level(cv::Mat1f& h, const cv::Mat1f& K, double dx, int steps, double 
   FlowGraph graph;
   std::vector<float> area_m2;
   for (int s = 0; s < steps; ++s) {
+    check_interrupt();  // a step at 8192² takes seconds: Python's Ctrl-C is read here
     if (routing == Routing::kStack) {
       route_stack(z, role, dx, receiver_salt(p, h.cols, h.rows, s), graph);
       accumulate_single(graph, role, cell_area_m2, area_m2);

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "reefgen/error.hpp"
+#include "reefgen/interrupt.hpp"
 #include "reefgen/terrain/erosion.hpp"
 #include "reefgen/terrain/flow.hpp"
 #include "reefgen/terrain/noise.hpp"
@@ -72,6 +73,7 @@ void cut_banks(cv::Mat1f& h, const std::vector<int>& cut, const std::vector<floa
 // flood routes cells through one another in queue order, and a cell with a
 // lower neighbour beside it would be raised along that chain.
 void grade_into(cv::Mat1f& h, double cell_m, double slope, std::vector<uint8_t>& moved) {
+  check_interrupt();
   const cv::Mat1b role = sea_and_edge_roles(h);
   const FloodRoute fr = flood_route(h, role);
   float* z = h.ptr<float>();
@@ -112,6 +114,7 @@ int64_t grade_land(cv::Mat1f& h, double cell_m, double slope) {
 }
 
 int64_t drain_pits(cv::Mat1f& h, float max_depth_m, float breach_m, double cell_m) {
+  check_interrupt();
   if (!h.isContinuous()) h = h.clone();
   const FloodRoute fr = flood_route(h, sea_and_edge_roles(h));
   const int n = h.rows * h.cols;
