@@ -227,6 +227,7 @@ cat > "$T/ds.json" <<'JSON'
  "p_affine": 0.5, "p_translate": 0.5, "p_paste": 0.5, "paste_scale": 0.5}
 JSON
 "$BIN" -q dataset build --config "$T/ds.json" --seed 4 --out "$T/d1" --threads 1 >/dev/null || bad "dataset t1"
+[ -z "$(find "$T/d1" -name '.reefgen*.lock')" ] && ok || bad "dataset build left its lock file: $(find "$T/d1" -name '*.lock')"
 "$BIN" -q dataset build --config "$T/ds.json" --seed 4 --out "$T/d2" --threads 2 >/dev/null || bad "dataset t2"
 diff -r "$T/d1" "$T/d2" >/dev/null && ok || bad "dataset threads 1 vs 2 differ"
 [ "$(wc -l < "$T/d1/manifest.jsonl")" = 12 ] && ok || bad "manifest should list 12 pairs"

@@ -194,8 +194,9 @@ BuildResult build_dataset(const DatasetParams& p, const BuildOptions& a) {
   ensure_writable_dir(dir);
   // One builder per shard of a folder (shards of one folder may run side by
   // side); a killed builder's temp files are dropped, its finished pairs kept.
+  // The lock file goes when the build ends (it was left in every dataset).
   const DirLock lock(dir, "dataset shard " + a.shard,
-                     ".reefgen.shard-" + std::to_string(shard_i) + "-of-" + std::to_string(shard_n) + ".lock");
+                     ".reefgen.shard-" + std::to_string(shard_i) + "-of-" + std::to_string(shard_n) + ".lock", true);
   remove_stale_temps(dir);
   // Before any split folder: another dataset's folder is left as it was.
   write_dataset_meta(dir, p, a);
