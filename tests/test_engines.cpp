@@ -150,7 +150,23 @@ TEST(Engines, UnityTilesShareTheirEdges) {
     ASSERT_EQ(sample(0, t - 1, i), sample(2, 0, i)) << "Z edge, west tiles, column " << i;
   }
   expect_splats_sum_to_255(b / "isle_1_1.splat0.png", b / "isle_1_1.splat1.png", t - 1);
-  EXPECT_TRUE(fs::exists(b / "README.txt"));
+  // Placed from the README's own numbers, the terrain's centre is the
+  // world's origin (as Unreal's and Godot's bundles place the island), and
+  // the sidecar's per-tile positions say the same.
+  const std::string readme = read_text(b / "README.txt");
+  const size_t at = readme.find("Position: X = ");
+  ASSERT_NE(at, std::string::npos) << readme;
+  double w = 0, half = 0, size_x = 0;
+  ASSERT_EQ(std::sscanf(readme.c_str() + at, "Position: X = %lf * X_index - %lf", &w, &half), 2) << readme;
+  ASSERT_EQ(std::sscanf(readme.c_str() + readme.find("Terrain Size X "), "Terrain Size X %lf", &size_x), 1);
+  EXPECT_NEAR(w, size_x, 1e-3) << "a tile's step is its size";
+  const double west = w * 0 - half, east = w * 1 - half + size_x;
+  EXPECT_NEAR(0.5 * (west + east), 0.0, 1e-3) << "the terrain's centre, from the README's numbers";
+  EXPECT_NEAR(east - west, (n - 1) * 2.0, 1.0) << "the terrain spans the field";
+  for (const auto& tile : j["unity"]["tiles"]) {
+    EXPECT_NEAR(tile["position_m"][0].get<double>(), w * tile["x"].get<int>() - half, 1e-3);
+    EXPECT_NEAR(tile["position_m"][2].get<double>(), w * tile["z"].get<int>() - half, 1e-3);
+  }
   fs::remove_all(dir);
 }
 

@@ -109,6 +109,10 @@ nlohmann::json stage_unity_tiles(StagedOutputs& staged, const fs::path& dir, con
       files.push_back({{"raw", stem + ".raw"}, {"splat", {stem + ".splat0.png", stem + ".splat1.png"}}, {"x", tx}, {"z", tz}});
     }
   const double width_m = mpp * (tile_side - 1), height_m = r.hi_m - r.lo_m;
+  // Tiles placed so that the whole terrain's centre is the world's origin.
+  const double half_m = 0.5 * width_m * tiles;
+  for (auto& f : files)
+    f["position_m"] = {width_m * f["x"].get<int>() - half_m, r.lo_m, width_m * f["z"].get<int>() - half_m};
   std::string readme =
       "reefgen " + kind + " for Unity (Terrain), " + std::to_string(tiles * tiles) + " tile(s)\n\n"
       "Heights: " + std::to_string(tile_side) + "x" + std::to_string(tile_side) +
@@ -123,8 +127,9 @@ nlohmann::json stage_unity_tiles(StagedOutputs& staged, const fs::path& dir, con
       "2. Import Raw...: Depth Bit 16, Width " + std::to_string(tile_side) + ", Height " + std::to_string(tile_side) +
       ", Byte Order Windows, Flip Vertically OFF, Terrain Size X " + fmt("%.3f", width_m) + ", Y " +
       fmt("%.3f", height_m) + ", Z " + fmt("%.3f", width_m) + ".\n"
-      "3. Position: X = " + fmt("%.3f", width_m) + " * X_index, Y " + fmt("%.3f", r.lo_m) + " (sea level at world Y = 0), Z = " +
-      fmt("%.3f", width_m) + " * Z_index.\n"
+      "3. Position: X = " + fmt("%.3f", width_m) + " * X_index - " + fmt("%.3f", half_m) + ", Y " + fmt("%.3f", r.lo_m) +
+      " (sea level at world Y = 0), Z = " + fmt("%.3f", width_m) + " * Z_index - " + fmt("%.3f", half_m) +
+      "\n   (the " + kind + "'s centre at the world's origin, as the Unreal and Godot bundles place it).\n"
       "4. Materials: add 8 Terrain Layers in this order, then copy NAME.splat0.png (layers 1-4 in R,G,B,A) and\n"
       "   NAME.splat1.png (layers 5-8) into TerrainData.alphamapTextures (import each PNG as Read/Write, sRGB off,\n"
       "   no compression; top row = north). Weights sum to 255 at every pixel.\n"
