@@ -69,6 +69,17 @@ if [ "$MODE" = "--full-disk" ]; then
   # A dataset's files are each far below 2 MB: only a real full disk stops it.
   if [ -n "$FULL" ]; then full "dataset" "$D/ds" dataset build --count 40 --out "$D/ds"
   else echo "full disk: dataset probe skipped (needs the tmpfs)"; fi
+  # A GeoTIFF on a full disk names the full disk (libtiff said "TIFFAppendToStrip:
+  # Write error at scanline 0"): the disk is filled so that the EXR, label and
+  # sidecar of the same island fit, with 32 KiB to spare, and its GeoTIFF does not.
+  if [ -n "$FULL" ]; then
+    rm -f "$FULL/filler"
+    "$R" -q generate --preset young-volcano --size 256 -o "$T/gtref" >/dev/null || bad "geotiff reference"
+    need=$(( $(cat "$T/gtref.height.exr" "$T/gtref.label.png" "$T/gtref.json" | wc -c) / 1024 + 32 ))
+    free=$(df -k --output=avail "$FULL" | tail -1)
+    [ "$free" -gt "$need" ] && head -c $(( (free - need) * 1024 )) /dev/zero > "$FULL/filler"
+    full "geotiff" "the disk is full" generate --preset young-volcano --size 256 --geotiff -o "$D/gt"
+  fi
   rm -rf "${D:?}"/*
 fi
 

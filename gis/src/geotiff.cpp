@@ -6,7 +6,10 @@
 #include <cpl_string.h>
 #include <ogr_srs_api.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <filesystem>
+#include <string>
 #include <mutex>
 #include <vector>
 
@@ -73,6 +76,23 @@ nlohmann::json geo_json(const GeoReference& geo, int width, int height, double m
           {"north_up", true}};
 }
 
+namespace {
+// Why a GeoTIFF could not be written: a full disk named as such (libtiff
+// reports it as "TIFFRewriteDirectory: Error fetching directory count"),
+// else GDAL's own message.
+std::string write_failure(const std::filesystem::path& path, size_t raw_bytes) {
+  std::error_code ec;
+  const std::filesystem::path folder = path.has_parent_path() ? path.parent_path() : std::filesystem::path(".");
+  const std::filesystem::space_info sp = std::filesystem::space(folder, ec);
+  // The file is compressed: less room than a tenth of its raw pixels (or
+  // than 1 MiB) left after a failed write is a full disk.
+  if (!ec && sp.available < std::max<uintmax_t>(raw_bytes / 10, uintmax_t(1) << 20))
+    return "the disk is full (" + std::to_string(sp.available / 1024) + " KiB free in " + folder.string() +
+           "); free some space or write to another folder";
+  return gdal_message();
+}
+}  // namespace
+
 void write_geotiff(const std::filesystem::path& path, const cv::Mat1f& band, double mpp, const GeoReference& geo,
                    const std::string& units, const std::string& description,
                    const std::map<std::string, std::string>& metadata) {
@@ -105,7 +125,7 @@ void write_geotiff(const std::filesystem::path& path, const cv::Mat1f& band, dou
   CPLErrorReset();
   GDALClose(ds);
   ok = ok && CPLGetLastErrorType() < CE_Failure;
-  if (!ok) throw Error("cannot write " + path.string() + ": " + gdal_message());
+  if (!ok) throw Error("cannot write " + path.string() + ": " + write_failure(path, c.total() * sizeof(float)));
 }
 
 GeoRaster read_geotiff(const std::filesystem::path& path, int max_side) {

@@ -80,6 +80,45 @@ class Module(unittest.TestCase):
         self.assertGreater(stats["land_cells"], 0)
         self.assertAlmostEqual(stats["max_height_m"], float(heights.max()), places=3)
 
+    def test_type_stubs_match_the_module(self):
+        # The .pyi stubs (and py.typed) ship beside the package and name every public function,
+        # class and method with the module's own parameter names and defaults.
+        import ast
+        import inspect
+        root = os.path.dirname(reefgen.__file__)
+        self.assertTrue(os.path.exists(os.path.join(root, "py.typed")))
+        for module in (reefgen, rtorch):
+            with open(os.path.splitext(module.__file__)[0] + ".pyi") as f:
+                tree = ast.parse(f.read())
+
+            def check(node, obj, where):
+                real = inspect.signature(obj).parameters
+                args = node.args.args
+                defaults = [None] * (len(args) - len(node.args.defaults)) + list(node.args.defaults)
+                self.assertEqual([a.arg for a in args], list(real), where)
+                for a, d in zip(args, defaults):
+                    want = real[a.arg].default
+                    if d is None:
+                        self.assertIs(want, inspect.Parameter.empty, (where, a.arg))
+                    else:
+                        self.assertEqual(ast.literal_eval(d), want, (where, a.arg))
+
+            named = set()
+            for node in tree.body:
+                if isinstance(node, ast.FunctionDef):
+                    named.add(node.name)
+                    check(node, getattr(module, node.name), node.name)
+                elif isinstance(node, ast.ClassDef):
+                    named.add(node.name)
+                    cls = getattr(module, node.name)
+                    for m in node.body:
+                        if isinstance(m, ast.FunctionDef):
+                            check(m, getattr(cls, m.name), node.name + "." + m.name)
+                elif isinstance(node, ast.AnnAssign):
+                    named.add(node.target.id)
+            for name in module.__all__:
+                self.assertIn(name, named, module.__name__ + " stub lacks " + name)
+
     def test_ctrl_c_stops_a_long_call(self):
         # Ctrl-C 0.3 s into generate(size=8192) (14 s and more on 2 cores): the call stops between
         # its erosion steps with KeyboardInterrupt (~2 s in), not when it is done, and the module
