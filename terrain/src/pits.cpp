@@ -67,12 +67,13 @@ void cut_banks(cv::Mat1f& h, const std::vector<int>& cut, const std::vector<floa
   }
 }
 
-// grade_land's sweep, marking the cells it raises in `moved`. A cell is
+// grade_land's sweep over h (the land's box of the field, its top-left
+// cell at `origin` of the field), counting the cells it raises. A cell is
 // held to its lowest neighbour already final (every receiver is, by the
 // flood's order), not to its receiver alone: in a flat of equal heights the
 // flood routes cells through one another in queue order, and a cell with a
 // lower neighbour beside it would be raised along that chain.
-void grade_into(cv::Mat1f& h, double cell_m, double slope, std::vector<uint8_t>& moved) {
+int64_t grade_box(cv::Mat1f& h, cv::Point origin, double cell_m, double slope) {
   check_interrupt();
   const cv::Mat1b role = sea_and_edge_roles(h);
   const FloodRoute fr = flood_route(h, role);
@@ -81,13 +82,16 @@ void grade_into(cv::Mat1f& h, double cell_m, double slope, std::vector<uint8_t>&
   std::vector<uint8_t> final_(h.total());
   for (size_t i = 0; i < final_.size(); ++i) final_[i] = role.ptr<uint8_t>()[i] != kActive;
   // The fall varies over the ground, `slope` to (1 + kGradeVariation) times
-  // it, one feature every kGradeFeaturePx cells: one fall everywhere made a
-  // graded plain a perfect cone, every row of it one step apart.
+  // it, one feature every kGradeFeaturePx cells (of the field, wherever the
+  // box lies): one fall everywhere made a graded plain a perfect cone, every
+  // row of it one step apart.
   const NoiseTile& tile = NoiseTile::get(2);
   const float texels_per_px = float(NoiseTile::kBaseCell) / kGradeFeaturePx;
+  int64_t raised = 0;
   for (const int i : fr.order) {
     const int x = i % W, y = i / W;
-    const float n = std::clamp(tile.sample_cubic(float(x) * texels_per_px, float(y) * texels_per_px), -1.f, 1.f);
+    const float n = std::clamp(
+        tile.sample_cubic(float(origin.x + x) * texels_per_px, float(origin.y + y) * texels_per_px), -1.f, 1.f);
     const float rise = float(slope * cell_m) * (1.f + kGradeVariation * 0.5f * (1.f + n));
     float least = std::numeric_limits<float>::max();
     for (int dy = -1; dy <= 1; ++dy)
@@ -96,21 +100,25 @@ void grade_into(cv::Mat1f& h, double cell_m, double slope, std::vector<uint8_t>&
         if ((dx == 0 && dy == 0) || nx < 0 || ny < 0 || nx >= W || ny >= H || !final_[size_t(j)]) continue;
         least = std::min(least, z[j] > 0 ? z[j] + rise * (dx != 0 && dy != 0 ? float(M_SQRT2) : 1.f) : kLandFloorM);
       }
-    if (z[i] < least) z[i] = least, moved[size_t(i)] = 1;
+    if (z[i] < least) z[i] = least, ++raised;
     final_[size_t(i)] = 1;
   }
+  return raised;
 }
 
 }  // namespace
 
 int64_t grade_land(cv::Mat1f& h, double cell_m, double slope) {
   if (!(cell_m > 0) || !(slope >= 0)) throw Error("grade_land: the cell size must be > 0 m and the slope ≥ 0");
-  if (!h.isContinuous()) h = h.clone();
-  std::vector<uint8_t> moved(h.total(), 0);
-  grade_into(h, cell_m, slope, moved);
-  int64_t changed = 0;
-  for (const uint8_t m : moved) changed += m;
-  return changed;
+  // Islands cover a minority of the canvas: the land's box, with its ring of
+  // sea (or the canvas edge), holds every cell graded and every outlet, and
+  // the flood orders its cells as it would the whole field's.
+  const cv::Rect box = land_box(h);
+  if (box.empty()) return 0;
+  cv::Mat1f sub = h(box).clone();
+  const int64_t raised = grade_box(sub, box.tl(), cell_m, slope);
+  sub.copyTo(h(box));
+  return raised;
 }
 
 int64_t drain_pits(cv::Mat1f& h, float max_depth_m, float breach_m, double cell_m) {
