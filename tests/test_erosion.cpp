@@ -183,7 +183,9 @@ TEST(Flood, GradeLandLeavesNoFlatOnLand) {
   for (int y = 1; y < H - 1; ++y)
     for (int x = 1; x < W - 1; ++x) {
       EXPECT_GE(g(y, x), h(y, x)) << "lowered at (" << x << ", " << y << ")";
-      if (h(y, x) > head_m + 0.2f) EXPECT_EQ(g(y, x), h(y, x)) << "moved above the graded floor at (" << x << ", " << y << ")";
+      if (h(y, x) > head_m + 0.2f) {
+        EXPECT_EQ(g(y, x), h(y, x)) << "moved above the graded floor at (" << x << ", " << y << ")";
+      }
       if (g(y, x) <= 0) continue;
       double steepest = 0;
       for (int dy = -1; dy <= 1; ++dy)
