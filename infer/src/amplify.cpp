@@ -268,7 +268,7 @@ void smooth_model_grid_underwater(cv::Mat1f& h, int model_side, uint64_t seed) {
 }  // namespace
 
 cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, double world_size_m, uint64_t seed,
-                          const ErosionParams& p) {
+                          const ErosionParams& p, bool lowland_relief) {
   if (coarse_m.empty() || coarse_m.rows != coarse_m.cols || label.rows != label.cols)
     throw Error("amplify: the height field and the label map must be square");
   const int S = coarse_m.cols, N = label.cols;
@@ -293,7 +293,7 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
     if (p.enabled) finish_painted_reef(land, label_s, world_size_m, seed);
     if (p.enabled) fill_ponds(land, label, world_size_m / N, p.amplify_pond_max_m2);
     drain_pits(land, kPitDepthM, float(p.pit_breach_m), world_size_m / N);
-    if (p.enabled) add_lowland_relief(land, 0, seed);
+    if (p.enabled && lowland_relief) add_lowland_relief(land, 0, seed);
     grade_land(land, world_size_m / N);
     return land;
   }
@@ -304,7 +304,7 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
   finish_painted_reef(out, label_s, world_size_m, seed);
   fill_ponds(out, label, world_size_m / N, p.amplify_pond_max_m2);
   drain_pits(out, kPitDepthM, float(p.pit_breach_m), world_size_m / N);
-  add_lowland_relief(out, 0, seed);
+  if (lowland_relief) add_lowland_relief(out, 0, seed);
   grade_land(out, world_size_m / N);
   return out;
 }

@@ -90,7 +90,8 @@ cv::Mat1f amplify_world(const cv::Mat1f& coarse_m, const cv::Mat1b& label, int s
   if (size <= wb.whole_max_px) return amplify_heights(coarse_m, at(size), world_size_m, seed, p);
   const std::vector<int> levels = refinement_levels(coarse_m.cols, size);
   const int M = levels.size() >= 2 ? levels[levels.size() - 2] : coarse_m.cols;
-  const cv::Mat1f level = amplify_heights(coarse_m, at(M), world_size_m, seed, p);
+  // Its low land's relief comes after each band's draining, not here.
+  const cv::Mat1f level = amplify_heights(coarse_m, at(M), world_size_m, seed, p, false);
   cv::Mat1f out(size, size);
   const int bands = (size + wb.rows_px - 1) / wb.rows_px;
   for (int b = 0; b < bands; ++b) {

@@ -36,9 +36,12 @@ void add_lowland_relief(cv::Mat1f& height_m, int y0, uint64_t seed);
 // detail. Only land moves; the sea is the coarse answer, bicubic, except
 // the small ponds of sea enclosed by land (amplify_pond_max_m2), which
 // become land. label: the sketch's regions at
-// size×size.
+// size×size. lowland_relief: add_lowland_relief before the grading (false
+// for a world's level below its banded last doubling, which adds it after
+// each band's draining: a level's bumps, doubled, made depressions deeper
+// than a pit that bands of different heights drained differently).
 cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, double world_size_m, uint64_t seed,
-                          const terrain::ErosionParams& p = {});
+                          const terrain::ErosionParams& p = {}, bool lowland_relief = true);
 
 }  // namespace reefgen::infer
 
