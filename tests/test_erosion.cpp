@@ -47,6 +47,15 @@ cv::Mat1f cone(int W, float peak, float noise = 0.f, uint64_t seed = 1) {
   return h;
 }
 
+// The steepest fall (m per m) from interior cell (y, x) to one of its eight neighbours.
+double steepest_fall(const cv::Mat1f& h, int y, int x, double cell_m) {
+  double steepest = 0;
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx)
+      if (dx || dy) steepest = std::max(steepest, (h(y, x) - h(y + dy, x + dx)) / (cell_m * std::hypot(dx, dy)));
+  return steepest;
+}
+
 // Land cells in closed depressions deeper than drain_pits leaves (0.5 m).
 int cells_in_pits(const cv::Mat1f& h) {
   const FloodRoute r = flood_route(h, sea_and_edge_roles(h));
@@ -131,12 +140,7 @@ TEST(Flood, DrainPitsShapedLikeAValleyLeaveNothingFlat) {
     for (int x = 1; x < W - 1; ++x) {
       if (shaped(y, x) == valley(y, x) || shaped(y, x) <= 0) continue;
       ++moved;
-      double steepest = 0;
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx)
-          if (dx || dy)
-            steepest = std::max(steepest, (shaped(y, x) - shaped(y + dy, x + dx)) / (cell_m * std::hypot(dx, dy)));
-      EXPECT_GE(steepest, 0.99 * kDrainFloorSlope) << "a flat moved cell at (" << x << ", " << y << ")";
+      EXPECT_GE(steepest_fall(shaped, y, x, cell_m), 0.99 * kDrainFloorSlope) << "a flat moved cell at (" << x << ", " << y << ")";
       if (shaped(y, x) > valley(y, x)) {
         EXPECT_LE(shaped(y, x), flat(y, x) + 1e-4f) << "raised above the flat fill at (" << x << ", " << y << ")";
       }
@@ -187,12 +191,7 @@ TEST(Flood, GradeLandLeavesNoFlatOnLand) {
         EXPECT_EQ(g(y, x), h(y, x)) << "moved above the graded floor at (" << x << ", " << y << ")";
       }
       if (g(y, x) <= 0) continue;
-      double steepest = 0;
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx)
-          if (dx || dy)
-            steepest = std::max(steepest, (g(y, x) - g(y + dy, x + dx)) / (cell_m * std::hypot(dx, dy)));
-      EXPECT_GE(steepest, 0.99 * kLandMinSlope) << "flat at (" << x << ", " << y << ")";
+      EXPECT_GE(steepest_fall(g, y, x, cell_m), 0.99 * kLandMinSlope) << "flat at (" << x << ", " << y << ")";
     }
   EXPECT_THROW(grade_land(g, 0), Error);
 }

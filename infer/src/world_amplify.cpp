@@ -13,6 +13,7 @@ using namespace reefgen::terrain;
 
 namespace {
 constexpr float kBandDiffusion = 0.15f;
+
 // Rows [y0, y1) of `fine` (side N): `level` (side M) sampled bicubically at
 // each cell's centre, as cv::resize maps half-pixel centres, plus the level's
 // fractal detail on land.
