@@ -152,6 +152,40 @@ TEST(Train, ShoreWeightedL1MatchesHandComputation) {
   EXPECT_NEAR(g[1].item<double>(), 1.0 / 11.0, 1e-6);
 }
 
+TEST(Train, SlopeL1ChargesAShapeThatL1Forgives) {
+  // A cone's profile 0, 1, 2, 3, 4 against one with a bench: 0, 1, 2, 2, 4
+  // (one cell 1 low). Per-cell L1: 1/5. Slopes: truth 1,1,1,1; bench
+  // 1,1,0,2: |Δ| errors 0,0,1,1 -> 2/4 along x, 0 along y; halved: 1/4.
+  const torch::Tensor truth = torch::tensor({0.f, 1.f, 2.f, 3.f, 4.f}).view({1, 1, 1, 5}).repeat({1, 1, 2, 1});
+  const torch::Tensor bench = torch::tensor({0.f, 1.f, 2.f, 2.f, 4.f}).view({1, 1, 1, 5}).repeat({1, 1, 2, 1});
+  EXPECT_NEAR(torch::nn::functional::l1_loss(bench, truth).item<double>(), 0.2, 1e-6);
+  EXPECT_NEAR(slope_l1(bench, truth).item<double>(), 0.25, 1e-6);
+  // A uniform offset keeps every slope: no charge.
+  EXPECT_NEAR(slope_l1(truth + 3, truth).item<double>(), 0.0, 1e-7);
+  // The gradient pulls the bench cell up: it reaches fake, with the sign that lowers the loss.
+  torch::Tensor f = bench.clone().requires_grad_(true);
+  slope_l1(f, truth).backward();
+  EXPECT_LT(f.grad()[0][0][0][3].item<double>(), 0.0);
+  // lambda_slope reaches the options, and a step with it reports the larger reconstruction term.
+  TrainParams params;
+  params.lambda_slope = 500;
+  EXPECT_EQ(pix2pix_options(params).lambda_slope, 500);
+  const auto loss_with = [](double lambda_slope) {
+    torch::manual_seed(3);
+    Pix2PixOptions o;
+    o.g.ngf = 8;
+    o.g.depth = 5;
+    o.d.ndf = 8;
+    o.lambda_slope = lambda_slope;
+    Pix2Pix p(o);
+    p.G()->set_dropout_enabled(false);
+    torch::manual_seed(4);
+    const auto label = torch::rand({1, 3, 32, 32}) * 2 - 1;
+    return p.step(label, torch::tanh(label.sum(1, true))).g_l1;
+  };
+  EXPECT_GT(loss_with(500), loss_with(0));
+}
+
 TEST(Train, LossGoesDownOnAFixedBatch) {
   // LibTorch's convolutions, reefgen's oneDNN ones, and those in bf16 (where
   // the CPU has it): each must learn, and bf16 must keep float32 weights.

@@ -23,6 +23,12 @@ torch::Tensor weighted_l1(const torch::Tensor& fake, const torch::Tensor& target
   return (weight * (fake - target).abs()).sum() / weight.sum();
 }
 
+torch::Tensor slope_l1(const torch::Tensor& fake, const torch::Tensor& target) {
+  const auto dx = [](const torch::Tensor& t) { return t.slice(3, 1) - t.slice(3, 0, -1); };  // {N,1,S,S-1}
+  const auto dy = [](const torch::Tensor& t) { return t.slice(2, 1) - t.slice(2, 0, -1); };  // {N,1,S-1,S}
+  return 0.5 * ((dx(fake) - dx(target)).abs().mean() + (dy(fake) - dy(target)).abs().mean());
+}
+
 Pix2Pix::Pix2Pix(const Pix2PixOptions& o) : options_(o), g_(o.g), d_(o.d), lr_(o.lr) {
   if (o.d.in_channels != o.g.in_channels + o.g.out_channels)
     throw std::invalid_argument("Pix2PixOptions: D takes label ⊕ height, so d.in_channels must be " +
@@ -93,7 +99,8 @@ Losses Pix2Pix::step(const torch::Tensor& label, const torch::Tensor& height) {
   clear_grads(g_->parameters());
   const torch::Tensor pred = d_->forward(torch::cat({label, fake}, 1));
   const torch::Tensor g_gan = F::binary_cross_entropy_with_logits(pred, torch::ones_like(pred));
-  const torch::Tensor g_l1 = weighted_l1(fake, height, options_.l1) * options_.lambda_l1;
+  torch::Tensor g_l1 = weighted_l1(fake, height, options_.l1) * options_.lambda_l1;
+  if (options_.lambda_slope > 0) g_l1 = g_l1 + slope_l1(fake, height) * options_.lambda_slope;
   if (reduce_g_) reduce_g_->begin();
   (g_gan + g_l1).backward();
   if (reduce_g_) reduce_g_->end();

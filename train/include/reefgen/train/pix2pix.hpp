@@ -26,6 +26,15 @@ struct L1Weighting {
 // L1 of fake against target {N,1,S,S} under `w`; exactly F::l1_loss when w.extra == 0.
 torch::Tensor weighted_l1(const torch::Tensor& fake, const torch::Tensor& target, const L1Weighting& w);
 
+// L1 between the slopes of fake and target {N,1,S,S}: the mean over both axes
+// of |Δfake − Δtarget|, Δ the difference of neighbouring cells (normalised
+// units per cell). A per-cell L1 lets G trade a slope's shape for its mean
+// height — a bench at mid-radius of a cone costs little where it crosses the
+// truth — while the slope term charges every cell where the fall differs
+// (the gradient loss of Eigen & Fergus 2015 for depth maps; docs/MODEL.md
+// "Slope loss").
+torch::Tensor slope_l1(const torch::Tensor& fake, const torch::Tensor& target);
+
 struct Pix2PixOptions {
   model::UNetOptions g;       // generator: 3 -> 1 channels
   model::PatchOptions d;      // discriminator: 4 input channels (label ⊕ height)
@@ -34,11 +43,12 @@ struct Pix2PixOptions {
   double beta2 = 0.999;       // Adam β2; [0, 1)
   double lambda_l1 = 100.0;   // weight of the L1 term in G's loss; [0, 1e4]
   L1Weighting l1;             // extra L1 weight near sea level (none by default: pix2pix's plain mean)
+  double lambda_slope = 0;    // weight of slope_l1 in G's loss (0: pix2pix's loss); [0, 1e5]
   model::ConvOptions conv;    // who runs G's and D's convolutions (LibTorch by default)
 };
 
 struct Losses {
-  double g_gan = 0, g_l1 = 0, d_real = 0, d_fake = 0;  // g_l1 already weighted by lambda_l1
+  double g_gan = 0, g_l1 = 0, d_real = 0, d_fake = 0;  // g_l1: lambda_l1·L1 + lambda_slope·slope L1
 };
 
 class Pix2Pix {
