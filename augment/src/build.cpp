@@ -208,9 +208,12 @@ BuildResult build_dataset(const DatasetParams& p, const BuildOptions& a) {
       remove_stale_temps(dir / split_name(s));
     }
 
-  std::vector<int64_t> indices;
-  for (int64_t i = shard_i; i < p.count; i += shard_n) indices.push_back(i);
-  Progress progress("dataset", indices.size(), a.quiet);
+  // Shard I makes the pairs I, I + N, I + 2N, ...: counted, never listed
+  // (a list of 1e8 indices held 800 MB before the first pair).
+  const size_t shard_pairs = p.count > shard_i ? size_t((p.count - shard_i + shard_n - 1) / shard_n) : 0;
+  const int64_t first = shard_i, step = shard_n;
+  const auto index_of = [first, step](size_t k) { return first + int64_t(k) * step; };
+  Progress progress("dataset", shard_pairs, a.quiet);
   if (a.layout == DatasetLayout::WebDataset) return layouts::build_webdataset(p, a, progress);
   // Lines are streamed to the manifest's temporary file in index order as soon
   // as the pairs before them are done: memory holds only the few lines that
@@ -234,10 +237,10 @@ BuildResult build_dataset(const DatasetParams& p, const BuildOptions& a) {
   };
   std::atomic<size_t> reused{0};
   parallel_for(
-      indices.size(), a.threads,
+      shard_pairs, a.threads,
       [&](size_t k) {
         PairInfo info;
-        const Pair pair = make_pair(a.seed, indices[k], p, &info);
+        const Pair pair = make_pair(a.seed, index_of(k), p, &info);
         const std::string stem = pair_stem(info);
         layouts::PairFiles f = a.layout == DatasetLayout::Reefgen ? write_reefgen_pair(dir, stem, info, pair, a.layers)
                                                                   : layouts::write_pair(a.layout, dir, stem, info, pair);
@@ -245,10 +248,10 @@ BuildResult build_dataset(const DatasetParams& p, const BuildOptions& a) {
         put_line(k, std::move(f));
       },
       [&](size_t d) { progress.tick(d); });
-  if (next_line != indices.size()) throw Error(dir.string() + ": internal error: manifest incomplete");
+  if (next_line != shard_pairs) throw Error(dir.string() + ": internal error: manifest incomplete");
   for (auto& [split, writer] : metadata) writer->commit();
   manifest.commit();
-  return {dir / manifest_name(shard_i, shard_n), indices.size(), size_t(reused)};
+  return {dir / manifest_name(shard_i, shard_n), shard_pairs, size_t(reused)};
 }
 
 MergeResult merge_dataset(const fs::path& dir) {
