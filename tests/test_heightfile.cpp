@@ -1,6 +1,9 @@
 // The height-field files terrain tools import (common/heightfile.hpp: PNG16,
 // R16, grid meshes, the staged writer and its sidecar), SHA-256 and the median, read back
 // without LibTorch: this binary links only reefgen_common.
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <cstring>
 #include <fstream>
 
@@ -8,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "reefgen/files.hpp"
 #include "reefgen/heightfile.hpp"
 #include "reefgen/image_io.hpp"
 #include "reefgen/sha256.hpp"
@@ -238,4 +242,76 @@ TEST(Stats, MedianOfOddEvenAndEmpty) {
   EXPECT_EQ(median({3, 1, 2}), 2.0);
   EXPECT_EQ(median({0.31, 0, 0.286, 0.5}), (0.286 + 0.31) / 2);  // the two middle values' mean
   EXPECT_TRUE(std::isnan(median({})));
+}
+
+namespace {
+// The rename before which the child of CommitCutShortIsFinished "is killed".
+size_t g_kill_before = 0;
+void exit_at_cut(size_t renamed) {
+  if (renamed == g_kill_before) ::_exit(9);
+}
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+}  // namespace
+
+// A commit of five files killed between two renames (a child process that
+// _exits there) leaves a mix of two runs on disk, and its journal; the next
+// sweep of the folder finishes the renames: the new set, whole. Killed
+// before the commit, the old set stays and the staged copies go.
+TEST(StagedOutputs, ACommitCutShortIsFinishedByTheNextSweep) {
+  const fs::path dir = temp_dir("commit_cut");
+  const std::vector<std::string> names = {"x.height.exr", "x.label.png", "x.r16", "x.preview.png", "x.json"};
+  const auto write_set = [&](const std::string& text) {
+    for (const auto& n : names) write_text_atomic(dir / n, text);
+  };
+  const auto count_of = [&](const std::string& text) {
+    int k = 0;
+    for (const auto& n : names) k += slurp(dir / n) == text;
+    return k;
+  };
+  const auto leftovers = [&] {
+    int k = 0;
+    for (const auto& e : fs::directory_iterator(dir)) {
+      const std::string n = e.path().filename().string();
+      k += n.find(".tmp.") != std::string::npos || n.rfind(kCommitJournalPrefix, 0) == 0;
+    }
+    return k;
+  };
+  const auto run_child = [&](bool commit) {
+    const pid_t child = ::fork();
+    if (child == 0) {
+      detail::commit_pause_for_tests = exit_at_cut;
+      StagedOutputs s;
+      for (const auto& n : names)
+        s.write(dir / n, [](const fs::path& p) { write_text_atomic(p, "new"); });
+      if (commit) s.commit();
+      ::_exit(0);
+    }
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  };
+  for (size_t cut : {size_t(1), size_t(3), size_t(4)}) {
+    write_set("old");
+    g_kill_before = cut;
+    ASSERT_EQ(run_child(true), 9) << cut;
+    EXPECT_EQ(count_of("new"), int(cut)) << "before the sweep: a mix of " << cut << " new files";
+    EXPECT_GT(leftovers(), 0);
+    remove_stale_temps(dir);
+    EXPECT_EQ(count_of("new"), int(names.size())) << "cut before rename " << cut;
+    EXPECT_EQ(leftovers(), 0) << "journal and staged copies gone";
+  }
+  write_set("old");
+  g_kill_before = 99;
+  ASSERT_EQ(run_child(false), 0);
+  EXPECT_GT(leftovers(), 0);
+  remove_stale_temps(dir);
+  EXPECT_EQ(count_of("old"), int(names.size()));
+  EXPECT_EQ(leftovers(), 0);
+  // A journal of a live process (this one) is not touched.
+  write_text_atomic(dir / (std::string(kCommitJournalPrefix) + std::to_string(::getpid()) + ".0"),
+                    std::string(kCommitJournalHeader) + "\n");
+  EXPECT_EQ(finish_interrupted_commits(dir), 0);
 }

@@ -118,7 +118,54 @@ void commit_temp(const fs::path& tmp, const fs::path& path) {
   }
 }
 
+void (*commit_pause_for_tests)(size_t renamed) = nullptr;
+
+fs::path write_commit_journal(const std::vector<fs::path>& temps, const std::vector<fs::path>& finals) {
+  static std::atomic<uint64_t> counter{0};
+  // Beside the last file of the set (a command's sidecar, staged last): the
+  // folder a reader of the set looks in first.
+  const fs::path dir = fs::absolute(finals.back()).parent_path();
+  const fs::path journal = dir / (std::string(kCommitJournalPrefix) + std::to_string(::getpid()) + "." +
+                                  std::to_string(counter.fetch_add(1)));
+  std::string text = std::string(kCommitJournalHeader) + "\n";
+  for (size_t i = 0; i < temps.size(); ++i)
+    text += fs::absolute(temps[i]).string() + "\t" + fs::absolute(finals[i]).string() + "\n";
+  write_text_atomic(journal, text);
+  return journal;
+}
+
 }  // namespace detail
+
+int finish_interrupted_commits(const fs::path& dir) {
+  std::error_code ec;
+  int finished = 0;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind(kCommitJournalPrefix, 0) != 0 || !e.is_regular_file(ec)) continue;
+    const std::string rest = name.substr(std::strlen(kCommitJournalPrefix));
+    const std::string pid_text = rest.substr(0, rest.find('.'));
+    if (pid_text.empty() || pid_text.find_first_not_of("0123456789") != std::string::npos) continue;
+    const long pid = std::stol(pid_text);
+    if (pid == ::getpid() || ::kill(pid_t(pid), 0) == 0 || errno != ESRCH) continue;  // still committing
+    std::ifstream in(e.path());
+    std::string line;
+    if (!std::getline(in, line) || line != kCommitJournalHeader) continue;  // not ours: left alone
+    while (std::getline(in, line)) {
+      const size_t tab = line.find('\t');
+      if (tab == std::string::npos) continue;
+      const fs::path tmp = line.substr(0, tab), final_path = line.substr(tab + 1);
+      std::error_code rc;
+      // Renamed already, or gone: nothing to finish for this file.
+      if (!fs::is_regular_file(fs::symlink_status(tmp, rc))) continue;
+      if (final_path.has_parent_path()) fs::create_directories(final_path.parent_path(), rc);
+      fs::rename(tmp, final_path, rc);
+    }
+    in.close();
+    fs::remove(e.path(), ec);
+    ++finished;
+  }
+  return finished;
+}
 
 using detail::commit_temp;
 using detail::temp_path_for;
@@ -303,12 +350,22 @@ void StagedOutputs::commit() {
     if (!fs::exists(temps_[i], ec))
       throw Error("cannot write " + finals_[i].string() + ": its staged copy " + temps_[i].string() + " vanished");
   }
+  // The commit point: once the journal is in place the new set is decided;
+  // a kill between two renames leaves the journal and the staged copies,
+  // and the next sweep of the folder (remove_stale_temps) finishes the
+  // renames instead of deleting them — the old set or the new one, never a
+  // mix. From here a fatal signal must not unlink what the journal names.
+  const fs::path journal = temps_.size() > 1 ? detail::write_commit_journal(temps_, finals_) : fs::path();
+  if (!journal.empty())
+    for (const fs::path& t : temps_) untrack_temp(t);
   for (size_t i = 0; i < temps_.size(); ++i) {
+    if (detail::commit_pause_for_tests) detail::commit_pause_for_tests(i);
     // A resumed file's folder may not exist yet (it was made by the earlier run).
     if (!work_.empty() && finals_[i].has_parent_path()) fs::create_directories(finals_[i].parent_path(), ec);
     commit_temp(temps_[i], finals_[i]);
   }
   committed_ = true;
+  if (!journal.empty()) fs::remove(journal, ec);
   if (!work_.empty()) fs::remove_all(work_, ec);
 }
 
@@ -496,6 +553,11 @@ DirLock::~DirLock() {
 int remove_stale_temps(const fs::path& dir) {
   std::error_code ec;
   int removed = 0;
+  // A set whose commit was cut short is finished first (its staged copies
+  // look stale); a bundle's folder sits one level below its sidecar's.
+  finish_interrupted_commits(dir);
+  if (dir.has_parent_path()) finish_interrupted_commits(dir.parent_path());
+  else finish_interrupted_commits(fs::absolute(dir).parent_path());
   for (const auto& e : fs::directory_iterator(dir, ec)) {
     if (!e.is_regular_file(ec)) continue;
     const std::string name = e.path().filename().string();

@@ -128,8 +128,25 @@ class DirLock {
 
 // Removes temporary files left by killed processes in `dir` (not recursive):
 // NAME.tmp.PID.N (write_file_atomic) and NAME.tmp-PID (LibTorch archives)
-// whose PID is not a live process. Returns how many were removed.
+// whose PID is not a live process. Returns how many were removed. Commits
+// cut short in `dir` or its parent are finished first.
 int remove_stale_temps(const fs::path& dir);
+// StagedOutputs::commit() of more than one file first writes a journal,
+// DIR/.reefgen.commit.PID.N beside the set's last file, naming each staged
+// copy and its final path, and removes it after the last rename. For every
+// journal in `dir` whose process is gone, the renames it names are finished
+// (staged copies still there are moved into place) and the journal removed:
+// a kill during a commit leaves the new set, never a mix of two runs.
+// Returns how many journals were finished.
+int finish_interrupted_commits(const fs::path& dir);
+constexpr const char* kCommitJournalPrefix = ".reefgen.commit.";
+constexpr const char* kCommitJournalHeader = "reefgen-commit-journal 1";
+namespace detail {
+// Tests only: called before the i-th rename of a commit (a child process
+// _exits there to stand for a kill in the middle of the renames).
+extern void (*commit_pause_for_tests)(size_t renamed);
+fs::path write_commit_journal(const std::vector<fs::path>& temps, const std::vector<fs::path>& finals);
+}  // namespace detail
 // SIGTERM, SIGHUP and SIGINT unlink the temporary files this process is
 // writing, then end it as the signal would: a killed `infer` leaves no
 // *.tmp.* behind. Commands with their own graceful stop (train, studio)
