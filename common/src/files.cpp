@@ -195,7 +195,11 @@ void write_file_atomic(const fs::path& path, const void* data, size_t size) {
 }
 
 StagedOutputs::StagedOutputs(fs::path work_dir, fs::path base)
-    : work_(fs::absolute(work_dir).lexically_normal()), base_(fs::absolute(base).lexically_normal()) {}
+    : work_(fs::absolute(work_dir).lexically_normal()), base_(fs::absolute(base).lexically_normal()) {
+  // An earlier run of this set killed while committing: finished before this
+  // run looks at what it kept (the journal moves kept files into place).
+  finish_interrupted_commits(base_);
+}
 
 StagedOutputs::~StagedOutputs() {
   // A resumable run keeps what it staged for the next run.
