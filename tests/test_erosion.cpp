@@ -670,8 +670,10 @@ TEST(Erosion, GoldenValues) {
 
 // The finer levels' knobs (docs/EROSION.md): the defaults (diffusion ×0.3,
 // detail ×2, random receivers) leave more relief below the base grid's scale
-// than the smooth levels before them (×1, ×1, steepest receivers); no detail
-// leaves less.
+// than the smooth levels before them (×1, ×1, steepest receivers). Since the
+// creep between channels a level's detail that no channel took up is rounded
+// off again: without detail the relief below σ = 3 cells is the same within
+// 1 % (13.81 against 13.77 m), not less as before the creep.
 TEST(Erosion, RefineKnobsSetTheFineRelief) {
   auto fine_rms = [](double diffusivity_scale, double detail_scale, bool random_receivers) {
     auto s = random_spec(5, 3);
@@ -693,8 +695,8 @@ TEST(Erosion, RefineKnobsSetTheFineRelief) {
   const ErosionParams d;
   const double dflt = fine_rms(d.refine_diffusivity_scale, d.refine_detail_scale, d.refine_random_receivers);
   const double smooth = fine_rms(1, 1, false), none = fine_rms(d.refine_diffusivity_scale, 0, true);
-  EXPECT_GT(dflt, 1.1 * smooth) << "default " << dflt << ", smooth levels " << smooth << ", no detail " << none;
-  EXPECT_LT(none, dflt);
+  EXPECT_GT(dflt, 1.05 * smooth) << "default " << dflt << ", smooth levels " << smooth << ", no detail " << none;
+  EXPECT_NEAR(none, dflt, 0.02 * dflt);
 }
 
 TEST(Erosion, SameBytesWhateverTheThreads) {
@@ -841,7 +843,10 @@ TEST(Erosion, WorldBandsAreInvisible) {
   const cv::Mat1f a = amplify_world(h, label, 385, world_m, 5, {}, {}, small);
   ASSERT_EQ(a.size(), cv::Size(385, 385));
   const cv::Mat1f b = amplify_world(h, label, 385, world_m, 5, {}, {}, WorldBands{200, 100, 16});
-  EXPECT_LE(cv::norm(a, b, cv::NORM_INF), 0.25);
+  // Since the finer levels' creep (docs/EROSION.md "Creep") the depression
+  // that crosses a halo here is drained up to 1.03 m apart on 33 cells
+  // (71 differ by more than 1 cm, of 148,225).
+  EXPECT_LE(cv::norm(a, b, cv::NORM_INF), 1.25) << cv::countNonZero(cv::abs(a - b) > 0.25f) << " cells over 0.25 m";
   EXPECT_LE(cv::countNonZero(cv::abs(a - b) > 0.01f), int(a.total() / 1000)) << "more than a depression's cells differ";
   const RealismStats st = realism_stats(a, world_m / 385);
   EXPECT_LE(st.pits, 0.01);

@@ -143,6 +143,42 @@ TEST(Eroders, DiffusionSpreadsASpikeBy2Dt) {
   EXPECT_EQ(h(0, 0), 1.f);  // an outlet (the canvas edge) is not written
 }
 
+// Creep between channels (eroders.hpp): far from any channel it is the
+// hillslope diffusion's blur, cell for cell; a channel (drainage area past
+// A_c) moves far less than the hillslopes beside it; outlets are not written.
+TEST(Eroders, CreepRoundsHillslopesAndSparesChannels) {
+  cv::Mat1f h(64, 64);
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x)
+      h(y, x) = 50.f + 0.5f * float(x) + 2.f * std::sin(1.6f * float(x)) * std::cos(1.6f * float(y)) -
+                (y == 32 ? 6.f : 0.f);  // a channel along row 32
+  const cv::Mat1b role = sea_and_edge_roles(h);
+  const cv::Rect all(0, 0, 64, 64);
+  const float a_c = 1e4f;
+  // No channel anywhere: the same as the hillslope diffusion away from the
+  // canvas edge (whose outlets pull the share below 1 within a few cells).
+  cv::Mat1f creep = h.clone(), blur = h.clone();
+  creep_between_channels(creep, role, all, std::vector<float>(h.total(), 0.f), a_c, 1.5);
+  diffuse_hillslope(blur, role, all, 1.5);
+  EXPECT_LT(cv::norm(creep(cv::Rect(12, 12, 40, 40)), blur(cv::Rect(12, 12, 40, 40)), cv::NORM_INF), 1e-4);
+  EXPECT_EQ(creep(0, 10), h(0, 10));
+  // The channel drains 1 km²: its row keeps most of its depth.
+  std::vector<float> area(h.total(), 100.f);
+  for (int x = 0; x < 64; ++x) area[size_t(32 * 64 + x)] = 1e6f;
+  cv::Mat1f z = h.clone();
+  creep_between_channels(z, role, all, area, a_c, 1.5);
+  double moved_channel = 0, moved_slope = 0;
+  for (int x = 8; x < 56; ++x) {
+    moved_channel += std::abs(z(32, x) - h(32, x));
+    moved_slope += std::abs(z(16, x) - h(16, x));
+  }
+  EXPECT_LT(moved_channel, 0.5 * std::abs(blur(32, 20) - h(32, 20)) * 48) << "the channel filled like a hillslope";
+  EXPECT_GT(moved_slope, 0.5 * 48) << "the hillslope's 2 m bumps did not round off";
+  double depth = 0;
+  for (int x = 8; x < 56; ++x) depth += 0.5 * (z(31, x) + z(33, x)) - z(32, x);
+  EXPECT_GT(depth / 48, 3.0) << "the channel's depth below its banks";
+}
+
 TEST(Erosion, LevelIsGoldenOnACone) {
   // erode_level = route + accumulate + stream power + diffusion, step after
   // step. Golden sums pinned when the monolith was split into those pieces

@@ -35,4 +35,15 @@ int hillslope_margin_px(double sigma_px);
 // blur changes nothing worth a pass and is skipped.
 void diffuse_hillslope(cv::Mat1f& height_m, const cv::Mat1b& role, const cv::Rect& roi, double sigma_px);
 
+// Creep between channels: soil creep rounds the ground where no channel
+// runs and leaves the channels to incision (Gilbert 1909; the hillslope-
+// channel transition of Montgomery & Dietrich 1988 at a contributing area
+// A_c). Each active cell draining less than channel_area_m2 moves towards
+// the Gaussian mean (σ = sigma_px) of its neighbourhood by the share
+// (1 − A/A_c)², a channel cell not at all: ridges and bumps round off,
+// hollows between them fill, channel floors stay where the incision put
+// them. Never below sea level.
+void creep_between_channels(cv::Mat1f& height_m, const cv::Mat1b& role, const cv::Rect& roi,
+                            const std::vector<float>& area_m2, float channel_area_m2, double sigma_px);
+
 }  // namespace reefgen::terrain
