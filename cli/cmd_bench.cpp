@@ -107,7 +107,7 @@ int run_bench_generate(const BenchGenerateArgs& a, bool quiet) {
 Command add_bench_command(CLI::App& app, const GlobalOptions& g) {
   auto* sub = app.add_subcommand("bench", "Benchmarks (print figures; not tests)\n\nExamples:\n  reefgen bench generate --reps 50\n"
                                         "  reefgen bench train --ngf 64 --reps 5\n  reefgen bench infer --reps 20\n"
-                                        "  reefgen bench realism          # issue 20's realism bars at 1025²\n"
+                                        "  reefgen bench realism          # the realism bars at 1025²\n"
                                         "  reefgen bench dataset          # dataset build pairs/s with erosion\n"
                                         "  bash scripts/bench-model.sh    # against the Python reference, as ratios\n");
   auto* gen = sub->add_subcommand("generate", "ms per island on one thread, islands/s on all cores");

@@ -1,4 +1,4 @@
-// reefgen bench dataset: pairs per second of `dataset build` (issue 20's bar:
+// reefgen bench dataset: pairs per second of `dataset build` (the bar:
 // ≥ 100 pairs/s at 256² on 2 cores with the fluvial erosion). Each run builds
 // into a fresh folder under the system's temporary directory and removes it;
 // one JSON object on stdout with every run, their median and the CPU model.

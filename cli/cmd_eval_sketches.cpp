@@ -1,5 +1,5 @@
 // reefgen eval-sketches: how a generator treats painted sketches, which have
-// no ground truth (issue 11, docs/MODEL.md). Per sketch and overall: young
+// no ground truth (docs/MODEL.md). Per sketch and overall: young
 // land above the sea, young abyss deep, reef crest depth, checkerboard
 // amplitude; a picture grid (sketch | result) to look at.
 #include <cstdio>

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# reefgen.torch.PairStream against `reefgen dataset build` (issue 40 bar: the
+# reefgen.torch.PairStream against `reefgen dataset build` (bar: the
 # stream on 2 DataLoader workers delivers >= 90 % of the build's pairs/s on
 # 2 threads), the same recipe, alternating rounds in one run, medians.
 # usage: bash scripts/bench-python.sh [PAIRS=300] [ROUNDS=3]

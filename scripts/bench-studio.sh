@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
-# reefgen studio's stroke-to-update time (issue 14 bar: p95 ≤ 300 ms at 256² on
+# reefgen studio's stroke-to-update time (bar: p95 ≤ 300 ms at 256² on
 # 2 cores): a fresh `reefgen studio`, Debian's chromium (headless, software
 # WebGL), N painted strokes; each is timed from the stroke's end to the frame
 # after the new heights are drawn (request -> heights returned -> drawn).
 # Prints one JSON line: median, p95, the server's share and the phases.
 #   bash scripts/bench-studio.sh [STROKES=40] [--size 256|512|1024] [--burst] [--screenshot FILE]
-# (issue 22 bars: p95 ≤ 300 ms at 256², ≤ 600 ms at 1024², also for the last of
+# (bar: p95 ≤ 300 ms at 256², ≤ 600 ms at 1024², also for the last of
 # 10 strokes in 2 s: --burst)
 set -euo pipefail
 cd "$(dirname "$0")/.."

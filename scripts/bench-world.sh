@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 38's world bars, measured: an archipelago sketch → a world, N runs
+# The world bars, measured: an archipelago sketch → a world, N runs
 # (median), wall time and peak RSS of each, then `reefgen realism` on the last
 # world (pits, terraces, valleys, seams). The CPU model and its flags first.
 #   bash scripts/bench-world.sh [RUNS=3] [SKETCH_SIDE=2048] [WORLD_SIDE=16385] [OUT=/tmp/reefgen-bench-world] [FLAGS]

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# libFuzzer on reefgen's untrusted inputs (issue 13): the sketch decoder, every
+# libFuzzer on reefgen's untrusted inputs: the sketch decoder, every
 # JSON config, the generator-file loader. Builds with clang + ASan + UBSan in
 # build-fuzz/, fuzzes each TARGET for SECONDS, then merges what raised the
 # coverage into tests/fuzz/corpus/TARGET (replayed by ctest fuzz_corpus_*).

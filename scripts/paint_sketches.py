@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Paints the hand-painted-style test sketches of tests/data/painted/ (issue 11).
+"""Paints the hand-painted-style test sketches of tests/data/painted/.
 
 Each sketch is painted as a person would in an image editor: a red (abyss)
 canvas, then blobs of blue (reef), cyan (lagoon), green (beach) and yellow

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Replays the hostile probes of issue 24 against a reefgen binary: crashes,
+# Replays the hostile probes against a reefgen binary: crashes,
 # lost or stray files, validation and messages. Each probe states what must
 # hold; any that does not is printed as FAIL and the exit code is 1.
 #   bash scripts/probe.sh build/cli/reefgen          # everything but the full disk
@@ -184,7 +184,7 @@ EOF
 refuses "NaN" dataset stats dnan --no-verify
 refuses "its bytes differ" dataset stats dnan
 
-# 19. Issue 36: a FIFO nobody writes to is refused at once (open() used to
+# 19. A FIFO nobody writes to is refused at once (open() used to
 # block forever); a shell's <(...) pipe is still read, once.
 mkfifo fifo1
 fifo_refused() {  # fifo_refused ARGS...: one line naming the FIFO within 20 s
@@ -201,7 +201,7 @@ timeout 20 "$R" -q generate --spec <(cat "$ROOT/configs/presets/atoll.json") --s
 timeout 60 "$R" -q infer <(cat "$ROOT/tests/data/painted/01-young-volcano.png") -o piped-sketch >/dev/null && [ -s piped-sketch.height.exr ] \
   && ok || bad "19: a sketch from <(...) no longer read"
 
-# 20. Issue 36: datasets are checked before they are trusted.
+# 20. Datasets are checked before they are trusted.
 cp -r d20 dswap && a=$(ls dswap/train/*.label.png | head -1) && b=$(ls dswap/train/*.label.png | sed -n 2p) && cp "$b" "$a"
 refuses "its bytes differ" train --data dswap --out swaprun --max-steps 1 --ngf 8 --ndf 8
 refuses "its bytes differ" dataset stats dswap
@@ -213,12 +213,12 @@ refuses "outside the dataset folder" dataset stats descape --no-verify
 cp -r d20 ddup && head -1 d20/manifest.jsonl >> ddup/manifest.jsonl
 refuses "listed again" train --data ddup --out duprun --max-steps 1
 
-# 21. Issue 36: a number beyond a double names the file, not the JSON library.
+# 21. A number beyond a double names the file, not the JSON library.
 echo '{"subsidence": 1e400}' > huge.json
 refuses "huge.json: '1e400' is beyond the range" generate --spec huge.json -o huge
 refuses "huge.json: '1e400' is beyond the range" dataset build --config huge.json --out huge-ds
 
-# 22. Issue 36: a resume remakes an island whose file was cut short since
+# 22. A resume remakes an island whose file was cut short since
 # (it counted it as done: "wrote 0 islands").
 "$R" -q generate --random 2 --levels 1 --seed 3 --size 64 --out trunc >/dev/null
 cp trunc/island_000000_l0.height.exr whole.exr

@@ -506,7 +506,7 @@ grep -q '"jpeg_q50"' "$T/ev1/eval.json" && ok || bad "eval: no perturbed results
 # eval.md: the perturbations in their order, then region 0 by its one name.
 [ "$(sed -n 3,7p "$T/ev1/eval.md" | cut -d'|' -f2 | tr -d ' ' | tr '\n' ' ')" = "clean blur_sigma2 jpeg_q50 hue_jitter_15deg brush_noise " ] && ok || bad "eval.md rows: $(cat "$T/ev1/eval.md")"
 grep -q '^| island |' "$T/ev1/eval.md" && ok || bad "eval.md: no island row"
-# Never overwrite an input; two sketches with one stem refused (issue 13).
+# Never overwrite an input; two sketches with one stem refused.
 mkdir -p "$T/s/a" "$T/s/b"; cp "$T/s/one.png" "$T/s/a/x.png"; cp "$T/s/one.png" "$T/s/b/x.png"
 expect_error "would both write" infer "$T/s/a" "$T/s/b" -m "$M" -o "$T/e"
 cp "$T/s/one.png" "$T/s/y.preview.png"; before=$(sha256sum < "$T/s/y.preview.png")
@@ -514,7 +514,7 @@ cp "$T/s/one.png" "$T/s/y.preview.png"; before=$(sha256sum < "$T/s/y.preview.png
 [ "$(sha256sum < "$T/s/y.preview.png")" = "$before" ] && [ ! -e "$T/s/y.height.exr" ] && ok || bad "input changed or outputs left"
 
 # 6b. The shipped model (models/): no -m needed; it meets the painted-sketch
-# land and abyss bars of issue 11 on tests/data/painted (docs/MODEL.md).
+# land and abyss bars on tests/data/painted (docs/MODEL.md).
 SHIPPED="$(dirname "$0")/../models/reef-256.pt"
 if [ -f "$SHIPPED" ]; then
   "$BIN" -q model info > "$T/mi.json" && grep -q '"weights": "float16"' "$T/mi.json" && ok || bad "model info: $(cat "$T/mi.json")"
@@ -526,7 +526,7 @@ import json, sys
 o = json.load(open(sys.argv[1]))["overall"]
 assert o["young_land_above_0"] >= 0.97, o
 assert o["young_abyss_below_minus20"] >= 0.97, o
-# Issue 11's 0.5 m was set on smooth cones; the eroded training targets
+# The 0.5 m was set on smooth cones; the eroded training targets
 # themselves score 1.09 m mean (docs/MODEL.md §4), so the bar is that level.
 assert o["checkerboard_m_mean"] <= 1.0, o
 PY
@@ -548,7 +548,7 @@ else
   bad "models/reef-256.pt missing"
 fi
 
-# 6c. More of issue 13's probes: outputs never replace inputs, names honoured,
+# 6c. More of the probes: outputs never replace inputs, names honoured,
 # bounded threads, one-line errors with the command named.
 "$BIN" generate --preset atoll --size 48 -o "$T/s/h" >/dev/null
 expect_error "also an input" sketch --from "$T/s/h.height.exr" -o "$T/s/h.height.exr"
@@ -613,7 +613,7 @@ assert np.abs(a - b).max() <= 0.01, np.abs(a - b).max()
 PY
 
 # 6d. A failed re-run leaves every earlier file exactly as it was, and no
-# temporary files (issue 13): outputs are staged and renamed in at the end.
+# temporary files: outputs are staged and renamed in at the end.
 snap() { (cd "$1" && find . -type f | sort | xargs -r md5sum); }
 keeps() {  # keeps DIR LABEL ARGS...: the run must fail and DIR must not change
   local dir="$1" label="$2"; shift 2

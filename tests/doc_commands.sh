@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Every reefgen command shown in README.md and docs/*.md parses (issue 13):
+# Every reefgen command shown in README.md and docs/*.md parses:
 # each line of a code block that starts with `reefgen` or `build/cli/reefgen`
 # is run with REEFGEN_PARSE_ONLY=1 — the real command line parser, options and
 # validators, without doing the work. A renamed flag or a typo in the docs

@@ -203,7 +203,7 @@ TEST(Dataset, OtherIslandSystemsAsPairs) {
   EXPECT_THROW(dataset_params_from_json(nlohmann::json(p), "cfg"), Error);
 }
 
-// Issue 11: no pair may show an island cut by a straight line inside the
+// No pair may show an island cut by a straight line inside the
 // canvas. A wrap translation is the only way such a line appears, so undo it
 // and check that the canvas it moved had an all-abyss border ring. Also: the
 // rule must have had work to do (translations happened and some were refused).
@@ -495,7 +495,7 @@ TEST(DatasetFormats, TarNpyAndAlignedPng) {
 }
 
 // Every DatasetParams field, the nested erosion's too, survives the config
-// file round trip (issue 23: there was no such test).
+// file round trip.
 TEST(Dataset, ParamsRoundTripEveryField) {
   test::expect_params_round_trip<DatasetParams>(
       [](const nlohmann::json& j) { return dataset_params_from_json(j, "round-trip.json"); });

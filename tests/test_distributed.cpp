@@ -593,7 +593,7 @@ bool process_gone(pid_t pid) {
 }
 }  // namespace
 
-// Issue 36: MASTER_PORT reaching a service that is not a rendezvous store
+// MASTER_PORT reaching a service that is not a rendezvous store
 // (silent like an HTTP server waiting for a request, an SSH banner, random
 // bytes) is one line naming it, not an abort (status 134) from LibTorch's
 // client trusting the bytes it reads.
@@ -627,7 +627,7 @@ TEST(DataParallel, ForeignServiceOnTheMasterPortIsOneLine) {
   fs::remove_all(data);
 }
 
-// Issue 36: a stopped rank (SIGSTOP) ends the job within 60 s even when
+// A stopped rank (SIGSTOP) ends the job within 60 s even when
 // --dist-timeout lets collectives wait 300 s: the heartbeat watchdog.
 TEST(DataParallel, StoppedRankEndsTheJobWithinTheLivenessDeadline) {
   const LongJob j = start_long_job("dp_stop", {"--dist-timeout", "300"});
@@ -647,7 +647,7 @@ TEST(DataParallel, StoppedRankEndsTheJobWithinTheLivenessDeadline) {
   fs::remove_all(j.data);
 }
 
-// Issue 36: kill -9 of the --nproc launcher leaves no rank training as an
+// kill -9 of the --nproc launcher leaves no rank training as an
 // orphan (parent-death signal): each checkpoints and exits.
 TEST(DataParallel, KilledLauncherLeavesNoOrphanRanks) {
   const LongJob j = start_long_job("dp_orphan", {});
@@ -670,7 +670,7 @@ TEST(DataParallel, KilledLauncherLeavesNoOrphanRanks) {
   fs::remove_all(j.data);
 }
 
-// Issue 36: `train --nproc 2 --master-port P` hosts its store on P (it used
+// `train --nproc 2 --master-port P` hosts its store on P (it used
 // to listen elsewhere while the ranks waited on P for --dist-timeout).
 TEST(DataParallel, NprocHonoursMasterPort) {
   const fs::path data = make_dataset("dp_port_data", 4, 1);

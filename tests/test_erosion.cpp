@@ -819,7 +819,7 @@ TEST(Realism, StreamedBandsAgreeWithTheWholeField) {
   fs::remove_all(dir);
 }
 
-// amplify_world past its whole-field side (issue 38): the last doubling in
+// amplify_world past its whole-field side: the last doubling in
 // bands of rows is a function of position (band size does not show), drained
 // and seamless; up to the whole-field side it is amplify_heights.
 TEST(Erosion, WorldBandsAreInvisible) {

@@ -70,7 +70,7 @@ TEST(Heightmap, RawIsLittleEndianRowZeroFirst) {
   test::expect_error_naming([&] { read_heightmap(d / "c.xyz", u); }, "unknown heightmap format");
 }
 
-// A world's GeoTIFF tiles (issue 38): they partition the field, each placed
+// A world's GeoTIFF tiles: they partition the field, each placed
 // by its own geotransform, and GDAL opens the VRT mosaic as the whole field,
 // bit for bit.
 TEST(GeoTiff, TilesAndTheirMosaicAreTheWholeField) {

@@ -56,7 +56,7 @@ TEST(Export, Png16AndR16RoundTrip) {
   fs::remove_all(d);
 }
 
-// Issue 20 item 6: a field beyond the model's nominal range (a 608 m peak,
+// A field beyond the model's nominal range (a 608 m peak,
 // a −130 m trench) is exported without clipping, and the sidecar's engine
 // numbers follow from the range.
 TEST(Export, SixteenBitFilesSpanTheFieldsOwnRange) {

@@ -298,7 +298,7 @@ TEST(GeneratorFile, Float16StorageAndChecksum) {
   EXPECT_EQ(refused, 3);
 }
 
-// bf16 inference (issue 12): heights within 1 m of fp32 on the shipped
+// bf16 inference: heights within 1 m of fp32 on the shipped
 // architecture (bilinear resize-convolution, InstanceNorm) and on pix2pix's.
 TEST(Infer, Bf16WithinOneMetreOfFp32) {
   if (!model::bf16_convolution_available())
@@ -507,7 +507,7 @@ double flank_rise_m(const cv::Mat1f& h, double px_m) {
 }
 }  // namespace
 
-// Issue 39: the shipped model's default 256² answer to a plain bullseye has
+// The shipped model's default 256² answer to a plain bullseye has
 // one summit inside the island disc, no closed depression on land and no
 // concentric ridge on its flank (the ring-mean profile, smoothed 100 m,
 // descends from the summit to the coast within 2 m). The raw network's
@@ -547,7 +547,7 @@ TEST(Infer, BullseyeGivesOneSummitNoPitsNoRings) {
   }
 }
 
-// world_model_heights (issue 38): the sketch's own size at the model's scale,
+// world_model_heights: the sketch's own size at the model's scale,
 // resampled for another scale, pure, and local: with no normalisation layer,
 // a large island changes nothing beyond the network's reach and its own box.
 TEST(World, ScaleSizeAndLocality) {

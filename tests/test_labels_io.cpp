@@ -109,7 +109,7 @@ TEST(Labels, GreyPixelsTakeTheNearestRegionAndTransparentIsAbyss) {
   EXPECT_EQ(decode_sketch(orange).label(0, 0), kIsland);
 }
 
-// Issue 36 item 6: a phone JPEG stores its pixels as the sensor saw them
+// A phone JPEG stores its pixels as the sensor saw them
 // and says in EXIF how to turn them; the sketch is what the painter saw.
 // A 40×20 JPEG, left half island yellow, EXIF orientation 6 (turn 90°
 // clockwise): the sketch is 20×40 with the yellow half on top.
@@ -309,7 +309,7 @@ TEST(Io, ResumableStagingRewritesWhatItCannotVouchFor) {
   fs::remove_all(d);
 }
 
-// Issue 36 item 6: a name that fits the filesystem (255 bytes) is written,
+// A name that fits the filesystem (255 bytes) is written,
 // although NAME.tmp.PID.N would not fit; its temporary name is cut short.
 TEST(Io, LongestNamesAreWrittenThroughAShortenedTemporary) {
   const auto dir = temp_dir("longname");
@@ -324,7 +324,7 @@ TEST(Io, LongestNamesAreWrittenThroughAShortenedTemporary) {
   std::filesystem::remove_all(dir);
 }
 
-// Issue 36 item 7: a rename that fails says why ("rename failed (Success)"
+// A rename that fails says why ("rename failed (Success)"
 // came from reporting the clean-up's error code instead of the rename's).
 TEST(Io, AFailedRenameSaysWhy) {
   const auto dir = temp_dir("rename");
@@ -432,7 +432,7 @@ TEST(Io, OwnPngEncoderRoundTripsThroughOpenCV) {
   fs::remove_all(d);
 }
 
-// Issue 24: a cut download or a damaged chunk is an error naming the file,
+// A cut download or a damaged chunk is an error naming the file,
 // decided before OpenCV sees it (libpng would print to stderr and OpenCV
 // return a half-grey image for a truncated JPEG).
 TEST(Io, TruncatedAndDamagedImagesAreRefused) {
@@ -464,7 +464,7 @@ TEST(Io, TruncatedAndDamagedImagesAreRefused) {
   fs::remove_all(dir);
 }
 
-// Config reads are bounded and name what is wrong (issue 24 point 15).
+// Config reads are bounded and name what is wrong.
 TEST(Io, JsonReadsAreBoundedAndRefuseFolders) {
   const fs::path dir = test::temp_dir("json");
   test::expect_error_naming([&] { read_json(dir); }, "is a folder");
@@ -484,7 +484,7 @@ TEST(Io, JsonTypeErrorsNameTheField) {
   test::expect_error_naming([&] { read_json_value(nlohmann::json(2.5), s, "x: norm"); }, "x: norm = 2.5 must be a string");
 }
 
-// Issue 36: SIGTERM (or SIGHUP, an unhandled SIGINT) while an output is
+// SIGTERM (or SIGHUP, an unhandled SIGINT) while an output is
 // staged leaves no *.tmp.* file once remove_temps_on_fatal_signals is
 // installed (reefgen's main does); without it the temporary file stays,
 // which is what the test would see if the handler did nothing.

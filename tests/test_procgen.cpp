@@ -456,7 +456,7 @@ TEST(RandomIslands, SameFilesWhateverTheThreadsAndResumable) {
   fs::remove_all(b);
 }
 
-// sketch random --size WxH (issue 38): a sea at the model's scale with three
+// sketch random --size WxH: a sea at the model's scale with three
 // kinds of islands of very different sizes, some on the border, pure in the seed.
 TEST(Archipelago, KindsSizesAndBordersAtTheModelsScale) {
   ArchipelagoParams p;

@@ -1,4 +1,4 @@
-// reefgen studio's HTTP API (issue 14): a real server on a free loopback port,
+// reefgen studio's HTTP API: a real server on a free loopback port,
 // a real client. The answers equal the CLI's code paths; bad requests get a
 // 4xx with one line; nothing is written outside the output folder.
 #include <arpa/inet.h>
@@ -199,7 +199,7 @@ TEST_F(Studio, ABurstOfInferRequestsIsAnsweredAndLeavesNoSlotHeld) {
   EXPECT_EQ(cv::norm(parse_heights(r->body).h, infer::infer_heights(g, {read_sketch(sketch)}, io)[0], cv::NORM_INF), 0.0);
 }
 
-// Issue 36 item 6: transparent pixels are open ocean whatever their colour,
+// Transparent pixels are open ocean whatever their colour,
 // through the raw canvas path as through a PNG with alpha (the raw path
 // dropped alpha: transparent yellow came out +377 m high).
 TEST_F(Studio, RawCanvasAlphaIsThePngsAlpha) {
@@ -427,7 +427,7 @@ TEST_F(Studio, BadAndOversizeRequestsAreRefused) {
   expect_error(client->Post("/api/generate", "{\"outlines\": [", "application/json"), 400, "not valid JSON");
   expect_error(client->Post("/api/generate", R"({"subsidence": 7})", "application/json"), 400, "subsidence = 7");
   expect_error(client->Post("/api/generate?size=5000", "{}", "application/json"), 400, "size must be");
-  // Issue 36: a size past 2^32 wrapped to 32 and was answered.
+  // A size past 2^32 wrapped to 32 and was answered.
   expect_error(client->Post("/api/generate?size=4294967328", "{}", "application/json"), 400, "size must be");
   expect_error(client->Post("/api/generate?size=128px", "{}", "application/json"), 400, "size must be");
   expect_error(client->Post("/api/generate?size=-128", "{}", "application/json"), 400, "size must be");
@@ -479,7 +479,7 @@ std::string post(int port, const std::string& path, const std::string& headers, 
 
 }  // namespace
 
-// Issue 24: a web page the user visits must not drive the studio (CSRF, DNS
+// A web page the user visits must not drive the studio (CSRF, DNS
 // rebinding), and no body gets past the limit however it is sent.
 TEST_F(Studio, CrossOriginAndRebindingRequestsAreRefused) {
   const std::string spec = R"({"spec": {}, "size": 64})";
@@ -509,7 +509,7 @@ TEST_F(Studio, CrossOriginAndRebindingRequestsAreRefused) {
   EXPECT_EQ(st, 200) << body;
 }
 
-// Issue 36: two different Content-Length headers are a 400 (RFC 7230 §3.3.3).
+// Two different Content-Length headers are a 400 (RFC 7230 §3.3.3).
 TEST_F(Studio, TwoDifferentContentLengthsAreRefused) {
   const std::string spec = "{}";
   const std::string head = "POST /api/generate?size=64 HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(port) +
@@ -620,7 +620,7 @@ TEST(StudioOptions, AnOutputFolderThatIsAFileIsRefusedAtStart) {
   fs::remove_all(dir);
 }
 
-// Issue 36 item 5: clients that trickle their request heads (slowloris) hold
+// Clients that trickle their request heads (slowloris) hold
 // no worker. 200 of them connected, a normal request is still answered (the
 // library alone gave each a worker until its 10 s read timeout: 64 workers,
 // every later request waited); each slow one gets 408 at the head deadline,

@@ -1,4 +1,4 @@
-// Other island systems (issue 6): Wilbur-style islands and height-band sketches.
+// Other island systems: Wilbur-style islands and height-band sketches.
 #include <gtest/gtest.h>
 
 #include "reefgen/files.hpp"

@@ -538,7 +538,7 @@ TEST(Data, BadDatasetsNameTheFile) {
   fs::remove_all(d);
 }
 
-// Issue 36: a manifest is not trusted blindly. Paths stay inside the
+// A manifest is not trusted blindly. Paths stay inside the
 // dataset folder and indexes are unique (always checked); the files' bytes
 // match the build's checksums (unless --no-verify).
 TEST(Data, ManifestIsCheckedBeforeTraining) {
@@ -628,7 +628,7 @@ TEST(FusedAdam, MatchesLibTorchAdamAndIgnoresThreadCount) {
   torch::set_num_threads(std::max(1u, std::thread::hardware_concurrency()));
 }
 
-// Issue 36: a pair that cannot be read mid-run (here: damaged, --no-verify)
+// A pair that cannot be read mid-run (here: damaged, --no-verify)
 // stops training with the weights of the last finished step saved first.
 TEST(Train, UnreadablePairMidRunSavesACheckpoint) {
   const fs::path data = make_dataset("midrun_data", 12, 0);

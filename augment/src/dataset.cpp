@@ -116,7 +116,7 @@ Pair make_pair(uint64_t seed, int64_t index, const DatasetParams& p, PairInfo* o
   const bool flip = rng.uniform() < 0.5;
   const bool do_translate = rng.uniform() < p.p_translate;
   const int dx = static_cast<int>(rng.uniform_int(0, p.size_px - 1)), dy = static_cast<int>(rng.uniform_int(0, p.size_px - 1));
-  // Other island systems (issue 6) from their own RNG stream, so that the
+  // Other island systems from their own RNG stream, so that the
   // pairs of datasets without them stay byte-identical.
   // Erosion and its seed from their own stream, for the same reason.
   ErosionJob erosion;

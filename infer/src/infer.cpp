@@ -154,7 +154,7 @@ std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<
       before->push_back(std::move(b));
     }
     // At every size the answer is cleaned (amplify_heights): at the
-    // model's own side ponds raised and pits breached (issue 39), above it
+    // model's own side ponds raised and pits breached, above it
     // also eroded and refined; --raw (amplify off) keeps the network's bits.
     if (want.width == want.height && o.amplify && h.rows == h.cols) {
       cv::Mat1b label;

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Reference pix2pix networks for reefgen's equivalence test (issue 4).
+"""Reference pix2pix networks for reefgen's equivalence test.
 
 Builds the generator and discriminator exactly as the original
 pytorch-CycleGAN-and-pix2pix code does (recursive UnetSkipConnectionBlock with

@@ -1,5 +1,5 @@
 #pragma once
-// The studio's front door (issue 36 item 5; docs/STUDIO.md, "Slow clients"):
+// The studio's front door (docs/STUDIO.md, "Slow clients"):
 // it owns the public port, holds every new connection in one poll loop until
 // its request head (up to the blank line) has arrived, and only then relays
 // it to the HTTP library listening on loopback. A client that trickles its

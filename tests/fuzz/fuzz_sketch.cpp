@@ -1,4 +1,4 @@
-// libFuzzer target: the sketch decoder (issue 13). Any image bytes a user can
+// libFuzzer target: the sketch decoder. Any image bytes a user can
 // hand to `reefgen infer`: decoded by OpenCV, then decode_sketch. The only
 // acceptable failure is reefgen::Error (one line, named); crashes, hangs,
 // sanitizer reports and other exceptions are findings.

@@ -1,4 +1,4 @@
-// libFuzzer target: the studio's request handling (issue 24). Any bytes are
+// libFuzzer target: the studio's request handling. Any bytes are
 // sent as one raw HTTP request to a real server on a loopback port: request
 // line, query, headers and body, parsed by the HTTP library and then by the
 // studio's checks and handlers. Findings: a crash, a sanitizer report, no

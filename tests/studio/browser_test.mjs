@@ -1,10 +1,10 @@
-// Browser test of reefgen studio (issue 14): Debian's chromium driven by
+// Browser test of reefgen studio: Debian's chromium driven by
 // playwright-core (no browser download). Paints strokes, checks that the 3D
 // and 2D views update, drags a curve handle, exports a GLB, and prints the
 // stroke-to-update timings (request -> heights -> drawn) as JSON on stdout.
 //   node browser_test.mjs URL [--strokes N] [--size 256|512|1024] [--burst] [--screenshot FILE]
 // --size paints on that canvas; --burst then adds 10 strokes in 2 s and
-// reports the time from the last one to its view (issue 22's bar).
+// reports the time from the last one to its view (the bar).
 import { createRequire } from 'node:module';
 // playwright-core lives in the build's npm folder (studio/package-lock.json).
 const require = createRequire((process.env.REEFGEN_NODE_MODULES || '.') + '/');

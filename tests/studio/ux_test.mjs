@@ -1,4 +1,4 @@
-// Browser test of the studio's controls (issue 22): one check per point a new
+// Browser test of the studio's controls: one check per point a new
 // user tripped over — each one failed on the page before the fix. Debian's
 // chromium driven by playwright-core, as browser_test.mjs.
 //   node ux_test.mjs URL [--only NAME] [--screenshots DIR]

@@ -219,7 +219,7 @@ DistConfig dist_config_from(const std::function<const char*(const char*)>& geten
 // Liveness, apart from --dist-timeout (which bounds slow collectives): every
 // rank bumps its heartbeat twice a second from its own thread, busy or not,
 // so a counter that has not moved for this long means a stopped (SIGSTOP),
-// hung or dead process. Well under issue 36's bar of 60 s, far above any
+// hung or dead process. Well under the bar of 60 s, far above any
 // scheduling hiccup.
 constexpr double kLivenessDeadlineS = 20;
 // The watchdog's store reads: a stopped host answers nothing at all.

@@ -1,6 +1,6 @@
 #pragma once
-// Reading a built dataset's manifest.jsonl, checked before anything trusts it
-// (issue 36): every record well-formed, every path inside the dataset folder,
+// Reading a built dataset's manifest.jsonl, checked before anything trusts it:
+// every record well-formed, every path inside the dataset folder,
 // every pair index listed once, and each file's bytes equal to the FNV-64
 // checksum the build recorded (labels swapped in from another dataset, a pair
 // edited or truncated after the build). The check streams the files (one at a

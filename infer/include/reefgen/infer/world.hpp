@@ -1,5 +1,5 @@
 #pragma once
-// Worlds (issue 38): a sketch of any size and aspect read at the model's own
+// Worlds: a sketch of any size and aspect read at the model's own
 // scale (a pixel is 23.4 m unless the user says otherwise), answered by the
 // generator in one pass over the whole sketch (docs/WORLDS.md: why one pass
 // and not windows).

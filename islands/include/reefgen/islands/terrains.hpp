@@ -1,5 +1,5 @@
 #pragma once
-// Other island systems users compare reefgen with (issue 6), on reefgen's
+// Other island systems users compare reefgen with, on reefgen's
 // conventions: metres, sea level 0, row 0 at the top, canvas [-1, 1]².
 #include <cstdint>
 #include <string>

@@ -1,5 +1,5 @@
 #pragma once
-// Differentiable convolutions on oneDNN for training (issue 12).
+// Differentiable convolutions on oneDNN for training.
 //
 // LibTorch 1.13 trains pix2pix's convolutions far below the CPU's speed: its
 // transposed convolutions (forward and both backward passes) run im2col +

@@ -1,5 +1,5 @@
 #pragma once
-// UNetGenerator inference on oneDNN directly (issue 12).
+// UNetGenerator inference on oneDNN directly.
 //
 // LibTorch 1.13 runs pix2pix's G far below what the CPU can do: every call of
 // its oneDNN convolution reorders the weights again (the 512-channel layers

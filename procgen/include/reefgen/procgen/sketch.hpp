@@ -26,7 +26,7 @@ using reefgen::Sketch;  // common/labels.hpp: shared with islands/
 // Pure in (params, seed). Throws reefgen::Error for out-of-range params.
 Sketch random_sketch(const SketchParams& p, uint64_t seed);
 
-// An archipelago at the model's own scale (issue 38): a W×H sea of islands
+// An archipelago at the model's own scale: a W×H sea of islands
 // whose sizes are in metres, so a pixel means the same ground as in the
 // model's 256² canvas. Three kinds, drawn in turn: young high islands
 // (λ 0–0.15: a wide mountain, a narrow fringing lagoon), barrier-reef

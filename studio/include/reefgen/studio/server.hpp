@@ -1,5 +1,5 @@
 #pragma once
-// reefgen studio (issue 14): one local web server, one page. The page paints
+// reefgen studio: one local web server, one page. The page paints
 // a sketch (or drags the curve generator's inputs) and shows the island in 3D;
 // this server answers it with the same code as the CLI.
 //

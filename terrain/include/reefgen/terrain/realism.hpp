@@ -9,7 +9,7 @@
 
 namespace reefgen::terrain {
 
-// The realism statistics of docs/REALISM.md (issue 20's definitions), for a
+// The realism statistics of docs/REALISM.md, for a
 // height field in metres with sea level 0.
 struct RealismStats {
   int64_t land_cells = 0;    // h > 0
@@ -67,7 +67,7 @@ RealismStats realism_stats_streamed(const RowSource& rows, cv::Size size, double
 // central differences, on heights already smoothed by the caller.
 void plan_curvature(const cv::Mat1f& smooth_m, double metres_per_px, cv::Mat1f& curvature, cv::Mat1f& gradient);
 
-// How far heights keep to the sketch they were drawn from (issue 38's bars,
+// How far heights keep to the sketch they were drawn from (the bars,
 // docs/REALISM.md): the painted land (island and beach regions) above the
 // sea, and the painted bright abyss (abyss with λ below kBrightAbyssMaxLambda)
 // deeper than kAbyssBarDepthM. The sketch's regions and λ may come at any
