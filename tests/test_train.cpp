@@ -276,7 +276,7 @@ TEST(Train, ResumeEqualsUninterruptedBitForBit) {
     if (child == 0) _exit(0);
     int status = 0;
     waitpid(child, &status, 0);  // a PID that no longer runs
-    const fs::path stale = base / "full" / ("checkpoint.pt.tmp-" + std::to_string(child));
+    const fs::path stale = base / "full" / ("checkpoint.pt.tmp." + std::to_string(child) + ".0");
     const fs::path stale2 = base / "full" / ("log.csv.tmp." + std::to_string(child) + ".3");
     const fs::path live = base / "full" / ("log.csv.tmp." + std::to_string(getppid()) + ".1");
     for (const auto& f : {stale, stale2, live}) write_text_atomic(f, "x");

@@ -565,24 +565,16 @@ int remove_stale_temps(const fs::path& dir) {
   for (const auto& e : fs::directory_iterator(dir, ec)) {
     if (!e.is_regular_file(ec)) continue;
     const std::string name = e.path().filename().string();
-    long pid = 0;
-    size_t at = name.rfind(".tmp.");
-    if (at != std::string::npos) {  // NAME.tmp.PID.N
-      const std::string rest = name.substr(at + 5);
-      const size_t dot = rest.find('.');
-      if (dot == std::string::npos || dot == 0) continue;
-      const std::string p = rest.substr(0, dot), n = rest.substr(dot + 1);
-      if (p.find_first_not_of("0123456789") != std::string::npos || n.empty() ||
-          n.find_first_not_of("0123456789") != std::string::npos)
-        continue;
-      pid = std::stol(p);
-    } else if ((at = name.rfind(".tmp-")) != std::string::npos) {  // NAME.tmp-PID
-      const std::string p = name.substr(at + 5);
-      if (p.empty() || p.find_first_not_of("0123456789") != std::string::npos) continue;
-      pid = std::stol(p);
-    } else {
+    const size_t at = name.rfind(".tmp.");  // NAME.tmp.PID.N
+    if (at == std::string::npos) continue;
+    const std::string rest = name.substr(at + 5);
+    const size_t dot = rest.find('.');
+    if (dot == std::string::npos || dot == 0) continue;
+    const std::string p = rest.substr(0, dot), n = rest.substr(dot + 1);
+    if (p.find_first_not_of("0123456789") != std::string::npos || n.empty() ||
+        n.find_first_not_of("0123456789") != std::string::npos)
       continue;
-    }
+    const long pid = std::stol(p);
     if (pid <= 0 || pid == ::getpid()) continue;
     if (::kill(pid_t(pid), 0) == 0 || errno != ESRCH) continue;  // alive (or not ours to judge)
     if (fs::remove(e.path(), ec)) ++removed;

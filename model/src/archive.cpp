@@ -1,5 +1,7 @@
 #include "reefgen/model/archive.hpp"
 
+#include "reefgen/files.hpp"
+
 #include <unistd.h>
 #include <zlib.h>
 
@@ -118,7 +120,9 @@ std::string first_line(const std::string& s) { return s.substr(0, s.find('\n'));
 // it remembers the first error, stops writing, and the error is raised here,
 // after LibTorch is done, with the temporary file removed.
 void save_archive_atomic(torch::serialize::OutputArchive& a, const std::filesystem::path& path) {
-  const std::filesystem::path tmp = path.string() + ".tmp-" + std::to_string(::getpid());
+  // The project's one temporary name (common/files.hpp): removed by a fatal
+  // signal, and by remove_stale_temps after a kill -9.
+  const std::filesystem::path tmp = reefgen::detail::temp_path_for(path);
   std::string failure;
   FILE* f = std::fopen(tmp.c_str(), "wb");
   if (!f) failure = std::strerror(errno);
@@ -138,8 +142,11 @@ void save_archive_atomic(torch::serialize::OutputArchive& a, const std::filesyst
   }
   std::error_code ec;
   if (failure.empty()) {
-    std::filesystem::rename(tmp, path, ec);
-    if (ec) failure = ec.message();
+    try {
+      reefgen::detail::commit_temp(tmp, path);
+    } catch (const std::exception& e) {
+      failure = first_line(e.what());
+    }
   }
   if (!failure.empty()) {
     std::filesystem::remove(tmp, ec);

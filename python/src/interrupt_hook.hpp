@@ -11,6 +11,8 @@
 
 namespace reefgen::python {
 
+constexpr const char* kStoppedBetweenSteps = "reefgen: stopped between steps by Ctrl-C";
+
 inline void interrupt_hook() {
   pybind11::gil_scoped_acquire gil;
   if (PyErr_CheckSignals() != 0) {
@@ -28,7 +30,9 @@ inline void install_interrupt_hook() {
     try {
       if (p) std::rethrow_exception(p);
     } catch (const Interrupted&) {
-      PyErr_SetNone(PyExc_KeyboardInterrupt);
+      // Said, so that a caller (and the test) can tell a call stopped between
+      // its steps from one whose Ctrl-C was only seen after it returned.
+      PyErr_SetString(PyExc_KeyboardInterrupt, kStoppedBetweenSteps);
     }
   });
 }

@@ -121,19 +121,17 @@ class Module(unittest.TestCase):
 
     def test_ctrl_c_stops_a_long_call(self):
         # Ctrl-C 0.3 s into generate(size=8192) (14 s and more on 2 cores): the call stops between
-        # its erosion steps with KeyboardInterrupt (~2 s in), not when it is done, and the module
-        # still works.
+        # its erosion steps with KeyboardInterrupt, whose message says so (a Ctrl-C seen only
+        # after the call returned is a bare KeyboardInterrupt), and the module still works.
+        # No clock: a loaded machine makes any time bar flaky.
         import signal
         import threading
-        import time
         timer = threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT))
-        start = time.monotonic()
         timer.start()
-        with self.assertRaises(KeyboardInterrupt):
+        with self.assertRaises(KeyboardInterrupt) as caught:
             reefgen.generate("young-volcano", size=8192)
-        stopped = time.monotonic() - start
         timer.join()
-        self.assertLess(stopped, 8.0, "Ctrl-C waited for the call to end")
+        self.assertIn("stopped between steps", str(caught.exception), "Ctrl-C waited for the call to end")
         heights, _ = reefgen.generate("young-volcano", size=64)
         self.assertEqual(heights.shape, (64, 64))
 

@@ -127,8 +127,8 @@ class DirLock {
 };
 
 // Removes temporary files left by killed processes in `dir` (not recursive):
-// NAME.tmp.PID.N (write_file_atomic) and NAME.tmp-PID (LibTorch archives)
-// whose PID is not a live process. Returns how many were removed. Commits
+// NAME.tmp.PID.N (every temporary name of the project, temp_path_for) whose
+// PID is not a live process. Returns how many were removed. Commits
 // cut short in `dir` or its parent are finished first.
 int remove_stale_temps(const fs::path& dir);
 // StagedOutputs::commit() of more than one file first writes a journal,

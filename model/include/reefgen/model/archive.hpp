@@ -13,7 +13,7 @@ namespace reefgen::model {
 std::string check_zip_integrity(const std::filesystem::path& path);
 
 std::string first_line(const std::string& s);
-// Saves to PATH.tmp-PID then renames: a crash or a full disk never leaves a
+// Saves to a temporary name beside PATH (fsync'd) then renames: a crash or a full disk never leaves a
 // half-written file under the final name.
 void save_archive_atomic(torch::serialize::OutputArchive& a, const std::filesystem::path& path);
 // Throws std::runtime_error "PATH: missing / truncated or not a LibTorch archive; FIX".
