@@ -560,8 +560,7 @@ int remove_stale_temps(const fs::path& dir) {
   // A set whose commit was cut short is finished first (its staged copies
   // look stale); a bundle's folder sits one level below its sidecar's.
   finish_interrupted_commits(dir);
-  if (dir.has_parent_path()) finish_interrupted_commits(dir.parent_path());
-  else finish_interrupted_commits(fs::absolute(dir).parent_path());
+  finish_interrupted_commits(fs::absolute(dir).parent_path());
   for (const auto& e : fs::directory_iterator(dir, ec)) {
     if (!e.is_regular_file(ec)) continue;
     const std::string name = e.path().filename().string();

@@ -55,7 +55,7 @@ namespace {
 // Creep between channels at each finer level (creep_between_channels): σ in
 // cells of that level, and the drainage area where channels begin (1 ha:
 // hillslopes ~100 m long, Montgomery & Dietrich 1988). Measured on a painted
-// young island at 2049² (docs/EROSION.md "Creep"): the land's relief below
+// young island at 2049² (docs/EROSION.md "Creep between channels"): the land's relief below
 // 2 cells, RMS(h − G₂ h), 0.86 → 0.73 m (lowland 0.57 → 0.46 m).
 constexpr double kCreepPx = 1.5;
 constexpr float kChannelAreaM2 = 1e4f;
@@ -113,9 +113,12 @@ void erode_level(cv::Mat1f& h, const cv::Mat1f& K, double dx, int steps, double 
   const double dt = duration_yr / steps;
   const float cell_area_m2 = static_cast<float>(dx * dx);
   const double sigma_px = hillslope_sigma_px(p.diffusivity, dt, dx);
-  const int margin = hillslope_margin_px(sigma_px);
-  const cv::Rect roi = cv::Rect(land.x - margin, land.y - margin, land.width + 2 * margin, land.height + 2 * margin) &
-                       cv::Rect(0, 0, h.cols, h.rows);
+  // The land's box and the margin a Gaussian of `sigma` reaches beyond it.
+  const auto blur_roi = [&](double sigma) {
+    const int m = hillslope_margin_px(sigma);
+    return cv::Rect(land.x - m, land.y - m, land.width + 2 * m, land.height + 2 * m) & cv::Rect(0, 0, h.cols, h.rows);
+  };
+  const cv::Rect roi = blur_roi(sigma_px);
   FlowGraph graph;
   std::vector<float> area_m2;
   for (int s = 0; s < steps; ++s) {
@@ -130,12 +133,7 @@ void erode_level(cv::Mat1f& h, const cv::Mat1f& K, double dx, int steps, double 
     erode_stream_power(z, K, graph, area_m2, dt, p.m_area);
     diffuse_hillslope(z, role, roi, sigma_px);
   }
-  if (creep_px > 0) {
-    const int creep_margin = hillslope_margin_px(creep_px);
-    const cv::Rect creep_roi = cv::Rect(land.x - creep_margin, land.y - creep_margin, land.width + 2 * creep_margin,
-                                        land.height + 2 * creep_margin) & cv::Rect(0, 0, h.cols, h.rows);
-    creep_between_channels(z, role, creep_roi, area_m2, kChannelAreaM2, creep_px);
-  }
+  if (creep_px > 0) creep_between_channels(z, role, blur_roi(creep_px), area_m2, kChannelAreaM2, creep_px);
   for (int y = 0; y < h.rows; ++y)
     for (int x = 0; x < h.cols; ++x)
       if (role(y, x) == kActive) h(y, x) = z(y, x);

@@ -112,7 +112,7 @@ ErosionParams erosion_params_from_json(const nlohmann::json& j, const std::strin
 // flow direction, for refinement levels whose surface is already drained.
 enum class Routing { kFlood, kStack };
 // creep_px > 0: after the steps, creep_between_channels with that σ (cells)
-// and kChannelAreaM2 (a finer level's hillslopes, docs/EROSION.md "Creep").
+// and kChannelAreaM2 (a finer level's hillslopes, docs/EROSION.md "Creep between channels").
 void erode_level(cv::Mat1f& height_m, const cv::Mat1f& erodibility, double metres_per_px, int steps,
                  double duration_yr, const ErosionParams& p, Routing routing = Routing::kFlood, double creep_px = 0);
 
