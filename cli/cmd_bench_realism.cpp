@@ -20,7 +20,7 @@ std::function<int()> add_bench_realism_command(CLI::App* bench, const GlobalOpti
   struct Args {
     int specs = 50, size = 1025;
     uint64_t seed = 1, painted_seed = 0;
-    double subsidence = 0;
+    double subsidence = 0, variation = 1;
     std::string model, painted = "tests/data/painted", erosion;
   };
   auto a = std::make_shared<Args>();
@@ -46,6 +46,9 @@ std::function<int()> add_bench_realism_command(CLI::App* bench, const GlobalOpti
                   "seeds is the figure's noise")
       ->capture_default_str()
       ->check(seed_value());
+  sub->add_option("--variation", a->variation, "How far --painted-seed re-rolls each painted island (as infer --variation)")
+      ->capture_default_str()
+      ->check(finite_in(0, 1));
   return [a, &g]() -> int {
     infer::RealismBenchOptions o;
     o.specs = a->specs;
@@ -53,6 +56,7 @@ std::function<int()> add_bench_realism_command(CLI::App* bench, const GlobalOpti
     o.spec_seed = a->seed;
     o.subsidence = a->subsidence;
     o.infer.seed = a->painted_seed;
+    o.infer.variation = a->variation;
     o.quiet = g.quiet;
     std::vector<fs::path> files;
     std::optional<model::GeneratorFile> gen;

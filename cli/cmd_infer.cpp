@@ -24,6 +24,7 @@ struct InferArgs {
   std::string precision = "fp32";  // the same heights on every CPU; bf16/auto are faster (docs/BENCHMARKS.md)
   std::string engine = "auto";
   uint64_t seed = 0;
+  double variation = 1.0;
   double exaggeration = 1.0, world_size_m = kCanvasWorldSizeM;
   int size = 0;
   std::optional<int> threads;
@@ -52,7 +53,15 @@ void add_infer_options(CLI::App* sub, InferArgs& a) {
   sub->add_flag("--preview", a.preview, "Also PREFIX.preview.png: coloured, hill-shaded");
   add_finish_flags(sub, a.finish);
   sub->add_flag("--stochastic", a.stochastic, "Dropout on (pix2pix's noise): a different island per --seed");
-  sub->add_option("--seed", a.seed, "Dropout masks for --stochastic")->capture_default_str()->check(seed_value());
+  sub->add_option("--seed", a.seed,
+                  "Another island for the same painting: summit, ridges and valleys re-rolled inside the painted "
+                  "land (docs/INFERENCE.md \"Variations\"); also the dropout masks of --stochastic")
+      ->capture_default_str()
+      ->check(seed_value());
+  sub->add_option("--variation", a.variation,
+                  "How far --seed re-rolls the island, 0..1 (0: the network's own answer, the same for every seed)")
+      ->capture_default_str()
+      ->check(finite_in(0, 1));
   sub->add_option("--precision", a.precision,
                   "fp32, bf16 (heights within ~1 m of fp32, ~1.6x faster), or auto (bf16 where the CPU has "
                   "avx512_bf16 or AMX-bf16, else fp32)")
@@ -106,6 +115,7 @@ void set_infer_options(const InferArgs& a, model::GeneratorFile& gen, const std:
     throw Error("--precision/--engine: " + std::string(e.what()));
   }
   io.seed = a.seed;
+  io.variation = a.variation;
   io.size_px = a.size;
   io.world_size_m = a.world_size_m;
   io.ocean_floor_m = a.finish.ocean_floor_m;
@@ -145,6 +155,8 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
       "  reefgen infer sketch.png -m runs/paper/generator.pt -o out/island --preview\n"
       "  reefgen infer sketches/ -m generator.pt -o out/ --png16 --r16\n"
       "  reefgen infer sketch.png -m generator.pt -o out/island --mesh out/island.glb --exaggeration 3\n"
+      "  reefgen infer sketch.png -o out/v2 --size 1025 --seed 2            # another island, same painting\n"
+      "  reefgen infer sketch.png -o out/mean --variation 0                 # the network's own answer\n"
       "  reefgen infer sketch.png -m generator.pt -o out/v --stochastic --seed 7\n"
       "  reefgen infer sketch.png -o out/island --size 2017 --for unreal,gis\n");
   auto a = std::make_shared<InferArgs>();

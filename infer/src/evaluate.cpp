@@ -45,6 +45,7 @@ EvalResult evaluate(model::GeneratorFile& g, const std::vector<EvalPair>& pairs,
   InferOptions io;
   io.running_stats = o.running_stats;
   io.amplify = !o.raw;
+  io.variation = 0;  // the network's own answer against its pairs, not a re-rolled island
   EvalResult r;
   r.metrics = json::object();
   std::vector<double> clean_mae(n);

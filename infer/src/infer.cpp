@@ -1,5 +1,6 @@
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/infer/amplify.hpp"
+#include "reefgen/infer/variation.hpp"
 
 
 
@@ -159,7 +160,13 @@ std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<
     if (want.width == want.height && o.amplify && h.rows == h.cols) {
       cv::Mat1b label;
       cv::resize(sketches[i].label, label, want, 0, 0, cv::INTER_NEAREST);
-      h = amplify_heights(h, label, o.world_size_m, o.seed, o.erosion);
+      terrain::ErosionParams ep = o.erosion;
+      // A re-rolled island is eroded at the model's side too: its valleys are its own.
+      if (o.variation > 0) {
+        h = reroll_land(h, o.world_size_m / h.cols, o.seed, o.variation);
+        ep.amplify_erode_at_model_side = true;
+      }
+      h = amplify_heights(h, label, o.world_size_m, o.seed, ep);
       cv::min(cv::max(h, g.range.lo_m), g.range.hi_m, h);
     } else if (want.width <= h.cols && want.height <= h.rows && h.size() != want) {
       cv::resize(h, h, want, 0, 0, cv::INTER_AREA);

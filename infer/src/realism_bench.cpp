@@ -88,6 +88,7 @@ nlohmann::json realism_bench(const RealismBenchOptions& o, model::GeneratorFile*
     }
     out["painted"] = summary(stats, ms);
     out["painted"]["seed"] = io.seed;
+    out["painted"]["variation"] = io.variation;
     out["painted"]["per_sketch"] = per;
   }
   return out;

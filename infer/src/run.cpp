@@ -101,7 +101,7 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
   // A generator without BatchNorm (the shipped one: instance norm) has no
   // running statistics: --running-stats changes nothing there, and says so.
   const bool has_bn = gen.g->options().norm == model::Norm::Batch;
-  const nlohmann::json mode = {{"stochastic", io.stochastic}, {"seed", io.seed},
+  const nlohmann::json mode = {{"stochastic", io.stochastic}, {"seed", io.seed}, {"variation", io.variation},
                                {"batchnorm", !has_bn             ? "none (the generator uses " +
                                                                    std::string(gen.g->options().norm == model::Norm::Instance
                                                                                    ? "instance norm"

@@ -39,7 +39,12 @@ struct InferOptions {
   Engine engine = Engine::Auto;
   bool stochastic = false;     // dropout on (pix2pix's noise source): varied outputs per --seed
   bool running_stats = false;  // BatchNorm running statistics instead of pix2pix's test-time batch statistics
-  uint64_t seed = 0;           // dropout masks when stochastic; the amplification's detail noise
+  uint64_t seed = 0;           // the island's re-roll (variation), the amplification's noise; dropout masks when stochastic
+  // How far the seed re-rolls the island, [0, 1] (infer/variation.hpp): the
+  // summit and ridges moved inside the painted land, then eroded anew at
+  // every size (the model's side too). 0: the network's answer, cleaned up
+  // (what `reefgen eval` measures).
+  double variation = 1.0;
   int size_px = 0;             // output side, [0, 8192]; 0 = the sketch's own size
   double ocean_floor_m = 0;    // m: the open ocean's flank stretched down to it after amplification (terrain/ocean_floor.hpp); 0 = off
   double world_size_m = kCanvasWorldSizeM;  // canvas width in metres (the amplification's erosion works in metres)
