@@ -59,7 +59,7 @@ void add_infer_options(CLI::App* sub, InferArgs& a) {
       ->capture_default_str()
       ->check(seed_value());
   sub->add_option("--variation", a.variation,
-                  "How far --seed re-rolls the island, 0..1 (0: the network's own answer, the same for every seed)")
+                  "How far --seed re-rolls the island, 0..1 (0: the network's island, the seed varying only the finer detail)")
       ->capture_default_str()
       ->check(finite_in(0, 1));
   sub->add_option("--precision", a.precision,
@@ -156,7 +156,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
       "  reefgen infer sketches/ -m generator.pt -o out/ --png16 --r16\n"
       "  reefgen infer sketch.png -m generator.pt -o out/island --mesh out/island.glb --exaggeration 3\n"
       "  reefgen infer sketch.png -o out/v2 --size 1025 --seed 2            # another island, same painting\n"
-      "  reefgen infer sketch.png -o out/mean --variation 0                 # the network's own answer\n"
+      "  reefgen infer sketch.png -o out/mean --variation 0                 # the network's island, no re-roll\n"
       "  reefgen infer sketch.png -m generator.pt -o out/v --stochastic --seed 7\n"
       "  reefgen infer sketch.png -o out/island --size 2017 --for unreal,gis\n");
   auto a = std::make_shared<InferArgs>();

@@ -16,6 +16,7 @@
 #include "reefgen/files.hpp"
 #include "reefgen/heightfile.hpp"
 #include "reefgen/infer/amplify.hpp"
+#include "reefgen/infer/variation.hpp"
 #include "reefgen/infer/world.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/model/shipped.hpp"
@@ -33,6 +34,7 @@ struct WorldArgs {
   double metres_per_px = 0, world_size_m = 0;
   int size = 0;
   uint64_t seed = 0;
+  double variation = 1.0;
   bool raw = false, png16 = false, r16 = false, preview = false;
   FinishFlags finish;
   std::string precision = "fp32", engine = "auto";
@@ -156,6 +158,7 @@ nlohmann::json world_key(const WorldArgs& a, const std::string& model_path, int6
           {"metres_per_px", a.metres_per_px},
           {"world_size_m", a.world_size_m},
           {"seed", a.seed},
+          {"variation", a.variation},
           {"raw", a.raw},
           {"ocean_floor_m", a.finish.ocean_floor_m},
           {"precision", a.precision},
@@ -287,7 +290,12 @@ WorldFields world_fields(const WorldArgs& a, const FinishFlags::Parsed& fin, mod
   t = std::chrono::steady_clock::now();
   if (!quiet) std::fprintf(stderr, "world: amplifying to %d² ...\n", N);
   Progress progress("world: last level, bands", size_t((N + infer::kWorldBandRowsPx - 1) / infer::kWorldBandRowsPx), quiet);
-  w.h = infer::amplify_world(w.model_h, w.region_model, N, w.world_m, a.seed, io.erosion,
+  // Every island re-rolled by the seed (summit and ridges moved inside its
+  // land, infer/variation.hpp), then eroded anew at every size, as infer does.
+  terrain::ErosionParams ep = io.erosion;
+  if (a.variation > 0) ep.amplify_erode_at_model_side = true;
+  const cv::Mat1f rolled = infer::reroll_land(w.model_h, kModelMetresPerPx, a.seed, a.variation);
+  w.h = infer::amplify_world(rolled, w.region_model, N, w.world_m, a.seed, ep,
                              [&](int done, int) { progress.tick(size_t(done)); });
   cv::min(cv::max(w.h, gen.range.lo_m), gen.range.hi_m, w.h);
   if (!quiet) std::fprintf(stderr, "world: amplified to %d² in %.1f s\n", w.h.cols, seconds_since(t));
@@ -311,7 +319,8 @@ void write_world(const WorldArgs& a, const FinishFlags::Parsed& fin, const World
                                     {"model_metres_per_px", kModelMetresPerPx},
                                     {"model_side_px", {w.model_h.cols, w.model_h.rows}},
                                     {"raw", a.raw},
-                                    {"seed", a.seed}}},
+                                    {"seed", a.seed},
+                                    {"variation", a.variation}}},
                          {"ocean_floor_m", a.finish.ocean_floor_m < 0 ? nlohmann::json(a.finish.ocean_floor_m) : nlohmann::json()},
                          {"size_px", {h.cols, h.rows}},
                          {"metres_per_px", mpp},
@@ -361,7 +370,14 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
                   "Output size in pixels along the longer side, up to 16385 (default: the sketch's at the model's "
                   "scale). Larger: amplified (erosion and detail at each finer level, docs/WORLDS.md)")
       ->check(CLI::Range(kMinInferSidePx, infer::kMaxWorldSidePx));
-  sub->add_option("--seed", a->seed, "The amplification's detail noise")->capture_default_str()->check(seed_value());
+  sub->add_option("--seed", a->seed,
+                  "Other islands for the same painting: summits, ridges and valleys re-rolled inside the painted land, "
+                  "and the amplification's detail noise")
+      ->capture_default_str()
+      ->check(seed_value());
+  sub->add_option("--variation", a->variation, "How far --seed re-rolls the islands, 0..1 (0: the network's islands, the seed varying only the finer detail)")
+      ->capture_default_str()
+      ->check(finite_in(0, 1));
   sub->add_flag("--raw", a->raw, "The network's bare answer at the model's scale: no clean-up, no amplification");
   sub->add_flag("--png16", a->png16, "Also PREFIX.height.png: 16-bit linear, range in the sidecar");
   sub->add_flag("--r16", a->r16, "Also PREFIX.r16: little-endian RAW");

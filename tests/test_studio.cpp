@@ -160,6 +160,31 @@ TEST_F(Studio, InferAnswersWhatTheCliComputes) {
   EXPECT_GT(got.meta["max_m"].get<double>(), 50.0) << "the painted island has land";
 }
 
+// ?seed=N is infer --seed: another island for the same painting, the CLI's
+// heights for that seed; a bad seed is one 400 line naming the parameter.
+TEST_F(Studio, ASeedReRollsTheIslandAsTheCliDoes) {
+  const fs::path sketch = kRoot / "docs" / "examples" / "painted-sketch.png";
+  const std::string png = file_bytes(sketch);
+  auto r = client->Post("/api/infer?seed=5", png, "image/png");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  const Heights five = parse_heights(r->body);
+  model::GeneratorFile g = model::load_generator(kRoot / "models" / "reef-256.pt");
+  infer::InferOptions io;
+  io.seed = 5;
+  const cv::Mat1f want = infer::infer_heights(g, {read_sketch(sketch)}, io)[0];
+  EXPECT_EQ(cv::norm(five.h, want, cv::NORM_INF), 0.0) << "the studio must give the CLI's heights for --seed 5";
+  r = client->Post("/api/infer?seed=0", png, "image/png");
+  ASSERT_TRUE(r && r->status == 200);
+  EXPECT_GT(cv::norm(parse_heights(r->body).h, five.h, cv::NORM_INF), 10.0) << "another seed, another island";
+  for (const std::string bad : {"-1", "abc", "18446744073709551616", "1e3", ""}) {
+    r = client->Post("/api/infer?seed=" + bad, png, "image/png");
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 400) << bad;
+    EXPECT_NE(r->body.find("seed must be a whole number"), std::string::npos) << bad << ": " << r->body;
+  }
+}
+
 // A burst of inference requests, some of them corrupt: every one is answered
 // (200, 409 when a newer one superseded it, 400 for the corrupt ones), and
 // afterwards the studio still answers with the CLI's heights — the decode

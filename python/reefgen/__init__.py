@@ -98,7 +98,7 @@ def default_model():
 
 
 def infer(sketch, size=0, model=None, seed=0, raw=False, precision="fp32", engine="auto",
-          stochastic=False, threads=None, world_size_m=None):
+          stochastic=False, threads=None, world_size_m=None, variation=1.0):
     """(H, W) float32 metres of `reefgen infer`: the same numbers as its height.exr.
 
     sketch: a painted label map, (H, W, 3) RGB or (H, W, 4) RGBA, uint8 or uint16
@@ -107,7 +107,9 @@ def infer(sketch, size=0, model=None, seed=0, raw=False, precision="fp32", engin
     model: a generator file (default: default_model(), the shipped model);
     raw: the network's answer only resized (`--raw`); precision, engine, stochastic:
     as the command's flags; threads: LibTorch's for this call (default: all cores);
-    world_size_m: the canvas width (default 6000 m).
+    world_size_m: the canvas width (default 6000 m);
+    seed, variation: another island for the same painting per seed, re-rolled
+    that far in [0, 1] (0: the network's own answer; `--seed`, `--variation`).
     Needs the LibTorch half of the build (libtorch-dev); the generator is loaded once.
     """
     try:
@@ -120,7 +122,8 @@ def infer(sketch, size=0, model=None, seed=0, raw=False, precision="fp32", engin
     return _reefgen_infer.infer(sketch, int(size), _os.fspath(model), _seed(seed),
                                 bool(raw), str(precision), str(engine), bool(stochastic),
                                 None if threads is None else int(threads),
-                                None if world_size_m is None else float(world_size_m))
+                                None if world_size_m is None else float(world_size_m),
+                                float(variation))
 
 
 def realism(heights, metres_per_px):

@@ -5,7 +5,9 @@
 #include <sys/socket.h>
 
 #include <chrono>
+#include <cerrno>
 #include <condition_variable>
+#include <cstdlib>
 #include <cstring>
 #include <cmath>
 #include <mutex>
@@ -338,6 +340,21 @@ struct StudioServer::Impl {
       throw BadRequest("size must be in " + std::to_string(kMinStudioSidePx) + ".." + std::to_string(o.max_side));
   }
 
+  // ?seed=N (infer --seed: which island of the painting): digits only, below 2^64.
+  static uint64_t seed_param(const std::string& v) {
+    const std::string what = "seed must be a whole number in [0, 18446744073709551615] (infer --seed)";
+    if (v.empty() || v.size() > 20 || v.find_first_not_of("0123456789") != std::string::npos) throw BadRequest(what);
+    errno = 0;
+    const unsigned long long n = std::strtoull(v.c_str(), nullptr, 10);
+    if (errno == ERANGE) throw BadRequest(what);
+    return uint64_t(n);
+  }
+  infer::InferOptions with_seed(uint64_t seed) const {
+    infer::InferOptions o = io;
+    o.seed = seed;
+    return o;
+  }
+
   // ?size=N: digits only, in range (atoi wrapped 4294967328 to 32).
   int size_param(const std::string& v) const {
     const std::string range =
@@ -402,8 +419,13 @@ struct StudioServer::Impl {
     } catch (const Error& e) {
       throw BadRequest(std::string("sketch_png: ") + e.what());
     }
+    uint64_t seed = 0;
+    if (body.contains("seed")) {
+      if (!body["seed"].is_number_unsigned()) throw BadRequest("seed must be a whole number in [0, 2^64) (infer --seed)");
+      seed = body["seed"].get<uint64_t>();
+    }
     const DecodedSketch s = sketch_of(png);
-    src.height_m = infer::infer_heights(gen, {s}, io)[0];
+    src.height_m = infer::infer_heights(gen, {s}, with_seed(seed))[0];
     src.label = encode_labels(s.label, s.subsidence);
     cv::resize(s.label, src.region, src.height_m.size(), 0, 0, cv::INTER_NEAREST);
     src.metres_per_px = kCanvasWorldSizeM / src.height_m.cols;
@@ -588,12 +610,13 @@ struct StudioServer::Impl {
     // the compute lock holds its label maps (~70 MB at 4096²), and 32
     // requests waiting held 3.8 GB. A request superseded while it waited for
     // a slot is answered without decoding.
+    const uint64_t seed = req.has_param("seed") ? seed_param(req.get_param_value("seed")) : 0;
     const auto slot = decodes.take();
     if (superseded(res, ticket)) return;
     const DecodedSketch s = raw ? sketch_of_rgba(req) : sketch_of(req.body);
     latest_wins(res, ticket, [&] {
       const auto t0 = std::chrono::steady_clock::now();
-      const cv::Mat1f h = infer::infer_heights(gen, {s}, io)[0];
+      const cv::Mat1f h = infer::infer_heights(gen, {s}, with_seed(seed))[0];
       const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       send_heights(res, h, heights_meta(h, ms), req.get_param_value("enc") == "u16");
     });

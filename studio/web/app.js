@@ -256,6 +256,10 @@ const endStroke = () => { if (painting) { painting = false; requestInfer(); } };
 paint.addEventListener('pointerup', endStroke);
 paint.addEventListener('pointercancel', endStroke);
 
+// The island's seed (infer --seed): Re-roll draws another island for the
+// same painting; exports and layer views use the seed shown.
+let islandSeed = 0;
+probe.islandSeed = () => islandSeed;
 function sketchBlob() { return new Promise((r) => paint.toBlob(r, 'image/png')); }
 // The canvas goes to the server as raw RGBA: getImageData takes ~1 ms where
 // PNG encoding (toBlob) took up to a second of the main thread per stroke.
@@ -264,7 +268,7 @@ function requestInfer() {
     const t = performance.now();
     const px = pctx.getImageData(0, 0, paint.width, paint.height).data;
     probe.encode_ms = performance.now() - t;
-    return api(`/api/infer?w=${paint.width}&h=${paint.height}&enc=u16`, px, 'application/x-reefgen-rgba');
+    return api(`/api/infer?w=${paint.width}&h=${paint.height}&enc=u16&seed=${islandSeed}`, px, 'application/x-reefgen-rgba');
   });
 }
 
@@ -679,7 +683,7 @@ async function sourceBody(size) {
   const buf = new Uint8Array(await (await sketchBlob()).arrayBuffer());
   let s = '';
   for (let i = 0; i < buf.length; i += 8192) s += String.fromCharCode(...buf.subarray(i, i + 8192));
-  return { sketch_png: btoa(s) };
+  return { sketch_png: btoa(s), seed: islandSeed };
 }
 async function showLayer() {
   const view = $('layer-view').value, token = ++layerToken;
@@ -840,6 +844,11 @@ document.addEventListener('keydown', (ev) => {
 });
 paint.addEventListener('pointerdown', () => paint.focus());
 $('clear').onclick = () => { snapshot(); clearCanvas(); requestInfer(); };
+$('reroll').onclick = () => {
+  islandSeed = (islandSeed + 1) % 1000000;
+  $('reroll').textContent = `Re-roll (seed ${islandSeed})`;
+  requestInfer();
+};
 $('canvas-size').onchange = () => {
   snapshot();
   const old = document.createElement('canvas');

@@ -176,6 +176,14 @@ class Module(unittest.TestCase):
         rgba = np.dstack([labels, np.full(labels.shape[:2], 255, np.uint8)])
         self.assertTrue(np.array_equal(reefgen.infer(rgba, size=128, seed=2, threads=1), cli))
         self.assertTrue(np.array_equal(reefgen.infer(labels.astype(np.uint16) * 257, size=128, seed=2), cli))
+        # Another seed, another island; variation 0 keeps the network's island (no re-roll).
+        self.assertFalse(np.array_equal(reefgen.infer(labels, size=128, seed=3), cli))
+        mean = reefgen.infer(labels, size=128, seed=2, variation=0)
+        self.assertFalse(np.array_equal(mean, cli))
+        for bad in (-0.1, 1.5, float("nan")):
+            with self.assertRaises(reefgen.Error) as e:
+                reefgen.infer(labels, size=128, variation=bad)
+            self.assertIn("variation must be in [0, 1]", str(e.exception))
         raw = reefgen.infer(labels, raw=True)
         self.assertEqual(raw.shape, (64, 64))
         self.assertFalse(np.array_equal(raw, reefgen.infer(labels)))  # --raw skips the clean-up

@@ -81,6 +81,23 @@ try {
   });
   if (!(spread > 30)) fail(`3D view looks blank (pixel spread ${spread})`);
 
+  // Re-roll: another island (the heights change), the painting untouched, the seed shown.
+  {
+    const paintSum = () => page.evaluate(() => {
+      const c = document.getElementById('paint'), d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+      let s = 0; for (let i = 0; i < d.length; ++i) s = (s * 31 + d[i]) >>> 0; return s;
+    });
+    const canvas0 = await paintSum(), heights0 = await page.evaluate(() => window.__reefgen.lastSum);
+    const n = await page.evaluate(() => window.__reefgen.updates);
+    await page.click('#reroll');
+    await page.waitForFunction((k) => window.__reefgen.updates > k, n, { timeout: 15000 });
+    const heights1 = await page.evaluate(() => window.__reefgen.lastSum);
+    if (!(Math.abs(heights1 - heights0) > 1)) fail(`re-roll: the heights did not change (${heights0} -> ${heights1})`);
+    if ((await paintSum()) !== canvas0) fail('re-roll: the painting changed');
+    if ((await page.evaluate(() => window.__reefgen.islandSeed())) !== 1) fail('re-roll: the seed is not 1 after one click');
+    if (!(await page.textContent('#reroll')).includes('seed 1')) fail('re-roll: the button does not show the seed');
+  }
+
   // Export: a GLB download arrives and is glTF.
   const [download] = await Promise.all([page.waitForEvent('download', { timeout: 15000 }), page.click('#exports button[data-format="glb"]')]);
   const stream = await download.createReadStream();
