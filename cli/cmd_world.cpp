@@ -296,7 +296,7 @@ WorldFields world_fields(const WorldArgs& a, const FinishFlags::Parsed& fin, mod
   if (a.variation > 0) ep.amplify_erode_at_model_side = true;
   const cv::Mat1f rolled = infer::reroll_land(w.model_h, kModelMetresPerPx, a.seed, a.variation);
   w.h = infer::amplify_world(rolled, w.region_model, N, w.world_m, a.seed, ep,
-                             [&](int done, int) { progress.tick(size_t(done)); });
+                             [&](int done, int) { progress.tick(size_t(done)); }, {}, s.ruggedness);
   cv::min(cv::max(w.h, gen.range.lo_m), gen.range.hi_m, w.h);
   if (!quiet) std::fprintf(stderr, "world: amplified to %d² in %.1f s\n", w.h.cols, seconds_since(t));
   checkpoint.save("heights.exr", w.h);

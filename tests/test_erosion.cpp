@@ -343,6 +343,42 @@ TEST(Erosion, CarvesValleysKeepsTheSeaAndDrains) {
   EXPECT_EQ(cv::norm(erode_island(h, rho, kCanvasWorldSizeM, 7, p), h, cv::NORM_INF), 0.0);
 }
 
+// Per-region style (DecodedSketch::ruggedness): a sketch painted rugged
+// everywhere gives the same bytes as one without a style; a cone painted
+// smooth on its west half comes back with that half's relief (heights less
+// their σ = 3 px mean, on land) at most half the rugged half's, and the
+// rugged half as it was.
+TEST(Erosion, APaintedSmoothHalfIsSmootherThanTheRuggedHalf) {
+  const cv::Mat1f h = cone(128, 400.f);
+  cv::Mat1b label(257, 257, uint8_t(kAbyss));
+  cv::Mat1f up;
+  cv::resize(h, up, label.size(), 0, 0, cv::INTER_CUBIC);
+  label.setTo(kIsland, up > 0);
+  const ErosionParams p;
+  const cv::Mat1f plain = amplify_heights(h, label, kCanvasWorldSizeM, 3, p);
+  EXPECT_EQ(cv::norm(amplify_heights(h, label, kCanvasWorldSizeM, 3, p, true, cv::Mat1b(64, 64, uint8_t(255))), plain,
+                     cv::NORM_INF),
+            0.0);
+  cv::Mat1b style(64, 64, uint8_t(255));
+  style(cv::Rect(0, 0, 32, 64)).setTo(0);
+  const cv::Mat1f styled = amplify_heights(h, label, kCanvasWorldSizeM, 3, p, true, style);
+  auto relief = [](const cv::Mat1f& a, int x0, int x1) {
+    cv::Mat1f mean;
+    cv::GaussianBlur(a, mean, cv::Size(0, 0), 3);
+    double sum = 0;
+    int n = 0;
+    for (int y = 0; y < a.rows; ++y)
+      for (int x = x0; x < x1; ++x)
+        if (a(y, x) > 5) sum += double(a(y, x) - mean(y, x)) * (a(y, x) - mean(y, x)), ++n;
+    return std::sqrt(sum / std::max(n, 1));
+  };
+  // Halves kept 20 px clear of the blended seam (kStyleBlendM is 17 px here).
+  const double smooth_west = relief(styled, 0, 108), rugged_east = relief(styled, 148, 257);
+  EXPECT_LT(smooth_west, 0.5 * rugged_east) << smooth_west << " m against " << rugged_east << " m";
+  EXPECT_NEAR(rugged_east, relief(plain, 148, 257), 0.25 * relief(plain, 148, 257));
+  EXPECT_GT(smooth_west, 0.0);
+}
+
 // amplify_heights (infer --size N): a smooth 128² answer (a cone, as an
 // L1-trained model draws a volcano) becomes a drained, valleyed N² island
 // whose coast and sea stay where the answer put them.

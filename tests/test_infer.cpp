@@ -559,7 +559,7 @@ TEST(World, ScaleSizeAndLocality) {
   InferOptions io;
   io.engine = Engine::Torch;
   auto sea = [](int W, int H) {
-    DecodedSketch s{cv::Mat1b(H, W, uint8_t(kAbyss)), cv::Mat1f(H, W, 0.f), 0};
+    DecodedSketch s{cv::Mat1b(H, W, uint8_t(kAbyss)), cv::Mat1f(H, W, 0.f), 0, {}};
     cv::circle(s.label, {W - 80, H / 2}, 30, cv::Scalar(kReef), -1);
     cv::circle(s.label, {W - 80, H / 2}, 15, cv::Scalar(kIsland), -1);
     return s;
@@ -581,7 +581,7 @@ TEST(World, ScaleSizeAndLocality) {
   EXPECT_LT(cv::norm(a(right), b(right), cv::NORM_INF), 1e-3);
   EXPECT_GT(cv::norm(a(cv::Rect(150, 170, 160, 160)), b(cv::Rect(150, 170, 160, 160)), cv::NORM_INF), 1.0);
   // One pass takes up to kMaxWorldPassPx a side.
-  const DecodedSketch huge{cv::Mat1b(8, 5000, uint8_t(kAbyss)), cv::Mat1f(8, 5000, 0.f), 0};
+  const DecodedSketch huge{cv::Mat1b(8, 5000, uint8_t(kAbyss)), cv::Mat1f(8, 5000, 0.f), 0, {}};
   test::expect_error_naming([&] { world_model_heights(g, huge, kModelMetresPerPx, io); }, "one pass takes up to");
 }
 

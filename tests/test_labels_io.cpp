@@ -96,6 +96,28 @@ TEST(Labels, DecodesAPaintedNoisySketch) {
   EXPECT_EQ(d.label(2, 2), kAbyss);
 }
 
+// The saturation is the per-region style: the palette's full colours are
+// rugged (255) at every brightness, a pastel of the same hue is smooth (0)
+// and keeps its region and subsidence; between, linear.
+TEST(Labels, SaturationIsTheRuggedness) {
+  cv::Mat1b l(4, 4, uint8_t(kIsland));
+  l(0, 0) = kReef;
+  const DecodedSketch full = decode_sketch(encode_labels(l, 0.6));
+  EXPECT_EQ(cv::countNonZero(full.ruggedness != 255), 0);
+  // Yellow at value 1: saturation 0.3 (smooth), 0.6 (half way), 1.0.
+  auto yellow = [](double sat) {
+    const uint8_t lo = uint8_t(std::lround(255 * (1 - sat)));
+    return cv::Mat3b(2, 2, cv::Vec3b(lo, 255, 255));
+  };
+  const DecodedSketch pastel = decode_sketch(yellow(0.3));
+  EXPECT_EQ(pastel.label(0, 0), kIsland);
+  EXPECT_FLOAT_EQ(pastel.subsidence(0, 0), 0.f);
+  EXPECT_EQ(pastel.ruggedness(0, 0), 0);
+  EXPECT_NEAR(decode_sketch(yellow(0.6)).ruggedness(0, 0), 255 * (0.6 - kSmoothSaturation) /
+                                                               (kRuggedSaturation - kSmoothSaturation), 1.0);
+  EXPECT_EQ(decode_sketch(yellow(1.0)).ruggedness(0, 0), 255);
+}
+
 TEST(Labels, GreyPixelsTakeTheNearestRegionAndTransparentIsAbyss) {
   cv::Mat4b img(16, 16, cv::Vec4b(255, 0, 0, 255));  // blue reef everywhere (BGRA)
   img(8, 8) = cv::Vec4b(128, 128, 128, 255);          // a grey brush dot

@@ -91,6 +91,7 @@ DecodedSketch decode_sketch(const cv::Mat& image, const std::string& name) {
   DecodedSketch out;
   out.label.create(image.size());
   out.subsidence.create(image.size());
+  out.ruggedness.create(image.size());
   // Pixels without a usable hue are marked 255 and filled afterwards.
   cv::Mat1b unknown(image.size(), uint8_t(0));
   int known = 0;
@@ -103,7 +104,7 @@ DecodedSketch decode_sketch(const cv::Mat& image, const std::string& name) {
       if (!(std::isfinite(b) && std::isfinite(g) && std::isfinite(r)))
         throw Error(name + ": pixel (" + std::to_string(x) + "," + std::to_string(y) + ") is NaN or infinite");
       if (a < 0.5f) {  // unpainted (transparent) canvas is open ocean
-        out.label(y, x) = kAbyss; out.subsidence(y, x) = 0.f; ++known;
+        out.label(y, x) = kAbyss; out.subsidence(y, x) = 0.f; out.ruggedness(y, x) = 255; ++known;
         continue;
       }
       const float mx = std::max({r, g, b}), mn = std::min({r, g, b});
@@ -111,6 +112,8 @@ DecodedSketch decode_sketch(const cv::Mat& image, const std::string& name) {
       out.subsidence(y, x) = std::clamp((1.f - mx) / 0.75f, 0.f, 1.f);
       // Below this chroma the hue is noise (JPEG ringing on grey, a black line).
       if (chroma < 0.06f || chroma < 0.15f * mx) { unknown(y, x) = 255; out.label(y, x) = 0; continue; }
+      const float rugged = (chroma / mx - kSmoothSaturation) / (kRuggedSaturation - kSmoothSaturation);
+      out.ruggedness(y, x) = static_cast<uint8_t>(std::lround(255.f * std::clamp(rugged, 0.f, 1.f)));
       double h;
       if (mx == r) h = 60.0 * std::fmod((g - b) / chroma + 6.0, 6.0);
       else if (mx == g) h = 60.0 * ((b - r) / chroma + 2.0);
@@ -139,6 +142,7 @@ DecodedSketch decode_sketch(const cv::Mat& image, const std::string& name) {
           const cv::Point s = seeds.at(nearest(y, x) - 1);
           out.label(y, x) = out.label(s.y, s.x);
           out.subsidence(y, x) = out.subsidence(s.y, s.x);
+          out.ruggedness(y, x) = out.ruggedness(s.y, s.x);
         }
   }
   return out;

@@ -36,7 +36,7 @@ std::vector<float> island_peaks(const cv::Mat1f& h, cv::Mat1i& island) {
 // faded in over the lowest 20 % of each island (of its own peak) so the
 // coast stays where the sketch put it; the concave bends then gather the
 // water the base-grid erosion turns into valleys (docs/EROSION.md).
-void lobe_contours(cv::Mat1f& h, double world_size_m, uint64_t seed, const ErosionParams& p) {
+void lobe_contours(cv::Mat1f& h, double world_size_m, uint64_t seed, const ErosionParams& p, const cv::Mat1f& rugged) {
   if (p.amplify_lobe_m <= 0) return;
   const int S = h.cols;
   const double cell_m = world_size_m / S;
@@ -92,7 +92,8 @@ void lobe_contours(cv::Mat1f& h, double world_size_m, uint64_t seed, const Erosi
       const float g = std::hypot(gx(y, x), gy(y, x));
       // 1/|∇h|, faded in below a 2 % slope (summits, plains: no direction)
       const float k = std::min(1.f, g * float(1.0 / (0.02 * cell_m))) / std::max(g, 1e-6f);
-      const float d = w * amp_px * tile.sample(noise_u(y, x) * tpc + u0, noise_v(y, x) * tpc + v0);
+      const float style = rugged.empty() ? 1.f : rugged(y, x);
+      const float d = style * w * amp_px * tile.sample(noise_u(y, x) * tpc + u0, noise_v(y, x) * tpc + v0);
       mx(y, x) = float(x) - d * gx(y, x) * k;
       my(y, x) = float(y) - d * gy(y, x) * k;
     }
@@ -109,8 +110,8 @@ void lobe_contours(cv::Mat1f& h, double world_size_m, uint64_t seed, const Erosi
 // to height (fBm, one feature per amplify_feature_m) gives the drainage
 // somewhere to start, as the render's noise does for the generator; the
 // coast (h → 0) does not move.
-void roughen_land(cv::Mat1f& h, double world_size_m, uint64_t seed, const ErosionParams& p) {
-  lobe_contours(h, world_size_m, seed, p);
+void roughen_land(cv::Mat1f& h, double world_size_m, uint64_t seed, const ErosionParams& p, const cv::Mat1f& rugged) {
+  lobe_contours(h, world_size_m, seed, p, rugged);
   if (p.amplify_roughness <= 0) return;
   const int S = h.cols;
   const NoiseTile& tile = NoiseTile::get(3);
@@ -120,8 +121,11 @@ void roughen_land(cv::Mat1f& h, double world_size_m, uint64_t seed, const Erosio
   const float a = float(p.amplify_roughness);
   for (int y = 0; y < S; ++y)
     for (int x = 0; x < S; ++x)
-      if (h(y, x) > 0)
-        h(y, x) = std::max(kLandFloorM, h(y, x) * (1.f + a * tile.sample(x * texels_per_cell + u0, y * texels_per_cell + v0)));
+      if (h(y, x) > 0) {
+        const float style = rugged.empty() ? 1.f : rugged(y, x);
+        h(y, x) = std::max(kLandFloorM,
+                           h(y, x) * (1.f + style * a * tile.sample(x * texels_per_cell + u0, y * texels_per_cell + v0)));
+      }
 }
 // The model answers a painted sketch whose beach and lagoon bands have even
 // widths with concentric ridges and moats on the low plain (about 10 m high,
@@ -265,10 +269,34 @@ void smooth_model_grid_underwater(cv::Mat1f& h, int model_side, uint64_t seed) {
   }
 }
 
+// A smooth region erodes as harder rock: ρ' = ρ + (1 − r)(1 − ρ), so a
+// smooth shield (r = 0) is fully resistant (K · hard_erodibility) and a
+// rugged one (r = 1) keeps the regions' resistance.
+cv::Mat1f harden(const cv::Mat1f& resistance, const cv::Mat1f& rugged) {
+  if (rugged.empty()) return resistance;
+  cv::Mat1f out = resistance.clone();
+  for (int y = 0; y < out.rows; ++y)
+    for (int x = 0; x < out.cols; ++x) out(y, x) += (1.f - rugged(y, x)) * (1.f - out(y, x));
+  return out;
+}
+
 }  // namespace
 
+cv::Mat1f ruggedness_at(const cv::Mat1b& ruggedness, int side, double world_size_m) {
+  if (ruggedness.empty()) return {};
+  double lo = 255;
+  cv::minMaxLoc(ruggedness, &lo);
+  if (lo >= 255) return {};
+  cv::Mat1f r;
+  ruggedness.convertTo(r, CV_32F, 1.0 / 255);
+  cv::resize(r, r, cv::Size(side, side), 0, 0, side < r.cols ? cv::INTER_AREA : cv::INTER_LINEAR);
+  const double sigma = kStyleBlendM * side / world_size_m;
+  if (sigma >= 0.5) cv::GaussianBlur(r, r, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
+  return r;
+}
+
 cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, double world_size_m, uint64_t seed,
-                          const ErosionParams& p, bool lowland_relief) {
+                          const ErosionParams& p, bool lowland_relief, const cv::Mat1b& ruggedness) {
   if (coarse_m.empty() || coarse_m.rows != coarse_m.cols || label.rows != label.cols)
     throw Error("amplify: the height field and the label map must be square");
   const int S = coarse_m.cols, N = label.cols;
@@ -278,13 +306,15 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
   const bool erode = N > S || p.amplify_erode_at_model_side;
   if (p.enabled && erode) smooth_plains(coarse, label_s, p.amplify_plain_smooth_m / (world_size_m / S), p.amplify_low_island_m);
   if (p.enabled) fill_ponds(coarse, label_s, world_size_m / S, p.amplify_pond_max_m2);
+  const cv::Mat1f rugged_s = ruggedness_at(ruggedness, S, world_size_m);
   if (p.enabled && erode) {
-    roughen_land(coarse, world_size_m, seed, p);
+    roughen_land(coarse, world_size_m, seed, p, rugged_s);
     // Few steps (amplify_steps, not the generator's `steps`): measured, 8 steps
     // give the painted set 0.298 valleys, 3 give 0.306 (docs/EROSION.md). The
     // drainage is routed once per step; our reading is that each re-routing
     // lets the deeper valleys capture the shallow ones the lobes started.
-    erode_level(coarse, erodibility_map(resistance_of_labels(label_s), seed, p), world_size_m / S, p.amplify_steps,
+    erode_level(coarse, erodibility_map(harden(resistance_of_labels(label_s), rugged_s), seed, p), world_size_m / S,
+                p.amplify_steps,
                 p.duration_yr * p.amplify_duration_scale, p);
   }
   cv::Mat1f land = resampled(coarse, N, cv::INTER_CUBIC);
@@ -297,9 +327,15 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
     grade_land(land, world_size_m / N);
     return land;
   }
-  auto detail = [&](int L, const cv::Mat1f& up) { return fractal_detail(L, up, world_size_m, seed); };
-  cv::Mat1f out = refine_heights(coarse, land, resampled(resistance_of_labels(label), N, cv::INTER_LINEAR),
-                                 world_size_m, seed, p, detail);
+  auto detail = [&](int L, const cv::Mat1f& up) {
+    cv::Mat1f d = fractal_detail(L, up, world_size_m, seed);
+    const cv::Mat1f r = ruggedness_at(ruggedness, L, world_size_m);
+    if (!r.empty()) d = d.mul(kSmoothDetailShare + (1.f - kSmoothDetailShare) * r);
+    return d;
+  };
+  const cv::Mat1f resistance =
+      harden(resampled(resistance_of_labels(label), N, cv::INTER_LINEAR), ruggedness_at(ruggedness, N, world_size_m));
+  cv::Mat1f out = refine_heights(coarse, land, resistance, world_size_m, seed, p, detail);
   smooth_model_grid_underwater(out, S, seed);
   finish_painted_reef(out, label_s, world_size_m, seed);
   fill_ponds(out, label, world_size_m / N, p.amplify_pond_max_m2);

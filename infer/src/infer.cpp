@@ -166,7 +166,7 @@ std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<
         h = reroll_land(h, o.world_size_m / h.cols, o.seed, o.variation);
         ep.amplify_erode_at_model_side = true;
       }
-      h = amplify_heights(h, label, o.world_size_m, o.seed, ep);
+      h = amplify_heights(h, label, o.world_size_m, o.seed, ep, true, sketches[i].ruggedness);
       cv::min(cv::max(h, g.range.lo_m), g.range.hi_m, h);
     } else if (want.width <= h.cols && want.height <= h.rows && h.size() != want) {
       cv::resize(h, h, want, 0, 0, cv::INTER_AREA);

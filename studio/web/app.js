@@ -148,7 +148,19 @@ function restore(from, to) {
   pctx.putImageData(img, 0, 0);
   requestInfer();
 }
-function brushColour() { return regionColour(tool === 'eraser' ? ABYSS : region, age()); }
+// Relief (the colour's saturation, docs/INFERENCE.md "Per-region style"):
+// 100 = the palette's full colour (rugged), 0 = a pastel of saturation 0.35
+// (a smooth shield); between, the saturation the decoder reads linearly
+// (0.35 + 0.5·r, rugged from 0.85 up).
+function relief() { return Number($('relief').value) / 100; }
+function withRelief([r, g, b], rel) {
+  if (rel >= 1) return [r, g, b];
+  const v = Math.max(r, g, b), sat = 0.35 + 0.5 * rel;
+  return [r, g, b].map((c) => Math.round(v - (v - c) * sat));
+}
+function brushColour() {
+  return tool === 'eraser' ? regionColour(ABYSS, age()) : withRelief(regionColour(region, age()), relief());
+}
 function dab(x, y) {
   const radius = Number($('brush').value) * paint.width / 256;
   const soft = Number($('softness').value) / 100;

@@ -81,6 +81,23 @@ try {
   });
   if (!(spread > 30)) fail(`3D view looks blank (pixel spread ${spread})`);
 
+  // Relief 0 paints a pastel of the region's hue (saturation 0.35, a smooth
+  // shield to the decoder); the server answers it; Relief back to 100.
+  {
+    await page.$eval('#relief', (el) => { el.value = '0'; el.dispatchEvent(new Event('input')); });
+    const n = await page.evaluate(() => window.__reefgen.updates);
+    const px = box.x + box.width * 0.5, py = box.y + box.height * 0.5;
+    await page.mouse.move(px, py); await page.mouse.down(); await page.mouse.move(px + 2, py + 1); await page.mouse.up();
+    await page.waitForFunction((k) => window.__reefgen.updates > k, n, { timeout: 15000 });
+    const rgb = await page.evaluate(() => {
+      const c = document.getElementById('paint');
+      return Array.from(c.getContext('2d').getImageData(c.width / 2, c.height / 2, 1, 1).data.slice(0, 3));
+    });
+    const mx = Math.max(...rgb), sat = (mx - Math.min(...rgb)) / mx;
+    if (!(Math.abs(sat - 0.35) < 0.03) || !(rgb[0] > 200 && rgb[1] > 200)) fail(`relief 0: painted ${rgb} (saturation ${sat}), not a pastel yellow`);
+    await page.$eval('#relief', (el) => { el.value = '100'; el.dispatchEvent(new Event('input')); });
+  }
+
   // Re-roll: another island (the heights change), the painting untouched, the seed shown.
   {
     const paintSum = () => page.evaluate(() => {

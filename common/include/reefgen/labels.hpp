@@ -41,7 +41,18 @@ struct DecodedSketch {
   cv::Mat1b label;       // region ids 0..4
   cv::Mat1f subsidence;  // λ per pixel in [0,1]
   int filled_px = 0;     // grey/black/white pixels whose region came from the nearest coloured pixel
+  // Per-region style from the colour's saturation (the paper's reserved
+  // channel; docs/INFERENCE.md "Per-region style"): 255 = rugged (the
+  // palette's full colours, and every pixel of a sketch painted with them),
+  // 0 = a smooth shield (pastel, saturation ≤ kSmoothSaturation). Empty =
+  // rugged everywhere.
+  cv::Mat1b ruggedness;
 };
+// Saturation (chroma / max) at and above which a colour is fully rugged
+// (the palette's 1.0, with room for JPEG and anti-aliasing), and at and below
+// which it is a smooth shield; linear between.
+inline constexpr float kRuggedSaturation = 0.85f;
+inline constexpr float kSmoothSaturation = 0.35f;
 
 // Tolerant decoding of a painted sketch: 8- or 16-bit, 1, 3 (BGR) or 4 (BGRA)
 // channels. The region is the nearest of the five hues on the colour circle

@@ -40,8 +40,24 @@ void add_lowland_relief(cv::Mat1f& height_m, int y0, uint64_t seed);
 // for a world's level below its banded last doubling, which adds it after
 // each band's draining: a level's bumps, doubled, made depressions deeper
 // than a pit that bands of different heights drained differently).
+// ruggedness: the sketch's per-region style (DecodedSketch::ruggedness, any
+// side; empty or all 255 = rugged everywhere, the same bytes as without it):
+// where it is lower the lobes, the roughening and the finer levels' detail
+// shrink and the ground erodes as harder rock (docs/INFERENCE.md
+// "Per-region style").
 cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, double world_size_m, uint64_t seed,
-                          const terrain::ErosionParams& p = {}, bool lowland_relief = true);
+                          const terrain::ErosionParams& p = {}, bool lowland_relief = true,
+                          const cv::Mat1b& ruggedness = {});
+
+// The style blends over this distance (Gaussian σ, m): a brush's edge, JPEG
+// and anti-aliasing do not print as steps in the relief.
+inline constexpr double kStyleBlendM = 400;
+// What a smooth shield keeps of the finer levels' detail (lava surfaces,
+// scoria: not a polished dome).
+inline constexpr float kSmoothDetailShare = 0.35f;
+// The style at side×side in [0, 1], blended (kStyleBlendM); empty when the
+// sketch is rugged everywhere.
+cv::Mat1f ruggedness_at(const cv::Mat1b& ruggedness, int side, double world_size_m);
 
 }  // namespace reefgen::infer
 
@@ -77,6 +93,7 @@ struct WorldBands {
 };
 cv::Mat1f amplify_world(const cv::Mat1f& coarse_m, const cv::Mat1b& label, int size, double world_size_m,
                         uint64_t seed, const terrain::ErosionParams& p = {},
-                        const std::function<void(int, int)>& progress = {}, const WorldBands& bands = {});
+                        const std::function<void(int, int)>& progress = {}, const WorldBands& bands = {},
+                        const cv::Mat1b& ruggedness = {});
 
 }  // namespace reefgen::infer
