@@ -85,11 +85,15 @@ def generate(spec="young-volcano", size=256, seed=None, subsidence=None):
 
 def default_model():
     """The generator reefgen.infer loads without model=: $REEFGEN_MODEL, else the shipped
-    model of an installed reefgen (PREFIX/share/reefgen/models beside PREFIX/lib/python3),
-    else None: in a build tree infer then loads the source tree's models/ (the C++ look-up)."""
+    model of a pip-installed reefgen (reefgen/models in the package), else that of an
+    installed reefgen (PREFIX/share/reefgen/models beside PREFIX/lib/python3), else None:
+    in a build tree infer then loads the source tree's models/ (the C++ look-up)."""
     env = _os.environ.get("REEFGEN_MODEL")
     if env:
         return env
+    packaged = _os.path.join(_os.path.dirname(_os.path.abspath(__file__)), "models", "reef-256.pt")
+    if _os.path.isfile(packaged):
+        return packaged
     # PREFIX/lib/python3/dist-packages/reefgen/__init__.py -> PREFIX
     prefix = _os.path.dirname(_os.path.dirname(_os.path.dirname(_os.path.dirname(_os.path.dirname(
         _os.path.abspath(__file__))))))
