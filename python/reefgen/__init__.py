@@ -18,7 +18,10 @@ import os as _os
 from ._reefgen import Error, ConfigError, HEIGHT_RANGE_M, __version__
 from . import _reefgen
 
-__all__ = ["generate", "pair", "pair_info", "infer", "default_model", "realism", "presets", "Error", "ConfigError", "HEIGHT_RANGE_M", "__version__"]
+__all__ = ["generate", "pair", "pair_info", "infer", "default_model", "decode_labels", "realism", "presets", "Error",
+           "ConfigError", "HEIGHT_RANGE_M", "REGIONS", "__version__"]
+# Region ids of a label map (decode_labels), by name.
+REGIONS = ("island", "beach", "lagoon", "reef", "abyss")
 
 
 def _config_json(config):
@@ -128,6 +131,16 @@ def infer(sketch, size=0, model=None, seed=0, raw=False, precision="fp32", engin
                                 None if threads is None else int(threads),
                                 None if world_size_m is None else float(world_size_m),
                                 float(variation))
+
+
+def decode_labels(image, ruggedness=False):
+    """(regions, subsidence) of a label map as `reefgen infer` decodes it: regions (H, W) uint8
+    (0 island, 1 beach, 2 lagoon, 3 reef, 4 abyss: reefgen.REGIONS[id]), subsidence (H, W) float32
+    in [0, 1]; with ruggedness=True also the per-region style (H, W) uint8, 255 = rugged
+    (docs/INFERENCE.md "Per-region style"). image: (H, W, 3) RGB or (H, W, 4) RGBA, uint8 or
+    uint16 (reefgen.generate's labels, a pair's labels, np.asarray(PIL.Image.open(path)))."""
+    regions, subsidence, rugged = _reefgen.decode_labels(image)
+    return (regions, subsidence, rugged) if ruggedness else (regions, subsidence)
 
 
 def realism(heights, metres_per_px):

@@ -41,7 +41,10 @@ _SPLIT_LETTER = {"train": "t", "val": "v", "test": "s"}
 
 class PairStream(IterableDataset):
     """Pairs start, start+1, ... (count of them, or without end), each as
-    (label, height) tensors (to_tensors) and, with with_index, its index.
+    (label, height) tensors (to_tensors) and, with with_index, its index;
+    with with_conditioning, then a dict of the pair's conditioning: index,
+    configuration, level, subsidence (λ, float) and split (a DataLoader
+    collates a batch's into tensors and a list).
 
     split: "train", "val" or "test" keeps the pairs `reefgen dataset build`
     puts in that split (the same rule: whole configurations go to one split);
@@ -59,7 +62,7 @@ class PairStream(IterableDataset):
 
     def __init__(self, config=None, seed=0, count=None, start=0, rank=None, world_size=None,
                  height_range_m=None, with_index=False, split=None, shuffle=False, batch_size=1,
-                 shuffle_window=65536):
+                 shuffle_window=65536, with_conditioning=False):
         super().__init__()
         if count is not None and count < 0:
             raise ValueError(f"count {count}: must be >= 0 (or None for a stream without end)")
@@ -78,6 +81,7 @@ class PairStream(IterableDataset):
         if not 0 <= self.rank < self.world_size:
             raise ValueError(f"rank {self.rank} of world size {self.world_size}: need 0 <= rank < world size")
         self.height_range_m, self.with_index = height_range_m, with_index
+        self.with_conditioning = bool(with_conditioning)
         self.split, self.shuffle = split, bool(shuffle)
         self.batch_size, self.shuffle_window = int(batch_size), int(shuffle_window)
         self.epoch = 0
@@ -122,9 +126,10 @@ class PairStream(IterableDataset):
 
     def __iter__(self):
         for i in self.indices():
-            heights, labels = reefgen._reefgen.pair(self.config, self.seed, i)
-            label, height = to_tensors(heights, labels, self.height_range_m)
-            yield (label, height, i) if self.with_index else (label, height)
+            made = reefgen._reefgen.pair(self.config, self.seed, i, self.with_conditioning)
+            label, height = to_tensors(made[0], made[1], self.height_range_m)
+            item = (label, height, i) if self.with_index else (label, height)
+            yield item + (made[2],) if self.with_conditioning else item
 
 
 class PairFolder(Dataset):

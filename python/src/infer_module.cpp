@@ -62,30 +62,6 @@ LoadedModel& loaded_model(const std::filesystem::path& path) {
   return *slot;
 }
 
-// The sketch as OpenCV holds an image it read: (H, W) grey, (H, W, 3) RGB or
-// (H, W, 4) RGBA, 8 or 16 bits -> the same depth in BGR(A) for decode_sketch.
-cv::Mat bgr_of(const py::array& sketch) {
-  const bool u8 = py::isinstance<py::array_t<uint8_t>>(sketch), u16 = py::isinstance<py::array_t<uint16_t>>(sketch);
-  const int channels = sketch.ndim() == 2 ? 1 : sketch.ndim() == 3 ? int(sketch.shape(2)) : 0;
-  if (!(u8 || u16) || !(channels == 1 || channels == 3 || channels == 4))
-    throw Error("infer: the sketch must be a (H, W, 3) RGB or (H, W, 4) RGBA array of uint8 or uint16 "
-                "(a painted label map: PIL's np.asarray(Image.open(path)))");
-  const int rows = int(sketch.shape(0)), cols = int(sketch.shape(1));
-  if (rows < 1 || cols < 1)
-    throw Error("infer: the sketch is empty (" + std::to_string(cols) + "x" + std::to_string(rows) +
-                "); give a painted label map of at least 1x1 pixels");
-  if (rows > kMaxSketchSide || cols > kMaxSketchSide)
-    throw Error("infer: the sketch is " + std::to_string(cols) + "x" + std::to_string(rows) + "; at most " +
-                std::to_string(kMaxSketchSide) + " a side");
-  const py::array packed = py::array::ensure(sketch, py::array::c_style);
-  const cv::Mat view(rows, cols, CV_MAKETYPE(u8 ? CV_8U : CV_16U, channels), const_cast<void*>(packed.data()));
-  cv::Mat bgr;
-  if (channels == 3) cv::cvtColor(view, bgr, cv::COLOR_RGB2BGR);
-  else if (channels == 4) cv::cvtColor(view, bgr, cv::COLOR_RGBA2BGRA);
-  else bgr = view.clone();
-  return bgr;
-}
-
 // The command's flags in a message, as this function's keywords.
 std::string python_words(std::string m) {
   for (const auto& [flag, keyword] : {std::pair<std::string, std::string>{"--stochastic", "stochastic=True"},
@@ -125,7 +101,7 @@ py::array_t<float> infer_sketch(const py::array& sketch, int size, const std::st
   if (threads && (*threads < 1 || *threads > 256)) throw Error("infer: threads must be in [1, 256]");
   if (world_size_m && !(*world_size_m >= 1 && *world_size_m <= 1e7))
     throw Error("infer: world_size_m must be in [1, 1e7] metres (the canvas width, as --world-size)");
-  const cv::Mat image = bgr_of(sketch);
+  const cv::Mat image = python::bgr_of(sketch, "infer");
   cv::Mat1f heights;
   {
     py::gil_scoped_release free_python;

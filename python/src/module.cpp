@@ -59,18 +59,41 @@ void check_pair_index(int64_t index) {
 
 // `reefgen dataset build`'s pair `index` for (config, seed): heights in
 // metres and the label map, the same numbers as its files hold.
-py::tuple pair(const std::string& config_json, uint64_t seed, int64_t index) {
+// with_info: also its conditioning (index, configuration, level, subsidence,
+// split; PairStream's with_conditioning), known once the pair is made.
+py::tuple pair(const std::string& config_json, uint64_t seed, int64_t index, bool with_info) {
   const augment::DatasetParams p = dataset_params(config_json);
   check_pair_index(index);
   cv::Mat1f height;
   cv::Mat3b label;
+  augment::PairInfo info;
   {
     py::gil_scoped_release free_python;
-    const augment::Pair pr = augment::make_pair(seed, index, p);
+    const augment::Pair pr = augment::make_pair(seed, index, p, &info);
     height = pr.height_m;
     label = rgb_of(encode_labels(pr.label, pr.subsidence));
   }
-  return py::make_tuple(to_numpy<float>(height), to_numpy<uint8_t>(label));
+  if (!with_info) return py::make_tuple(to_numpy<float>(height), to_numpy<uint8_t>(label));
+  py::dict d;
+  d["index"] = info.index;
+  d["configuration"] = info.configuration;
+  d["level"] = info.level;
+  d["subsidence"] = info.subsidence;
+  d["split"] = augment::split_name(info.split);
+  return py::make_tuple(to_numpy<float>(height), to_numpy<uint8_t>(label), d);
+}
+
+// A painted or generated label map -> (regions, subsidence, ruggedness): the
+// decoding `infer` applies (labels.hpp), as uint8 ids 0..4, float32 λ and
+// uint8 style (255 rugged).
+py::tuple decode_labels(const py::array& image) {
+  const cv::Mat bgr = python::bgr_of(image, "decode_labels");
+  DecodedSketch d;
+  {
+    py::gil_scoped_release free_python;
+    d = decode_sketch(bgr, "decode_labels");
+  }
+  return py::make_tuple(to_numpy<uint8_t>(d.label), to_numpy<float>(d.subsidence), to_numpy<uint8_t>(d.ruggedness));
 }
 
 py::dict pair_info(const std::string& config_json, uint64_t seed, int64_t index) {
@@ -173,7 +196,8 @@ PYBIND11_MODULE(_reefgen, m) {
   m.attr("__version__") = reefgen::kVersion;
   // The range the networks map to [-1, 1] (m): to_tensors' height_range_m for reefgen's models.
   m.attr("HEIGHT_RANGE_M") = py::make_tuple(reefgen::kAbyssFloorM, reefgen::kHeightCeilingM);
-  m.def("pair", &pair, py::arg("config_json"), py::arg("seed"), py::arg("index"));
+  m.def("pair", &pair, py::arg("config_json"), py::arg("seed"), py::arg("index"), py::arg("with_info") = false);
+  m.def("decode_labels", &decode_labels, py::arg("image"));
   m.def("pair_info", &pair_info, py::arg("config_json"), py::arg("seed"), py::arg("index"));
   m.def("pair_splits", &pair_splits, py::arg("config_json"), py::arg("seed"), py::arg("start"), py::arg("count"));
   m.def("generate", &generate, py::arg("preset"), py::arg("spec_json"), py::arg("size"), py::arg("seed"),

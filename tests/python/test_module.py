@@ -233,6 +233,42 @@ class Module(unittest.TestCase):
         label, height = rtorch.to_tensors(heights, labels)
         self.assertTrue(torch.equal(runs[2][5][1], label) and torch.equal(runs[2][5][2], height))
 
+    def test_decode_labels_reads_what_infer_reads(self):
+        heights, labels = reefgen.pair(self.config, seed=SEED, index=3)
+        regions, subsidence = reefgen.decode_labels(labels)
+        self.assertEqual((regions.shape, regions.dtype, subsidence.dtype), (labels.shape[:2], np.uint8, np.float32))
+        self.assertEqual(set(np.unique(regions)) <= set(range(5)), True)
+        # The pair's label map encodes one λ (V = 1 - 0.75 λ): decoded back within an 8-bit step.
+        info = reefgen.pair_info(self.config, seed=SEED, index=3)
+        self.assertLess(float(np.abs(subsidence - info["subsidence"]).max()), 0.75 / 255 * 2)
+        # Land is where the island or beach is painted, above the sea in the young pairs' heights.
+        self.assertEqual(reefgen.REGIONS[0], "island")
+        rgba = np.dstack([labels, np.full(labels.shape[:2], 255, np.uint8)])
+        r2, s2, rugged = reefgen.decode_labels(rgba, ruggedness=True)
+        self.assertTrue(np.array_equal(r2, regions) and np.array_equal(s2, subsidence))
+        self.assertTrue((rugged == 255).all())  # the palette's full colours: rugged
+        pastel = labels.astype(np.float32)
+        pastel = (pastel.max(axis=2, keepdims=True) - (pastel.max(axis=2, keepdims=True) - pastel) * 0.3).astype(np.uint8)
+        self.assertTrue((reefgen.decode_labels(pastel, ruggedness=True)[2] == 0).all())  # saturation 0.3: smooth
+        with self.assertRaises(reefgen.Error) as e:
+            reefgen.decode_labels(np.zeros((4, 4), np.float64))
+        self.assertIn("decode_labels: the sketch must be", str(e.exception))
+
+    def test_stream_gives_each_pairs_conditioning(self):
+        ds = rtorch.PairStream(self.config, seed=SEED, count=6, with_index=True, with_conditioning=True)
+        seen = 0
+        for label, height, i, cond in ds:
+            info = reefgen.pair_info(self.config, seed=SEED, index=i)
+            for k in ("index", "configuration", "level", "subsidence", "split"):
+                self.assertEqual(cond[k], info[k], (i, k))
+            seen += 1
+        self.assertEqual(seen, 6)
+        # A DataLoader collates a batch's conditioning: tensors of numbers, a list of split names.
+        batch = next(iter(DataLoader(rtorch.PairStream(self.config, seed=SEED, count=4, with_conditioning=True,
+                                                       batch_size=4), batch_size=4)))
+        self.assertEqual(tuple(batch[2]["subsidence"].shape), (4,))
+        self.assertEqual(len(batch[2]["split"]), 4)
+
     def test_stream_splits_across_ranks(self):
         parts = [self.stream(2, rank=r, world_size=3) for r in range(3)]
         seen = [i for part in parts for i, _, _ in part]
