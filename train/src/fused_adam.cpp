@@ -46,7 +46,7 @@ torch::Tensor FusedAdam::step(LossClosure closure) {
       TORCH_CHECK(p.scalar_type() == torch::kFloat32 && p.is_contiguous() && p.grad().is_contiguous(),
                   "FusedAdam: contiguous float32 parameters only");
       // The key torch::optim::Adam uses, so checkpoints stay interchangeable.
-      const std::string key = c10::guts::to_string(p.unsafeGetTensorImpl());
+      const std::string key = adam_state_key(p);
       auto it = state_.find(key);
       if (it == state_.end()) {
         auto s = std::make_unique<torch::optim::AdamParamState>();

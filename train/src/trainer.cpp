@@ -16,6 +16,7 @@
 #include "reefgen/rng.hpp"
 #include "reefgen/sha256.hpp"
 #include "reefgen/train/data.hpp"
+#include "reefgen/train/fused_adam.hpp"
 #include "reefgen/version.hpp"
 
 namespace reefgen::train {
@@ -115,12 +116,12 @@ std::string checkpoint_sha256(Pix2Pix& p, int64_t step, const torch::Tensor& win
                                        static_cast<torch::optim::Optimizer*>(&p.opt_D())}) {
     for (auto& group : opt->param_groups())
       for (auto& param : group.params()) {
-        auto it = opt->state().find(c10::guts::to_string(param.unsafeGetTensorImpl()));
-        if (it == opt->state().end()) {
+        const torch::optim::AdamParamState* found = adam_state(*opt, param);
+        if (!found) {
           h.update("no-state");
           continue;
         }
-        auto& st = static_cast<torch::optim::AdamParamState&>(*it->second);
+        const torch::optim::AdamParamState& st = *found;
         const int64_t n = st.step();
         h.update(&n, sizeof n);
         tensor(st.exp_avg());
@@ -148,9 +149,9 @@ void save_adam(torch::optim::Adam& opt, torch::serialize::OutputArchive& out) {
   for (auto& group : opt.param_groups())
     for (auto& param : group.params()) {
       const std::string key = std::to_string(k++);
-      auto it = opt.state().find(c10::guts::to_string(param.unsafeGetTensorImpl()));
-      if (it == opt.state().end()) continue;  // no step taken for it yet
-      auto& st = static_cast<torch::optim::AdamParamState&>(*it->second);
+      const torch::optim::AdamParamState* found = adam_state(opt, param);
+      if (!found) continue;  // no step taken for it yet
+      const torch::optim::AdamParamState& st = *found;
       out.write("step_" + key, torch::tensor(st.step(), torch::kInt64));
       out.write("exp_avg_" + key, st.exp_avg());
       out.write("exp_avg_sq_" + key, st.exp_avg_sq());
@@ -179,7 +180,7 @@ void load_adam(torch::optim::Adam& opt, torch::serialize::InputArchive& in, cons
       st->exp_avg(m.clone());
       st->exp_avg_sq(v.clone());
       if (in.try_read("max_exp_avg_sq_" + key, vmax)) st->max_exp_avg_sq(vmax.clone());
-      opt.state()[c10::guts::to_string(param.unsafeGetTensorImpl())] = std::move(st);
+      opt.state()[adam_state_key(param)] = std::move(st);
     }
   if (count.toInt() != k)
     throw Error(path.string() + ": optimizer state for " + std::to_string(count.toInt()) + " parameters, the network has " +
@@ -386,7 +387,7 @@ void sync_from_rank0(Comm& comm, Pix2Pix& p, int64_t& step) {
     std::vector<torch::optim::AdamParamState*> states;
     for (auto& group : opt->param_groups())
       for (auto& param : group.params()) {
-        auto& slot = opt->state()[c10::guts::to_string(param.unsafeGetTensorImpl())];
+        auto& slot = opt->state()[adam_state_key(param)];
         if (!slot) {  // a rank without the checkpoint: zero state, overwritten below
           auto fresh = std::make_unique<torch::optim::AdamParamState>();
           fresh->step(0);

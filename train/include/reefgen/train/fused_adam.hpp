@@ -17,6 +17,18 @@ class FusedAdam : public torch::optim::Adam {
   torch::Tensor step(LossClosure closure = nullptr) override;
 };
 
+// The key torch::optim::Adam files a parameter's state under (the address
+// of its TensorImpl, as text): FusedAdam, the checkpoints and the broadcast
+// of a resumed state all look it up here.
+inline std::string adam_state_key(const torch::Tensor& param) {
+  return c10::guts::to_string(param.unsafeGetTensorImpl());
+}
+// The Adam state of `param` in `opt`, or nullptr before its first step.
+inline torch::optim::AdamParamState* adam_state(torch::optim::Optimizer& opt, const torch::Tensor& param) {
+  auto it = opt.state().find(adam_state_key(param));
+  return it == opt.state().end() ? nullptr : static_cast<torch::optim::AdamParamState*>(it->second.get());
+}
+
 // Drops the gradients instead of filling them with zeros: the next backward
 // writes fresh ones (no fill pass, no accumulation pass over 54 M values).
 void clear_grads(const std::vector<torch::Tensor>& params);
