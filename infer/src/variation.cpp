@@ -23,13 +23,18 @@ cv::Mat1f reroll_land(const cv::Mat1f& height_m, double metres_per_px, uint64_t 
   const terrain::GradientNoise2 nx(derive_seed(seed, 0, "reroll-x")), ny(derive_seed(seed, 0, "reroll-y"));
   const float features_per_px = float(metres_per_px / kRerollFeatureM);
   const float k = float(variation * kRerollShiftShare);
+  // Each seed leans the massif its own way, seed n at n golden angles
+  // (137.5°) from seed 0, so consecutive seeds (the studio's Re-roll) lean
+  // far apart; the noise bends the lean across the island.
+  const double turn = std::fmod(double(seed % 1000003u) * kGoldenRatioConjugate, 1.0);
+  const float lean_u = float(kRerollLean * std::cos(2 * M_PI * turn)), lean_v = float(kRerollLean * std::sin(2 * M_PI * turn));
   cv::Mat1f mx(height_m.size()), my(height_m.size());
   for (int y = 0; y < height_m.rows; ++y)
     for (int x = 0; x < height_m.cols; ++x) {
-      // fBm of two octaves is mostly within ±0.6: stretched to use the
-      // whole unit disc, then held inside it (|shift| < distance).
-      float u = 1.6f * nx.fbm(float(x) * features_per_px, float(y) * features_per_px, 2);
-      float v = 1.6f * ny.fbm(float(x) * features_per_px, float(y) * features_per_px, 2);
+      // fBm of two octaves is mostly within ±0.6; the sum is held inside
+      // the unit disc (|shift| < distance).
+      float u = lean_u + float(kRerollBend) * nx.fbm(float(x) * features_per_px, float(y) * features_per_px, 2);
+      float v = lean_v + float(kRerollBend) * ny.fbm(float(x) * features_per_px, float(y) * features_per_px, 2);
       const float len = std::hypot(u, v);
       if (len > 1.f) u /= len, v /= len;
       const float d = k * dist(y, x);

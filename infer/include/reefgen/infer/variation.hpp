@@ -17,13 +17,17 @@ namespace reefgen::infer {
 // island's summit by up to ~700 m.
 inline constexpr double kRerollShiftShare = 0.7;
 // Size of the warp's features, m: an island's summit and main ridges
-// (two octaves, 6 and 3 km: a shift that turns the whole massif one way,
-// bent across it).
+// (two octaves, 4 and 2 km: a lean of the whole massif, bent across it).
 inline constexpr double kRerollFeatureM = 4000;
+// The lean (a share of the unit disc, in a direction of the seed's own:
+// seed n at n golden angles) and the bend (the noise's weight) of the shift.
+inline constexpr double kRerollLean = 0.7;
+inline constexpr double kRerollBend = 0.8;
+inline constexpr double kGoldenRatioConjugate = 0.6180339887498949;
 
 // h'(x) = h(x + v·k·D(x)·n(x)) on land (h > 0), k = kRerollShiftShare, v =
-// variation in [0, 1], D the distance to the nearest sea cell (px), n a
-// seeded noise vector with |n| ≤ 1. The sea is unchanged; land stays land.
+// variation in [0, 1], D the distance to the nearest sea cell (px), n the
+// seed's lean plus a seeded noise, held to |n| ≤ 1. The sea is unchanged; land stays land.
 // Pure in (height_m, cell size, seed, variation); any shape.
 cv::Mat1f reroll_land(const cv::Mat1f& height_m, double metres_per_px, uint64_t seed, double variation);
 
