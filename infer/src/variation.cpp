@@ -43,7 +43,7 @@ cv::Mat1f reroll_land(const cv::Mat1f& height_m, double metres_per_px, uint64_t 
     }
   cv::Mat1f warped;
   cv::remap(height_m, warped, mx, my, cv::INTER_CUBIC, cv::BORDER_REPLICATE);
-  // Bilinear taps next to the coast can reach a sea cell: land keeps the
+  // The cubic's taps next to the coast can reach a sea cell: land keeps the
   // land's floor (or its own height, if lower).
   for (int y = 0; y < height_m.rows; ++y)
     for (int x = 0; x < height_m.cols; ++x)
