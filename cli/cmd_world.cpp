@@ -290,12 +290,9 @@ WorldFields world_fields(const WorldArgs& a, const FinishFlags::Parsed& fin, mod
   t = std::chrono::steady_clock::now();
   if (!quiet) std::fprintf(stderr, "world: amplifying to %d² ...\n", N);
   Progress progress("world: last level, bands", size_t((N + infer::kWorldBandRowsPx - 1) / infer::kWorldBandRowsPx), quiet);
-  // Every island re-rolled by the seed (summit and ridges moved inside its
-  // land, infer/variation.hpp), then eroded anew at every size, as infer does.
-  terrain::ErosionParams ep = io.erosion;
-  if (a.variation > 0) ep.amplify_erode_at_model_side = true;
-  const cv::Mat1f rolled = infer::reroll_land(w.model_h, kModelMetresPerPx, a.seed, a.variation);
-  w.h = infer::amplify_world(rolled, w.region_model, N, w.world_m, a.seed, ep,
+  // Every island re-rolled by the seed, then eroded anew at every size, as infer does.
+  const infer::Rerolled r = infer::reroll_for_amplify(w.model_h, kModelMetresPerPx, a.seed, a.variation, io.erosion);
+  w.h = infer::amplify_world(r.height_m, w.region_model, N, w.world_m, a.seed, r.erosion,
                              [&](int done, int) { progress.tick(size_t(done)); }, {}, s.ruggedness);
   cv::min(cv::max(w.h, gen.range.lo_m), gen.range.hi_m, w.h);
   if (!quiet) std::fprintf(stderr, "world: amplified to %d² in %.1f s\n", w.h.cols, seconds_since(t));

@@ -160,13 +160,8 @@ std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<
     if (want.width == want.height && o.amplify && h.rows == h.cols) {
       cv::Mat1b label;
       cv::resize(sketches[i].label, label, want, 0, 0, cv::INTER_NEAREST);
-      terrain::ErosionParams ep = o.erosion;
-      // A re-rolled island is eroded at the model's side too: its valleys are its own.
-      if (o.variation > 0) {
-        h = reroll_land(h, o.world_size_m / h.cols, o.seed, o.variation);
-        ep.amplify_erode_at_model_side = true;
-      }
-      h = amplify_heights(h, label, o.world_size_m, o.seed, ep, true, sketches[i].ruggedness);
+      const Rerolled r = reroll_for_amplify(h, o.world_size_m / h.cols, o.seed, o.variation, o.erosion);
+      h = amplify_heights(r.height_m, label, o.world_size_m, o.seed, r.erosion, true, sketches[i].ruggedness);
       cv::min(cv::max(h, g.range.lo_m), g.range.hi_m, h);
     } else if (want.width <= h.cols && want.height <= h.rows && h.size() != want) {
       cv::resize(h, h, want, 0, 0, cv::INTER_AREA);

@@ -51,4 +51,11 @@ cv::Mat1f reroll_land(const cv::Mat1f& height_m, double metres_per_px, uint64_t 
   return out;
 }
 
+Rerolled reroll_for_amplify(const cv::Mat1f& height_m, double metres_per_px, uint64_t seed, double variation,
+                            const terrain::ErosionParams& erosion) {
+  Rerolled r{reroll_land(height_m, metres_per_px, seed, variation), erosion};
+  if (variation > 0) r.erosion.amplify_erode_at_model_side = true;
+  return r;
+}
+
 }  // namespace reefgen::infer

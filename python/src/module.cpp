@@ -57,6 +57,17 @@ void check_pair_index(int64_t index) {
                 "), the pairs a dataset can hold");
 }
 
+// A pair's conditioning as a dict: index, configuration, level, subsidence, split.
+py::dict conditioning(const augment::PairInfo& info) {
+  py::dict d;
+  d["index"] = info.index;
+  d["configuration"] = info.configuration;
+  d["level"] = info.level;
+  d["subsidence"] = info.subsidence;
+  d["split"] = augment::split_name(info.split);
+  return d;
+}
+
 // `reefgen dataset build`'s pair `index` for (config, seed): heights in
 // metres and the label map, the same numbers as its files hold.
 // with_info: also its conditioning (index, configuration, level, subsidence,
@@ -74,13 +85,7 @@ py::tuple pair(const std::string& config_json, uint64_t seed, int64_t index, boo
     label = rgb_of(encode_labels(pr.label, pr.subsidence));
   }
   if (!with_info) return py::make_tuple(to_numpy<float>(height), to_numpy<uint8_t>(label));
-  py::dict d;
-  d["index"] = info.index;
-  d["configuration"] = info.configuration;
-  d["level"] = info.level;
-  d["subsidence"] = info.subsidence;
-  d["split"] = augment::split_name(info.split);
-  return py::make_tuple(to_numpy<float>(height), to_numpy<uint8_t>(label), d);
+  return py::make_tuple(to_numpy<float>(height), to_numpy<uint8_t>(label), conditioning(info));
 }
 
 // A painted or generated label map -> (regions, subsidence, ruggedness): the
@@ -107,12 +112,7 @@ py::dict pair_info(const std::string& config_json, uint64_t seed, int64_t index)
     py::gil_scoped_release free_python;
     augment::make_pair(seed, index, p, &info);
   }
-  py::dict d;
-  d["index"] = info.index;
-  d["configuration"] = info.configuration;
-  d["level"] = info.level;
-  d["subsidence"] = info.subsidence;
-  d["split"] = augment::split_name(info.split);
+  py::dict d = conditioning(info);
   d["augmentation"] = info.augmentation.dump();
   return d;
 }

@@ -8,6 +8,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "reefgen/terrain/erosion.hpp"
+
 namespace reefgen::infer {
 
 // How far a cell's height may come from, as a share of the cell's distance
@@ -30,5 +32,15 @@ inline constexpr double kGoldenRatioConjugate = 0.6180339887498949;
 // seed's lean plus a seeded noise, held to |n| ≤ 1. The sea is unchanged; land stays land.
 // Pure in (height_m, cell size, seed, variation); any shape.
 cv::Mat1f reroll_land(const cv::Mat1f& height_m, double metres_per_px, uint64_t seed, double variation);
+
+// What infer and world amplify: the answer re-rolled (reroll_land) and the
+// amplification's params for it — a re-rolled island is eroded at the
+// model's side too, so its valleys are its own. variation 0: both unchanged.
+struct Rerolled {
+  cv::Mat1f height_m;
+  terrain::ErosionParams erosion;
+};
+Rerolled reroll_for_amplify(const cv::Mat1f& height_m, double metres_per_px, uint64_t seed, double variation,
+                            const terrain::ErosionParams& erosion);
 
 }  // namespace reefgen::infer
