@@ -80,6 +80,7 @@ int run_erode(const ErodeArgs& a0, const GlobalOptions& g) {
   engines::PlannedOutputs planned = engines::planned_outputs(names.prefix, fin.bundles);
   planned.files.push_back(names.height);  // -o may name the height file itself
   engines::refuse_outputs_over_inputs({a.input}, planned);
+  finish_interrupted_commits_around(a.input);
   gis::Heightmap in = gis::read_heightmap(a.input, a.units);
   check_square(in.height_m, a.input);
   check_cell_size(in.metres_per_px, a.input);

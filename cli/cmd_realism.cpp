@@ -125,12 +125,14 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
             std::optional<DecodedSketch> sketch;
             if (!a->sketch.empty()) {
               if (!fs::is_regular_file(a->sketch)) throw Error(a->sketch + ": no such sketch file");
+              finish_interrupted_commits_around(a->sketch);
               sketch = read_sketch(a->sketch);
             }
             if (!a->json)
               std::printf("%-40s %7s %9s %9s %9s %9s %8s %10s %10s\n", "file", "size", "land", "max_m", "pits", "terraces",
                           "valleys", "seams_rows", "seams_cols");
             for (const auto& f : a->files) {
+              finish_interrupted_commits_around(f);
               if (!fs::is_regular_file(f)) throw Error(f + ": no such file (expected an OpenEXR height file)");
               FileStats r;
               try {

@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # libFuzzer on reefgen's untrusted inputs: the sketch decoder, every
-# JSON config, the generator-file loader. Builds with clang + ASan + UBSan in
+# JSON config, the generator-file loader, the studio's requests, erode's
+# heightmaps. Builds with clang + ASan + UBSan in
 # build-fuzz/, fuzzes each TARGET for SECONDS, then merges what raised the
 # coverage into tests/fuzz/corpus/TARGET (replayed by ctest fuzz_corpus_*).
-#   bash scripts/fuzz.sh [sketch|config|generator|studio|all] [SECONDS=600]
+#   bash scripts/fuzz.sh [sketch|config|generator|studio|heightmap|all] [SECONDS=600]
 # Findings (crash-*, leak-*, oom-*, timeout-*) land in $FUZZ_OUT (default
 # /tmp/reefgen-fuzz/TARGET) and make the script exit non-zero.
 set -euo pipefail
@@ -11,7 +12,7 @@ cd "$(dirname "$0")/.."
 what=${1:-all}; secs=${2:-600}
 out=${FUZZ_OUT:-/tmp/reefgen-fuzz}
 command -v clang++ >/dev/null || { echo "fuzz: clang++ missing (apt-get install clang libclang-rt-14-dev)" >&2; exit 1; }
-targets=(sketch config generator studio); [ "$what" = all ] || targets=("$what")
+targets=(sketch config generator studio heightmap); [ "$what" = all ] || targets=("$what")
 cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER=clang++ \
   -DREEFGEN_FUZZ=ON >/dev/null
 ninja -C build-fuzz $(printf 'tests/fuzz_%s ' "${targets[@]}") >/dev/null

@@ -227,5 +227,47 @@ truncate -s 100 trunc/island_000000_l0.height.exr
 grep -q "wrote 1 islands (1 already there)" "$T/err" && cmp -s whole.exr trunc/island_000000_l0.height.exr \
   && ok || bad "22: a truncated island was kept on resume: $(cat "$T/err")"
 
+# 23. A reader finishes a commit cut short before it reads (the new set,
+# never a mix of two runs), and obeys no journal a user could plant.
+"$R" -q generate --preset atoll --size 64 -o cut/x >/dev/null && "$R" -q generate --preset young-volcano --size 64 -o cutnew/x >/dev/null
+dead=$(sh -c 'echo $$')
+{ echo "reefgen-commit-journal 1"
+  for f in height.exr label.png json; do cp "cutnew/x.$f" "cut/x.$f.tmp.$dead.$f"; printf '%s\t%s\n' "$PWD/cut/x.$f.tmp.$dead.$f" "$PWD/cut/x.$f"; done
+} > "cut/.reefgen.commit.$dead.0"
+echo mine > cut/notes.txt; echo precious > cut/thesis.txt
+printf 'reefgen-commit-journal 1\n%s\t%s\n' "$PWD/cut/notes.txt" "$PWD/cut/thesis.txt" > "cut/.reefgen.commit.$dead.1"
+"$R" realism cut/x.height.exr --json > cut.stats 2>"$T/err" || bad "23: realism over a cut commit: $(cat "$T/err")"
+"$R" realism cutnew/x.height.exr --json > new.stats
+cmp -s cut/x.json cutnew/x.json && cmp -s cut/x.height.exr cutnew/x.height.exr && [ "$(cut -d, -f2- cut.stats)" = "$(cut -d, -f2- new.stats)" ] \
+  && ok || bad "23: realism did not read the finished new set"
+[ -z "$(ls -A cut | grep -E 'reefgen.commit|\.tmp\.')" ] && ok || bad "23: journal or staged copies left: $(ls -A cut)"
+[ "$(cat cut/notes.txt)" = mine ] && [ "$(cat cut/thesis.txt)" = precious ] && ok || bad "23: a planted journal moved a user's file"
+
+# 24. erode refuses a heightmap too large from its header, before allocating:
+# an EXR declaring 30000² (3.6 GB of floats) and a PNG16 declaring 20000².
+rss_of() {  # rss_of ARGS...: peak RSS in MB of "$R ARGS..." (its exit status ignored)
+  "$PY" -c 'import resource, subprocess, sys
+subprocess.run(sys.argv[1:], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss // 1024)' "$R" "$@"
+}
+"$R" -q generate --preset atoll --size 64 -o big/a >/dev/null
+"$PY" - big/a.height.exr big/huge.exr <<'PY'
+import struct, sys
+b = bytearray(open(sys.argv[1], "rb").read())
+at = b.find(b"dataWindow\0box2i\0") + len(b"dataWindow\0box2i\0") + 4
+b[at:at + 16] = struct.pack("<4i", 0, 0, 29999, 29999)
+open(sys.argv[2], "wb").write(b)
+PY
+refuses "30000×30000 pixels; at most 8192" erode big/huge.exr --world-size 6000 -o big/e
+[ "$(rss_of erode big/huge.exr --world-size 6000 -o big/e)" -le 200 ] && ok || bad "24: erode's refusal of a 30000² EXR took > 200 MB"
+"$PY" - big/liar.png <<'PY'
+import struct, sys, zlib
+chunk = lambda t, d: struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d))
+ihdr = struct.pack(">IIBBBBB", 20000, 20000, 16, 0, 0, 0, 0)
+open(sys.argv[1], "wb").write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", bytes(777000)) + chunk(b"IEND", b""))
+PY
+refuses "20000×20000 pixels; at most 8192" erode big/liar.png --range 0:100 --world-size 6000 -o big/e
+[ "$(rss_of erode big/liar.png --range 0:100 --world-size 6000 -o big/e)" -le 200 ] && ok || bad "24: erode's refusal of a 20000² PNG16 took > 200 MB"
+
 echo "probe: $pass passed, $fail failed"
 [ $fail = 0 ]

@@ -315,3 +315,45 @@ TEST(StagedOutputs, ACommitCutShortIsFinishedByTheNextSweep) {
                     std::string(kCommitJournalHeader) + "\n");
   EXPECT_EQ(finish_interrupted_commits(dir), 0);
 }
+
+// A journal is obeyed only for renames a commit of ours would make: a
+// planted one (a dead process's name) cannot move a user's file over another
+// in the folder, reach outside the folder (by path or through "..") or be a
+// link; a real journal reached through a link to the folder still finishes.
+TEST(StagedOutputs, APlantedJournalMovesNoUserFile) {
+  const fs::path root = temp_dir("journal_planted");
+  const fs::path dir = root / "out", outside = root / "elsewhere";
+  fs::create_directories(dir);
+  fs::create_directories(outside);
+  write_text_atomic(dir / "notes.txt", "mine");
+  write_text_atomic(dir / "thesis.txt", "precious");
+  write_text_atomic(outside / "keys.txt", "secret");
+  write_text_atomic(outside / "x.tmp.1.0", "staged elsewhere");
+  // A dead process's id: a child that has exited and been reaped.
+  const pid_t dead = ::fork();
+  if (dead == 0) ::_exit(0);
+  ::waitpid(dead, nullptr, 0);
+  const std::string journal = std::string(kCommitJournalPrefix) + std::to_string(dead) + ".";
+  const auto plant = [&](const std::string& n, const fs::path& from, const fs::path& to) {
+    write_text_atomic(dir / (journal + n), std::string(kCommitJournalHeader) + "\n" + fs::absolute(from).string() +
+                                               "\t" + fs::absolute(to).string() + "\n");
+  };
+  plant("0", dir / "notes.txt", dir / "thesis.txt");           // not a staged copy
+  plant("1", dir / "thesis.txt", outside / "keys.txt");         // outside the folder
+  plant("2", outside / "x.tmp.1.0", dir / "thesis.txt");        // a source outside
+  plant("3", dir / ".." / "elsewhere" / "x.tmp.1.0", dir / "y");  // out through ".."
+  fs::create_symlink(fs::absolute(dir / (journal + "0")), dir / (journal + "9"));
+  EXPECT_EQ(finish_interrupted_commits(dir), 4) << "the planted journals are cleared, the link is not followed";
+  EXPECT_EQ(slurp(dir / "notes.txt"), "mine");
+  EXPECT_EQ(slurp(dir / "thesis.txt"), "precious");
+  EXPECT_EQ(slurp(outside / "keys.txt"), "secret");
+  EXPECT_EQ(slurp(outside / "x.tmp.1.0"), "staged elsewhere");
+  EXPECT_FALSE(fs::exists(dir / "y"));
+  // A real journal's rename, the folder reached through a link: finished.
+  fs::remove(dir / (journal + "9"));
+  write_text_atomic(dir / "z.tmp.1.0", "new");
+  plant("4", dir / "z.tmp.1.0", dir / "z.txt");
+  fs::create_directory_symlink(fs::absolute(dir), root / "link");
+  EXPECT_EQ(finish_interrupted_commits(root / "link"), 1);
+  EXPECT_EQ(slurp(dir / "z.txt"), "new");
+}

@@ -12,6 +12,8 @@
 
 #include <thread>
 
+#include <zlib.h>
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -744,4 +746,55 @@ TEST(StudioZip, StoredArchiveHasTheFilesAndTheirCrcs) {
   // Deterministic: the same files give the same bytes.
   EXPECT_EQ(zip, studio::zip_stored({{"a/hello.txt", "hello"}, {"a/empty", ""}}));
   EXPECT_THROW(studio::zip_stored({{"", "x"}}), Error);
+}
+
+namespace {
+// A PNG whose header declares side² pixels and whose body is `filler`
+// bytes of zeros (a hostile upload: small on the wire, huge decoded).
+std::string png_declaring(uint32_t side, size_t filler) {
+  const auto be32 = [](uint32_t v) {
+    return std::string{char(v >> 24), char(v >> 16 & 0xff), char(v >> 8 & 0xff), char(v & 0xff)};
+  };
+  const auto chunk = [&](const std::string& type, const std::string& data) {
+    const std::string td = type + data;
+    return be32(uint32_t(data.size())) + td +
+           be32(uint32_t(crc32(0, reinterpret_cast<const Bytef*>(td.data()), uInt(td.size()))));
+  };
+  const std::string ihdr = be32(side) + be32(side) + std::string("\x08\x02\x00\x00\x00", 5);
+  return std::string("\x89PNG\r\n\x1a\n", 8) + chunk("IHDR", ihdr) + chunk("IDAT", std::string(filler, '\0')) +
+         chunk("IEND", "");
+}
+}  // namespace
+
+// Eight uploads at once to each image route, each a PNG declaring 30000²
+// (2.7 GB decoded): every one refused in one line from its header, none
+// decoded, and the studio answers an island afterwards.
+TEST_F(Studio, HugeDeclaredImagesAreRefusedOnEveryRouteAtOnce) {
+  const std::string png = png_declaring(30000, 200000);
+  const std::string b64 = json{{"sketch_png", studio::base64_encode(png.data(), png.size())}}.dump();
+  struct Route {
+    std::string path, body, type;
+  };
+  const std::vector<Route> routes = {{"/api/infer", png, "image/png"},
+                                     {"/api/layers?view=flow", b64, "application/json"},
+                                     {"/api/export?format=exr&name=huge", b64, "application/json"}};
+  std::vector<std::unique_ptr<httplib::Result>> answers(routes.size() * 8);
+  std::vector<std::thread> burst;
+  for (size_t i = 0; i < answers.size(); ++i)
+    burst.emplace_back([&, i] {
+      httplib::Client c("127.0.0.1", port);
+      c.set_read_timeout(60, 0);
+      const Route& r = routes[i % routes.size()];
+      answers[i] = std::make_unique<httplib::Result>(c.Post(r.path, r.body, r.type));
+    });
+  for (auto& t : burst) t.join();
+  for (size_t i = 0; i < answers.size(); ++i) {
+    SCOPED_TRACE(routes[i % routes.size()].path);
+    expect_error(*answers[i], 400, "30000×30000 pixels; at most 1024");
+  }
+  EXPECT_FALSE(fs::exists(out / "exports" / "huge.height.exr"));
+  const std::string sketch = file_bytes(kRoot / "docs" / "examples" / "painted-sketch.png");
+  auto r = client->Post("/api/infer", sketch, "image/png");
+  ASSERT_TRUE(r) << "the studio stopped answering";
+  EXPECT_EQ(r->status, 200) << r->body;
 }

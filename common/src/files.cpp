@@ -136,12 +136,41 @@ fs::path write_commit_journal(const std::vector<fs::path>& temps, const std::vec
 
 }  // namespace detail
 
+namespace {
+// Whether `in` lies inside `folder` (through links and ../ alike).
+bool lies_inside(const fs::path& in, const fs::path& folder) {
+  std::error_code e1, e2;
+  const fs::path a = fs::weakly_canonical(fs::absolute(in), e1), f = fs::weakly_canonical(fs::absolute(folder), e2);
+  if (e1 || e2) return false;
+  const fs::path rel = a.lexically_relative(f);
+  return !rel.empty() && *rel.begin() != ".." && rel != ".";
+}
+
+// A journal's line is only a rename a commit of ours would make: both paths
+// inside the journal's folder (its sidecar's; bundle folders below it), and
+// the source a staged copy — a temporary name (NAME.tmp.PID.N) or a file a
+// resumable run kept in its PREFIX.partial/. A planted journal can then not
+// move a user's file over another, nor reach outside the folder.
+bool a_commit_would_rename(const fs::path& tmp, const fs::path& final_path, const fs::path& dir) {
+  if (!tmp.is_absolute() || !final_path.is_absolute() || tmp == final_path) return false;
+  if (!lies_inside(tmp, dir) || !lies_inside(final_path, dir)) return false;
+  if (tmp.filename().string().find(".tmp.") != std::string::npos) return true;
+  std::error_code e1, e2;
+  const fs::path rel = fs::weakly_canonical(tmp, e1).lexically_relative(fs::weakly_canonical(dir, e2));
+  for (const auto& part : rel)
+    if (part.extension() == ".partial") return true;
+  return false;
+}
+}  // namespace
+
 int finish_interrupted_commits(const fs::path& dir) {
   std::error_code ec;
   int finished = 0;
+  const fs::path here = fs::absolute(dir, ec);
   for (const auto& e : fs::directory_iterator(dir, ec)) {
     const std::string name = e.path().filename().string();
-    if (name.rfind(kCommitJournalPrefix, 0) != 0 || !e.is_regular_file(ec)) continue;
+    // A link named like a journal is not one of ours.
+    if (name.rfind(kCommitJournalPrefix, 0) != 0 || !fs::is_regular_file(fs::symlink_status(e.path(), ec))) continue;
     const std::string rest = name.substr(std::strlen(kCommitJournalPrefix));
     const std::string pid_text = rest.substr(0, rest.find('.'));
     if (pid_text.empty() || pid_text.find_first_not_of("0123456789") != std::string::npos) continue;
@@ -154,6 +183,7 @@ int finish_interrupted_commits(const fs::path& dir) {
       const size_t tab = line.find('\t');
       if (tab == std::string::npos) continue;
       const fs::path tmp = line.substr(0, tab), final_path = line.substr(tab + 1);
+      if (!a_commit_would_rename(tmp, final_path, here)) continue;
       std::error_code rc;
       // Renamed already, or gone: nothing to finish for this file.
       if (!fs::is_regular_file(fs::symlink_status(tmp, rc))) continue;
@@ -165,6 +195,14 @@ int finish_interrupted_commits(const fs::path& dir) {
     ++finished;
   }
   return finished;
+}
+
+void finish_interrupted_commits_around(const fs::path& file) {
+  std::error_code ec;
+  const fs::path dir = fs::absolute(file, ec).parent_path();
+  if (ec) return;
+  finish_interrupted_commits(dir);
+  if (dir.has_parent_path() && dir.parent_path() != dir) finish_interrupted_commits(dir.parent_path());
 }
 
 using detail::commit_temp;
@@ -580,17 +618,6 @@ int remove_stale_temps(const fs::path& dir) {
   }
   return removed;
 }
-
-namespace {
-// Whether `in` lies inside `folder` (through links and ../ alike).
-bool lies_inside(const fs::path& in, const fs::path& folder) {
-  std::error_code e1, e2;
-  const fs::path a = fs::weakly_canonical(fs::absolute(in), e1), f = fs::weakly_canonical(fs::absolute(folder), e2);
-  if (e1 || e2) return false;
-  const fs::path rel = a.lexically_relative(f);
-  return !rel.empty() && *rel.begin() != ".." && rel != ".";
-}
-}  // namespace
 
 void refuse_output_over_input(const std::vector<fs::path>& inputs, const std::vector<fs::path>& outputs,
                               const std::vector<fs::path>& output_folders) {

@@ -118,9 +118,14 @@ cv::Size declared_image_size(const std::string& b) {
 
 cv::Mat decode_image(const std::string& bytes, const std::string& name, int flags, int max_side) {
   if (bytes.empty()) throw Error(name + ": empty file, not an image");
-  if (const cv::Size d = declared_image_size(bytes); d.width > max_side || d.height > max_side)
+  const cv::Size d = declared_image_size(bytes);
+  if (d.width > max_side || d.height > max_side)
     throw Error(name + ": " + std::to_string(d.width) + "×" + std::to_string(d.height) + " pixels; at most " +
                 std::to_string(max_side) + " a side here (scale the image down first)");
+  // No size read from a header (another format OpenCV knows, PNM or HDR,
+  // or a header cut short): nothing bounds what decoding would allocate.
+  if (d.width <= 0 || d.height <= 0)
+    throw Error(name + ": not an image reefgen can decode (PNG, JPEG, TIFF, BMP or WebP; save it as PNG)");
   if (const std::string bad = image_damage(bytes); !bad.empty())
     throw Error(name + ": " + bad + "; save or download the image again");
   // IMREAD_UNCHANGED also ignores a JPEG's EXIF orientation, so a phone
@@ -277,13 +282,19 @@ void write_exr_channel(const fs::path& path, const cv::Mat1f& height_m, const st
   commit_temp(tmp, path);
 }
 
-cv::Mat1f read_exr_height(const fs::path& path, ExrAttributes* attrs) {
+cv::Mat1f read_exr_height(const fs::path& path, ExrAttributes* attrs, int max_side) {
   if (!fs::exists(path)) throw Error("cannot read " + path.string() + ": no such file");
   try {
     Imf::InputFile in(path.c_str());
     const auto& h = in.header();
     const auto dw = h.dataWindow();
-    const int w = dw.max.x - dw.min.x + 1, rows = dw.max.y - dw.min.y + 1;
+    // In 64 bits: a hostile window's corners overflow an int's difference.
+    const int64_t w64 = int64_t(dw.max.x) - dw.min.x + 1, rows64 = int64_t(dw.max.y) - dw.min.y + 1;
+    if (w64 > max_side || rows64 > max_side)
+      throw Error(path.string() + ": " + std::to_string(w64) + "×" + std::to_string(rows64) + " pixels; at most " +
+                  std::to_string(max_side) + " a side here (resample it first)");
+    if (w64 < 1 || rows64 < 1) throw Error(path.string() + ": an empty EXR (its data window holds no pixel)");
+    const int w = int(w64), rows = int(rows64);
     std::string channel = "Y";
     if (!h.channels().findChannel("Y")) {
       auto it = h.channels().begin();

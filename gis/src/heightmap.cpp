@@ -53,7 +53,7 @@ Heightmap read_heightmap(const std::filesystem::path& p, const HeightmapUnits& u
   const std::string ext = lower_extension(p);
   if (ext == ".exr") {
     ExrAttributes attrs;
-    m.height_m = read_exr_height(p, &attrs);
+    m.height_m = read_exr_height(p, &attrs, kMaxSidePx);
     own_mpp = exr_metres_per_px(attrs);
     m.format = "exr";
   } else if (ext == ".tif" || ext == ".tiff") {

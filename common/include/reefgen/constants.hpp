@@ -28,5 +28,8 @@ inline constexpr int kMaxSidePx = 8192;
 // The largest side any user image is decoded at, px, checked from its header
 // first: 16384² RGBA is 1 GiB (the studio and erode set lower limits).
 inline constexpr int kMaxImageSidePx = 16384;
+// The largest height field read whole, px: a world's 16385² field (1 GiB of
+// floats); a file declaring more is refused from its header.
+inline constexpr int kMaxFieldSidePx = 16385;
 
 }  // namespace reefgen

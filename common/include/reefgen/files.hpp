@@ -139,6 +139,12 @@ int remove_stale_temps(const fs::path& dir);
 // a kill during a commit leaves the new set, never a mix of two runs.
 // Returns how many journals were finished.
 int finish_interrupted_commits(const fs::path& dir);
+// Before a command reads files another run wrote (realism, erode): a commit
+// cut short in the file's folder or the one above it (a bundle's file sits
+// one below its sidecar) is finished first, so the reader sees one run's
+// set, never a mix. Finishing needs the folder writable; where it is not,
+// the files are read as they are.
+void finish_interrupted_commits_around(const fs::path& file);
 constexpr const char* kCommitJournalPrefix = ".reefgen.commit.";
 constexpr const char* kCommitJournalHeader = "reefgen-commit-journal 1";
 namespace detail {

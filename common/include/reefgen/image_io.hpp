@@ -52,8 +52,9 @@ void write_exr_height(const fs::path& path, const cv::Mat1f& height_m, const Exr
 void write_exr_channel(const fs::path& path, const cv::Mat1f& values, const std::string& channel,
                        const ExrAttributes& attrs = {}, int zip_level = 6);
 // Reads channel "Y" (or the only channel) of an EXR file; attributes of string
-// type are returned in `attrs` when not null.
-cv::Mat1f read_exr_height(const fs::path& path, ExrAttributes* attrs = nullptr);
+// type are returned in `attrs` when not null. A side past `max_side` (read
+// from the header, before anything is allocated) is an Error naming it.
+cv::Mat1f read_exr_height(const fs::path& path, ExrAttributes* attrs = nullptr, int max_side = kMaxFieldSidePx);
 // The same field read a band of rows at a time (a world larger than memory):
 // size and attributes from the header, rows(y0, n) the rows y0 … y0 + n − 1.
 class ExrRowReader {
