@@ -192,6 +192,17 @@ if command -v gdal_translate >/dev/null; then
   expect_error "geographic (degrees" erode "$T/er/deg.tif" -o "$T/e/x"
   gdal_translate -q -a_ullr 0 0 6000 6000 "$T/er/we.height.tif" "$T/er/southup.tif" 2>/dev/null
   expect_error "south-up" erode "$T/er/southup.tif" -o "$T/e/x"
+  # The fixes the two refusals name work: the gdalwarp the degrees' refusal
+  # prints, run as printed (the place's UTM zone, 56 south here, a square
+  # grid), and a north-up copy of the south-up file both erode.
+  "$BIN" erode "$T/er/deg.tif" -o "$T/e/x" 2>"$T/deg.err" >/dev/null
+  fix=$(sed -n 's/.*metres first: \(gdalwarp .*\)$/\1/p' "$T/deg.err")
+  case "$fix" in *"EPSG:32756 "*) ok ;; *) bad "the degrees' refusal names no UTM zone 56 S: $(cat "$T/deg.err")" ;; esac
+  (eval "$fix -q") 2>/dev/null && "$BIN" -q erode "$T/er/deg.utm.tif" -o "$T/er/fixed-utm" >/dev/null 2>"$T/err" \
+    && [ -s "$T/er/fixed-utm.height.exr" ] && ok || bad "erode after the gdalwarp its refusal names ($fix): $(cat "$T/err")"
+  gdalwarp -q "$T/er/southup.tif" "$T/er/north-up.tif" 2>/dev/null \
+    && "$BIN" -q erode "$T/er/north-up.tif" -o "$T/er/fixed-north" >/dev/null 2>"$T/err" && [ -s "$T/er/fixed-north.height.exr" ] \
+    && ok || bad "erode after the gdalwarp its south-up refusal names: $(cat "$T/err")"
 fi
 # An input inside the bundle folder the run writes (through ../ too) is refused, untouched.
 "$BIN" -q erode "$T/er/w.height.exr" -o "$T/er/b" --for gis >/dev/null 2>"$T/err" || bad "erode --for gis: $(cat "$T/err")"

@@ -7,6 +7,7 @@
 #include <ogr_srs_api.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -128,6 +129,54 @@ void write_geotiff(const std::filesystem::path& path, const cv::Mat1f& band, dou
   if (!ok) throw Error("cannot write " + path.string() + ": " + write_failure(path, c.total() * sizeof(float)));
 }
 
+namespace {
+
+// gdalwarp arguments that turn a W×H geographic raster with geotransform
+// `gt` into a square grid in metres: the UTM zone of its centre (EPSG
+// 326zz north, 327zz south), the largest square inside the projected
+// footprint (no pixel outside the source, so no filled corners), max(W, H)
+// pixels a side. "" where UTM does not reach (beyond 84° N / 80° S) or PROJ
+// cannot convert the CRS.
+std::string metric_warp_args(const std::string& wkt, const double gt[6], int W, int H) {
+  const double lon = gt[0] + gt[1] * W / 2, lat = gt[3] + gt[5] * H / 2;
+  if (!(lon >= -180 && lon <= 180 && lat >= -80 && lat <= 84)) return "";
+  const int zone = std::clamp(int(std::floor((lon + 180) / 6)) + 1, 1, 60);
+  const int epsg = (lat >= 0 ? 32600 : 32700) + zone;
+  OGRSpatialReferenceH src = OSRNewSpatialReference(wkt.c_str()), dst = OSRNewSpatialReference(nullptr);
+  std::string args;
+  if (src && dst && OSRImportFromEPSG(dst, epsg) == OGRERR_NONE) {
+    OSRSetAxisMappingStrategy(src, OAMS_TRADITIONAL_GIS_ORDER);
+    OSRSetAxisMappingStrategy(dst, OAMS_TRADITIONAL_GIS_ORDER);
+    if (OGRCoordinateTransformationH ct = OCTNewCoordinateTransformation(src, dst)) {
+      // Corners: top-left, top-right, bottom-left, bottom-right.
+      double x[4] = {gt[0], gt[0] + gt[1] * W, gt[0], gt[0] + gt[1] * W};
+      double y[4] = {gt[3], gt[3], gt[3] + gt[5] * H, gt[3] + gt[5] * H};
+      if (OCTTransform(ct, 4, x, y, nullptr)) {
+        const double x0 = std::max(x[0], x[2]), x1 = std::min(x[1], x[3]);
+        const double y0 = std::max(y[2], y[3]), y1 = std::min(y[0], y[1]);
+        // A whole number of millimetres per cell and corners on millimetres:
+        // the extent printed is exactly N cells of one size both ways.
+        const int n = std::max(W, H);
+        const double cell = std::floor(std::min(x1 - x0, y1 - y0) / n * 1000) / 1000;
+        const double left = std::round(((x0 + x1) / 2 - cell * n / 2) * 1000) / 1000;
+        const double bottom = std::round(((y0 + y1) / 2 - cell * n / 2) * 1000) / 1000;
+        if (cell > 0) {
+          char buf[256];
+          std::snprintf(buf, sizeof buf, "-t_srs EPSG:%d -te %.3f %.3f %.3f %.3f -ts %d %d -r bilinear", epsg, left,
+                        bottom, left + cell * n, bottom + cell * n, n, n);
+          args = buf;
+        }
+      }
+      OCTDestroyCoordinateTransformation(ct);
+    }
+  }
+  if (src) OSRDestroySpatialReference(src);
+  if (dst) OSRDestroySpatialReference(dst);
+  return args;
+}
+
+}  // namespace
+
 GeoRaster read_geotiff(const std::filesystem::path& path, int max_side) {
   init_gdal();
   std::error_code ec;
@@ -140,9 +189,11 @@ GeoRaster read_geotiff(const std::filesystem::path& path, int max_side) {
   GeoRaster r;
   const int W = GDALGetRasterXSize(ds), H = GDALGetRasterYSize(ds);
   double gt[6];
-  if (GDALGetGeoTransform(ds, gt) == CE_None && gt[2] == 0 && gt[4] == 0) {
+  const bool has_gt = GDALGetGeoTransform(ds, gt) == CE_None && gt[2] == 0 && gt[4] == 0;
+  if (has_gt) {
     r.metres_per_px = std::abs(gt[1]);
-    r.square_pixels = std::abs(std::abs(gt[1]) - std::abs(gt[5])) <= 1e-9 * std::abs(gt[1]);
+    // Within a millionth: a grid GDAL made from a printed extent differs by rounding.
+    r.square_pixels = std::abs(std::abs(gt[1]) - std::abs(gt[5])) <= 1e-6 * std::abs(gt[1]);
     r.south_up = gt[5] > 0;
   }
   if (const char* p = GDALGetProjectionRef(ds)) r.crs_wkt = p;
@@ -153,6 +204,7 @@ GeoRaster read_geotiff(const std::filesystem::path& path, int max_side) {
       OSRDestroySpatialReference(srs);
     }
   }
+  if (r.geographic && has_gt && !r.south_up) r.metric_warp_args = metric_warp_args(r.crs_wkt, gt, W, H);
   if (W > max_side || H > max_side) {
     GDALClose(ds);
     throw Error(path.string() + ": " + std::to_string(W) + "×" + std::to_string(H) + " pixels; at most " +

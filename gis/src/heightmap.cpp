@@ -59,9 +59,15 @@ Heightmap read_heightmap(const std::filesystem::path& p, const HeightmapUnits& u
   } else if (ext == ".tif" || ext == ".tiff") {
     GeoRaster r = read_geotiff(p, kMaxSidePx);
     // Degrees read as metres made 0.00028 m cells: hours of erosion, nonsense out.
-    if (r.geographic)
-      throw Error(p.string() + ": its CRS is geographic (degrees, e.g. EPSG:4326); reproject it to metres first, e.g. "
-                  "gdalwarp -t_srs EPSG:32706 (the UTM zone of the place) " + p.string() + " metres.tif");
+    if (r.geographic) {
+      // The exact command where it can be worked out (UTM zone, a square grid erode takes).
+      const std::filesystem::path out = p.parent_path() / (p.stem().string() + ".utm.tif");
+      throw Error(p.string() + ": its CRS is geographic (degrees, e.g. EPSG:4326); reproject it to a square grid in "
+                  "metres first: gdalwarp " +
+                  (r.metric_warp_args.empty() ? std::string("-t_srs EPSG:326zz (the UTM zone of the place) -ts N N")
+                                              : r.metric_warp_args) +
+                  " " + p.string() + " " + out.string());
+    }
     if (r.south_up)
       throw Error(p.string() + ": it is stored south-up (positive pixel height); make it north-up first: gdalwarp " +
                   p.string() + " north-up.tif");

@@ -42,6 +42,11 @@ struct GeoRaster {
   std::string crs_wkt;         // "" = none
   bool geographic = false;     // the CRS is in degrees (e.g. EPSG:4326): the pixel size is not metres
   bool south_up = false;       // positive pixel height: row 0 is the south edge
+  // For a geographic raster: the arguments of a gdalwarp that makes it a
+  // square metre grid (its place's UTM zone, the largest square inside its
+  // footprint, as many pixels a side as its longer side); "" when none
+  // can be worked out (no geotransform, polar, a CRS PROJ cannot convert).
+  std::string metric_warp_args;
 };
 // Reads a GeoTIFF (any GDAL raster, in fact) band 1 as float32. Refuses a
 // missing file, a folder, a file GDAL cannot open, one wider or taller than
