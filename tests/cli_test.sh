@@ -200,6 +200,11 @@ if command -v gdal_translate >/dev/null; then
   case "$fix" in *"EPSG:32756 "*) ok ;; *) bad "the degrees' refusal names no UTM zone 56 S: $(cat "$T/deg.err")" ;; esac
   (eval "$fix -q") 2>/dev/null && "$BIN" -q erode "$T/er/deg.utm.tif" -o "$T/er/fixed-utm" >/dev/null 2>"$T/err" \
     && [ -s "$T/er/fixed-utm.height.exr" ] && ok || bad "erode after the gdalwarp its refusal names ($fix): $(cat "$T/err")"
+  gdal_translate -q -srcwin 0 0 128 100 "$T/er/we.height.tif" "$T/er/wide.tif" 2>/dev/null
+  expect_error "crop or pad it to N×N (gdal_translate -srcwin)" erode "$T/er/wide.tif" -o "$T/e/x"
+  gdal_translate -q -srcwin 0 0 100 100 "$T/er/wide.tif" "$T/er/cropped.tif" 2>/dev/null \
+    && "$BIN" -q erode "$T/er/cropped.tif" -o "$T/er/fixed-crop" >/dev/null 2>"$T/err" && [ -s "$T/er/fixed-crop.height.exr" ] \
+    && ok || bad "erode after the gdal_translate -srcwin its refusal names: $(cat "$T/err")"
   gdalwarp -q "$T/er/southup.tif" "$T/er/north-up.tif" 2>/dev/null \
     && "$BIN" -q erode "$T/er/north-up.tif" -o "$T/er/fixed-north" >/dev/null 2>"$T/err" && [ -s "$T/er/fixed-north.height.exr" ] \
     && ok || bad "erode after the gdalwarp its south-up refusal names: $(cat "$T/err")"
