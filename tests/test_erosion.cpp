@@ -157,6 +157,55 @@ TEST(Flood, DrainPitsShapedLikeAValleyLeaveNothingFlat) {
   EXPECT_GT(shaped(cut_y - 2, 71), shaped(cut_y - 1, 71));
 }
 
+// A breach follows the depression's own low ground, not the flood's queue:
+// a round basin (rim 12 m, its floor falling 5 % to the channel) whose lowest ground is a channel
+// curving round its north side from the pit (west, 7.5 m) to a saddle (east,
+// 10 m) that spills to the sea. The flood crosses the filled basin in a
+// straight row from the saddle to the pit, and a breach along that row cut
+// a straight trench through the floor; the least-cost route keeps to the
+// channel. Nothing more than two cells off the channel (or near the saddle's
+// notch) is lowered by more than 0.1 m (the flood's route: 300 cells), and no
+// pit is left.
+TEST(Flood, ABreachFollowsTheDepressionsLowGround) {
+  const int N = 64;
+  const double cell_m = 2;
+  cv::Mat1f h(N, N, 12.f);
+  cv::Mat1b channel(N, N, uchar(0));
+  for (int y = 0; y < N; ++y)
+    for (int x = 0; x < N; ++x) {
+      if (x >= 60) h(y, x) = -5.f;                                    // the sea, east
+      if (std::hypot(x - 30, y - 30) <= 22) h(y, x) = 9.f;             // the basin's floor
+      const double r = std::hypot(x - 32, y - 30), a = std::atan2(30 - y, x - 32);  // north: a > 0
+      if (std::abs(r - 16) <= 1.2 && y <= 30) {                          // the channel's arc, west to east
+        channel(y, x) = 255;
+        h(y, x) = float(7.5 + 1.0 * (1 - a / M_PI));
+      }
+    }
+  for (int x = 47; x < 60; ++x) {  // from the arc's east end to the saddle, then down to the sea
+    channel(30, x) = 255;
+    h(30, x) = x < 53 ? 8.6f : x == 53 ? 10.f : float(10 - 1.5 * (x - 53));
+  }
+  // The basin's floor slopes down to the channel (5 %), as a valley's sides do.
+  cv::Mat1f to_channel;
+  cv::distanceTransform(255 - channel, to_channel, cv::DIST_L2, 5);
+  for (int y = 0; y < N; ++y)
+    for (int x = 0; x < N; ++x)
+      if (h(y, x) == 9.f) h(y, x) = std::min(11.5f, 8.6f + 0.1f * to_channel(y, x));
+  ASSERT_GT(cells_in_pits(h), 500);
+  cv::Mat1f d = h.clone();
+  ASSERT_GT(drain_pits(d, 0.5f, 5.f, cell_m), 0);
+  EXPECT_EQ(cells_in_pits(d), 0);
+  cv::Mat1b near_channel;
+  cv::dilate(channel, near_channel, cv::Mat(), cv::Point(-1, -1), 2);  // the channel and two cells either side
+  int lowered_off_channel = 0;
+  for (int y = 0; y < N; ++y)
+    for (int x = 0; x < N; ++x)
+      lowered_off_channel += d(y, x) < h(y, x) - 0.1f && !near_channel(y, x) && std::hypot(x - 53, y - 30) > 6;
+  EXPECT_EQ(lowered_off_channel, 0);
+  // The channel itself was cut to drain: it falls from the pit to the saddle.
+  EXPECT_LT(d(30, 53), 10.f);
+}
+
 // Graded, a straight flat lowland valley (the kind erosion leaves cut down
 // to the land's floor: 130 cells at 0.1 m between sides rising 5 %) falls
 // towards the sea at kLandMinSlope: no straight flat channel is left, every

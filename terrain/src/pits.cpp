@@ -1,8 +1,10 @@
 #include "reefgen/terrain/pits.hpp"
 
 #include <algorithm>
+#include <cstring>
 #include <cmath>
 #include <limits>
+#include <queue>
 #include <unordered_map>
 #include <vector>
 
@@ -43,6 +45,80 @@ SpillPaths spill_paths(const FloodRoute& fr, const float* z, const float* spill,
     s.dist_m[size_t(i)] = (r_in ? s.dist_m[size_t(r)] : 0.f) + step;
   }
   return s;
+}
+
+// How much more a step over ground one metre above its depression's lowest
+// cell costs than a step along that lowest ground (per metre of step): the
+// least-cost route keeps to the depression's own valley floor.
+constexpr double kRouteFlatCost = 0.05;
+
+// Least-cost routes to the spill point inside each depression (Lindsay
+// 2016's least-cost breaching, restricted to the depression): the flood's
+// own route crosses a filled depression in straight rows and diagonals (its
+// queue order on the flat fill), and a breach carved along it is a straight
+// trench across whatever relief the depression holds. Dijkstra from every
+// spill cell over the cells of its depression, a step costing its length
+// times (kRouteFlatCost + height above the depression's lowest cell), gives
+// each depression cell a receiver along its low ground and the length of
+// that route (m). Outside depressions receiver is -1.
+struct LowRoutes {
+  std::vector<int> receiver;
+  std::vector<float> dist_m;
+};
+LowRoutes low_routes(const SpillPaths& sp, const float* z, const float* spill, float max_depth_m, int cols, int rows,
+                     double cell_m) {
+  const size_t n = sp.spill_cell.size();
+  LowRoutes r{std::vector<int>(n, -1), std::vector<float>(n, 0.f)};
+  // Only depressions with a cell deeper than max_depth_m are drained; the
+  // many shallower ones keep the flood's route (nothing walks it). low[s]:
+  // the lowest height of the depression that spills at s (NaN: none).
+  std::vector<float> low(n, std::numeric_limits<float>::quiet_NaN());
+  std::vector<int> seeds;
+  for (size_t i = 0; i < n; ++i)
+    if (const int s = sp.spill_cell[i]; s >= 0 && z[i] > 0 && z[i] < spill[i] - max_depth_m) {
+      if (std::isnan(low[size_t(s)])) seeds.push_back(s);
+      low[size_t(s)] = std::isnan(low[size_t(s)]) ? z[i] : std::min(low[size_t(s)], z[i]);
+    }
+  // Costs in cell lengths (the same routes as in metres). A queue item packs
+  // (cost, cell) in 64 bits: a non-negative float's bits order as the float
+  // does, and ties go by cell index, so the routes are deterministic.
+  std::vector<float> cost(n, std::numeric_limits<float>::infinity());
+  const auto item = [](float c, int i) {
+    uint32_t bits;
+    std::memcpy(&bits, &c, sizeof bits);
+    return uint64_t(bits) << 32 | uint32_t(i);
+  };
+  std::priority_queue<uint64_t, std::vector<uint64_t>, std::greater<uint64_t>> queue;
+  for (const int s : seeds) cost[size_t(s)] = 0, queue.push(item(0.f, s));
+  while (!queue.empty()) {
+    const uint64_t top = queue.top();
+    queue.pop();
+    const int u = int(uint32_t(top));
+    const uint32_t bits = uint32_t(top >> 32);
+    float c;
+    std::memcpy(&c, &bits, sizeof c);
+    if (c > cost[size_t(u)]) continue;
+    // The spill cell is its depression's label; it lies outside the depression.
+    const int label = sp.spill_cell[size_t(u)] >= 0 ? sp.spill_cell[size_t(u)] : u;
+    const float floor_m = low[size_t(label)];
+    const int uy = u / cols, ux = u % cols;
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int y = uy + dy, x = ux + dx;
+        if ((dx == 0 && dy == 0) || y < 0 || x < 0 || y >= rows || x >= cols) continue;
+        const int v = y * cols + x;
+        if (sp.spill_cell[size_t(v)] != label) continue;  // another depression, or none
+        const float step = dx && dy ? float(M_SQRT2) : 1.f;
+        const float next = c + step * (float(kRouteFlatCost) + std::max(0.f, z[v] - floor_m));
+        if (next < cost[size_t(v)]) {
+          cost[size_t(v)] = next;
+          r.receiver[size_t(v)] = u;
+          r.dist_m[size_t(v)] = r.dist_m[size_t(u)] + float(cell_m) * step;
+          queue.push(item(next, v));
+        }
+      }
+  }
+  return r;
 }
 
 // The banks of a breach: every cell within kBreachBankMaxPx of a cut cell c
@@ -135,15 +211,22 @@ int64_t drain_pits(cv::Mat1f& h, float max_depth_m, float breach_m, double cell_
   // point at kDrainFloorSlope, lowest there, as high as the flat floor at the
   // depression's far end.
   SpillPaths paths;
+  LowRoutes routes;
   std::unordered_map<int, float> longest_m;
   if (valley) {
     paths = spill_paths(fr, z, spill, h.cols, cell_m);
+    routes = low_routes(paths, z, spill, max_depth_m, h.cols, h.rows, cell_m);
     for (int i = 0; i < n; ++i)
       if (z[i] > 0 && z[i] < spill[i] - max_depth_m && paths.spill_cell[size_t(i)] >= 0) {
         float& l = longest_m[paths.spill_cell[size_t(i)]];
-        l = std::max(l, paths.dist_m[size_t(i)]);
+        l = std::max(l, routes.dist_m[size_t(i)]);
       }
   }
+  // Where water goes from cell i: along its depression's low ground when
+  // shaped like a valley, else (and outside depressions) the flood's route.
+  const auto next_of = [&](int i) {
+    return valley && routes.receiver[size_t(i)] >= 0 ? routes.receiver[size_t(i)] : fr.receiver[size_t(i)];
+  };
   // Filled: a closed depression deeper than breach_m is raised to breach_m
   // below its spill level (a lake floor; falling to the spill point when
   // shaped like a valley); what is left is breached below.
@@ -158,7 +241,7 @@ int64_t drain_pits(cv::Mat1f& h, float max_depth_m, float breach_m, double cell_
       // land's floor would run on flat (a slot at 0.1 m to the sea).
       const float depth = std::clamp(spill[i] - kLandFloorM - float(kBreachRoomM) - slope * longest, max_depth_m,
                                      lake_floor_m);
-      floor = spill[i] - depth - slope * (longest - paths.dist_m[size_t(i)]);
+      floor = spill[i] - depth - slope * (longest - routes.dist_m[size_t(i)]);
     }
     if (z[i] < floor) z[i] = floor, moved[size_t(i)] = 1;
     pits.push_back(i);
@@ -181,7 +264,7 @@ int64_t drain_pits(cv::Mat1f& h, float max_depth_m, float breach_m, double cell_
     for (const int i : pits) {
       float level = z[i];
       int from = i;
-      for (int j = fr.receiver[size_t(i)]; j != i;) {
+      for (int j = next_of(i); j != i;) {
         const bool diagonal = (from % h.cols != j % h.cols) && (from / h.cols != j / h.cols);
         // Never below the land's floor (kLandFloorM): on a low plain a fall
         // carried to the sea would cut a straight slot down to 0 m.
@@ -197,7 +280,7 @@ int64_t drain_pits(cv::Mat1f& h, float max_depth_m, float breach_m, double cell_
         }
         level = z[j];
         drains[size_t(j)] = 1;
-        const int next = fr.receiver[size_t(j)];
+        const int next = next_of(j);
         if (next == j) break;  // an outlet: the sea or the canvas edge
         from = j;
         j = next;
