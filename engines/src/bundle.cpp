@@ -1,4 +1,5 @@
 #include "reefgen/engines/bundle.hpp"
+#include "reefgen/engines/unity_importer.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -115,6 +116,10 @@ nlohmann::json stage_unity_tiles(StagedOutputs& staged, const fs::path& dir, con
     f["position_m"] = {width_m * f["x"].get<int>() - half_m, r.lo_m, width_m * f["z"].get<int>() - half_m};
   std::string readme =
       "reefgen " + kind + " for Unity (Terrain), " + std::to_string(tiles * tiles) + " tile(s)\n\n"
+      "In one click: put ReefgenImporter.cs anywhere under your project's Assets/ (it is editor-only), then\n"
+      "Tools > reefgen > Import Unity bundle... and pick this folder. Every tile becomes a Terrain with its\n"
+      "heights, size, position, 8 Terrain Layers and their weights, neighbours connected (assets saved in\n"
+      "Assets/reefgen/" + name + "/). By hand, as follows.\n\n"
       "Heights: " + std::to_string(tile_side) + "x" + std::to_string(tile_side) +
       " samples per tile, 16-bit little-endian RAW, southern row first (no flip needed).\n"
       "Range: " + fmt("%.1f", r.lo_m) + " m ... " + fmt("%.1f", r.hi_m) + " m -> 0 ... 65535 (linear).\n" +
@@ -137,11 +142,20 @@ nlohmann::json stage_unity_tiles(StagedOutputs& staged, const fs::path& dir, con
   for (int m = 0; m < terrain::kNumMaterials; ++m) readme += std::string(m ? ", " : "") + terrain::material_name(m);
   readme += "\n";
   stage_text(staged, dir / "README.txt", readme);
-  nlohmann::json j = {{"engine", "unity"}, {"tiles", files}, {"tiles_per_axis", tiles}, {"tile_side_px", tile_side},
-                      {"alphamap_px", alpha}, {"side_px", side}, {"range_m", {r.lo_m, r.hi_m}},
-                      {"terrain_size_m", {width_m, height_m, width_m}}, {"position_y_m", r.lo_m},
-                      {"row_order", "south first"}};
+  nlohmann::json layers = nlohmann::json::array(), colours = nlohmann::json::array();
+  for (int m = 0; m < terrain::kNumMaterials; ++m) {
+    layers.push_back(terrain::material_name(m));
+    for (int k = 0; k < 3; ++k) colours.push_back(terrain::material_rgb(m)[k] / 255.0);
+  }
+  nlohmann::json j = {{"engine", "unity"}, {"name", name}, {"tiles", files}, {"tiles_per_axis", tiles},
+                      {"tile_side_px", tile_side}, {"alphamap_px", alpha}, {"side_px", side},
+                      {"range_m", {r.lo_m, r.hi_m}}, {"terrain_size_m", {width_m, height_m, width_m}},
+                      {"position_y_m", r.lo_m}, {"row_order", "south first"}, {"layers", layers},
+                      {"layer_colours", colours}};
   if (side != resampled_from) j["resampled_from_px"] = resampled_from;  // only when resampled
+  // What the importer reads (ReefgenImporter.cs, carried beside it).
+  stage_text(staged, dir / "reefgen-unity.json", j.dump(2) + "\n");
+  stage_text(staged, dir / "ReefgenImporter.cs", kUnityImporterCs);
   return j;
 }
 

@@ -264,17 +264,23 @@ float hill_shade(const cv::Vec3f& normal) {
 }
 }  // namespace
 
-cv::Mat3b material_colour_map(const Layers& L, bool shaded) {
-  // Base colours (RGB): sand seen through shallow water, reef, deep floor…
+const float* material_rgb(int material) {
   static constexpr float kRgb[kNumMaterials][3] = {{32, 52, 92},   {120, 196, 204}, {64, 150, 140}, {228, 212, 164},
                                                    {62, 118, 48},  {112, 100, 92},  {156, 146, 130}, {92, 112, 124}};
+  if (material < 0 || material >= kNumMaterials) throw Error("internal: material " + std::to_string(material));
+  return kRgb[material];
+}
+
+cv::Mat3b material_colour_map(const Layers& L, bool shaded) {
+  const float* rgb[kNumMaterials];
+  for (int m = 0; m < kNumMaterials; ++m) rgb[m] = material_rgb(m);
   const int H = L.weight[0].rows, W = L.weight[0].cols;
   cv::Mat3b out(H, W);
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
       float c[3] = {0, 0, 0};
       for (int m = 0; m < kNumMaterials; ++m)
-        for (int k = 0; k < 3; ++k) c[k] += L.weight[size_t(m)](y, x) * kRgb[m][k];
+        for (int k = 0; k < 3; ++k) c[k] += L.weight[size_t(m)](y, x) * rgb[m][k];
       const float shade = shaded ? hill_shade(L.normal(y, x)) : 1.0f;
       out(y, x) = cv::Vec3b(cv::saturate_cast<uint8_t>(c[2] * shade), cv::saturate_cast<uint8_t>(c[1] * shade),
                             cv::saturate_cast<uint8_t>(c[0] * shade));  // BGR for OpenCV's writers

@@ -32,6 +32,9 @@ enum Material : int {
 };
 // "deep_sea_floor", "lagoon_sand", "reef", "beach_sand", "vegetation", "rock_cliff", "scree", "riverbed".
 const char* material_name(int material);
+// A material's base colour, RGB 0…255 (the materials map's palette: sand
+// seen through shallow water, reef, deep floor…).
+const float* material_rgb(int material);
 
 // The material rules (docs/LAYERS.md). Each rule is a smooth step between
 // a start and a full value, so materials blend instead of switching at a pixel.
