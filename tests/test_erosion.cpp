@@ -930,8 +930,11 @@ TEST(Erosion, WorldBandsAreInvisible) {
   const cv::Mat1f b = amplify_world(h, label, 385, world_m, 5, {}, {}, WorldBands{200, 100, 16});
   // Since the finer levels' creep (docs/EROSION.md "Creep") the depression
   // that crosses a halo here is drained up to 1.03 m apart on 33 cells
-  // (71 differ by more than 1 cm, of 148,225).
-  EXPECT_LE(cv::norm(a, b, cv::NORM_INF), 1.25) << cv::countNonZero(cv::abs(a - b) > 0.25f) << " cells over 0.25 m";
+  // (71 differ by more than 1 cm, of 148,225); since the model grid is
+  // smoothed in the shallows too (to −0.5 m, docs/REEF.md), a low coastal
+  // depression (0.2–1.9 m) on the border row 200 drains up to 1.58 m apart
+  // on 20 cells.
+  EXPECT_LE(cv::norm(a, b, cv::NORM_INF), 1.75) << cv::countNonZero(cv::abs(a - b) > 0.25f) << " cells over 0.25 m";
   EXPECT_LE(cv::countNonZero(cv::abs(a - b) > 0.01f), int(a.total() / 1000)) << "more than a depression's cells differ";
   const RealismStats st = realism_stats(a, world_m / 385);
   EXPECT_LE(st.pits, 0.01);

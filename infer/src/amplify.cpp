@@ -235,13 +235,16 @@ int64_t fill_ponds(cv::Mat1f& h, const cv::Mat1b& label, double cell_m, double m
 }
 
 // Underwater, below kGridFreeTopM, the field is smoothed by a Gaussian of
-// half a model cell (σ = 0.5 · N/S px), blended in over the first metre
-// below kGridFreeTopM: the cubic upsampling printed the model's 23.4 m grid
-// as an N/S-px waffle on underwater slopes. Measured (`realism --reef
-// --grid-period 8`, docs/examples/painted-sketch.png at 2049²): 9.2 cm and
-// 69× its frequency ring before, 0.7 cm and 4.5× after. The land, the coast
-// and the reef crest keep every detail.
-constexpr float kGridFreeTopM = -2.f;
+// half a model cell (σ = 0.5 · N/S px) over the water alone, blended in over
+// the first metre below kGridFreeTopM: the cubic upsampling printed the
+// model's 23.4 m grid as an N/S-px waffle on underwater slopes. Measured
+// (`realism --reef --grid-period 8`, docs/examples/painted-sketch.png at
+// 2049²): 9.2 cm and 69× its frequency ring before, 0.7 cm and 4.5× after.
+// Down from −2 m to −0.5 m since the waffle showed at 1:1 on reef flats and
+// shallow lagoons (docs/REEF.md "The shallows"); the land is left out of the
+// blur, so the shallows beside a coast are not pulled up into a shelf. The
+// land, the coast and the reef crest (finished afterwards) keep every detail.
+constexpr float kGridFreeTopM = -0.5f;
 constexpr float kGridFreeBlendM = 1.f;
 // Then the sea floor gets what a smooth blur takes away, honestly: isotropic
 // fractal relief of kSeaFloorGrainM (sand, rubble, talus) with features of
@@ -253,18 +256,24 @@ void smooth_model_grid_underwater(cv::Mat1f& h, int model_side, uint64_t seed) {
   if (sigma < 0.75) return;
   const terrain::GradientNoise2 grain(derive_seed(seed, 0, "sea-floor-grain"));
   const float inv_cell = float(double(model_side) / h.cols);  // noise features per pixel: one per model cell
-  cv::Mat1f blur;
-  cv::GaussianBlur(h, blur, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
+  // The water's own mean: land left out of the blur (normalised convolution),
+  // so that shallows beside a coast are not pulled up into a shelf.
+  cv::Mat1f water = cv::Mat1f::zeros(h.size()), wet, blur;
+  h.copyTo(water, h < 0.f);
+  cv::GaussianBlur(water, blur, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
+  cv::GaussianBlur(cv::Mat1f(h < 0.f) / 255.f, wet, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
   for (int y = 0; y < h.rows; ++y) {
     float* r = h.ptr<float>(y);
     const float* b = blur.ptr<float>(y);
+    const float* m = wet.ptr<float>(y);
     for (int x = 0; x < h.cols; ++x) {
-      if (!(r[x] < kGridFreeTopM)) continue;
+      if (!(r[x] < kGridFreeTopM) || !(m[x] > 0.f)) continue;
+      const float mean = b[x] / m[x];
       const float w = std::clamp((kGridFreeTopM - r[x]) / kGridFreeBlendM, 0.f, 1.f);
       const float t = w * w * (3.f - 2.f * w);
       // Never raised above kGridFreeTopM: no new shallows or specks of land.
       const float g = float(kSeaFloorGrainM) * grain.fbm(float(x) * inv_cell * 2.f, float(y) * inv_cell * 2.f, 3);
-      r[x] = std::min(r[x] + t * (b[x] - r[x] + g), kGridFreeTopM);
+      r[x] = std::min(r[x] + t * (mean - r[x] + g), kGridFreeTopM);
     }
   }
 }
