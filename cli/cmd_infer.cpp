@@ -25,6 +25,7 @@ struct InferArgs {
   std::string engine = "auto";
   uint64_t seed = 0;
   double variation = 1.0;
+  int variations = 1;
   double exaggeration = 1.0, world_size_m = kCanvasWorldSizeM;
   int size = 0;
   std::optional<int> threads;
@@ -62,6 +63,11 @@ void add_infer_options(CLI::App* sub, InferArgs& a) {
                   "How far --seed re-rolls the island, 0..1 (0: the network's island, the seed varying only the finer detail)")
       ->capture_default_str()
       ->check(finite_in(0, 1));
+  sub->add_option("--variations", a.variations,
+                  "N islands of the one sketch, seeds --seed … --seed + N - 1, each to PREFIX.seedS.* with all its "
+                  "files, and PREFIX.variations.png side by side: pick one and keep its seed (the network runs once)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, infer::kMaxVariations));
   sub->add_option("--precision", a.precision,
                   "fp32, bf16 (heights within ~1 m of fp32, ~1.6x faster), or auto (bf16 where the CPU has "
                   "avx512_bf16 or AMX-bf16, else fp32)")
@@ -93,6 +99,7 @@ infer::InferJob infer_job(const InferArgs& a, const GlobalOptions& g) {
   job.geotiff = a.finish.geotiff;
   job.geo = fin.geo;
   job.bundles = fin.bundles;
+  job.variations = a.variations;
   // The output side when --size gives it (else each sketch's own, said in its bundle's README).
   if (a.size > 0) note_bundle_sizes(fin, a.size, g.quiet);
   return job;
@@ -157,6 +164,7 @@ Command add_infer_command(CLI::App& app, const GlobalOptions& g) {
       "  reefgen infer sketch.png -m generator.pt -o out/island --mesh out/island.glb --exaggeration 3\n"
       "  reefgen infer sketch.png -o out/v2 --size 1025 --seed 2            # another island, same painting\n"
       "  reefgen infer sketch.png -o out/mean --variation 0                 # the network's island, no re-roll\n"
+      "  reefgen infer sketch.png -o out/isle --size 1025 --variations 4    # 4 islands side by side: isle.variations.png\n"
       "  reefgen infer sketch.png -m generator.pt -o out/v --stochastic --seed 7\n"
       "  reefgen infer sketch.png -o out/island --size 2017 --for unreal,gis\n");
   auto a = std::make_shared<InferArgs>();

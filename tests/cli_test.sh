@@ -494,6 +494,12 @@ grep -q '"height_range_m"' "$T/i/one.json" && ok || bad "infer sidecar"
 [ "$(ls "$T/i/many" | grep -c '\.obj$')" = 3 ] && ok || bad "infer folder: $(ls "$T/i/many")"
 "$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/two" > /dev/null
 cmp -s "$T/i/one.height.exr" "$T/i/two.height.exr" && ok || bad "infer not deterministic"
+# --variations 3: the islands of seeds 4, 5, 6 and their contact sheet; seed 5 alone is the same bytes.
+"$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/var" --seed 4 --variations 3 > "$T/out" || bad "infer --variations"
+"$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/i/var5" --seed 5 > /dev/null
+[ -s "$T/i/var.variations.png" ] && [ -s "$T/i/var.seed6.json" ] && grep -q "var.seed4.height.exr" "$T/out" \
+  && cmp -s "$T/i/var.seed5.height.exr" "$T/i/var5.height.exr" && ok || bad "infer --variations: $(ls "$T/i" | grep var)"
+expect_error "--variations takes one sketch" infer "$T/s/many" -m "$M" -o "$T/e/x" --variations 2
 # (seeds vary the output of deeper models: test_infer.cpp; this depth-5 one has no dropout)
 expect_error "no dropout layers" infer "$T/s/one.png" -m "$M" -o "$T/e/x" --stochastic
 printf 'not an image' > "$T/s/bad.png"

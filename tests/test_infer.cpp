@@ -152,6 +152,52 @@ TEST(Infer, InferFilesWritesEverySketchOrNothing) {
   fs::remove_all(d);
 }
 
+// Variations: N islands of one sketch, each the bytes infer gives with its
+// seed alone, whatever the threads; written to PREFIX.seedS.* with the seed
+// in each sidecar and a contact sheet of them side by side; one sketch only.
+TEST(Infer, VariationsAreTheIslandsOfTheirSeeds) {
+  const fs::path d = temp_dir("variations");
+  auto g = tiny_generator(d, false);
+  const DecodedSketch s = sketch(3, 64);
+  InferOptions o;
+  o.size_px = 96;  // above the model's side: re-rolled and amplified
+  o.seed = 5;
+  const std::vector<cv::Mat1f> one = infer_variations(g, s, o, 3, 1), two = infer_variations(g, s, o, 3, 2);
+  ASSERT_EQ(one.size(), 3u);
+  for (int k = 0; k < 3; ++k) {
+    InferOptions ok = o;
+    ok.seed = o.seed + uint64_t(k);
+    EXPECT_EQ(cv::norm(one[size_t(k)], infer_heights(g, {s}, ok)[0], cv::NORM_INF), 0.0) << "seed " << ok.seed;
+    EXPECT_EQ(cv::norm(one[size_t(k)], two[size_t(k)], cv::NORM_INF), 0.0) << "threads changed seed " << ok.seed;
+  }
+  EXPECT_GT(cv::norm(one[0], one[1], cv::NORM_INF), 1.0) << "two seeds, one island";
+  write_png(d / "s.png", encode_labels(procgen::random_sketch({}, 3).label, procgen::random_sketch({}, 3).subsidence));
+  InferJob job;
+  job.inputs = sketch_inputs({(d / "s.png").string()});
+  job.out = (d / "out/isle").string();
+  job.model_path = (d / "g.pt").string();
+  job.options = o;
+  job.variations = 3;
+  const InferResult r = infer_files(g, job);
+  ASSERT_EQ(r.heights.size(), 3u);
+  for (int k = 0; k < 3; ++k) {
+    const std::string prefix = (d / "out/isle.seed").string() + std::to_string(5 + k);
+    EXPECT_EQ(r.heights[size_t(k)], fs::path(prefix + ".height.exr"));
+    EXPECT_EQ(read_json(prefix + ".json")["mode"]["seed"], 5 + k);
+    InferOptions ok = o;
+    ok.seed = uint64_t(5 + k);
+    EXPECT_EQ(cv::norm(read_exr_height(prefix + ".height.exr"), infer_heights(g, {read_sketch(d / "s.png")}, ok)[0],
+                       cv::NORM_INF), 0.0);
+  }
+  const cv::Mat sheet = cv::imread((d / "out/isle.variations.png").string());
+  ASSERT_FALSE(sheet.empty());
+  EXPECT_EQ(sheet.size(), cv::Size(2 * 96, 2 * 96)) << "two columns, two rows of 96 px tiles";
+  EXPECT_FALSE(fs::exists(d / "out/isle.height.exr"));
+  job.inputs = sketch_inputs({(d / "s.png").string(), (d / "s.png").string()});
+  expect_error_naming([&] { infer_files(g, job); }, "--variations takes one sketch");
+  fs::remove_all(d);
+}
+
 // bench realism as a library call: its figures are the realism statistics
 // of what `generate` and `infer --size` give, medians of an even count are
 // the mean of the middle two, and the bars follow the medians.

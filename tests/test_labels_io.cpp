@@ -278,7 +278,7 @@ TEST(Io, ResumableStagingKeepsFinishedFilesForTheNextRun) {
 // PNG whose IHDR claims 30000² (its data is a few bytes) costs nothing.
 TEST(Io, ImageSizesAreReadFromTheHeaderAndCheckedBeforeDecoding) {
   const cv::Mat img(37, 53, CV_8UC3, cv::Scalar(10, 200, 30));
-  for (const char* ext : {".png", ".jpg", ".bmp", ".webp", ".tif"}) {
+  for (const char* ext : {".png", ".jpg", ".bmp", ".webp", ".tif", ".ppm"}) {
     std::vector<uchar> buf;
     ASSERT_TRUE(cv::imencode(ext, img, buf)) << ext;
     const std::string bytes(buf.begin(), buf.end());
@@ -297,6 +297,13 @@ TEST(Io, ImageSizesAreReadFromTheHeaderAndCheckedBeforeDecoding) {
   EXPECT_EQ(declared_image_size(liar), cv::Size(30000, 30000));
   expect_error_naming([&] { decode_image(liar, "liar.png", cv::IMREAD_UNCHANGED, 4096); }, "30000×30000 pixels");
   EXPECT_EQ(declared_image_size("not an image"), cv::Size());
+  // A PNM header with a comment; a format whose size is not read from a
+  // header (here Radiance HDR) is refused before it is decoded.
+  EXPECT_EQ(declared_image_size("P6\n# made by hand\n30000 20000\n255\n"), cv::Size(30000, 20000));
+  cv::Mat hdr_img(8, 8, CV_32FC3, cv::Scalar(1, 1, 1));
+  ASSERT_TRUE(cv::imencode(".hdr", hdr_img, buf));
+  expect_error_naming([&] { decode_image(std::string(buf.begin(), buf.end()), "x.hdr", cv::IMREAD_UNCHANGED); },
+                      "not an image reefgen can decode");
 }
 
 // A resumed run trusts only what it staged itself: a staged file truncated,

@@ -91,6 +91,27 @@ cv::Size tiff_size(const unsigned char* u, size_t n) {
   }
   return w > 0 && h > 0 ? cv::Size(w, h) : cv::Size();
 }
+// A PNM header (P1…P6): the magic, then width and height as decimal
+// tokens, whitespace and # comments between them.
+cv::Size pnm_size(const std::string& b) {
+  size_t p = 2;
+  int v[2] = {0, 0};
+  for (int k = 0; k < 2; ++k) {
+    while (p < b.size() && (std::isspace(static_cast<unsigned char>(b[p])) || b[p] == '#')) {
+      if (b[p] == '#')
+        while (p < b.size() && b[p] != '\n') ++p;
+      else
+        ++p;
+    }
+    int64_t n = 0;
+    const size_t start = p;
+    while (p < b.size() && std::isdigit(static_cast<unsigned char>(b[p])) && n <= (int64_t(1) << 30)) n = n * 10 + (b[p++] - '0');
+    if (p == start) return {};
+    v[k] = int(std::min<int64_t>(n, int64_t(1) << 30));
+  }
+  return {v[0], v[1]};
+}
+
 }  // namespace
 
 cv::Size declared_image_size(const std::string& b) {
@@ -113,6 +134,7 @@ cv::Size declared_image_size(const std::string& b) {
   }
   if (n >= 8 && ((u[0] == 'I' && u[1] == 'I' && u[2] == 42) || (u[0] == 'M' && u[1] == 'M' && u[3] == 42)))
     return tiff_size(u, n);
+  if (n >= 7 && u[0] == 'P' && u[1] >= '1' && u[1] <= '6') return pnm_size(b);
   return {};
 }
 
@@ -125,7 +147,7 @@ cv::Mat decode_image(const std::string& bytes, const std::string& name, int flag
   // No size read from a header (another format OpenCV knows, PNM or HDR,
   // or a header cut short): nothing bounds what decoding would allocate.
   if (d.width <= 0 || d.height <= 0)
-    throw Error(name + ": not an image reefgen can decode (PNG, JPEG, TIFF, BMP or WebP; save it as PNG)");
+    throw Error(name + ": not an image reefgen can decode (PNG, JPEG, TIFF, BMP, WebP or PNM; save it as PNG)");
   if (const std::string bad = image_damage(bytes); !bad.empty())
     throw Error(name + ": " + bad + "; save or download the image again");
   // IMREAD_UNCHANGED also ignores a JPEG's EXIF orientation, so a phone
@@ -138,7 +160,7 @@ cv::Mat decode_image(const std::string& bytes, const std::string& name, int flag
     img = cv::imdecode(cv::Mat(1, int(bytes.size()), CV_8U, const_cast<char*>(bytes.data())), flags);
   } catch (const cv::Exception&) {
   }
-  if (img.empty()) throw Error(name + ": not an image reefgen can decode (PNG, JPEG, TIFF, BMP or WebP)");
+  if (img.empty()) throw Error(name + ": not an image reefgen can decode (PNG, JPEG, TIFF, BMP, WebP or PNM)");
   return img;
 }
 

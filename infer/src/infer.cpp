@@ -7,6 +7,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "reefgen/parallel.hpp"
 #include "reefgen/rng.hpp"
 
 namespace reefgen::infer {
@@ -122,8 +123,11 @@ torch::Tensor forward_generator(model::GeneratorFile& g, const torch::Tensor& x,
   return y;
 }
 
-std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<DecodedSketch>& sketches,
-                                     const InferOptions& o, std::vector<cv::Mat1f>* before) {
+namespace {
+
+// The network's answers in metres at the model's side, one per sketch.
+std::vector<cv::Mat1f> network_answers(model::GeneratorFile& g, const std::vector<DecodedSketch>& sketches,
+                                       const InferOptions& o) {
   c10::InferenceMode inference;  // no autograd bookkeeping at all (cheaper than NoGradGuard)
   // pix2pix runs G in train mode at test time: BatchNorm normalises with the
   // sample's own statistics. With batch statistics a batch would mix samples,
@@ -134,7 +138,7 @@ std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<
   const Precision precision = resolve(o, g);
   std::vector<torch::Tensor> inputs;
   for (const auto& s : sketches) inputs.push_back(model::label_to_tensor(canonical_sketch(s, g.size_px)));
-  std::vector<torch::Tensor> outs;
+  std::vector<cv::Mat1f> answers;
   // Stochastic mode runs one sketch per forward with the masks of --seed, so a
   // sketch gives the same island alone or in a folder, in any position.
   const size_t batch = o.running_stats && !o.stochastic ? 8 : 1;
@@ -143,34 +147,69 @@ std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<
     if (o.stochastic) torch::manual_seed(derive_seed(o.seed, 0, "infer-dropout"));
     const torch::Tensor x = torch::stack(std::vector<torch::Tensor>(inputs.begin() + long(i), inputs.begin() + long(i + n)));
     const torch::Tensor y = forward_generator(g, x, engine, precision, o.running_stats);  // {n,1,S,S}
-    for (size_t k = 0; k < n; ++k) outs.push_back(y[long(k)]);
+    for (size_t k = 0; k < n; ++k) answers.push_back(model::tensor_to_height(y[long(k)], g.range));
   }
+  return answers;
+}
+
+// One answer made the output: at o.size_px (default the sketch's size),
+// re-rolled and amplified by o.seed when square and amplified, else resized.
+cv::Mat1f finish_answer(cv::Mat1f h, const DecodedSketch& sketch, const InferOptions& o, const model::HeightRange& range,
+                        std::vector<cv::Mat1f>* before) {
+  const cv::Size want = o.size_px > 0 ? cv::Size(o.size_px, o.size_px) : sketch.label.size();
+  if (before) {
+    cv::Mat1f b;
+    cv::resize(h, b, want, 0, 0, want.width > h.cols ? cv::INTER_CUBIC : cv::INTER_AREA);
+    before->push_back(std::move(b));
+  }
+  // At every size the answer is cleaned (amplify_heights): at the
+  // model's own side ponds raised and pits breached, above it
+  // also eroded and refined; --raw (amplify off) keeps the network's bits.
+  if (want.width == want.height && o.amplify && h.rows == h.cols) {
+    cv::Mat1b label;
+    cv::resize(sketch.label, label, want, 0, 0, cv::INTER_NEAREST);
+    const Rerolled r = reroll_for_amplify(h, o.world_size_m / h.cols, o.seed, o.variation, o.erosion);
+    h = amplify_heights(r.height_m, label, o.world_size_m, o.seed, r.erosion, true, sketch.ruggedness);
+    cv::min(cv::max(h, range.lo_m), range.hi_m, h);
+  } else if (want.width <= h.cols && want.height <= h.rows && h.size() != want) {
+    cv::resize(h, h, want, 0, 0, cv::INTER_AREA);
+  } else if (h.size() != want) {
+    cv::resize(h, h, want, 0, 0, cv::INTER_LINEAR);
+    cv::min(cv::max(h, range.lo_m), range.hi_m, h);  // interpolation stays in range; clamp anyway
+  }
+  return h;
+}
+
+}  // namespace
+
+std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<DecodedSketch>& sketches,
+                                     const InferOptions& o, std::vector<cv::Mat1f>* before) {
+  const std::vector<cv::Mat1f> answers = network_answers(g, sketches, o);
   std::vector<cv::Mat1f> heights;
-  for (size_t i = 0; i < sketches.size(); ++i) {
-    cv::Mat1f h = model::tensor_to_height(outs[i], g.range);
-    const cv::Size want = o.size_px > 0 ? cv::Size(o.size_px, o.size_px) : sketches[i].label.size();
-    if (before) {
-      cv::Mat1f b;
-      cv::resize(h, b, want, 0, 0, want.width > h.cols ? cv::INTER_CUBIC : cv::INTER_AREA);
-      before->push_back(std::move(b));
-    }
-    // At every size the answer is cleaned (amplify_heights): at the
-    // model's own side ponds raised and pits breached, above it
-    // also eroded and refined; --raw (amplify off) keeps the network's bits.
-    if (want.width == want.height && o.amplify && h.rows == h.cols) {
-      cv::Mat1b label;
-      cv::resize(sketches[i].label, label, want, 0, 0, cv::INTER_NEAREST);
-      const Rerolled r = reroll_for_amplify(h, o.world_size_m / h.cols, o.seed, o.variation, o.erosion);
-      h = amplify_heights(r.height_m, label, o.world_size_m, o.seed, r.erosion, true, sketches[i].ruggedness);
-      cv::min(cv::max(h, g.range.lo_m), g.range.hi_m, h);
-    } else if (want.width <= h.cols && want.height <= h.rows && h.size() != want) {
-      cv::resize(h, h, want, 0, 0, cv::INTER_AREA);
-    } else if (h.size() != want) {
-      cv::resize(h, h, want, 0, 0, cv::INTER_LINEAR);
-      cv::min(cv::max(h, g.range.lo_m), g.range.hi_m, h);  // interpolation stays in range; clamp anyway
-    }
-    heights.push_back(h);
+  for (size_t i = 0; i < sketches.size(); ++i) heights.push_back(finish_answer(answers[i], sketches[i], o, g.range, before));
+  return heights;
+}
+
+std::vector<cv::Mat1f> infer_variations(model::GeneratorFile& g, const DecodedSketch& sketch, const InferOptions& o,
+                                        int count, int threads, std::vector<cv::Mat1f>* before) {
+  if (count < 1) throw Error("internal: infer_variations needs at least one");
+  // One network pass (its answer does not depend on the seed but in
+  // stochastic mode, where each seed needs its own masks).
+  std::vector<cv::Mat1f> answers;
+  for (int k = 0; k < (o.stochastic ? count : 1); ++k) {
+    InferOptions ok = o;
+    ok.seed = o.seed + uint64_t(k);
+    answers.push_back(network_answers(g, {sketch}, ok)[0]);
   }
+  std::vector<cv::Mat1f> heights(static_cast<size_t>(count));
+  std::vector<std::vector<cv::Mat1f>> befores(static_cast<size_t>(count));
+  parallel_for(size_t(count), threads, [&](size_t k) {
+    InferOptions ok = o;
+    ok.seed = o.seed + uint64_t(k);
+    heights[k] = finish_answer(answers[o.stochastic ? k : 0].clone(), sketch, ok, g.range, before ? &befores[k] : nullptr);
+  });
+  if (before)
+    for (auto& b : befores) before->push_back(std::move(b[0]));
   return heights;
 }
 

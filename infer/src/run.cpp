@@ -1,6 +1,7 @@
 #include "reefgen/terrain/ocean_floor.hpp"
 #include "reefgen/infer/run.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 
@@ -8,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "reefgen/image_io.hpp"
+#include "reefgen/preview.hpp"
 #include "reefgen/version.hpp"
 
 namespace reefgen::infer {
@@ -47,6 +49,26 @@ void stage_layers_and_geotiffs(StagedOutputs& staged, const InferJob& job, const
   if (!job.bundles.empty())
     side["bundles"] = engines::stage_bundles(staged, prefix, job.bundles, {h, &L, mpp, job.geo}, job.threads);
 }
+// The islands side by side, each hill-shaded in its colours at most 512 px
+// a side with its seed written in a corner: two columns up to 4 islands,
+// then three or four (docs/INFERENCE.md "Variations").
+cv::Mat3b variations_sheet(const std::vector<cv::Mat1f>& heights, uint64_t first_seed) {
+  const int n = int(heights.size()), cols = n <= 4 ? 2 : n <= 9 ? 3 : 4, rows = (n + cols - 1) / cols;
+  const int tile = std::min(512, heights[0].cols);
+  cv::Mat3b sheet(rows * tile, cols * tile, cv::Vec3b(255, 255, 255));
+  for (int k = 0; k < n; ++k) {
+    cv::Mat3b t;
+    cv::resize(render_preview(heights[size_t(k)]), t, cv::Size(tile, tile), 0, 0, cv::INTER_AREA);
+    const std::string text = "seed " + std::to_string(first_seed + uint64_t(k));
+    const double scale = std::max(0.4, tile / 512.0);
+    cv::putText(t, text, cv::Point(8, int(24 * scale)), cv::FONT_HERSHEY_SIMPLEX, 0.7 * scale, cv::Scalar(0, 0, 0),
+                int(std::ceil(3 * scale)), cv::LINE_AA);
+    cv::putText(t, text, cv::Point(8, int(24 * scale)), cv::FONT_HERSHEY_SIMPLEX, 0.7 * scale,
+                cv::Scalar(255, 255, 255), int(std::ceil(scale)), cv::LINE_AA);
+    t.copyTo(sheet(cv::Rect((k % cols) * tile, (k / cols) * tile, tile, tile)));
+  }
+  return sheet;
+}
 }  // namespace
 
 InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
@@ -70,9 +92,22 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
     throw Error("--stochastic: " + job.model_path + " has no dropout layers (depth " +
                 std::to_string(gen.g->options().depth) + ", dropout " + std::to_string(gen.g->options().dropout) +
                 "), so outputs cannot vary; drop --stochastic");
+  const int variations = job.variations;
+  if (variations < 1 || variations > kMaxVariations)
+    throw Error("--variations " + std::to_string(variations) + ": expected 1 to " + std::to_string(kMaxVariations));
+  if (variations > 1 && many)
+    throw Error("--variations takes one sketch (" + std::to_string(inputs.size()) +
+                " given, or a folder); infer each sketch with its own -o");
+  if (variations > 1 && !hf.mesh_path.empty())
+    throw Error("--variations: --mesh " + job.mesh + " names one file; use --mesh obj|glb (one mesh per island)");
   const OutputNames single = many ? OutputNames{} : output_names(job.out);  // -o PREFIX or -o NAME.exr (one sketch)
   const fs::path out_dir = many ? fs::path(job.out) : single.prefix.parent_path();
   auto prefix_of = [&](const fs::path& in) { return many ? out_dir / in.stem() : single.prefix; };
+  // Variation k of the one sketch: PREFIX.seedS, S its seed.
+  auto variation_prefix = [&](int k) {
+    return fs::path(single.prefix.string() + ".seed" + std::to_string(job.options.seed + uint64_t(k)));
+  };
+  const fs::path contact_sheet = single.prefix.string() + ".variations.png";
   {
     // Every file this run may write, checked before any is written: no
     // output may be an input, no two sketches may share a result name.
@@ -85,12 +120,20 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
         if (!fresh)
           throw Error(in.string() + " and " + it->second.string() + " would both write " + prefix.string() +
                       ".*; rename one of them or infer them into different -o folders");
-      } else {
+      } else if (variations == 1) {
         planned.files.push_back(single.height);
       }
-      const engines::PlannedOutputs mine = engines::planned_outputs(prefix, job.bundles);
-      planned.files.insert(planned.files.end(), mine.files.begin(), mine.files.end());
-      planned.folders.insert(planned.folders.end(), mine.folders.begin(), mine.folders.end());
+      std::vector<fs::path> prefixes = {prefix};
+      if (variations > 1) {
+        prefixes.clear();
+        for (int k = 0; k < variations; ++k) prefixes.push_back(variation_prefix(k));
+        planned.files.push_back(contact_sheet);
+      }
+      for (const fs::path& p : prefixes) {
+        const engines::PlannedOutputs mine = engines::planned_outputs(p, job.bundles);
+        planned.files.insert(planned.files.end(), mine.files.begin(), mine.files.end());
+        planned.folders.insert(planned.folders.end(), mine.folders.begin(), mine.folders.end());
+      }
     }
     if (!hf.mesh_path.empty()) planned.files.push_back(hf.mesh_path);
     engines::refuse_outputs_over_inputs(inputs, planned);
@@ -142,38 +185,58 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
       }
       before.clear();
       labels.clear();
-      for (const auto& s : sketches) labels.push_back(s.label);
-      heights = infer_heights(gen, sketches, io, job.layers || job.geotiff || !job.bundles.empty() ? &before : nullptr);
+      std::vector<cv::Mat1f>* keep_before = job.layers || job.geotiff || !job.bundles.empty() ? &before : nullptr;
+      if (variations > 1) {
+        labels.assign(size_t(variations), sketches[0].label);
+        heights = infer_variations(gen, sketches[0], io, variations, job.threads, keep_before);
+      } else {
+        for (const auto& s : sketches) labels.push_back(s.label);
+        heights = infer_heights(gen, sketches, io, keep_before);
+      }
       if (io.ocean_floor_m < 0) {
         for (auto& h : heights) terrain::deepen_flank(h, io.ocean_floor_m);
         for (auto& h : before) terrain::deepen_flank(h, io.ocean_floor_m);
       }
     }
-    const fs::path prefix = prefix_of(inputs[i]);
-    const cv::Mat1f& h = heights[i % kChunk];
-    const double mpp = io.world_size_m / h.cols;
-    double hmin, hmax;
-    cv::minMaxLoc(h, &hmin, &hmax);
-    const fs::path exr = many ? fs::path(prefix.string() + ".height.exr") : single.height;
-    hf.exr_path = exr;
-    // The model's range is kept for reference; the 16-bit files span the
-    // field's own (stage_height_files).
-    nlohmann::json side = {
-        {"reefgen_version", kVersion},
-        {"sketch", fs::absolute(inputs[i]).string()},
-        {"model", {{"path", fs::absolute(job.model_path).string()}, {"train_step", gen.train_step},
-                   {"ngf", gen.g->options().ngf}, {"reefgen_version", gen.reefgen_version}}},
-        {"mode", mode},
-        {"size_px", {h.cols, h.rows}},
-        {"metres_per_px", mpp},
-        {"height_range_m", {hmin, hmax}},
-        {"model_range_m", {gen.range.lo_m, gen.range.hi_m}}};
-    if (io.ocean_floor_m < 0) side["ocean_floor_m"] = io.ocean_floor_m;
-    side.update(stage_height_files(staged, prefix, h, mpp, hf));
-    stage_layers_and_geotiffs(staged, job, prefix.string(), h, before, labels, i % kChunk, mpp, side);
-    if (hf.r16) r.r16_notes.push_back(prefix.string() + ".r16: " + side["r16"]["import_note"].get<std::string>());
-    staged.write(prefix.string() + ".json", [&](const fs::path& t) { write_json_atomic(t, side); });  // last of its sketch
-    r.heights.push_back(exr);
+    // Island k of the chunk's answers (variation k of the one sketch).
+    const auto write_island = [&](size_t k, const fs::path& prefix, const fs::path& exr, uint64_t seed) {
+      const cv::Mat1f& h = heights[k];
+      const double mpp = io.world_size_m / h.cols;
+      double hmin, hmax;
+      cv::minMaxLoc(h, &hmin, &hmax);
+      hf.exr_path = exr;
+      nlohmann::json island_mode = mode;
+      island_mode["seed"] = seed;
+      // The model's range is kept for reference; the 16-bit files span the
+      // field's own (stage_height_files).
+      nlohmann::json side = {
+          {"reefgen_version", kVersion},
+          {"sketch", fs::absolute(inputs[i]).string()},
+          {"model", {{"path", fs::absolute(job.model_path).string()}, {"train_step", gen.train_step},
+                     {"ngf", gen.g->options().ngf}, {"reefgen_version", gen.reefgen_version}}},
+          {"mode", island_mode},
+          {"size_px", {h.cols, h.rows}},
+          {"metres_per_px", mpp},
+          {"height_range_m", {hmin, hmax}},
+          {"model_range_m", {gen.range.lo_m, gen.range.hi_m}}};
+      if (io.ocean_floor_m < 0) side["ocean_floor_m"] = io.ocean_floor_m;
+      side.update(stage_height_files(staged, prefix, h, mpp, hf));
+      stage_layers_and_geotiffs(staged, job, prefix.string(), h, before, labels, k, mpp, side);
+      if (hf.r16) r.r16_notes.push_back(prefix.string() + ".r16: " + side["r16"]["import_note"].get<std::string>());
+      staged.write(prefix.string() + ".json", [&](const fs::path& t) { write_json_atomic(t, side); });  // last of its island
+      r.heights.push_back(exr);
+    };
+    if (variations > 1) {
+      for (int k = 0; k < variations; ++k) {
+        const fs::path prefix = variation_prefix(k);
+        write_island(size_t(k), prefix, prefix.string() + ".height.exr", io.seed + uint64_t(k));
+      }
+      const cv::Mat3b sheet = variations_sheet(heights, io.seed);
+      staged.write(contact_sheet, [&](const fs::path& t) { write_png(t, sheet); });
+    } else {
+      const fs::path prefix = prefix_of(inputs[i]);
+      write_island(i % kChunk, prefix, many ? fs::path(prefix.string() + ".height.exr") : single.height, io.seed);
+    }
     if (done) done(i + 1);
   }
   staged.commit();

@@ -142,9 +142,13 @@ await check('legend-says-what-each-colour-becomes', async () => {
   const legend = page.locator('#age-legend');
   expect(await legend.isVisible(), 'no legend beside the brushes');
   const row = (r) => page.locator(`#age-legend [data-region="${r}"]`).innerText();
-  expect(/land/.test(await row(1)) && /land/.test(await row(2)), `at Age 0 beach/lagoon should say land: ${await row(1)} / ${await row(2)}`);
+  // docs/INFERENCE.md's table: a lagoon is water at every Age; a bright
+  // beach is land, a dark one partly (green on a reef ring: motu).
+  expect(/^\S+ → land/.test(await row(0)) && /→ land/.test(await row(1)), `at Age 0 island/beach should say land: ${await row(0)} / ${await row(1)}`);
+  expect(/water/.test(await row(2)), `a lagoon is water at Age 0: ${await row(2)}`);
   await page.locator('#age').fill('60');
-  expect(/water/.test(await row(1)) && /water/.test(await row(2)), `at Age 60 beach/lagoon should say water: ${await row(1)} / ${await row(2)}`);
+  expect(/water/.test(await row(0)) && /water/.test(await row(2)), `at Age 60 island/lagoon should say water: ${await row(0)} / ${await row(2)}`);
+  expect(/\d+ % land/.test(await row(1)), `at Age 60 a beach is partly land (motu): ${await row(1)}`);
   expect(/water/.test(await row(4)), 'abyss should say water');
   return page;
 });

@@ -28,7 +28,8 @@ cv::Mat read_image(const fs::path& path, int flags, int max_side = kMaxImageSide
 // The same for bytes already in memory (`name` for messages).
 cv::Mat decode_image(const std::string& bytes, const std::string& name, int flags, int max_side = kMaxImageSidePx);
 // The width and height an image's header declares (PNG, JPEG, BMP, WebP,
-// TIFF); {0, 0} when the format is not one of them or the header is cut.
+// TIFF, PNM); {0, 0} when the format is not one of them or the header is
+// cut (decode_image then refuses it: nothing would bound its decoding).
 cv::Size declared_image_size(const std::string& bytes);
 // "" when bytes look like a complete PNG/JPEG (or another format), else what is wrong.
 std::string image_damage(const std::string& bytes);

@@ -86,4 +86,11 @@ torch::Tensor forward_generator(model::GeneratorFile& g, const torch::Tensor& x,
 std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<DecodedSketch>& sketches,
                                      const InferOptions& o, std::vector<cv::Mat1f>* before = nullptr);
 
+// `count` islands of one sketch, seeds o.seed, o.seed + 1, …: each as
+// infer_heights gives it with that seed (same bytes), the network run once
+// (once per seed when stochastic) and the re-rolls and amplifications on
+// `threads` threads.
+std::vector<cv::Mat1f> infer_variations(model::GeneratorFile& g, const DecodedSketch& sketch, const InferOptions& o,
+                                        int count, int threads, std::vector<cv::Mat1f>* before = nullptr);
+
 }  // namespace reefgen::infer

@@ -37,9 +37,15 @@ struct InferJob {
   gis::GeoReference geo;
   std::vector<engines::Engine> bundles;  // engine bundles, PREFIX.<engine>/ (docs/ENGINES.md)
   int threads = 1;                    // for the layers and their files
+  // Islands of the one sketch, seeds options.seed … + variations − 1 (1: one
+  // island at PREFIX). Past 1 each goes to PREFIX.seedS.* with all its files,
+  // and PREFIX.variations.png shows them side by side (docs/INFERENCE.md).
+  int variations = 1;
 };
+// Most variations of one sketch a run makes.
+inline constexpr int kMaxVariations = 16;
 struct InferResult {
-  std::vector<fs::path> heights;       // the EXR of each sketch, in input order
+  std::vector<fs::path> heights;       // the EXR of each sketch (each variation), in input (seed) order
   std::vector<fs::path> files;         // every file written (bundles' included), as `generate` lists them
   std::vector<std::string> r16_notes;  // R16 import notes (with --r16), one per sketch
   // One per sketch much larger than the model's side (kWorldHintSidePx): it
