@@ -23,6 +23,7 @@
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/model/generator_file.hpp"
+#include "reefgen/preview.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/spec.hpp"
 #include "reefgen/studio/server.hpp"
@@ -797,4 +798,31 @@ TEST_F(Studio, HugeDeclaredImagesAreRefusedOnEveryRouteAtOnce) {
   auto r = client->Post("/api/infer", sketch, "image/png");
   ASSERT_TRUE(r) << "the studio stopped answering";
   EXPECT_EQ(r->status, 200) << r->body;
+}
+
+// Variations: the next n seeds' islands as hill-shaded pictures, each the
+// preview of the island /api/infer draws with that seed; n is bounded.
+TEST_F(Studio, VariationsDrawTheIslandsOfTheNextSeeds) {
+  const fs::path sketch = kRoot / "docs" / "examples" / "painted-sketch.png";
+  const std::string png = file_bytes(sketch);
+  auto r = client->Post("/api/variations?n=3&seed=7", png, "image/png");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  const json j = json::parse(r->body);
+  ASSERT_EQ(j["seeds"], json({7, 8, 9}));
+  ASSERT_EQ(j["previews"].size(), 3u);
+  std::vector<cv::Mat> pics;
+  for (const auto& p : j["previews"]) {
+    const std::string bytes = studio::base64_decode(p.get<std::string>());
+    pics.push_back(cv::imdecode(std::vector<uchar>(bytes.begin(), bytes.end()), cv::IMREAD_COLOR));
+    ASSERT_FALSE(pics.back().empty());
+  }
+  EXPECT_GT(cv::norm(pics[0], pics[1], cv::NORM_L1), 0.0) << "two seeds, one picture";
+  // The second picture is the island /api/infer gives with seed 8.
+  auto one = client->Post("/api/infer?seed=8", png, "image/png");
+  ASSERT_TRUE(one && one->status == 200);
+  const std::string want = encode_png8(render_preview(parse_heights(one->body).h), 1);
+  EXPECT_EQ(studio::base64_decode(j["previews"][1].get<std::string>()), want);
+  expect_error(client->Post("/api/variations?n=99", png, "image/png"), 400, "n must be a whole number from 2 to 8");
+  expect_error(client->Post("/api/variations?n=x", png, "image/png"), 400, "n must be");
 }

@@ -25,6 +25,7 @@
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/model/generator_file.hpp"
+#include "reefgen/preview.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/spec.hpp"
 #include "reefgen/version.hpp"
@@ -170,6 +171,9 @@ std::string content_type_of(const fs::path& p) {
 // before decoding, and are answered 409 without decoding when superseded.
 // (Layer and export requests decode under the compute lock, one at a time.)
 constexpr int kStudioDecodeSlots = 2;
+// Islands one Variations request draws by default, and at most (each is an
+// inference at the model's side: ~0.3 s on 2 cores).
+constexpr int kStudioVariations = 4, kStudioMaxVariations = 8;
 
 // A counting semaphore (C++17 has none): take() blocks while every slot is
 // held; the Slot returned gives it back when it goes out of scope. Outside the
@@ -622,6 +626,35 @@ struct StudioServer::Impl {
     });
   }
 
+  // Variations of the painting (infer --variations): n islands from seed on,
+  // each as a hill-shaded picture with its seed, for the artist to pick one.
+  void answer_variations(const httplib::Request& req, httplib::Response& res) {
+    const bool raw = lower(req.get_header_value("Content-Type")).rfind("application/x-reefgen-rgba", 0) == 0;
+    const uint64_t ticket = ++latest;
+    const uint64_t seed = req.has_param("seed") ? seed_param(req.get_param_value("seed")) : 0;
+    int n = kStudioVariations;
+    if (req.has_param("n")) {
+      const std::string t = req.get_param_value("n");
+      if (t.empty() || t.size() > 2 || t.find_first_not_of("0123456789") != std::string::npos || std::stoi(t) < 2 ||
+          std::stoi(t) > kStudioMaxVariations)
+        throw BadRequest("n must be a whole number from 2 to " + std::to_string(kStudioMaxVariations));
+      n = std::stoi(t);
+    }
+    const auto slot = decodes.take();
+    if (superseded(res, ticket)) return;
+    const DecodedSketch s = raw ? sketch_of_rgba(req) : sketch_of(req.body);
+    latest_wins(res, ticket, [&] {
+      const std::vector<cv::Mat1f> hs = infer::infer_variations(gen, s, with_seed(seed), n, 2);
+      json j = {{"seeds", json::array()}, {"previews", json::array()}};
+      for (int k = 0; k < n; ++k) {
+        const std::string png = encode_png8(render_preview(hs[size_t(k)]), 1);
+        j["seeds"].push_back(seed + uint64_t(k));
+        j["previews"].push_back(base64_encode(png.data(), png.size()));
+      }
+      res.set_content(j.dump(), "application/json");
+    });
+  }
+
   void answer_generate(const httplib::Request& req, httplib::Response& res) {
     const json spec = json::parse(req.body, nullptr, false);
     if (spec.is_discarded()) throw BadRequest("the body is not valid JSON: send an island spec (docs/SPEC.md)");
@@ -788,6 +821,7 @@ struct StudioServer::Impl {
     svr.Get("/api/presets", handler(&Impl::answer_presets));
     svr.Get("/api/defaults", handler(&Impl::answer_defaults));
     svr.Post("/api/infer", handler(&Impl::answer_infer));
+    svr.Post("/api/variations", handler(&Impl::answer_variations));
     svr.Post("/api/generate", handler(&Impl::answer_generate));
     svr.Post("/api/layers", handler(&Impl::answer_layers));
     svr.Post("/api/export", handler(&Impl::answer_export));

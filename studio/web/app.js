@@ -856,10 +856,41 @@ document.addEventListener('keydown', (ev) => {
 });
 paint.addEventListener('pointerdown', () => paint.focus());
 $('clear').onclick = () => { snapshot(); clearCanvas(); requestInfer(); };
-$('reroll').onclick = () => {
-  islandSeed = (islandSeed + 1) % 1000000;
+function keepSeed(seed) {
+  islandSeed = seed % 1000000;
   $('reroll').textContent = `Re-roll (seed ${islandSeed})`;
   requestInfer();
+}
+$('reroll').onclick = () => keepSeed(islandSeed + 1);
+// Variations (infer --variations): the next four seeds' islands side by
+// side, hill-shaded; clicking one keeps its seed.
+$('variations').onclick = async () => {
+  const sheet = $('variations-sheet');
+  const px = pctx.getImageData(0, 0, paint.width, paint.height).data;
+  $('variations').disabled = true;
+  try {
+    const res = await api(`/api/variations?w=${paint.width}&h=${paint.height}&n=4&seed=${islandSeed + 1}`, px,
+      'application/x-reefgen-rgba');
+    if (!res) return;  // a newer request overtook this one
+    const j = await res.json();
+    sheet.innerHTML = '';
+    j.seeds.forEach((seed, k) => {
+      const img = document.createElement('img');
+      img.src = `data:image/png;base64,${j.previews[k]}`;
+      img.alt = img.title = `seed ${seed}: click to keep this island`;
+      img.dataset.seed = seed;
+      img.tabIndex = 0;
+      const pick = () => { sheet.hidden = true; keepSeed(Number(seed)); };
+      img.onclick = pick;
+      img.onkeydown = (ev) => { if (ev.key === 'Enter') pick(); };
+      sheet.appendChild(img);
+    });
+    sheet.hidden = false;
+  } catch (e) {
+    status(`variations: ${e.message}`);
+  } finally {
+    $('variations').disabled = false;
+  }
 };
 $('canvas-size').onchange = () => {
   snapshot();

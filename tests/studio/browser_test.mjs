@@ -113,6 +113,20 @@ try {
     if ((await paintSum()) !== canvas0) fail('re-roll: the painting changed');
     if ((await page.evaluate(() => window.__reefgen.islandSeed())) !== 1) fail('re-roll: the seed is not 1 after one click');
     if (!(await page.textContent('#reroll')).includes('seed 1')) fail('re-roll: the button does not show the seed');
+    // Variations: the next four seeds' islands side by side; clicking the
+    // third keeps its seed (4) and draws that island.
+    await page.click('#variations');
+    await page.waitForFunction(() => document.querySelectorAll('#variations-sheet img').length === 4, null, { timeout: 30000 });
+    const seeds = await page.$$eval('#variations-sheet img', (ims) => ims.map((i) => Number(i.dataset.seed)));
+    if (seeds.join(',') !== '2,3,4,5') fail(`variations: seeds ${seeds}, not 2,3,4,5`);
+    const loaded = await page.$$eval('#variations-sheet img', (ims) => ims.map((i) => i.complete && i.naturalWidth > 0));
+    if (!loaded.every(Boolean)) fail('variations: a picture did not load');
+    const m = await page.evaluate(() => window.__reefgen.updates);
+    await page.click('#variations-sheet img[data-seed="4"]');
+    await page.waitForFunction((k) => window.__reefgen.updates > k, m, { timeout: 15000 });
+    if ((await page.evaluate(() => window.__reefgen.islandSeed())) !== 4) fail('variations: picking seed 4 did not keep it');
+    if (!(await page.textContent('#reroll')).includes('seed 4')) fail('variations: the Re-roll button does not show seed 4');
+    if (!(await page.isHidden('#variations-sheet'))) fail('variations: the sheet stays open after a pick');
   }
 
   // Export: a GLB download arrives and is glTF.
