@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <optional>
+#include <set>
 
 #include <nlohmann/json.hpp>
 
@@ -131,8 +132,10 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
             if (!a->json)
               std::printf("%-40s %7s %9s %9s %9s %9s %8s %10s %10s\n", "file", "size", "land", "max_m", "pits", "terraces",
                           "valleys", "seams_rows", "seams_cols");
+            // Each folder swept once: `realism out/*.height.exr` over a dataset names thousands of files in one.
+            std::set<fs::path> swept;
             for (const auto& f : a->files) {
-              finish_interrupted_commits_around(f);
+              if (swept.insert(fs::absolute(f).parent_path()).second) finish_interrupted_commits_around(f);
               if (!fs::is_regular_file(f)) throw Error(f + ": no such file (expected an OpenEXR height file)");
               FileStats r;
               try {
