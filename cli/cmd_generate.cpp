@@ -25,6 +25,8 @@ struct GenerateArgs {
   int random = 0;
   bool random_given = false;
   double subsidence = NAN;  // NAN: keep the preset's / spec's value
+  double age_myr = NAN;     // NAN: the spec's age_myr (procgen/age.hpp)
+  double maturity = NAN;    // NAN: the spec's maturity
   int size = 256;
   uint64_t seed = 0;
   bool seed_given = false;
@@ -35,12 +37,24 @@ struct GenerateArgs {
   int warp_grid = RenderOptions{}.warp_grid;
 };
 
-IslandSpec load_spec(const GenerateArgs& a) {
+// The spec with --age-myr and --maturity written into its JSON before it is
+// read (flags override the file; the age is applied once, by spec_from_json).
+// age: the age and maturity it was read with (for the sidecar), null where not set.
+IslandSpec load_spec(const GenerateArgs& a, nlohmann::json* age = nullptr) {
+  nlohmann::json j;
+  std::string origin;
   if (!a.preset.empty()) {
-    return spec_from_json(nlohmann::json::parse(preset_text(builtin_presets(), a.preset)), "preset " + a.preset);
+    j = nlohmann::json::parse(preset_text(builtin_presets(), a.preset)), origin = "preset " + a.preset;
+  } else {
+    if (!fs::exists(a.spec_file)) throw Error("cannot read " + a.spec_file + ": no such file");
+    j = read_json(a.spec_file), origin = a.spec_file;
   }
-  if (!fs::exists(a.spec_file)) throw Error("cannot read " + a.spec_file + ": no such file");
-  return spec_from_json(read_json(a.spec_file), a.spec_file);
+  if (!std::isnan(a.age_myr)) j["age_myr"] = a.age_myr;
+  if (!std::isnan(a.maturity)) j["maturity"] = a.maturity;
+  if (age && j.is_object())
+    for (const char* k : {"age_myr", "maturity"})
+      if (j.contains(k)) (*age)[k] = j[k];
+  return spec_from_json(j, origin);
 }
 
 void check_common(const GenerateArgs& a) {
@@ -50,10 +64,13 @@ void check_common(const GenerateArgs& a) {
   if (!std::isnan(a.subsidence) && !(a.subsidence >= 0 && a.subsidence <= 1))
     throw Error("--subsidence must be in [0, 1]");
   if (a.threads < 1 || a.threads > 256) throw Error("--threads must be in 1..256");
+  if (a.random_given && (!std::isnan(a.age_myr) || !std::isnan(a.maturity)))
+    throw Error("--age-myr and --maturity set one island's age; use them with --preset or --spec, not --random");
 }
 
 int run_single(const GenerateArgs& a, const GlobalOptions& g) {
-  IslandSpec spec = load_spec(a);
+  nlohmann::json age;
+  IslandSpec spec = load_spec(a, &age);
   if (!std::isnan(a.subsidence)) spec.subsidence = a.subsidence;
   if (a.seed_given) spec.noise.seed = a.seed;
   const OutputNames names = output_names(a.prefix);
@@ -80,6 +97,9 @@ int run_single(const GenerateArgs& a, const GlobalOptions& g) {
                          {"source", a.preset.empty() ? a.spec_file : a.preset},
                          {"warp_grid", opt.warp_grid}};
   if (a.finish.ocean_floor_m < 0) prov["ocean_floor_m"] = a.finish.ocean_floor_m;
+  // The spec written beside the island has the age applied (its subsidence
+  // and erosion); what it was asked for is kept here.
+  if (!age.is_null()) prov["age"] = age;
   const double mpp = spec.world_size_m / opt.size_px;
   const ExtraFiles finishing = [&](StagedOutputs& staged, nlohmann::json& side, const terrain::Layers* L) {
     if (a.finish.geotiff) side["geotiff"] = gis::stage_geotiff_files(staged, prefix.string(), f.height_m, L, mpp, fin.geo, a.threads);
@@ -126,6 +146,7 @@ Command add_generate_command(CLI::App& app, const GlobalOptions& g) {
                                              "Examples:\n"
                                              "  reefgen generate --preset young-volcano -o out/volcano --preview\n"
                                              "  reefgen generate --preset atoll --subsidence 1 --size 512 -o out/atoll\n"
+                                             "  reefgen generate --preset young-volcano --age-myr 5 --size 1025 -o out/old   # Kauai's age\n"
                                              "  reefgen generate --spec docs/examples/spec.json -o out/mine\n"
                                              "  reefgen generate --preset barrier-reef --size 1025 -o out/reef --for unity,unreal,gis\n"
                                              "  reefgen generate --random 50 --seed 1 --out out/random --threads 2\n");
@@ -137,7 +158,14 @@ Command add_generate_command(CLI::App& app, const GlobalOptions& g) {
   src->require_option(1);
   sub->add_option("-o,--output", a->prefix, "Output prefix: PREFIX.height.exr, .label.png, .json (and .preview.png); or NAME.exr: that file, siblings NAME.*");
   sub->add_option("--out", a->out_dir, "Output folder for --random");
-  sub->add_option("--subsidence", a->subsidence, "Override the subsidence λ in [0, 1]")->check(finite_in(0, 1));
+  sub->add_option("--subsidence", a->subsidence, "Override the subsidence λ in [0, 1] (also after --age-myr)")->check(finite_in(0, 1));
+  sub->add_option("--age-myr", a->age_myr,
+                  "Island age in My: sets the subsidence and the erosion maturity together (docs/SPEC.md \"Age\": "
+                  "0.25 a young shield, 3.5 Bora Bora, 25 an atoll)")
+      ->check(finite_in(0, 60));
+  sub->add_option("--maturity", a->maturity,
+                  "Erosion maturity alone (time eroded, multiple of the default; overrides the age's)")
+      ->check(finite_in(0.05, 20));
   sub->add_option("--size", a->size, "Width W of the W×W output in pixels")->capture_default_str();
   sub->add_option("--seed", a->seed, "Random seed (random mode) or detail-noise seed (preset/spec)")
       ->check(seed_value())

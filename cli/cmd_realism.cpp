@@ -12,6 +12,7 @@
 #include "reefgen/image_io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/stats.hpp"
+#include "reefgen/terrain/dissection.hpp"
 #include "reefgen/terrain/flat_channels.hpp"
 #include "reefgen/terrain/realism.hpp"
 #include "reefgen/terrain/reef_stats.hpp"
@@ -31,6 +32,7 @@ struct RealismArgs {
   bool stream = false;
   bool reef = false;
   bool channels = false;
+  bool dissection = false;
   double grid_period_px = 0;
   std::string sketch;
 };
@@ -56,6 +58,7 @@ struct FileStats {
   terrain::ReefStats reef;
   bool has_reef = false;
   std::optional<terrain::FlatChannelStats> channels;
+  std::optional<terrain::DissectionStats> dissection;
 };
 
 // The statistics (and the sketch's agreement) of `file`: whole, or a band of rows at a time.
@@ -66,8 +69,8 @@ FileStats stats_of(const std::string& file, const RealismArgs& a, const std::opt
   r.metres_per_px = cell_size(a, reader.attributes(), r.size.width, file);
   if (sketch) r.agree = terrain::SketchAgreement{};
   if (a.stream || int64_t(r.size.area()) > kRealismWholeMaxCells) {
-    if (a.reef || a.channels)
-      throw Error(file + ": --reef and --channels read the whole file; they cannot run with --stream or past 16385²");
+    if (a.reef || a.channels || a.dissection)
+      throw Error(file + ": --reef, --channels and --dissection read the whole file; they cannot run with --stream or past 16385²");
     const terrain::StreamBands bands;
     for (int y0 = 0; y0 < r.size.height && sketch; y0 += bands.band_rows) {
       const int n = std::min(bands.band_rows, r.size.height - y0);
@@ -80,6 +83,7 @@ FileStats stats_of(const std::string& file, const RealismArgs& a, const std::opt
   const cv::Mat1f h = reader.rows(0, r.size.height);
   if (a.reef) r.reef = terrain::reef_stats(h, r.metres_per_px, a.grid_period_px), r.has_reef = true;
   if (a.channels) r.channels = terrain::flat_channel_stats(h, r.metres_per_px);
+  if (a.dissection) r.dissection = terrain::dissection_stats(h, r.metres_per_px);
   if (sketch) r.agree = terrain::sketch_agreement(h, sketch->label, sketch->subsidence);
   r.st = realism_stats(h, r.metres_per_px);
   return r;
@@ -98,7 +102,8 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                                  "  reefgen realism out/sea.height.exr --sketch sea.png   # painted land above the sea, abyss deep\n"
                                  "  reefgen realism out/atoll.height.exr --reef            # crest, reef flat, lagoon, passes, motu, floor\n"
                                  "  reefgen realism w/world.height.exr --reef --grid-period 8   # and the model grid at 1:1\n"
-                                 "  reefgen realism w/world.height.exr --channels             # straight flat channels on land");
+                                 "  reefgen realism w/world.height.exr --channels             # straight flat channels on land\n"
+                                 "  reefgen realism out/old.height.exr --dissection            # drainage density, hypsometry (age)");
   sub->add_option("files", a->files, "Height files (OpenEXR, metres, sea level 0)")->required();
   sub->add_option("--metres-per-px", a->metres_per_px, "Cell size in metres (default: the file's own)")
       ->check(finite_in(1e-6, 1e6));
@@ -119,6 +124,10 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                 "Also the straight flat channels on land: components of land cells with slope < 0.5 %, at least "
                 "25 px long and 5x longer than wide, inland (per 1000 km2 of land) and along the coast apart "
                 "(docs/REALISM.md)");
+  sub->add_flag("--dissection", a->dissection,
+                "Also how far the island is dissected (its age, docs/REALISM.md \"Age and dissection\"): drainage "
+                "density (km of valley channel per km2 of land) and hypsometry (land above half the peak, mean "
+                "height / peak)");
   sub->add_option("--sketch", a->sketch,
                   "The sketch the heights were drawn from: also the painted land above the sea and the painted "
                   "bright abyss below -20 m (any resolution over the same ground)");
@@ -173,6 +182,11 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                                                  {"per_1000_km2_land", r.channels->per_1000_km2},
                                                  {"land_km2", r.channels->land_km2},
                                                  {"longest_px", r.channels->longest_px}};
+                if (r.dissection)
+                  j["dissection"] = {{"drainage_density_per_km", r.dissection->drainage_density_per_km},
+                                     {"land_above_half_peak", r.dissection->land_above_half_peak},
+                                     {"hypsometric_integral", r.dissection->hypsometric_integral},
+                                     {"land_km2", r.dissection->land_km2}};
                 if (agree) {
                   j["painted_land_above_sea"] = agree->land_above_sea;
                   j["painted_abyss_below_20m"] = agree->abyss_below_bar;
@@ -199,6 +213,11 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                               "%lld flat strips along the coast\n",
                               "", (long long)r.channels->channels, r.channels->per_1000_km2, r.channels->land_km2,
                               r.channels->longest_px, (long long)r.channels->coastal);
+                if (r.dissection)
+                  std::printf("%-40s dissection: drainage density %.2f km/km2, land above half the peak %.1f%%, "
+                              "hypsometric integral %.3f (%.1f km2 land)\n",
+                              "", r.dissection->drainage_density_per_km, 100 * r.dissection->land_above_half_peak,
+                              r.dissection->hypsometric_integral, r.dissection->land_km2);
                 if (agree)
                   std::printf("%-40s painted land above sea %.2f%% (%lld cells), bright abyss below -20 m %.2f%% (%lld cells)\n",
                               "", 100 * agree->land_above_sea, (long long)agree->land_cells, 100 * agree->abyss_below_bar,

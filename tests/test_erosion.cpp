@@ -25,6 +25,9 @@
 #include "reefgen/terrain/flat_channels.hpp"
 #include "reefgen/error.hpp"
 #include "reefgen/terrain/realism.hpp"
+#include "reefgen/terrain/dissection.hpp"
+#include "reefgen/procgen/age.hpp"
+#include "reefgen/procgen/spec.hpp"
 #include "test_util.hpp"
 
 using namespace reefgen;
@@ -828,6 +831,90 @@ TEST(Realism, StatisticsOfKnownShapes) {
   bad(3, 3) = NAN;
   EXPECT_THROW(realism_stats(bad, mpp), Error);
   EXPECT_THROW(realism_stats(cone(20, 10.f), 0), Error);
+}
+
+// Dissection (docs/REALISM.md "Age and dissection") of shapes whose answer
+// is known: a cone has a quarter of its land above half its peak and a mean
+// height a third of it, and no valley; radial grooves are valleys.
+TEST(Dissection, MeasuresOfKnownShapes) {
+  const double mpp = 20;  // 200 px = 4 km: a 2.4 km cone
+  const DissectionStats c = dissection_stats(cone(200, 500.f), mpp);
+  EXPECT_NEAR(c.land_above_half_peak, 0.25, 0.01);
+  EXPECT_NEAR(c.hypsometric_integral, 1.0 / 3.0, 0.01);
+  EXPECT_LT(c.drainage_density_per_km, 0.05);
+  EXPECT_NEAR(c.land_km2, M_PI * 1200.0 * 1200.0 * 1e-6, 0.05);
+  cv::Mat1f grooved(200, 200);
+  for (int y = 0; y < 200; ++y)
+    for (int x = 0; x < 200; ++x) {
+      const float u = (x + 0.5f) / 100 - 1, v = (y + 0.5f) / 100 - 1, r = std::sqrt(u * u + v * v);
+      grooved(y, x) = r < 0.6f ? 500 * (1 - r / 0.6f) - 60 * r * (1 + std::cos(12 * std::atan2(v, u))) : -50.f;
+    }
+  const DissectionStats g = dissection_stats(grooved, mpp);
+  // 12 valleys from the sea up to where they drain 0.1 km² (measured 0.56
+  // km/km² of 4.5 km² land).
+  EXPECT_GT(g.drainage_density_per_km, 0.3);
+  EXPECT_EQ(dissection_stats(cv::Mat1f(20, 20, -5.f), mpp).land_cells, 0);
+  cv::Mat1f bad = cone(20, 10.f);
+  bad(3, 3) = NAN;
+  EXPECT_THROW(dissection_stats(bad, mpp), Error);
+  EXPECT_THROW(dissection_stats(cone(20, 10.f), -1), Error);
+}
+
+// One age sets subsidence and maturity once, at reading: the spec that
+// comes back has both applied and the age cleared, so writing it and reading
+// it again gives the same island; each can be set on its own.
+TEST(Age, SetsSubsidenceAndMaturityOnce) {
+  using namespace reefgen::procgen;
+  const nlohmann::json plain = nlohmann::json::object();
+  const IslandSpec base = spec_from_json(plain, "t");
+  EXPECT_EQ(base.age_myr, kNotSet);
+  EXPECT_EQ(base.erosion.channel_head_m2, 0.0);  // no age: the spec as before ages
+  const IslandSpec old = spec_from_json({{"age_myr", 3.5}}, "t");
+  EXPECT_NEAR(old.subsidence, std::sqrt(3.5 / kAtollAgeMyr), 1e-12);
+  EXPECT_NEAR(old.erosion.duration_yr, base.erosion.duration_yr * 3.5, 1e-6);
+  EXPECT_GT(old.erosion.steps, base.erosion.steps);
+  EXPECT_EQ(old.erosion.channel_head_m2, kAgedChannelHeadM2);
+  EXPECT_EQ(old.age_myr, kNotSet);
+  nlohmann::json again;
+  to_json(again, old);
+  const IslandSpec twice = spec_from_json(again, "t");
+  EXPECT_EQ(twice.erosion.duration_yr, old.erosion.duration_yr);
+  EXPECT_EQ(twice.subsidence, old.subsidence);
+  // Maturity alone keeps the spec's subsidence; with an age it wins over the age's.
+  const IslandSpec mat = spec_from_json({{"maturity", 2.0}, {"subsidence", 0.1}}, "t");
+  EXPECT_EQ(mat.subsidence, 0.1);
+  EXPECT_NEAR(mat.erosion.duration_yr, base.erosion.duration_yr * 2, 1e-6);
+  const IslandSpec both = spec_from_json({{"age_myr", 5.0}, {"maturity", 0.5}}, "t");
+  EXPECT_NEAR(both.erosion.duration_yr, base.erosion.duration_yr * 0.5, 1e-6);
+  EXPECT_NEAR(both.subsidence, subsidence_of_age(5.0), 1e-12);
+  EXPECT_EQ(subsidence_of_age(kAtollAgeMyr * 4), 1.0);
+  // Between "not set" and 0 there is nothing: refused, naming the field.
+  try {
+    spec_from_json({{"age_myr", -0.5}}, "isle.json");
+    FAIL() << "age_myr -0.5 accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("age_myr"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(spec_from_json({{"maturity", 0.01}}, "t"), Error);
+}
+
+// Older islands are more dissected (O'Hara et al. 2024): through the
+// generator, maturity alone raises the drainage density and lowers the land
+// above half the peak; the age (which also sinks the island) lowers the
+// latter from a young shield to Kauaʻi's age.
+TEST(Age, OlderIslandsAreMoreDissected) {
+  using namespace reefgen::procgen;
+  const auto measure = [](const nlohmann::json& j) {
+    RenderOptions opt;
+    opt.size_px = 257;
+    const IslandSpec s = spec_from_json(j, "t");
+    return dissection_stats(generate(s, opt).height_m, s.world_size_m / opt.size_px);
+  };
+  const DissectionStats young = measure({{"maturity", 0.1}}), old = measure({{"maturity", 5.0}});
+  EXPECT_GT(old.drainage_density_per_km, young.drainage_density_per_km * 1.3);
+  EXPECT_LT(old.land_above_half_peak, young.land_above_half_peak * 0.8);
+  const DissectionStats a025 = measure({{"age_myr", 0.25}}), a5 = measure({{"age_myr", 5.0}});
+  EXPECT_LT(a5.land_above_half_peak, a025.land_above_half_peak * 0.8);
 }
 
 // The seam statistic (docs/REALISM.md) against a reference computed by hand

@@ -122,6 +122,24 @@ TEST(Eroders, StreamPowerIsTheImplicitUpdate) {
   EXPECT_EQ(z(0, 2), 0.f);  // the base level does not move
 }
 
+TEST(Eroders, AboveTheChannelHeadNothingIncises) {
+  // The cell of StreamPowerIsTheImplicitUpdate drains 4 m²: with a channel
+  // head at 5 m² it is hillslope and keeps its height; at 4 m² it incises.
+  cv::Mat1f h(3, 5, -10.f);
+  h(1, 2) = 102.f;
+  cv::Mat1f z = h.clone();
+  z.setTo(0.f, h <= 0);
+  const cv::Mat1b role = sea_and_edge_roles(h);
+  FlowGraph g;
+  route_stack(z, role, 1.0, 0, g);
+  const std::vector<float> area(15, 4.f);
+  cv::Mat1f above = z.clone();
+  erode_stream_power(above, cv::Mat1f(3, 5, 1e-3f), g, area, 10.0, 0.5, 5.0);
+  EXPECT_EQ(above(1, 2), 102.f);
+  erode_stream_power(z, cv::Mat1f(3, 5, 1e-3f), g, area, 10.0, 0.5, 4.0);
+  EXPECT_NEAR(z(1, 2), 100.f, 1e-4f);
+}
+
 TEST(Eroders, DiffusionSpreadsASpikeBy2Dt) {
   // ∂h/∂t = D∇²h spreads a point of height to a Gaussian of variance 2 D Δt
   // per axis: D = 2 m²/yr, Δt = 4 yr, 1 m cells → σ² = 16 cells².

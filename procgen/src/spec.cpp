@@ -1,5 +1,7 @@
 #include "reefgen/procgen/spec.hpp"
 
+#include "reefgen/procgen/age.hpp"
+
 #include <cmath>
 #include <algorithm>
 #include <sstream>
@@ -100,6 +102,8 @@ void validate(const IslandSpec& s) {
                 std::to_string(kMaxPassPoints) + " (a pass needs a handful: the channel is a smooth curve)");
   check_range("coral.crest_begin", c.crest_begin, c.flat_begin, 1);
   check_range("coral.crest_end", c.crest_end, c.crest_begin, 1);
+  if (s.age_myr != kNotSet) check_range("age_myr", s.age_myr, 0, kMaxAgeMyr);
+  if (s.maturity != kNotSet) check_range("maturity", s.maturity, kMinMaturity, kMaxMaturity);
 }
 
 void to_json(json& j, const IslandSpec& s) { j = params_json(s); }
@@ -111,6 +115,9 @@ IslandSpec spec_from_json(const json& j, const std::string& origin) {
   try {
     from_json(j, s);
     validate(s);
+    // An age (or a maturity) is applied once, here: what every reader of a
+    // spec file gets is the island it describes (subsidence and erosion set).
+    s = aged(s);
   } catch (const Error& e) {
     throw Error(origin + ": " + e.what());
   }

@@ -13,11 +13,13 @@ constexpr double kMinBlurSigmaPx = 0.15;
 }  // namespace
 
 void erode_stream_power(cv::Mat1f& height_m, const cv::Mat1f& erodibility_k, const FlowGraph& g,
-                        const std::vector<float>& area, double dt_yr, double m_area) {
+                        const std::vector<float>& area, double dt_yr, double m_area, double channel_head_m2) {
   float* z = height_m.ptr<float>();
   const float* k = erodibility_k.ptr<float>();
   const float m = static_cast<float>(m_area), dt = static_cast<float>(dt_yr);
+  const float head = static_cast<float>(channel_head_m2);
   for (const int i : g.stack) {
+    if (area[i] < head) continue;
     const float F = k[i] * dt * std::exp(m * std::log(area[i])) * g.inv_length[i];
     z[i] = (z[i] + F * z[g.receiver[i]]) / (1.f + F);
   }

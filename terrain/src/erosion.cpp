@@ -130,7 +130,7 @@ void erode_level(cv::Mat1f& h, const cv::Mat1f& K, double dx, int steps, double 
       route_flood(z, role, dx, graph);
       accumulate_multiple(graph, role, cell_area_m2, dx, static_cast<float>(p.flow_exponent), area_m2);
     }
-    erode_stream_power(z, K, graph, area_m2, dt, p.m_area);
+    erode_stream_power(z, K, graph, area_m2, dt, p.m_area, p.channel_head_m2);
     diffuse_hillslope(z, role, roi, sigma_px);
   }
   if (creep_px > 0) creep_between_channels(z, role, blur_roi(creep_px), area_m2, kChannelAreaM2, creep_px);

@@ -194,6 +194,8 @@ struct IslandSpec {
   std::vector<WindStroke> wind;                    // 0..64 strokes
   int wind_substeps = 10;                          // semi-Lagrangian sub-steps, [1, 100]
   double subsidence = 0;                           // λ, [0, 1]: 0 young volcano, 1 atoll
+  double age_myr = -1;                             // My since the shield was built, [0, 60]; sets subsidence and maturity (procgen/age.hpp); -1 = not set
+  double maturity = -1;                            // erosion maturity, multiple of erosion.duration_yr, [0.05, 20]; -1 = from age_myr (none without it)
   HeightMapping heights;
   CoralParams coral;
   ReefParams reef;                                 // reef geomorphology after coral growth (docs/REEF.md)
@@ -214,6 +216,8 @@ void fields(IslandSpec& s, F&& f) {
   f("wind", s.wind, Count{0, 64});
   f("wind_substeps", s.wind_substeps, Range{1, 100});
   f("subsidence", s.subsidence, Range{0, 1});
+  f("age_myr", s.age_myr, Range{-1, 60});
+  f("maturity", s.maturity, Range{-1, 20});
   f("heights", s.heights);
   f("coral", s.coral);
   f("reef", s.reef);
@@ -237,6 +241,7 @@ void validate(const IslandSpec& spec);
 void to_json(nlohmann::json& j, const IslandSpec& s);
 void from_json(const nlohmann::json& j, IslandSpec& s);
 // Parses and validates; errors name `origin` (a file name) and the field.
+// age_myr and maturity come back applied and cleared (procgen/age.hpp aged()).
 IslandSpec spec_from_json(const nlohmann::json& j, const std::string& origin);
 
 }  // namespace reefgen::procgen

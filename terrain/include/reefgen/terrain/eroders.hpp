@@ -19,8 +19,15 @@ namespace reefgen::terrain {
 // point) the same update raises the cell towards it: sediment fills the
 // basin instead of water standing in it. erodibility_k: K per cell,
 // m^(1−2m)/yr; area_m2 from drainage.hpp.
+// channel_head_m2 > 0: incision only where the drainage area reaches it
+// (channels begin at a critical contributing area: Montgomery & Dietrich
+// 1988); cells above a channel head are hillslope, shaped by diffusion
+// alone, so the valleys cut back into steep heads between ridges that stay
+// (the amphitheatre-headed valleys of old volcanic islands). 0: every cell
+// incises (the drainage area of a cell is at least the cell's own).
 void erode_stream_power(cv::Mat1f& height_m, const cv::Mat1f& erodibility_k, const FlowGraph& graph,
-                        const std::vector<float>& area_m2, double dt_yr, double m_area);
+                        const std::vector<float>& area_m2, double dt_yr, double m_area,
+                        double channel_head_m2 = 0);
 
 // Linear hillslope diffusion ∂h/∂t = D ∇²h over Δt. On an infinite plane its
 // solution is the Gaussian of σ = √(2 D Δt): exact for the linear term, no

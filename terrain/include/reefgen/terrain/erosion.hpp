@@ -49,6 +49,7 @@ struct ErosionParams {
   double noise_amplitude = 0.25;      // relative low-frequency modulation of the resistance, [0, 1]
   double flow_exponent = 1.0;         // multiple-flow-direction share ∝ slope^p (Quinn et al.: 1; large = one direction), [0, 10]
   double pit_breach_m = 5;            // closed depressions left at the end: breached up to this depth, filled below it (0: filled flat), m, [0, 100]
+  double channel_head_m2 = 0;         // drainage area where incision begins (above it hillslopes only diffuse; 0: every cell incises), m², [0, 1e8]
   // Amplification of a model answer only (amplify_heights; the generator ignores them):
   double amplify_roughness = 0.8;     // relief added to the land before eroding, share of the height, [0, 1]
   double amplify_feature_m = 140;     // spacing of that relief's features, m, [1, 1e5]
@@ -87,6 +88,7 @@ void fields(ErosionParams& p, F&& f) {
   f("noise_amplitude", p.noise_amplitude, Range{0, 1});
   f("flow_exponent", p.flow_exponent, Range{0, 10});
   f("pit_breach_m", p.pit_breach_m, Range{0, 100});
+  f("channel_head_m2", p.channel_head_m2, Range{0, 1e8});
   f("amplify_roughness", p.amplify_roughness, Range{0, 1});
   f("amplify_feature_m", p.amplify_feature_m, Range{1, 1e5});
   f("amplify_duration_scale", p.amplify_duration_scale, Range{0, 100});
