@@ -25,6 +25,7 @@ struct InferArgs {
   std::string engine = "auto";
   uint64_t seed = 0;
   double variation = 1.0;
+  double age_myr = kNotSet, maturity = kNotSet;
   int variations = 1;
   double exaggeration = 1.0, world_size_m = kCanvasWorldSizeM;
   int size = 0;
@@ -63,6 +64,14 @@ void add_infer_options(CLI::App* sub, InferArgs& a) {
                   "How far --seed re-rolls the island, 0..1 (0: the network's island, the seed varying only the finer detail)")
       ->capture_default_str()
       ->check(finite_in(0, 1));
+  sub->add_option("--age-myr", a.age_myr,
+                  "Island age in My (docs/SPEC.md \"Age\"): its subsidence replaces the painted brightness and its "
+                  "erosion maturity sets the amplification's (0.25 a young shield, 3.5 Bora Bora)")
+      ->check(finite_in(0, kMaxAgeMyr));
+  sub->add_option("--maturity", a.maturity,
+                  "Erosion maturity alone (multiple of the default erosion time; below 1 a young shield's shallow "
+                  "gullies), over the age's")
+      ->check(finite_in(kMinMaturity, kMaxMaturity));
   sub->add_option("--variations", a.variations,
                   "N islands of the one sketch, seeds --seed … --seed + N - 1, each to PREFIX.seedS.* with all its "
                   "files, and PREFIX.variations.png side by side: pick one and keep its seed (the network runs once)")
@@ -123,6 +132,8 @@ void set_infer_options(const InferArgs& a, model::GeneratorFile& gen, const std:
   }
   io.seed = a.seed;
   io.variation = a.variation;
+  io.age_myr = a.age_myr;
+  io.maturity = a.maturity;
   io.size_px = a.size;
   io.world_size_m = a.world_size_m;
   io.ocean_floor_m = a.finish.ocean_floor_m;

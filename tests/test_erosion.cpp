@@ -873,7 +873,7 @@ TEST(Age, SetsSubsidenceAndMaturityOnce) {
   EXPECT_NEAR(old.subsidence, std::sqrt(3.5 / kAtollAgeMyr), 1e-12);
   EXPECT_NEAR(old.erosion.duration_yr, base.erosion.duration_yr * 3.5, 1e-6);
   EXPECT_GT(old.erosion.steps, base.erosion.steps);
-  EXPECT_EQ(old.erosion.channel_head_m2, kAgedChannelHeadM2);
+  EXPECT_EQ(old.erosion.channel_head_m2, terrain::kMaturedChannelHeadM2);
   EXPECT_EQ(old.age_myr, kNotSet);
   nlohmann::json again;
   to_json(again, old);

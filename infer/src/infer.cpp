@@ -125,6 +125,21 @@ torch::Tensor forward_generator(model::GeneratorFile& g, const torch::Tensor& x,
 
 namespace {
 
+// The sketch as the network reads it: with an age, its subsidence.
+DecodedSketch with_age(const DecodedSketch& s, double age_myr) {
+  if (age_myr == kNotSet) return s;
+  DecodedSketch a = s;
+  a.subsidence = cv::Mat1f(s.subsidence.size(), float(subsidence_of_age(age_myr)));
+  return a;
+}
+
+// The amplification's erosion for the options' age or maturity.
+terrain::ErosionParams amplify_erosion(const InferOptions& o) {
+  if (o.maturity != kNotSet) return terrain::matured(o.erosion, o.maturity);
+  if (o.age_myr != kNotSet) return terrain::matured(o.erosion, maturity_of_age(o.age_myr));
+  return o.erosion;
+}
+
 // The network's answers in metres at the model's side, one per sketch.
 std::vector<cv::Mat1f> network_answers(model::GeneratorFile& g, const std::vector<DecodedSketch>& sketches,
                                        const InferOptions& o) {
@@ -137,7 +152,8 @@ std::vector<cv::Mat1f> network_answers(model::GeneratorFile& g, const std::vecto
   const Engine engine = resolve_engine(o);
   const Precision precision = resolve(o, g);
   std::vector<torch::Tensor> inputs;
-  for (const auto& s : sketches) inputs.push_back(model::label_to_tensor(canonical_sketch(s, g.size_px)));
+  for (const auto& s : sketches)
+    inputs.push_back(model::label_to_tensor(canonical_sketch(with_age(s, o.age_myr), g.size_px)));
   std::vector<cv::Mat1f> answers;
   // Stochastic mode runs one sketch per forward with the masks of --seed, so a
   // sketch gives the same island alone or in a folder, in any position.
@@ -168,7 +184,7 @@ cv::Mat1f finish_answer(cv::Mat1f h, const DecodedSketch& sketch, const InferOpt
   if (want.width == want.height && o.amplify && h.rows == h.cols) {
     cv::Mat1b label;
     cv::resize(sketch.label, label, want, 0, 0, cv::INTER_NEAREST);
-    const Rerolled r = reroll_for_amplify(h, o.world_size_m / h.cols, o.seed, o.variation, o.erosion);
+    const Rerolled r = reroll_for_amplify(h, o.world_size_m / h.cols, o.seed, o.variation, amplify_erosion(o));
     h = amplify_heights(r.height_m, label, o.world_size_m, o.seed, r.erosion, true, sketch.ruggedness);
     cv::min(cv::max(h, range.lo_m), range.hi_m, h);
   } else if (want.width <= h.cols && want.height <= h.rows && h.size() != want) {

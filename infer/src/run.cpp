@@ -144,7 +144,7 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
   // A generator without BatchNorm (the shipped one: instance norm) has no
   // running statistics: --running-stats changes nothing there, and says so.
   const bool has_bn = gen.g->options().norm == model::Norm::Batch;
-  const nlohmann::json mode = {{"stochastic", io.stochastic}, {"seed", io.seed}, {"variation", io.variation},
+  nlohmann::json mode = {{"stochastic", io.stochastic}, {"seed", io.seed}, {"variation", io.variation},
                                {"batchnorm", !has_bn             ? "none (the generator uses " +
                                                                    std::string(gen.g->options().norm == model::Norm::Instance
                                                                                    ? "instance norm"
@@ -154,6 +154,10 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
                                                                 : "batch statistics"},
                                {"precision", to_string(resolve(io, gen))},
                                {"engine", to_string(resolve_engine(io))}};
+  // The age and maturity asked for, and what they set (reefgen/age.hpp).
+  if (io.age_myr != kNotSet) mode["age_myr"] = io.age_myr, mode["subsidence"] = subsidence_of_age(io.age_myr);
+  if (io.maturity != kNotSet || io.age_myr != kNotSet)
+    mode["maturity"] = io.maturity != kNotSet ? io.maturity : maturity_of_age(io.age_myr);
   constexpr size_t kChunk = 32;
   if (job.geotiff) gis::check_crs(job.geo.crs);
   std::vector<cv::Mat1f> heights, before;

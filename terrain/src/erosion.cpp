@@ -21,6 +21,16 @@ using nlohmann::json;
 
 void to_json(json& j, const ErosionParams& p) { j = params_json(p); }
 
+ErosionParams matured(const ErosionParams& p, double maturity) {
+  ErosionParams e = p;
+  e.duration_yr *= maturity;
+  e.steps = std::max(e.steps, int(std::lround(e.steps * std::sqrt(maturity))));
+  e.amplify_steps = std::max(e.amplify_steps, int(std::lround(e.amplify_steps * std::sqrt(maturity))));
+  e.channel_head_m2 = std::max(e.channel_head_m2, kMaturedChannelHeadM2);
+  e.amplify_roughness *= std::min(1.0, maturity);
+  return e;
+}
+
 ErosionParams erosion_params_from_json(const json& j, const std::string& origin) {
   return params_from_json<ErosionParams>(j, origin, "docs/EROSION.md", "erosion.");
 }

@@ -6,6 +6,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "reefgen/age.hpp"
 #include "reefgen/constants.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/model/dnnl_conv.hpp"
@@ -45,6 +46,12 @@ struct InferOptions {
   // every size (the model's side too). 0: the network's answer, cleaned up
   // (what `reefgen eval` measures).
   double variation = 1.0;
+  // The island's age in My (reefgen/age.hpp; kNotSet = the painting's own
+  // brightness): its subsidence replaces the painted one everywhere, and its
+  // erosion maturity sets the amplification's (terrain::matured). maturity
+  // alone (or over the age's) sets the latter only.
+  double age_myr = kNotSet;
+  double maturity = kNotSet;
   int size_px = 0;             // output side, [0, 8192]; 0 = the sketch's own size
   double ocean_floor_m = 0;    // m: the open ocean's flank stretched down to it after amplification (terrain/ocean_floor.hpp); 0 = off
   double world_size_m = kCanvasWorldSizeM;  // canvas width in metres (the amplification's erosion works in metres)

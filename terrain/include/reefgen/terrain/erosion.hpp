@@ -101,6 +101,18 @@ void fields(ErosionParams& p, F&& f) {
   f("amplify_pond_max_m2", p.amplify_pond_max_m2, Range{0, 1e9});
   f("amplify_erode_at_model_side", p.amplify_erode_at_model_side);
 }
+// Channels begin at this contributing area in matured params: above it
+// hillslopes only diffuse, so long erosion deepens valleys between ridges
+// that stand instead of lowering the whole flank to a plain.
+inline constexpr double kMaturedChannelHeadM2 = 5e3;
+// The params of an island `maturity` times as eroded (reefgen/age.hpp): the
+// time (duration_yr, which the generator and the amplification both scale)
+// × maturity, more implicit steps for a longer time (stable at any length,
+// but a few coarse strokes cut blunt valley walls), channels beginning at
+// kMaturedChannelHeadM2, and a young island's amplification roughened less
+// (amplify_roughness × maturity below 1: fewer gullies on a young shield).
+ErosionParams matured(const ErosionParams& p, double maturity);
+
 void to_json(nlohmann::json& j, const ErosionParams& p);
 // Every key optional; unknown keys and out-of-range values throw reefgen::Error naming `origin`.
 ErosionParams erosion_params_from_json(const nlohmann::json& j, const std::string& origin);
