@@ -155,6 +155,33 @@ TEST(Infer, InferFilesWritesEverySketchOrNothing) {
 // Variations: N islands of one sketch, each the bytes infer gives with its
 // seed alone, whatever the threads; written to PREFIX.seedS.* with the seed
 // in each sidecar and a contact sheet of them side by side; one sketch only.
+// An age is the painting at the age's subsidence, amplified with the age's
+// maturity (reefgen/age.hpp); maturity alone keeps the painted brightness.
+TEST(Infer, AnAgeIsItsSubsidenceAndItsMaturity) {
+  const fs::path d = temp_dir("age");
+  auto g = tiny_generator(d, false);
+  const DecodedSketch s = sketch(3, 64);
+  InferOptions o;
+  o.size_px = 96;
+  o.age_myr = 3.5;
+  const cv::Mat1f aged = infer_heights(g, {s}, o)[0];
+  DecodedSketch sunk = s;
+  sunk.subsidence.setTo(float(subsidence_of_age(3.5)));
+  InferOptions by_hand;
+  by_hand.size_px = 96;
+  by_hand.erosion = terrain::matured(by_hand.erosion, maturity_of_age(3.5));
+  EXPECT_EQ(cv::norm(aged, infer_heights(g, {sunk}, by_hand)[0], cv::NORM_INF), 0.0);
+  InferOptions plain;
+  plain.size_px = 96;
+  EXPECT_GT(cv::norm(aged, infer_heights(g, {s}, plain)[0], cv::NORM_INF), 0.1) << "the age changed nothing";
+  InferOptions young = plain;
+  young.maturity = 0.25;
+  InferOptions young_by_hand = plain;
+  young_by_hand.erosion = terrain::matured(plain.erosion, 0.25);
+  EXPECT_EQ(cv::norm(infer_heights(g, {s}, young)[0], infer_heights(g, {s}, young_by_hand)[0], cv::NORM_INF), 0.0);
+  fs::remove_all(d);
+}
+
 TEST(Infer, VariationsAreTheIslandsOfTheirSeeds) {
   const fs::path d = temp_dir("variations");
   auto g = tiny_generator(d, false);
