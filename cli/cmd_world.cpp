@@ -35,6 +35,7 @@ struct WorldArgs {
   int size = 0;
   uint64_t seed = 0;
   double variation = 1.0;
+  double age_myr = kNotSet, maturity = kNotSet;  // reefgen/age.hpp, as infer's
   bool raw = false, png16 = false, r16 = false, preview = false;
   FinishFlags finish;
   std::string precision = "fp32", engine = "auto";
@@ -159,6 +160,8 @@ nlohmann::json world_key(const WorldArgs& a, const std::string& model_path, int6
           {"world_size_m", a.world_size_m},
           {"seed", a.seed},
           {"variation", a.variation},
+          {"age_myr", a.age_myr},
+          {"maturity", a.maturity},
           {"raw", a.raw},
           {"ocean_floor_m", a.finish.ocean_floor_m},
           {"precision", a.precision},
@@ -317,7 +320,9 @@ void write_world(const WorldArgs& a, const FinishFlags::Parsed& fin, const World
                                     {"model_side_px", {w.model_h.cols, w.model_h.rows}},
                                     {"raw", a.raw},
                                     {"seed", a.seed},
-                                    {"variation", a.variation}}},
+                                    {"variation", a.variation},
+                                    {"age_myr", a.age_myr == kNotSet ? nlohmann::json() : nlohmann::json(a.age_myr)},
+                                    {"maturity", a.maturity == kNotSet ? nlohmann::json() : nlohmann::json(a.maturity)}}},
                          {"ocean_floor_m", a.finish.ocean_floor_m < 0 ? nlohmann::json(a.finish.ocean_floor_m) : nlohmann::json()},
                          {"size_px", {h.cols, h.rows}},
                          {"metres_per_px", mpp},
@@ -375,6 +380,12 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--variation", a->variation, "How far --seed re-rolls the islands, 0..1 (0: the network's islands, the seed varying only the finer detail)")
       ->capture_default_str()
       ->check(finite_in(0, 1));
+  sub->add_option("--age-myr", a->age_myr,
+                  "The islands' age in My (as infer's: their subsidence replaces the painted brightness, their "
+                  "erosion maturity sets the amplification's; docs/SPEC.md \"Age\")")
+      ->check(finite_in(0, kMaxAgeMyr));
+  sub->add_option("--maturity", a->maturity, "Erosion maturity alone, over the age's (as infer's)")
+      ->check(finite_in(kMinMaturity, kMaxMaturity));
   sub->add_flag("--raw", a->raw, "The network's bare answer at the model's scale: no clean-up, no amplification");
   sub->add_flag("--png16", a->png16, "Also PREFIX.height.png: 16-bit linear, range in the sidecar");
   sub->add_flag("--r16", a->r16, "Also PREFIX.r16: little-endian RAW");
@@ -394,7 +405,8 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
             const fs::path prefix(a->out);
             refuse_world_over_sketch(*a, fin, prefix);
             if (!fs::is_regular_file(a->sketch)) throw Error(a->sketch + ": no such sketch file");
-            const DecodedSketch s = read_sketch(a->sketch);
+            DecodedSketch s = read_sketch(a->sketch);
+            if (a->age_myr != kNotSet) s.subsidence.setTo(float(subsidence_of_age(a->age_myr)));
             check_world_finish(fin, a->size, s.label.rows == s.label.cols);
             ensure_writable_dir(prefix.has_parent_path() ? prefix.parent_path() : fs::path("."));
             const double mpp_sketch = a->world_size_m > 0   ? a->world_size_m / s.label.cols
@@ -406,6 +418,8 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
             io.precision = infer::precision_from_string(a->precision);
             io.engine = infer::engine_from_string(a->engine);
             io.seed = a->seed;
+            if (a->maturity != kNotSet || a->age_myr != kNotSet)
+              io.erosion = terrain::matured(io.erosion, a->maturity != kNotSet ? a->maturity : maturity_of_age(a->age_myr));
             // Two runs with one -o would remove each other's checkpoint and
             // stage into one folder: the second is refused.
             const fs::path out_dir = prefix.has_parent_path() ? prefix.parent_path() : fs::path(".");
