@@ -65,9 +65,11 @@ def pair_info(config=None, seed=0, index=0):
     return info
 
 
-def generate(spec="young-volcano", size=256, seed=None, subsidence=None):
+def generate(spec="young-volcano", size=256, seed=None, subsidence=None, age_myr=None, maturity=None):
     """(heights, labels) of `reefgen generate`: `spec` is a preset name (reefgen.presets()),
-    a spec dict or a spec file (configs/presets/*.json); seed is the detail noise's."""
+    a spec dict or a spec file (configs/presets/*.json); seed is the detail noise's;
+    age_myr: the island's age in My (sets subsidence and erosion maturity, docs/SPEC.md
+    "Age"), maturity: the erosion's alone; subsidence: λ, over the age's."""
     preset, spec_json = "", ""
     if isinstance(spec, dict):
         spec_json = _json.dumps(spec)
@@ -83,7 +85,18 @@ def generate(spec="young-volcano", size=256, seed=None, subsidence=None):
         if not (0.0 <= subsidence <= 1.0):  # NaN too: it meant "not given" here
             raise Error(f"generate: subsidence {subsidence} must be a finite number in [0, 1] (None: the spec's own)")
     return _reefgen.generate(preset, spec_json, int(size), None if seed is None else _seed(seed),
-                             _math.nan if subsidence is None else subsidence)
+                             _math.nan if subsidence is None else subsidence,
+                             _optional_number(age_myr, "age_myr"), _optional_number(maturity, "maturity"))
+
+
+def _optional_number(v, name):
+    """None -> NaN ("not given" to the C++ half); else a finite float (the C++ half checks its range)."""
+    if v is None:
+        return _math.nan
+    v = float(v)
+    if not _math.isfinite(v):
+        raise Error(f"{name} {v} must be a finite number (None: not set)")
+    return v
 
 
 def default_model():
@@ -105,7 +118,7 @@ def default_model():
 
 
 def infer(sketch, size=0, model=None, seed=0, raw=False, precision="fp32", engine="auto",
-          stochastic=False, threads=None, world_size_m=None, variation=1.0):
+          stochastic=False, threads=None, world_size_m=None, variation=1.0, age_myr=None, maturity=None):
     """(H, W) float32 metres of `reefgen infer`: the same numbers as its height.exr.
 
     sketch: a painted label map, (H, W, 3) RGB or (H, W, 4) RGBA, uint8 or uint16
@@ -116,7 +129,10 @@ def infer(sketch, size=0, model=None, seed=0, raw=False, precision="fp32", engin
     as the command's flags; threads: LibTorch's for this call (default: all cores);
     world_size_m: the canvas width (default 6000 m);
     seed, variation: another island for the same painting per seed, re-rolled
-    that far in [0, 1] (0: the network's own answer; `--seed`, `--variation`).
+    that far in [0, 1] (0: the network's own answer; `--seed`, `--variation`);
+    age_myr, maturity: the island's age in My (its subsidence replaces the painted
+    brightness, its erosion maturity the amplification's) and the maturity alone
+    (`--age-myr`, `--maturity`; None: not set).
     Needs the LibTorch half of the build (libtorch-dev); the generator is loaded once.
     """
     try:
@@ -130,7 +146,8 @@ def infer(sketch, size=0, model=None, seed=0, raw=False, precision="fp32", engin
                                 bool(raw), str(precision), str(engine), bool(stochastic),
                                 None if threads is None else int(threads),
                                 None if world_size_m is None else float(world_size_m),
-                                float(variation))
+                                float(variation), _optional_number(age_myr, "age_myr"),
+                                _optional_number(maturity, "maturity"))
 
 
 def decode_labels(image, ruggedness=False):

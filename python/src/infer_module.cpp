@@ -73,8 +73,14 @@ std::string python_words(std::string m) {
 
 infer::InferOptions options_for(const model::GeneratorFile& gen, int size, uint64_t seed, bool raw,
                                 const std::string& precision, const std::string& engine, bool stochastic,
-                                double world_size_m, double variation) {
+                                double world_size_m, double variation, double age_myr, double maturity) {
+  if (!std::isnan(age_myr) && !(age_myr >= 0 && age_myr <= kMaxAgeMyr))
+    throw Error("infer: age_myr " + std::to_string(age_myr) + " is outside [0, 60] My (None: the painted brightness)");
+  if (!std::isnan(maturity) && !(maturity >= kMinMaturity && maturity <= kMaxMaturity))
+    throw Error("infer: maturity " + std::to_string(maturity) + " is outside [0.05, 20] (None: the age's, or the default)");
   infer::InferOptions o;
+  o.age_myr = std::isnan(age_myr) ? kNotSet : age_myr;
+  o.maturity = std::isnan(maturity) ? kNotSet : maturity;
   o.size_px = size;
   o.seed = seed;
   o.variation = variation;
@@ -94,7 +100,8 @@ infer::InferOptions options_for(const model::GeneratorFile& gen, int size, uint6
 // `reefgen infer SKETCH --size SIZE --seed SEED [--raw]` -> (H, W) float32 metres.
 py::array_t<float> infer_sketch(const py::array& sketch, int size, const std::string& model_path, uint64_t seed,
                                 bool raw, const std::string& precision, const std::string& engine, bool stochastic,
-                                std::optional<int> threads, std::optional<double> world_size_m, double variation) {
+                                std::optional<int> threads, std::optional<double> world_size_m, double variation,
+                                double age_myr, double maturity) {
   if (!(variation >= 0 && variation <= 1))
     throw Error("infer: variation must be in [0, 1] (0 = the network's own answer, as --variation)");
   if (size < 0 || size > 8192) throw Error("infer: size " + std::to_string(size) + " is outside [0, 8192] (0 = the sketch's)");
@@ -109,7 +116,7 @@ py::array_t<float> infer_sketch(const py::array& sketch, int size, const std::st
     LoadedModel& m = loaded_model(model::resolve_model_path(model_path));
     std::lock_guard<std::mutex> hold(m.busy);
     const infer::InferOptions o = options_for(m.gen, size, seed, raw, precision, engine, stochastic,
-                                                 world_size_m.value_or(kCanvasWorldSizeM), variation);
+                                                 world_size_m.value_or(kCanvasWorldSizeM), variation, age_myr, maturity);
     // LibTorch's thread count is the process's: this call's, then the caller's again.
     const int before = torch::get_num_threads();
     torch::set_num_threads(threads.value_or(default_threads()));
@@ -146,5 +153,5 @@ PYBIND11_MODULE(_reefgen_infer, m) {
   reefgen::python::install_interrupt_hook();
   m.def("infer", &infer_sketch, py::arg("sketch"), py::arg("size"), py::arg("model"), py::arg("seed"), py::arg("raw"),
         py::arg("precision"), py::arg("engine"), py::arg("stochastic"), py::arg("threads"), py::arg("world_size_m"),
-        py::arg("variation"));
+        py::arg("variation"), py::arg("age_myr"), py::arg("maturity"));
 }

@@ -130,15 +130,20 @@ std::string pair_splits(const std::string& config_json, uint64_t seed, int64_t s
   return out;
 }
 
-procgen::IslandSpec spec_of(const std::string& preset, const std::string& spec_json) {
-  if (!spec_json.empty()) return procgen::spec_from_json(nlohmann::json::parse(spec_json), "spec");
-  return procgen::spec_from_json(nlohmann::json::parse(preset_text(builtin_presets(), preset)), "preset " + preset);
+// A preset or spec JSON, with age_myr and maturity (NaN: the spec's own)
+// written into it before it is read, as the CLI's flags.
+procgen::IslandSpec spec_of(const std::string& preset, const std::string& spec_json, double age_myr = NAN,
+                            double maturity = NAN) {
+  nlohmann::json j = nlohmann::json::parse(spec_json.empty() ? preset_text(builtin_presets(), preset) : spec_json);
+  if (!std::isnan(age_myr)) j["age_myr"] = age_myr;
+  if (!std::isnan(maturity)) j["maturity"] = maturity;
+  return procgen::spec_from_json(j, spec_json.empty() ? "preset " + preset : "spec");
 }
 
 // `reefgen generate --preset NAME` (or a spec) at `size`: heights and labels.
 py::tuple generate(const std::string& preset, const std::string& spec_json, int size, py::object seed,
-                   double subsidence) {
-  procgen::IslandSpec spec = spec_of(preset, spec_json);
+                   double subsidence, double age_myr, double maturity) {
+  procgen::IslandSpec spec = spec_of(preset, spec_json, age_myr, maturity);
   if (!seed.is_none()) spec.noise.seed = seed.cast<uint64_t>();
   if (!std::isnan(subsidence)) spec.subsidence = subsidence;
   procgen::RenderOptions opt;
@@ -201,7 +206,7 @@ PYBIND11_MODULE(_reefgen, m) {
   m.def("pair_info", &pair_info, py::arg("config_json"), py::arg("seed"), py::arg("index"));
   m.def("pair_splits", &pair_splits, py::arg("config_json"), py::arg("seed"), py::arg("start"), py::arg("count"));
   m.def("generate", &generate, py::arg("preset"), py::arg("spec_json"), py::arg("size"), py::arg("seed"),
-        py::arg("subsidence"));
+        py::arg("subsidence"), py::arg("age_myr"), py::arg("maturity"));
   m.def("realism", &realism, py::arg("heights"), py::arg("metres_per_px"));
   m.def("presets", &presets);
   m.def("file_checksum", &checksum, py::arg("path"));

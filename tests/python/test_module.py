@@ -79,6 +79,15 @@ class Module(unittest.TestCase):
         stats = reefgen.realism(heights, 6000.0 / 64)
         self.assertGreater(stats["land_cells"], 0)
         self.assertAlmostEqual(stats["max_height_m"], float(heights.max()), places=3)
+        # An age, as --age-myr: the same bytes; an age out of range names the field.
+        subprocess.run([BIN, "-q", "generate", "--preset", "young-volcano", "--size", "64", "--seed", "9",
+                        "--age-myr", "3.5", "-o", prefix + "-old"], check=True, stdout=subprocess.DEVNULL)
+        old, _ = reefgen.generate("young-volcano", size=64, seed=9, age_myr=3.5)
+        self.assertTrue(np.array_equal(old, read_exr(prefix + "-old.height.exr")))
+        self.assertFalse(np.array_equal(old, heights))
+        with self.assertRaises(reefgen.Error) as e:
+            reefgen.generate("young-volcano", size=64, age_myr=-3)
+        self.assertIn("age_myr", str(e.exception))
 
     def test_type_stubs_match_the_module(self):
         # The .pyi stubs (and py.typed) ship beside the package and name every public function,
@@ -184,6 +193,14 @@ class Module(unittest.TestCase):
             with self.assertRaises(reefgen.Error) as e:
                 reefgen.infer(labels, size=128, variation=bad)
             self.assertIn("variation must be in [0, 1]", str(e.exception))
+        # An age, as --age-myr: the same bytes as the command.
+        subprocess.run([TORCH_BIN, "-q", "infer", sketch, "--size", "128", "--seed", "2", "--age-myr", "5",
+                        "-o", prefix + "-old"], check=True, stdout=subprocess.DEVNULL)
+        self.assertTrue(np.array_equal(reefgen.infer(labels, size=128, seed=2, age_myr=5),
+                                       read_exr(prefix + "-old.height.exr")))
+        with self.assertRaises(reefgen.Error) as e:
+            reefgen.infer(labels, size=128, maturity=100)
+        self.assertIn("maturity", str(e.exception))
         raw = reefgen.infer(labels, raw=True)
         self.assertEqual(raw.shape, (64, 64))
         self.assertFalse(np.array_equal(raw, reefgen.infer(labels)))  # --raw skips the clean-up
