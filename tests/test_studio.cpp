@@ -188,6 +188,28 @@ TEST_F(Studio, ASeedReRollsTheIslandAsTheCliDoes) {
   }
 }
 
+// ?age_myr=T is infer --age-myr: the CLI's heights for that age; a bad age
+// is one 400 line naming the parameter.
+TEST_F(Studio, AnAgeIsTheCliAge) {
+  const fs::path sketch = kRoot / "docs" / "examples" / "painted-sketch.png";
+  const std::string png = file_bytes(sketch);
+  auto r = client->Post("/api/infer?seed=2&age_myr=3.5", png, "image/png");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  model::GeneratorFile g = model::load_generator(kRoot / "models" / "reef-256.pt");
+  infer::InferOptions io;
+  io.seed = 2;
+  io.age_myr = 3.5;
+  const cv::Mat1f want = infer::infer_heights(g, {read_sketch(sketch)}, io)[0];
+  EXPECT_EQ(cv::norm(parse_heights(r->body).h, want, cv::NORM_INF), 0.0) << "the studio must give --age-myr 3.5's heights";
+  for (const std::string bad : {"-1", "61", "abc", "1e3", "", "3.5.1"}) {
+    r = client->Post("/api/infer?age_myr=" + bad, png, "image/png");
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 400) << bad;
+    EXPECT_NE(r->body.find("age_myr must be"), std::string::npos) << bad << ": " << r->body;
+  }
+}
+
 // A burst of inference requests, some of them corrupt: every one is answered
 // (200, 409 when a newer one superseded it, 400 for the corrupt ones), and
 // afterwards the studio still answers with the CLI's heights — the decode

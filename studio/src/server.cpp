@@ -21,6 +21,7 @@
 
 #include "reefgen/constants.hpp"
 #include "reefgen/heightfile.hpp"
+#include "reefgen/parallel.hpp"
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
@@ -358,6 +359,22 @@ struct StudioServer::Impl {
     o.seed = seed;
     return o;
   }
+  // ?age_myr=T (infer --age-myr: the painting's subsidence and the erosion
+  // maturity of that age, reefgen/age.hpp): a number in [0, 60].
+  static double age_param(const std::string& v) {
+    const std::string what = "age_myr must be a number of millions of years in [0, 60] (infer --age-myr)";
+    if (v.empty() || v.size() > 12 || v.find_first_not_of("0123456789.") != std::string::npos) throw BadRequest(what);
+    char* end = nullptr;
+    const double t = std::strtod(v.c_str(), &end);
+    if (end != v.c_str() + v.size() || !(t >= 0 && t <= kMaxAgeMyr)) throw BadRequest(what);
+    return t;
+  }
+  // The island a request asks for: ?seed= and ?age_myr=.
+  infer::InferOptions island_options(const httplib::Request& req) const {
+    infer::InferOptions o = with_seed(req.has_param("seed") ? seed_param(req.get_param_value("seed")) : 0);
+    if (req.has_param("age_myr")) o.age_myr = age_param(req.get_param_value("age_myr"));
+    return o;
+  }
 
   // ?size=N: digits only, in range (atoi wrapped 4294967328 to 32).
   int size_param(const std::string& v) const {
@@ -428,8 +445,14 @@ struct StudioServer::Impl {
       if (!body["seed"].is_number_unsigned()) throw BadRequest("seed must be a whole number in [0, 2^64) (infer --seed)");
       seed = body["seed"].get<uint64_t>();
     }
+    infer::InferOptions options = with_seed(seed);
+    if (body.contains("age_myr")) {
+      if (!body["age_myr"].is_number() || !(body["age_myr"].get<double>() >= 0 && body["age_myr"].get<double>() <= kMaxAgeMyr))
+        throw BadRequest("age_myr must be a number of millions of years in [0, 60] (infer --age-myr)");
+      options.age_myr = body["age_myr"].get<double>();
+    }
     const DecodedSketch s = sketch_of(png);
-    src.height_m = infer::infer_heights(gen, {s}, with_seed(seed))[0];
+    src.height_m = infer::infer_heights(gen, {s}, options)[0];
     src.label = encode_labels(s.label, s.subsidence);
     cv::resize(s.label, src.region, src.height_m.size(), 0, 0, cv::INTER_NEAREST);
     src.metres_per_px = kCanvasWorldSizeM / src.height_m.cols;
@@ -614,13 +637,13 @@ struct StudioServer::Impl {
     // the compute lock holds its label maps (~70 MB at 4096²), and 32
     // requests waiting held 3.8 GB. A request superseded while it waited for
     // a slot is answered without decoding.
-    const uint64_t seed = req.has_param("seed") ? seed_param(req.get_param_value("seed")) : 0;
+    const infer::InferOptions options = island_options(req);
     const auto slot = decodes.take();
     if (superseded(res, ticket)) return;
     const DecodedSketch s = raw ? sketch_of_rgba(req) : sketch_of(req.body);
     latest_wins(res, ticket, [&] {
       const auto t0 = std::chrono::steady_clock::now();
-      const cv::Mat1f h = infer::infer_heights(gen, {s}, with_seed(seed))[0];
+      const cv::Mat1f h = infer::infer_heights(gen, {s}, options)[0];
       const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       send_heights(res, h, heights_meta(h, ms), req.get_param_value("enc") == "u16");
     });
@@ -631,7 +654,8 @@ struct StudioServer::Impl {
   void answer_variations(const httplib::Request& req, httplib::Response& res) {
     const bool raw = lower(req.get_header_value("Content-Type")).rfind("application/x-reefgen-rgba", 0) == 0;
     const uint64_t ticket = ++latest;
-    const uint64_t seed = req.has_param("seed") ? seed_param(req.get_param_value("seed")) : 0;
+    const infer::InferOptions options = island_options(req);
+    const uint64_t seed = options.seed;
     int n = kStudioVariations;
     if (req.has_param("n")) {
       const std::string t = req.get_param_value("n");
@@ -644,7 +668,7 @@ struct StudioServer::Impl {
     if (superseded(res, ticket)) return;
     const DecodedSketch s = raw ? sketch_of_rgba(req) : sketch_of(req.body);
     latest_wins(res, ticket, [&] {
-      const std::vector<cv::Mat1f> hs = infer::infer_variations(gen, s, with_seed(seed), n, 2);
+      const std::vector<cv::Mat1f> hs = infer::infer_variations(gen, s, options, n, default_threads());
       json j = {{"seeds", json::array()}, {"previews", json::array()}};
       for (int k = 0; k < n; ++k) {
         const std::string png = encode_png8(render_preview(hs[size_t(k)]), 1);
