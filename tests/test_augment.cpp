@@ -11,12 +11,14 @@
 #include "reefgen/augment/dataset.hpp"
 #include "reefgen/augment/formats.hpp"
 #include "reefgen/augment/manifest.hpp"
+#include "reefgen/age.hpp"
 #include "reefgen/files.hpp"
 #include "test_util.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
 #include <algorithm>
+#include <fstream>
 #include <cstring>
 #include <map>
 #include <set>
@@ -258,6 +260,66 @@ TEST(Dataset, ContinuousSubsidenceCoversTheRange) {
   DatasetParams ladder = dataset_params_from_json(read_json(std::string(REEFGEN_SOURCE_DIR) + "/configs/dataset/paper.json"), "paper.json");
   EXPECT_FALSE(ladder.continuous_subsidence);
   EXPECT_DOUBLE_EQ(pair_info(9, 5, ladder).subsidence, 1.0 / 3.0);
+}
+
+// Ages for conditioning: each pair draws an age in the range (log-uniform),
+// which sets its subsidence and maturity; the pair is the generator's island
+// of that maturity; without ages nothing changes (maturity 1, no age).
+TEST(Dataset, AgesAreDrawnRecordedAndApplied) {
+  DatasetParams p;
+  p.size_px = 32;
+  p.p_erosion = 1;
+  p.p_affine = p.p_translate = p.p_paste = 0;
+  const PairInfo plain = pair_info(9, 3, p);
+  EXPECT_EQ(plain.age_myr, -1.0);
+  EXPECT_EQ(plain.maturity, 1.0);
+  EXPECT_EQ(plain.ruggedness, 1.0);
+  EXPECT_EQ(plain.seed, procgen::random_spec(9, uint64_t(plain.configuration)).noise.seed);
+  DatasetParams aged = p;
+  aged.age_min_myr = 0.1, aged.age_max_myr = 8;
+  std::vector<double> ages;
+  for (int64_t i = 0; i < 200; ++i) {
+    const PairInfo a = pair_info(9, i, aged);
+    ASSERT_GE(a.age_myr, 0.1);
+    ASSERT_LE(a.age_myr, 8.0);
+    EXPECT_DOUBLE_EQ(a.subsidence, subsidence_of_age(a.age_myr));
+    EXPECT_DOUBLE_EQ(a.maturity, maturity_of_age(a.age_myr));
+    ages.push_back(a.age_myr);
+  }
+  // Log-uniform: about half the draws below the geometric mean (0.89 My).
+  const auto below = std::count_if(ages.begin(), ages.end(), [](double t) { return t < std::sqrt(0.1 * 8); });
+  EXPECT_NEAR(double(below) / 200, 0.5, 0.1);
+  // The pair is the island of its maturity: differs from the unaged one.
+  PairInfo got;
+  const Pair a = make_pair(9, 3, aged, &got);
+  EXPECT_EQ(got.age_myr, pair_info(9, 3, aged).age_myr);
+  EXPECT_GT(cv::norm(a.height_m, make_pair(9, 3, p).height_m, cv::NORM_INF), 0.5);
+  // The manifest records each pair's seed, age, maturity, style and subsidence.
+  const fs::path d = test::temp_dir("ages");
+  aged.count = 3;
+  BuildOptions o;
+  o.seed = 9;
+  o.quiet = true;
+  o.out = d;
+  build_dataset(aged, o);
+  std::ifstream manifest(d / "manifest.jsonl");
+  std::string line;
+  int rows = 0;
+  while (std::getline(manifest, line)) {
+    const nlohmann::json rec = nlohmann::json::parse(line);
+    const PairInfo want = pair_info(9, rec["index"].get<int64_t>(), aged);
+    EXPECT_EQ(rec["age_myr"].get<double>(), want.age_myr);
+    EXPECT_EQ(rec["seed"].get<uint64_t>(), want.seed);
+    EXPECT_EQ(rec["maturity"].get<double>(), want.maturity);
+    EXPECT_EQ(rec["subsidence"].get<double>(), want.subsidence);
+    EXPECT_EQ(rec["ruggedness"].get<double>(), 1.0);
+    ++rows;
+  }
+  EXPECT_EQ(rows, 3);
+  fs::remove_all(d);
+  DatasetParams bad = p;
+  bad.age_min_myr = 5, bad.age_max_myr = 1;
+  EXPECT_THROW(dataset_params_from_json(params_json(bad), "d.json"), Error);
 }
 
 TEST(Dataset, ConfigErrorsNameTheKey) {

@@ -58,6 +58,10 @@ json pair_record(const PairInfo& info, const Pair& pair) {
           {"split", split_name(info.split)},
           {"configuration", info.configuration},
           {"subsidence", info.subsidence},
+          {"seed", info.seed},
+          {"age_myr", info.age_myr < 0 ? json() : json(info.age_myr)},
+          {"maturity", info.maturity},
+          {"ruggedness", info.ruggedness},
           {"augmentation", info.augmentation},
           {"height_range_m", {lo, hi}}};
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "reefgen/age.hpp"
 #include "reefgen/files.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/curves.hpp"
@@ -16,6 +17,11 @@ namespace reefgen::augment {
 
 using nlohmann::json;
 
+namespace {
+// The youngest age a log-uniform draw starts at, My.
+constexpr double kMinDrawnAgeMyr = 1e-4;
+}  // namespace
+
 void to_json(json& j, const DatasetParams& p) { j = params_json(p); }
 
 DatasetParams dataset_params_from_json(const json& j, const std::string& origin) {
@@ -26,6 +32,11 @@ DatasetParams dataset_params_from_json(const json& j, const std::string& origin)
   };
   order("scale_min", p.scale_min, "scale_max", p.scale_max);
   order("subsidence_min", p.subsidence_min, "subsidence_max", p.subsidence_max);
+  order("maturity_min", p.maturity_min, "maturity_max", p.maturity_max);
+  if (p.age_min_myr != kNotSet || p.age_max_myr != kNotSet) {
+    if (!(p.age_min_myr >= 0)) throw Error(origin + ": age_min_myr must be in [0, 60] when age_max_myr is set (-1 for no ages)");
+    order("age_min_myr", p.age_min_myr, "age_max_myr", p.age_max_myr);
+  }
   if (p.p_mapgen4 + p.p_wilbur > 1)
     throw Error(origin + ": p_wilbur = " + std::to_string(p.p_wilbur) + " and p_mapgen4 = " + std::to_string(p.p_mapgen4) +
                 " add up to more than 1");
@@ -56,6 +67,22 @@ PairInfo pair_info(uint64_t seed, int64_t index, const DatasetParams& p) {
   if (p.continuous_subsidence)  // own stream: the other draws of a pair do not move
     info.subsidence = Rng(seed, static_cast<uint64_t>(index), "subsidence").uniform(p.subsidence_min, p.subsidence_max);
   info.split = split_of(seed, info.configuration, p);
+  info.seed = procgen::random_spec(seed, static_cast<uint64_t>(info.configuration)).noise.seed;
+  // Age and maturity from their own stream (log-uniform: a young shield and
+  // Kauaʻi's age as likely per factor of time); none drawn by default.
+  const auto log_uniform = [&](const char* stream, double lo, double hi) {
+    return lo * std::exp(Rng(seed, static_cast<uint64_t>(index), stream).uniform() * std::log(hi / lo));
+  };
+  if (p.age_min_myr >= 0) {
+    // An age of 0 has no logarithm: the draw starts at a tenth of a millennium.
+    info.age_myr = log_uniform("age", std::max(p.age_min_myr, kMinDrawnAgeMyr), std::max(p.age_max_myr, kMinDrawnAgeMyr));
+    info.subsidence = subsidence_of_age(info.age_myr);
+    info.maturity = maturity_of_age(info.age_myr);
+  } else if (p.maturity_min < p.maturity_max) {
+    info.maturity = log_uniform("maturity", p.maturity_min, p.maturity_max);
+  } else {
+    info.maturity = p.maturity_min;
+  }
   return info;
 }
 
@@ -120,10 +147,11 @@ Pair make_pair(uint64_t seed, int64_t index, const DatasetParams& p, PairInfo* o
   // pairs of datasets without them stay byte-identical.
   // Erosion and its seed from their own stream, for the same reason.
   ErosionJob erosion;
+  const terrain::ErosionParams matured = info.maturity == 1 ? p.erosion : terrain::matured(p.erosion, info.maturity);
   if (p.p_erosion > 0) {
     Rng er(seed, static_cast<uint64_t>(index), "erosion");
     if (er.uniform() < p.p_erosion) {
-      erosion = {&p.erosion};
+      erosion = {&matured};
       aug["erosion"] = true;
     }
   }

@@ -57,7 +57,8 @@ void check_pair_index(int64_t index) {
                 "), the pairs a dataset can hold");
 }
 
-// A pair's conditioning as a dict: index, configuration, level, subsidence, split.
+// A pair's conditioning as a dict: index, configuration, level, subsidence, split, seed, age_myr
+// (None when the dataset draws no age), maturity, ruggedness (style, 1 = rugged).
 py::dict conditioning(const augment::PairInfo& info) {
   py::dict d;
   d["index"] = info.index;
@@ -65,6 +66,10 @@ py::dict conditioning(const augment::PairInfo& info) {
   d["level"] = info.level;
   d["subsidence"] = info.subsidence;
   d["split"] = augment::split_name(info.split);
+  d["seed"] = info.seed;
+  d["age_myr"] = info.age_myr < 0 ? py::object(py::none()) : py::object(py::float_(info.age_myr));
+  d["maturity"] = info.maturity;
+  d["ruggedness"] = info.ruggedness;
   return d;
 }
 

@@ -42,6 +42,16 @@ struct DatasetParams {
   int border_px = 2;           // [1, 64]
   double p_erosion = 0;        // probability a curve island is eroded (terrain/erosion.hpp), [0, 1]
   terrain::ErosionParams erosion;  // JSON: optional object "erosion"
+  // Island ages (reefgen/age.hpp), so a model can be conditioned on them:
+  // with age_min_myr ≥ 0 each curve pair draws an age log-uniform in
+  // [age_min_myr, age_max_myr] that sets its subsidence and its erosion
+  // maturity (over the subsidence draws); else, with maturity_min <
+  // maturity_max, a maturity log-uniform in that range alone. The defaults
+  // draw neither: the pairs of earlier datasets, byte for byte.
+  double age_min_myr = -1;     // My, [-1, 60]; -1 = no age drawn
+  double age_max_myr = -1;     // My, [age_min_myr, 60]
+  double maturity_min = 1;     // [0.05, 20]
+  double maturity_max = 1;     // [maturity_min, 20]
 };
 
 // The one field list (common/params_json.hpp); dataset_params_from_json adds
@@ -70,6 +80,10 @@ void fields(DatasetParams& p, F&& f) {
   f("border_px", p.border_px, Range{1, 64});
   f("p_erosion", p.p_erosion, Range{0, 1});
   f("erosion", p.erosion);
+  f("age_min_myr", p.age_min_myr, Range{-1, 60});
+  f("age_max_myr", p.age_max_myr, Range{-1, 60});
+  f("maturity_min", p.maturity_min, Range{0.05, 20});
+  f("maturity_max", p.maturity_max, Range{0.05, 20});
 }
 void to_json(nlohmann::json& j, const DatasetParams& p);
 // Every key optional; unknown keys and out-of-range values throw Error naming them.
@@ -86,6 +100,10 @@ struct PairInfo {
   int level;
   double subsidence;
   Split split;
+  uint64_t seed = 0;         // the island's generator seed (its spec's noise.seed)
+  double age_myr = -1;       // the age drawn (DatasetParams::age_min_myr), -1 = none
+  double maturity = 1;       // erosion maturity (terrain::matured; 1 = the dataset's erosion as given)
+  double ruggedness = 1;     // per-region style (DecodedSketch::ruggedness / 255): the generator's islands are rugged
   nlohmann::json augmentation;  // what was applied, for the manifest
 };
 
