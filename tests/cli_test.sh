@@ -236,6 +236,10 @@ expect_error "subsidence: value 1.5 must be a finite number in \[0, 1\]" generat
 expect_error "size" generate --preset atoll --size 3 -o "$T/e/x"
 expect_error "afile" generate --preset atoll -o "$T/afile/sub/x"
 expect_error "needs --out" generate --random 2
+echo '{"age_myr": -0.5}' > "$T/age.json"
+expect_error "age_myr = -0.5 is out of range" generate --spec "$T/age.json" -o "$T/e/x"
+expect_error "age-myr: value 61 must be" generate --preset atoll --age-myr 61 -o "$T/e/x"
+expect_error "use them with --preset or --spec, not --random" generate --random 2 --age-myr 3 --out "$T/e/r"
 
 # 4. Datasets: threads, shards + merge = unsharded, resume, foreign files.
 cat > "$T/ds.json" <<'JSON'
