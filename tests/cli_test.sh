@@ -46,6 +46,16 @@ for path in sse2 avx2 avx512; do
 done
 [ -s "$T/vp/sse2.sha" ] && cmp -s "$T/vp/sse2.sha" "$T/vp/avx2.sha" && cmp -s "$T/vp/sse2.sha" "$T/vp/avx512.sha" \
   && ok || bad "the vector paths give different bytes: $(diff "$T/vp/sse2.sha" "$T/vp/avx512.sha" | head -3)"
+# The network's own loops (the engine's rows, the Winograd transforms) too:
+# one dispatch, so REEFGEN_CPU_PATH reaches them.
+if [ -x "$(dirname "$BIN")/reefgen-torch" ] && [ -f "$(dirname "$0")/../models/reef-256.pt" ]; then
+  for path in sse2 avx2 avx512; do
+    REEFGEN_CPU_PATH=$path "$BIN" -q infer "$(dirname "$0")/data/painted/01-young-volcano.png" -o "$T/vp/net-$path" >/dev/null 2>"$T/err" \
+      || bad "infer on the $path path: $(cat "$T/err")"
+  done
+  cmp -s "$T/vp/net-sse2.height.exr" "$T/vp/net-avx2.height.exr" && cmp -s "$T/vp/net-sse2.height.exr" "$T/vp/net-avx512.height.exr" \
+    && ok || bad "the network's vector paths give different bytes"
+fi
 REEFGEN_CPU_PATH=avx3 "$BIN" -q generate --preset atoll --size 32 -o "$T/vp/x" 2>"$T/err" >/dev/null
 [ $? -ne 0 ] && grep -q "REEFGEN_CPU_PATH='avx3'" "$T/err" && ok || bad "an unknown REEFGEN_CPU_PATH is not one line"
 

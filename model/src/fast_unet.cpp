@@ -1,5 +1,7 @@
 #include "reefgen/model/fast_unet.hpp"
 
+#include "reefgen/vector_path.hpp"
+
 #include <ATen/Parallel.h>
 
 #include <algorithm>
@@ -25,13 +27,8 @@ constexpr float kLeaky = 0.2f;     // pix2pix's LeakyReLU slope
 constexpr int64_t kRowGrain = 4;   // rows per parallel task (fixed: results do not depend on it)
 
 // Hot loops below are compiled for AVX-512, AVX2 and baseline x86-64 and the
-// best one is picked at load time by the CPU's features (the build itself has
-// no -march flag).
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define REEFGEN_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
-#else
-#define REEFGEN_CLONES
-#endif
+// path this process runs on is picked once (common/vector_path.hpp: the CPU's
+// features, capped by REEFGEN_CPU_PATH; the build itself has no -march flag).
 
 inline bf16_t to_bf16(float f) {  // round to nearest even, NaN kept NaN
   uint32_t u;
@@ -50,7 +47,7 @@ inline float from_bf16(bf16_t h) {
 enum Act { kNone = 0, kRelu = 1, kLeakyRelu = 2 };
 
 // y[p*C + c] = act(x[p*C + c] * scale[c] + shift[c]) over npix pixels.
-REEFGEN_CLONES void affine_act_row(const float* x, float* y, int64_t npix, int64_t C, const float* scale,
+REEFGEN_INLINE_BODY void affine_act_row_body(const float* x, float* y, int64_t npix, int64_t C, const float* scale,
                                    const float* shift, int act) {
   for (int64_t p = 0; p < npix; ++p) {
     const float* xp = x + p * C;
@@ -63,25 +60,28 @@ REEFGEN_CLONES void affine_act_row(const float* x, float* y, int64_t npix, int64
     }
   }
 }
+REEFGEN_DISPATCHED(void, affine_act_row, (const float* x, float* y, int64_t npix, int64_t C, const float* scale, const float* shift, int act), (x, y, npix, C, scale, shift, act))
 
 // Store npix pixels of C channels at dst + p*stride (float32 or bf16), relu'd if asked.
-REEFGEN_CLONES void store_row_f32(const float* y, int64_t npix, int64_t C, float* dst, int64_t stride, bool relu) {
+REEFGEN_INLINE_BODY void store_row_f32_body(const float* y, int64_t npix, int64_t C, float* dst, int64_t stride, bool relu) {
   for (int64_t p = 0; p < npix; ++p)
     for (int64_t c = 0; c < C; ++c) {
       const float v = y[p * C + c];
       dst[p * stride + c] = relu ? (v > 0.f ? v : 0.f) : v;
     }
 }
-REEFGEN_CLONES void store_row_bf16(const float* y, int64_t npix, int64_t C, bf16_t* dst, int64_t stride, bool relu) {
+REEFGEN_DISPATCHED(void, store_row_f32, (const float* y, int64_t npix, int64_t C, float* dst, int64_t stride, bool relu), (y, npix, C, dst, stride, relu))
+REEFGEN_INLINE_BODY void store_row_bf16_body(const float* y, int64_t npix, int64_t C, bf16_t* dst, int64_t stride, bool relu) {
   for (int64_t p = 0; p < npix; ++p)
     for (int64_t c = 0; c < C; ++c) {
       const float v = y[p * C + c];
       dst[p * stride + c] = to_bf16(relu ? (v > 0.f ? v : 0.f) : v);
     }
 }
+REEFGEN_DISPATCHED(void, store_row_bf16, (const float* y, int64_t npix, int64_t C, bf16_t* dst, int64_t stride, bool relu), (y, npix, C, dst, stride, relu))
 
 // Per-channel sum and sum of squares of one row, in double.
-REEFGEN_CLONES void sums_row(const float* x, int64_t npix, int64_t C, double* sum, double* sq) {
+REEFGEN_INLINE_BODY void sums_row_body(const float* x, int64_t npix, int64_t C, double* sum, double* sq) {
   for (int64_t c = 0; c < C; ++c) sum[c] = sq[c] = 0.0;
   for (int64_t p = 0; p < npix; ++p)
     for (int64_t c = 0; c < C; ++c) {
@@ -90,6 +90,7 @@ REEFGEN_CLONES void sums_row(const float* x, int64_t npix, int64_t C, double* su
       sq[c] += v * v;
     }
 }
+REEFGEN_DISPATCHED(void, sums_row, (const float* x, int64_t npix, int64_t C, double* sum, double* sq), (x, npix, C, sum, sq))
 
 // The output layer's taps of npix pixels: out[p·TT + t] = Σ_c src[p·C + c] ·
 // wt[c·TTp + t], each summed over c in order in one float, so every vector
@@ -101,7 +102,7 @@ constexpr int kTapLanes = 16;
 constexpr int kTapPixels = 6;
 // Eight lanes: one AVX2 register (the widest type every clone handles well).
 typedef float Lanes8 __attribute__((vector_size(8 * sizeof(float))));
-REEFGEN_CLONES void taps_rows(const float* src, int64_t npix, int64_t C, const float* wt, int64_t TT, int64_t TTp,
+REEFGEN_INLINE_BODY void taps_rows_body(const float* src, int64_t npix, int64_t C, const float* wt, int64_t TT, int64_t TTp,
                               float* out) {
   for (int64_t p0 = 0; p0 < npix; p0 += kTapPixels) {
     const int64_t np = std::min<int64_t>(kTapPixels, npix - p0);
@@ -126,10 +127,11 @@ REEFGEN_CLONES void taps_rows(const float* src, int64_t npix, int64_t C, const f
     }
   }
 }
+REEFGEN_DISPATCHED(void, taps_rows, (const float* src, int64_t npix, int64_t C, const float* wt, int64_t TT, int64_t TTp, float* out), (src, npix, C, wt, TT, TTp, out))
 
 // Bilinear (align_corners=false) or nearest ×2 of one output row, nhwc, as
 // PyTorch computes it: ((x00 w0x + x01 w1x) w0y + (x10 w0x + x11 w1x) w1y).
-REEFGEN_CLONES void upsample_row_f32(const float* r0, const float* r1, float wy0, float wy1, int64_t side_in,
+REEFGEN_INLINE_BODY void upsample_row_f32_body(const float* r0, const float* r1, float wy0, float wy1, int64_t side_in,
                                      int64_t C, float* out, bool bilinear) {
   for (int64_t ox = 0; ox < 2 * side_in; ++ox) {
     float* o = out + ox * C;
@@ -144,13 +146,16 @@ REEFGEN_CLONES void upsample_row_f32(const float* r0, const float* r1, float wy0
     for (int64_t k = 0; k < C; ++k) o[k] = (a[k] * wx0 + b[k] * wx1) * wy0 + (c[k] * wx0 + d[k] * wx1) * wy1;
   }
 }
+REEFGEN_DISPATCHED(void, upsample_row_f32, (const float* r0, const float* r1, float wy0, float wy1, int64_t side_in, int64_t C, float* out, bool bilinear), (r0, r1, wy0, wy1, side_in, C, out, bilinear))
 
-REEFGEN_CLONES void bf16_to_f32(const bf16_t* a, float* b, int64_t n) {
+REEFGEN_INLINE_BODY void bf16_to_f32_body(const bf16_t* a, float* b, int64_t n) {
   for (int64_t i = 0; i < n; ++i) b[i] = from_bf16(a[i]);
 }
-REEFGEN_CLONES void f32_to_bf16(const float* a, bf16_t* b, int64_t n) {
+REEFGEN_DISPATCHED(void, bf16_to_f32, (const bf16_t* a, float* b, int64_t n), (a, b, n))
+REEFGEN_INLINE_BODY void f32_to_bf16_body(const float* a, bf16_t* b, int64_t n) {
   for (int64_t i = 0; i < n; ++i) b[i] = to_bf16(a[i]);
 }
+REEFGEN_DISPATCHED(void, f32_to_bf16, (const float* a, bf16_t* b, int64_t n), (a, b, n))
 
 }  // namespace
 

@@ -1,5 +1,7 @@
 #include "winograd_up.hpp"
 
+#include "reefgen/vector_path.hpp"
+
 #include <ATen/Parallel.h>
 
 #include <algorithm>
@@ -48,25 +50,24 @@ torch::Tensor transformed_filters(const torch::Tensor& w_iohw) {
   return u;
 }
 
-// The transforms' inner loops, one clone per vector width (chosen by the
-// CPU at load time): adds and subtracts only, so every clone gives the same bits.
-#if defined(__x86_64__) && !defined(__clang__)
-#define REEFGEN_WINO_CLONES __attribute__((target_clones("avx512f", "avx2", "default")))
-#else
-#define REEFGEN_WINO_CLONES
-#endif
+// The transforms' inner loops, one path per vector width (common/
+// vector_path.hpp, capped by REEFGEN_CPU_PATH): adds and subtracts only, so
+// every path gives the same bits.
 
 // (a - b, b, c - b): F(2,2)'s input transform along one axis.
-REEFGEN_WINO_CLONES void input_1d(const float* a, const float* b, const float* c, float* o0, float* o1, float* o2,
+REEFGEN_INLINE_BODY void input_1d_body(const float* a, const float* b, const float* c, float* o0, float* o1, float* o2,
                                   int64_t n) {
   for (int64_t i = 0; i < n; ++i) o0[i] = a[i] - b[i], o1[i] = b[i], o2[i] = c[i] - b[i];
 }
-REEFGEN_WINO_CLONES void add_rows(const float* a, const float* b, float* out, int64_t n) {
+REEFGEN_DISPATCHED(void, input_1d, (const float* a, const float* b, const float* c, float* o0, float* o1, float* o2, int64_t n), (a, b, c, o0, o1, o2, n))
+REEFGEN_INLINE_BODY void add_rows_body(const float* a, const float* b, float* out, int64_t n) {
   for (int64_t i = 0; i < n; ++i) out[i] = a[i] + b[i];
 }
-REEFGEN_WINO_CLONES void add_rows_bias(const float* a, const float* b, const float* bias, float* out, int64_t n) {
+REEFGEN_DISPATCHED(void, add_rows, (const float* a, const float* b, float* out, int64_t n), (a, b, out, n))
+REEFGEN_INLINE_BODY void add_rows_bias_body(const float* a, const float* b, const float* bias, float* out, int64_t n) {
   for (int64_t i = 0; i < n; ++i) out[i] = (a[i] + b[i]) + bias[i];
 }
+REEFGEN_DISPATCHED(void, add_rows_bias, (const float* a, const float* b, const float* bias, float* out, int64_t n), (a, b, bias, out, n))
 
 }  // namespace
 

@@ -1,5 +1,7 @@
 #include "reefgen/train/fused_adam.hpp"
 
+#include "reefgen/vector_path.hpp"
+
 #include <cmath>
 
 #include <ATen/Parallel.h>
@@ -13,10 +15,11 @@ FusedAdam::FusedAdam(std::vector<torch::Tensor> params, torch::optim::AdamOption
 }
 
 namespace {
-// One pass: m, v and the weight updated together. target_clones gives an AVX2
-// version where the CPU has it; add, mul, div and sqrt are exactly rounded and
-// FMA contraction is off, so both versions give the same bits.
-__attribute__((target_clones("avx2", "default"))) void adam_update(float* __restrict w, const float* __restrict g,
+// One pass: m, v and the weight updated together, on the vector path this
+// process runs (common/vector_path.hpp, capped by REEFGEN_CPU_PATH); add,
+// mul, div and sqrt are exactly rounded and FMA contraction is off, so every
+// path gives the same bits.
+REEFGEN_INLINE_BODY void adam_update_body(float* __restrict w, const float* __restrict g,
                                                                    float* __restrict m, float* __restrict v,
                                                                    int64_t n, float b1, float one_b1, float b2,
                                                                    float one_b2, float sqrt_bc2, float eps,
@@ -30,6 +33,7 @@ __attribute__((target_clones("avx2", "default"))) void adam_update(float* __rest
     w[i] += neg_step * (mi / (__builtin_sqrtf(vi) / sqrt_bc2 + eps));
   }
 }
+REEFGEN_DISPATCHED(void, adam_update, (float* __restrict w, const float* __restrict g, float* __restrict m, float* __restrict v, int64_t n, float b1, float one_b1, float b2, float one_b2, float sqrt_bc2, float eps, float neg_step), (w, g, m, v, n, b1, one_b1, b2, one_b2, sqrt_bc2, eps, neg_step))
 }  // namespace
 
 torch::Tensor FusedAdam::step(LossClosure closure) {

@@ -27,3 +27,17 @@ Fn pick_path(Fn sse2, Fn avx2, Fn avx512) {
 }
 
 }  // namespace reefgen
+
+// NAME's three compiled paths from NAME_body (a REEFGEN_INLINE_BODY function
+// of the same parameters) and NAME itself, which calls the one pick_path
+// chooses for this process (so REEFGEN_CPU_PATH caps it like every loop),
+// looked up once. PARAMS and ARGS in parentheses:
+//   REEFGEN_DISPATCHED(void, add_rows, (const float* a, float* o, int64_t n), (a, o, n))
+#define REEFGEN_DISPATCHED(ret, name, params, args)                                          \
+  ret name##_sse2 params { return name##_body args; }                                        \
+  REEFGEN_AVX2 ret name##_avx2 params { return name##_body args; }                           \
+  REEFGEN_AVX512 ret name##_avx512 params { return name##_body args; }                       \
+  ret name params {                                                                          \
+    static const auto path = ::reefgen::pick_path(&name##_sse2, &name##_avx2, &name##_avx512); \
+    return path args;                                                                        \
+  }
