@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Sets up a fresh machine and runs the whole test suite (GoogleTest + CLI
-# end-to-end), as CI does. Tests use tiny sizes: the suite takes seconds.
+# end-to-end), as CI does. Tests use tiny sizes; the whole suite takes about
+# 10 minutes on 2 cores (no test is timed: speed is benchmarked apart,
+# docs/BENCHMARKS.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/build.sh

@@ -62,7 +62,7 @@ void add_large_forms(model::GeneratorFile& g, const cv::Mat1b& label, const cv::
   cv::resize(forward_heights(g, l, s, o)(cv::Rect(at, small)), coarse, crop.size(), 0, 0, cv::INTER_CUBIC);
   cv::Mat1f weight;
   mask(crop).convertTo(weight, CV_32F, 1.0 / 255);
-  cv::GaussianBlur(weight, weight, cv::Size(0, 0), kLargeFormSigmaPx / 2, kLargeFormSigmaPx / 2, cv::BORDER_CONSTANT);
+  cv::GaussianBlur(weight, weight, cv::Size(0, 0), kCoarseFadePx / 2, kCoarseFadePx / 2, cv::BORDER_CONSTANT);
   // Faded in over the first half of the radius past the limit.
   const float size_w = float(std::clamp((radius_px - kLargeIslandRadiusPx) / (0.5 * kLargeIslandRadiusPx), 0.0, 1.0));
   cv::Mat1f region = h(crop);

@@ -28,10 +28,9 @@ inline constexpr double kLargeIslandRadiusPx = 100;
 // training island, so the model draws one massif with its summit in the core.
 inline constexpr double kCoarseIslandRadiusPx = 75;
 // How far the coarse answer fades into the whole-sketch pass round a large
-// island, px at the model's scale: its mask is blurred by half of this (16
-// px, 375 m). (Named for a first try that swapped the two answers'
-// low-passes at σ = 750 m; docs/WORLDS.md, "What was tried".)
-inline constexpr double kLargeFormSigmaPx = 32;
+// island, px at the model's scale: its mask is blurred by a Gaussian of half
+// of this (σ 16 px, 375 m).
+inline constexpr double kCoarseFadePx = 32;
 
 // Painted land stays land: where a world's sketch paints island or beach,
 // heights are at least kPaintedLandFloorM, rising from kPaintedCoastFloorM on

@@ -7,14 +7,19 @@
 //   GET  /api/info                 model, limits, version
 //   GET  /api/presets              {name: spec} of the built-in island presets
 //   GET  /api/defaults             the default spec (the paper's profile and resistance curves)
-//   POST /api/infer                body: a sketch image (PNG/JPEG, ≤ max_side²)
+//   POST /api/infer                body: a sketch image (PNG/JPEG, ≤ max_side²), or with ?w=&h= the
+//                                  canvas's raw RGBA; ?seed=, ?age_myr= as infer's flags
 //                                  -> heights: [uint32 LE n][n bytes JSON {size, min_m, max_m, lo_m,
-//                                     hi_m, metres_per_px, ms}][size² float32 LE metres, row 0 = north]
+//                                     hi_m, metres_per_px, ms}][size² float32 LE metres, row 0 = north];
+//                                     with ?enc=u16 uint16 steps (the JSON says lo and step)
+//   POST /api/variations?seed=S&n=N  body: as /api/infer -> {"seeds": [...], "previews": [base64 PNG]}
 //   POST /api/generate?size=N      body: an island spec (docs/SPEC.md)
 //                                  -> the same, its JSON also holding label_png (base64)
+//   POST /api/layers?view=V        body: as export -> PNG of the materials or flow layer
 //   POST /api/export?format=F&name=N   body: {"sketch_png": base64} or {"spec": {...}, "size": N}
 //                                  writes OUT/N.ext with the CLI's writers and returns the file;
-//                                  F: exr png16 r16 glb obj sketch spec
+//                                  F: exr png16 r16 glb obj sketch spec, or a bundle (unity unreal
+//                                  godot blender gis: OUT/N.<F>/ and its ZIP)
 // Errors: HTTP 400/404/409/413 with {"error": one line}. One computation at a
 // time; a request overtaken by a newer one while it waited gets 409 (the
 // latest stroke wins).

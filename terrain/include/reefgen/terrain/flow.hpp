@@ -37,7 +37,7 @@ struct FloodRoute {
 // cells below the current spill level are depression cells and skip the
 // priority queue. Ties are broken by flat index, so the route is a pure
 // function of the inputs. O(n): the priority queue is a radix-sorted list of
-// the cells that can enter it (its keys are monotone; terrain.cpp says why).
+// the cells that can enter it (its keys are monotone; priority_flood.cpp says why).
 FloodRoute flood_route(const cv::Mat1f& height, const cv::Mat1b& role);
 
 // Roles for "water leaves at the sea (h ≤ sea_m) and at the canvas edge":

@@ -3,8 +3,9 @@
 // (docs/LAYERS.md): drainage area (flow), slope, the erosion's wear and
 // deposit, normals, and the weights of eight named materials derived from
 // the regions (painted or generated), height, slope, flow and deposits.
-// Weights sum to 1 at every pixel by construction. Deterministic and
-// single-threaded: the same bytes whatever the thread count.
+// Weights sum to 1 at every pixel by construction. Deterministic: the rows
+// a function's `threads` share are independent, so the bytes are the same
+// whatever the thread count.
 #include <algorithm>
 #include <array>
 #include <cmath>
