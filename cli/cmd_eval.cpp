@@ -5,6 +5,7 @@
 #include <optional>
 
 #include "app.hpp"
+#include "reefgen/heap.hpp"
 #include "reefgen/constants.hpp"
 #include "reefgen/infer/evaluate.hpp"
 #include "reefgen/files.hpp"
@@ -48,7 +49,7 @@ Command add_eval_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--threads", a->threads, "LibTorch threads (default: all cores)")->check(CLI::Range(1, 256));
   return {sub, [a, &g]() -> int {
             torch::set_num_threads(a->threads.value_or(default_threads()));
-            train::keep_freed_memory();
+            keep_freed_memory();
             if (a->max_pairs < 1) throw Error("--max-pairs must be ≥ 1");
             a->model = model::resolve_model_path(a->model).string();
             model::GeneratorFile gen = model::load_generator(a->model);

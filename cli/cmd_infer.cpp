@@ -5,6 +5,7 @@
 
 #include "app.hpp"
 #include "finish.hpp"
+#include "reefgen/heap.hpp"
 #include "reefgen/constants.hpp"
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/infer/run.hpp"
@@ -142,7 +143,7 @@ void set_infer_options(const InferArgs& a, model::GeneratorFile& gen, const std:
 
 int run_infer(const InferArgs& a, const GlobalOptions& g) {
   torch::set_num_threads(a.threads.value_or(default_threads()));
-  train::keep_freed_memory();
+  keep_freed_memory();
   infer::InferJob job = infer_job(a, g);
   job.threads = a.threads.value_or(default_threads());
   job.model_path = model::resolve_model_path(a.model).string();

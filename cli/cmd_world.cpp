@@ -11,6 +11,7 @@
 
 #include "app.hpp"
 #include "finish.hpp"
+#include "reefgen/heap.hpp"
 #include "reefgen/constants.hpp"
 #include "reefgen/engines/world_bundle.hpp"
 #include "reefgen/files.hpp"
@@ -397,7 +398,7 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
   return {sub, [a, &g]() -> int {
             const int threads = a->threads.value_or(default_threads());
             torch::set_num_threads(threads);
-            train::keep_freed_memory();
+            keep_freed_memory();
             if (a->metres_per_px > 0 && a->world_size_m > 0)
               throw Error("--metres-per-px and --world-size say the same thing; give one");
             if (a->raw && a->size > 0) throw Error("--raw keeps the model's scale; drop --size or --raw");

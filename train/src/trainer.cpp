@@ -9,6 +9,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "reefgen/heap.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/model/archive.hpp"
 #include "reefgen/model/generator_file.hpp"

@@ -35,10 +35,3 @@ void clear_grads(const std::vector<torch::Tensor>& params);
 
 }  // namespace reefgen::train
 
-namespace reefgen::train {
-// Keeps freed activation and gradient buffers (up to 32 MB each) in the heap
-// instead of returning them to the kernel after every step: the page faults
-// of re-mapping them were 11 % of a training iteration (perf). Call once
-// before training or inference.
-void keep_freed_memory();
-}  // namespace reefgen::train
