@@ -21,6 +21,7 @@
 #include <torch/csrc/distributed/c10d/PrefixStore.hpp>
 #include <torch/csrc/distributed/c10d/ProcessGroupGloo.hpp>
 #include <torch/csrc/distributed/c10d/TCPStore.hpp>
+#include <torch/version.h>
 
 #include "reefgen/files.hpp"
 #include "reefgen/model/archive.hpp"
@@ -47,7 +48,12 @@ void quiet_c10d_logging() { FLAGS_minloglevel = google::GLOG_FATAL; }
 // answers in microseconds; an HTTP server waits for a request that never comes.
 constexpr int kProbeAnswerMs = 5000;
 // LibTorch 1.13's TCPStore protocol: the one-byte GETNUMKEYS query (its
-// QueryType enum's 7th value), answered by an int64 count of keys.
+// QueryType enum's 7th value), answered by an int64 count of keys. The wire
+// format is LibTorch's private business: another version must be checked
+// (torch/csrc/distributed/c10d/TCPStore.cpp) before this builds against it.
+static_assert(TORCH_VERSION_MAJOR == 1 && TORCH_VERSION_MINOR == 13,
+              "the store probe speaks LibTorch 1.13's TCPStore protocol (GETNUMKEYS = 6): check it against this "
+              "version's TCPStore.cpp, then widen this assertion");
 constexpr uint8_t kQueryGetNumKeys = 6;
 // A key count no real store reaches; the first 8 bytes of an HTTP answer or
 // an SSH banner read as an int64 are far above it.
@@ -443,7 +449,6 @@ void Comm::allreduce_sum(std::vector<torch::Tensor> tensors, const std::string& 
       for (auto& t : tensors) {
         std::vector<at::Tensor> one = {t};
         impl_->pg->allreduce(one)->wait();
-        bytes_ += t.numel() * t.element_size();
       }
     });
   } catch (const Error&) {
@@ -491,7 +496,6 @@ struct GradientReducer::State {
     InFlight f{b, in_place ? g0.view({-1}) : torch::cat(views), {}};  // {bucket floats}
     std::vector<at::Tensor> one = {f.flat};
     f.work = comm.impl_->pg->allreduce(one);
-    comm.bytes_ += f.flat.numel() * int64_t(f.flat.element_size());
     in_flight.push_back(std::move(f));
     comm.seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }

@@ -71,8 +71,6 @@ class Comm {
 
   // Seconds spent inside collectives since the last call (the log's allreduce_s).
   double take_collective_seconds();
-  // Bytes all-reduced since construction.
-  int64_t bytes_reduced() const { return bytes_; }
 
   struct Impl;
 
@@ -83,7 +81,6 @@ class Comm {
   DistConfig cfg_;
   std::unique_ptr<Impl> impl_;
   double seconds_ = 0;
-  int64_t bytes_ = 0;
 };
 
 // Averages the gradients of `params` over the ranks while backward is still
