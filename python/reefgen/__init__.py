@@ -118,7 +118,8 @@ def default_model():
 
 
 def infer(sketch, size=0, model=None, seed=0, raw=False, precision="fp32", engine="auto",
-          stochastic=False, threads=None, world_size_m=None, variation=1.0, age_myr=None, maturity=None):
+          stochastic=False, threads=None, world_size_m=None, variation=1.0, age_myr=None, maturity=None,
+          variations=1):
     """(H, W) float32 metres of `reefgen infer`: the same numbers as its height.exr.
 
     sketch: a painted label map, (H, W, 3) RGB or (H, W, 4) RGBA, uint8 or uint16
@@ -132,7 +133,9 @@ def infer(sketch, size=0, model=None, seed=0, raw=False, precision="fp32", engin
     that far in [0, 1] (0: the network's own answer; `--seed`, `--variation`);
     age_myr, maturity: the island's age in My (its subsidence replaces the painted
     brightness, its erosion maturity the amplification's) and the maturity alone
-    (`--age-myr`, `--maturity`; None: not set).
+    (`--age-myr`, `--maturity`; None: not set);
+    variations: N > 1 returns a list of N islands, seeds seed … seed + N − 1, each
+    the array infer(..., seed=s) gives (`--variations N`: the network runs once).
     Needs the LibTorch half of the build (libtorch-dev); the generator is loaded once.
     """
     try:
@@ -147,7 +150,7 @@ def infer(sketch, size=0, model=None, seed=0, raw=False, precision="fp32", engin
                                 None if threads is None else int(threads),
                                 None if world_size_m is None else float(world_size_m),
                                 float(variation), _optional_number(age_myr, "age_myr"),
-                                _optional_number(maturity, "maturity"))
+                                _optional_number(maturity, "maturity"), int(variations))
 
 
 def decode_labels(image, ruggedness=False):

@@ -23,6 +23,7 @@
 #include "reefgen/constants.hpp"
 #include "reefgen/error.hpp"
 #include "reefgen/infer/infer.hpp"
+#include "reefgen/infer/run.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/model/generator_file.hpp"
 #include "reefgen/model/shipped.hpp"
@@ -97,11 +98,14 @@ infer::InferOptions options_for(const model::GeneratorFile& gen, int size, uint6
   return o;
 }
 
-// `reefgen infer SKETCH --size SIZE --seed SEED [--raw]` -> (H, W) float32 metres.
-py::array_t<float> infer_sketch(const py::array& sketch, int size, const std::string& model_path, uint64_t seed,
-                                bool raw, const std::string& precision, const std::string& engine, bool stochastic,
-                                std::optional<int> threads, std::optional<double> world_size_m, double variation,
-                                double age_myr, double maturity) {
+// `reefgen infer SKETCH --size SIZE --seed SEED [--raw]` -> (H, W) float32 metres;
+// variations N > 1 (`--variations N`): a list of N, seeds SEED … SEED + N − 1.
+py::object infer_sketch(const py::array& sketch, int size, const std::string& model_path, uint64_t seed, bool raw,
+                        const std::string& precision, const std::string& engine, bool stochastic,
+                        std::optional<int> threads, std::optional<double> world_size_m, double variation,
+                        double age_myr, double maturity, int variations) {
+  if (variations < 1 || variations > infer::kMaxVariations)
+    throw Error("infer: variations must be in [1, " + std::to_string(infer::kMaxVariations) + "] (as --variations)");
   if (!(variation >= 0 && variation <= 1))
     throw Error("infer: variation must be in [0, 1] (0 = the network's own answer, as --variation)");
   if (size < 0 || size > 8192) throw Error("infer: size " + std::to_string(size) + " is outside [0, 8192] (0 = the sketch's)");
@@ -109,7 +113,7 @@ py::array_t<float> infer_sketch(const py::array& sketch, int size, const std::st
   if (world_size_m && !(*world_size_m >= 1 && *world_size_m <= 1e7))
     throw Error("infer: world_size_m must be in [1, 1e7] metres (the canvas width, as --world-size)");
   const cv::Mat image = python::bgr_of(sketch, "infer");
-  cv::Mat1f heights;
+  std::vector<cv::Mat1f> heights;
   {
     py::gil_scoped_release free_python;
     const DecodedSketch decoded = decode_sketch(image, "sketch");
@@ -118,17 +122,21 @@ py::array_t<float> infer_sketch(const py::array& sketch, int size, const std::st
     const infer::InferOptions o = options_for(m.gen, size, seed, raw, precision, engine, stochastic,
                                                  world_size_m.value_or(kCanvasWorldSizeM), variation, age_myr, maturity);
     // LibTorch's thread count is the process's: this call's, then the caller's again.
-    const int before = torch::get_num_threads();
-    torch::set_num_threads(threads.value_or(default_threads()));
+    const int before = torch::get_num_threads(), n = threads.value_or(default_threads());
+    torch::set_num_threads(n);
     try {
-      heights = infer::infer_heights(m.gen, {decoded}, o).at(0);
+      heights = variations == 1 ? infer::infer_heights(m.gen, {decoded}, o)
+                                : infer::infer_variations(m.gen, decoded, o, variations, n);
     } catch (...) {
       torch::set_num_threads(before);
       throw;
     }
     torch::set_num_threads(before);
   }
-  return python::to_numpy<float>(heights);
+  if (variations == 1) return python::to_numpy<float>(heights[0]);
+  py::list out;
+  for (auto& h : heights) out.append(python::to_numpy<float>(h));
+  return out;
 }
 
 }  // namespace
@@ -153,5 +161,5 @@ PYBIND11_MODULE(_reefgen_infer, m) {
   reefgen::python::install_interrupt_hook();
   m.def("infer", &infer_sketch, py::arg("sketch"), py::arg("size"), py::arg("model"), py::arg("seed"), py::arg("raw"),
         py::arg("precision"), py::arg("engine"), py::arg("stochastic"), py::arg("threads"), py::arg("world_size_m"),
-        py::arg("variation"), py::arg("age_myr"), py::arg("maturity"));
+        py::arg("variation"), py::arg("age_myr"), py::arg("maturity"), py::arg("variations"));
 }

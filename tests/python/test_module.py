@@ -201,6 +201,14 @@ class Module(unittest.TestCase):
         with self.assertRaises(reefgen.Error) as e:
             reefgen.infer(labels, size=128, maturity=100)
         self.assertIn("maturity", str(e.exception))
+        # variations=N: the islands of seeds 2, 3, 4, each infer(..., seed=s)'s.
+        three = reefgen.infer(labels, size=128, seed=2, variations=3)
+        self.assertEqual(len(three), 3)
+        self.assertTrue(np.array_equal(three[0], cli))
+        self.assertTrue(np.array_equal(three[2], reefgen.infer(labels, size=128, seed=4)))
+        with self.assertRaises(reefgen.Error) as e:
+            reefgen.infer(labels, size=128, variations=17)
+        self.assertIn("variations must be in [1, 16]", str(e.exception))
         raw = reefgen.infer(labels, raw=True)
         self.assertEqual(raw.shape, (64, 64))
         self.assertFalse(np.array_equal(raw, reefgen.infer(labels)))  # --raw skips the clean-up
