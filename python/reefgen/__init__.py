@@ -59,7 +59,9 @@ def pair(config=None, seed=0, index=0):
 
 
 def pair_info(config=None, seed=0, index=0):
-    """What the manifest says of pair `index`: split, configuration, level, subsidence, augmentation."""
+    """What the manifest says of pair `index`: split, configuration, level, subsidence, seed
+    (a decimal string), age_myr (NaN when the config draws none), maturity, ruggedness,
+    augmentation (docs/DATASET.md "Ages")."""
     info = _reefgen.pair_info(_config_json(config), _seed(seed), int(index))
     info["augmentation"] = _json.loads(info["augmentation"])
     return info

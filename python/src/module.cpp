@@ -58,7 +58,7 @@ void check_pair_index(int64_t index) {
 }
 
 // A pair's conditioning as a dict: index, configuration, level, subsidence, split, seed, age_myr
-// (None when the dataset draws no age), maturity, ruggedness (style, 1 = rugged).
+// (NaN when the dataset draws no age), maturity, ruggedness (style, 1 = rugged).
 py::dict conditioning(const augment::PairInfo& info) {
   py::dict d;
   d["index"] = info.index;
@@ -66,8 +66,11 @@ py::dict conditioning(const augment::PairInfo& info) {
   d["level"] = info.level;
   d["subsidence"] = info.subsidence;
   d["split"] = augment::split_name(info.split);
-  d["seed"] = info.seed;
-  d["age_myr"] = info.age_myr < 0 ? py::object(py::none()) : py::object(py::float_(info.age_myr));
+  // The seed as a decimal string: a 64-bit seed is beyond a tensor's int64,
+  // and the DataLoader collates strings into lists. No age: NaN (a float
+  // batch collates; None does not).
+  d["seed"] = std::to_string(info.seed);
+  d["age_myr"] = info.age_myr < 0 ? std::nan("") : info.age_myr;
   d["maturity"] = info.maturity;
   d["ruggedness"] = info.ruggedness;
   return d;

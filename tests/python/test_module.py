@@ -2,6 +2,8 @@
 
 usage: python3 test_module.py REEFGEN_BINARY [REEFGEN_TORCH_BINARY]   (PYTHONPATH holds build/python)
 """
+import json
+import math
 import os
 import random
 import shutil
@@ -284,8 +286,10 @@ class Module(unittest.TestCase):
         seen = 0
         for label, height, i, cond in ds:
             info = reefgen.pair_info(self.config, seed=SEED, index=i)
-            for k in ("index", "configuration", "level", "subsidence", "split"):
+            for k in ("index", "configuration", "level", "subsidence", "split", "seed", "maturity", "ruggedness"):
                 self.assertEqual(cond[k], info[k], (i, k))
+            self.assertTrue(math.isnan(cond["age_myr"]))  # this config draws no age
+            self.assertEqual(cond["maturity"], 1.0)
             seen += 1
         self.assertEqual(seen, 6)
         # A DataLoader collates a batch's conditioning: tensors of numbers, a list of split names.
@@ -293,6 +297,15 @@ class Module(unittest.TestCase):
                                                        batch_size=4), batch_size=4)))
         self.assertEqual(tuple(batch[2]["subsidence"].shape), (4,))
         self.assertEqual(len(batch[2]["split"]), 4)
+        self.assertEqual(tuple(batch[2]["age_myr"].shape), (4,))
+        self.assertEqual(len(batch[2]["seed"]), 4)  # 64-bit seeds as decimal strings
+        # A config that draws ages: each pair's age, its subsidence from it.
+        with open(self.config) as f:
+            aged = json.load(f)
+        aged.update(age_min_myr=0.1, age_max_myr=8)
+        info = reefgen.pair_info(aged, seed=SEED, index=1)
+        self.assertTrue(0.1 <= info["age_myr"] <= 8)
+        self.assertAlmostEqual(info["subsidence"], min(1.0, math.sqrt(info["age_myr"] / 60)), places=12)
 
     def test_stream_splits_across_ranks(self):
         parts = [self.stream(2, rank=r, world_size=3) for r in range(3)]
