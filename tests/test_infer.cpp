@@ -9,7 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "reefgen/infer/eval.hpp"
+#include "reefgen/infer/metrics.hpp"
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/infer/realism_bench.hpp"
 #include "reefgen/infer/run.hpp"

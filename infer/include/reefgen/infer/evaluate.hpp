@@ -10,7 +10,7 @@
 #include <opencv2/core.hpp>
 
 #include "reefgen/constants.hpp"
-#include "reefgen/infer/eval.hpp"
+#include "reefgen/infer/metrics.hpp"
 #include "reefgen/model/generator_file.hpp"
 
 namespace reefgen::infer {

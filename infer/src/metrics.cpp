@@ -1,4 +1,4 @@
-#include "reefgen/infer/eval.hpp"
+#include "reefgen/infer/metrics.hpp"
 #include "reefgen/files.hpp"
 
 #include <algorithm>
