@@ -31,8 +31,8 @@ inline double subsidence_of_age(double age_myr) {
 // Erosion maturity grows with time: the time eroded is the age, as a
 // multiple of the generator's default erosion (erosion.duration_yr =
 // 1.5e5 yr of the default K, a moderately dissected island) at
-// kUnitMaturityAgeMyr. A young shield (0.25 My, Mauna Kea or Kohala
-// on the island of Hawaiʻi) has maturity 0.25: shallow radial gullies,
+// kUnitMaturityAgeMyr. A young shield (0.25 My, as the shields of the
+// island of Hawaiʻi) has maturity 0.25: shallow radial gullies,
 // much of its land high; Kauaʻi (5 My) 5: valleys cut to the sea between
 // ridges that stand. O'Hara et al. (Earth Surface Dynamics 12:709, 2024)
 // find drainage density rising and basin hypsometry falling with edifice

@@ -11,8 +11,8 @@
 namespace reefgen::procgen {
 
 // The spec with age_myr and maturity applied and both cleared: subsidence
-// from the age (when set), the erosion matured (terrain::matured). Unset fields: the spec unchanged
-// (the same bytes as before ages existed).
+// from the age (when set), the erosion matured (terrain::matured). Both
+// unset: the spec unchanged (the same bytes as before ages existed).
 IslandSpec aged(const IslandSpec& spec);
 
 }  // namespace reefgen::procgen
