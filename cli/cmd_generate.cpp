@@ -161,7 +161,7 @@ Command add_generate_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--subsidence", a->subsidence, "Override the subsidence λ in [0, 1] (also after --age-myr)")->check(finite_in(0, 1));
   sub->add_option("--age-myr", a->age_myr,
                   "Island age in My: sets the subsidence and the erosion maturity together (docs/SPEC.md \"Age\": "
-                  "0.25 a young shield, 3.5 Bora Bora, 25 an atoll)")
+                  "0.25 a young shield, 3.5 Bora Bora, 60 an atoll)")
       ->check(finite_in(0, 60));
   sub->add_option("--maturity", a->maturity,
                   "Erosion maturity alone (time eroded, multiple of the default; overrides the age's)")

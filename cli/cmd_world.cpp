@@ -419,8 +419,8 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
             io.precision = infer::precision_from_string(a->precision);
             io.engine = infer::engine_from_string(a->engine);
             io.seed = a->seed;
-            if (a->maturity != kNotSet || a->age_myr != kNotSet)
-              io.erosion = terrain::matured(io.erosion, a->maturity != kNotSet ? a->maturity : maturity_of_age(a->age_myr));
+            if (const double m = maturity_for(a->age_myr, a->maturity); m != kNotSet)
+              io.erosion = terrain::matured(io.erosion, m);
             // Two runs with one -o would remove each other's checkpoint and
             // stage into one folder: the second is refused.
             const fs::path out_dir = prefix.has_parent_path() ? prefix.parent_path() : fs::path(".");

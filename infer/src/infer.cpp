@@ -135,9 +135,8 @@ DecodedSketch with_age(const DecodedSketch& s, double age_myr) {
 
 // The amplification's erosion for the options' age or maturity.
 terrain::ErosionParams amplify_erosion(const InferOptions& o) {
-  if (o.maturity != kNotSet) return terrain::matured(o.erosion, o.maturity);
-  if (o.age_myr != kNotSet) return terrain::matured(o.erosion, maturity_of_age(o.age_myr));
-  return o.erosion;
+  const double m = maturity_for(o.age_myr, o.maturity);
+  return m == kNotSet ? o.erosion : terrain::matured(o.erosion, m);
 }
 
 // The network's answers in metres at the model's side, one per sketch.

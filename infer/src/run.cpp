@@ -156,8 +156,7 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
                                {"engine", to_string(resolve_engine(io))}};
   // The age and maturity asked for, and what they set (reefgen/age.hpp).
   if (io.age_myr != kNotSet) mode["age_myr"] = io.age_myr, mode["subsidence"] = subsidence_of_age(io.age_myr);
-  if (io.maturity != kNotSet || io.age_myr != kNotSet)
-    mode["maturity"] = io.maturity != kNotSet ? io.maturity : maturity_of_age(io.age_myr);
+  if (const double m = maturity_for(io.age_myr, io.maturity); m != kNotSet) mode["maturity"] = m;
   constexpr size_t kChunk = 32;
   if (job.geotiff) gis::check_crs(job.geo.crs);
   std::vector<cv::Mat1f> heights, before;

@@ -12,8 +12,7 @@ IslandSpec aged(const IslandSpec& spec) {
   s.age_myr = kNotSet, s.maturity = kNotSet;
   if (spec.age_myr == kNotSet && spec.maturity == kNotSet) return s;
   if (spec.age_myr != kNotSet) s.subsidence = subsidence_of_age(spec.age_myr);
-  const double m = spec.maturity != kNotSet ? spec.maturity : maturity_of_age(spec.age_myr);
-  s.erosion = terrain::matured(spec.erosion, m);
+  s.erosion = terrain::matured(spec.erosion, maturity_for(spec.age_myr, spec.maturity));
   return s;
 }
 

@@ -43,4 +43,11 @@ inline double maturity_of_age(double age_myr) {
   return std::clamp(age_myr / kUnitMaturityAgeMyr, kMinMaturity, kMaxMaturity);
 }
 
+// The maturity an island is eroded at: `maturity` when set, else its age's,
+// else kNotSet (the erosion as given).
+inline double maturity_for(double age_myr, double maturity) {
+  if (maturity != kNotSet) return maturity;
+  return age_myr != kNotSet ? maturity_of_age(age_myr) : kNotSet;
+}
+
 }  // namespace reefgen
