@@ -67,7 +67,7 @@ std::function<int()> add_bench_realism_command(CLI::App* bench, const GlobalOpti
       if (files.empty()) throw Error(a->painted + ": no sketch images in it");
       model_path = model::resolve_model_path(a->model);
       gen = model::load_generator(model_path);
-      if (!a->erosion.empty()) o.infer.erosion = terrain::erosion_params_from_json(read_json(a->erosion), a->erosion);
+      if (!a->erosion.empty()) o.infer.amplification = infer::amplify_params_from_json(read_json(a->erosion), a->erosion);
     }
     nlohmann::json out = {{"bench", "realism"}, {"size", a->size}, {"cpu", cpu_model()}};
     out.update(infer::realism_bench(o, gen ? &*gen : nullptr, files));

@@ -138,7 +138,7 @@ void set_infer_options(const InferArgs& a, model::GeneratorFile& gen, const std:
   io.size_px = a.size;
   io.world_size_m = a.world_size_m;
   io.ocean_floor_m = a.finish.ocean_floor_m;
-  if (!a.erosion.empty()) io.erosion = terrain::erosion_params_from_json(read_json(a.erosion), a.erosion);
+  if (!a.erosion.empty()) io.amplification = infer::amplify_params_from_json(read_json(a.erosion), a.erosion);
 }
 
 int run_infer(const InferArgs& a, const GlobalOptions& g) {

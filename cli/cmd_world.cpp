@@ -295,8 +295,8 @@ WorldFields world_fields(const WorldArgs& a, const FinishFlags::Parsed& fin, mod
   if (!quiet) std::fprintf(stderr, "world: amplifying to %d² ...\n", N);
   Progress progress("world: last level, bands", size_t((N + infer::kWorldBandRowsPx - 1) / infer::kWorldBandRowsPx), quiet);
   // Every island re-rolled by the seed, then eroded anew at every size, as infer does.
-  const infer::Rerolled r = infer::reroll_for_amplify(w.model_h, kModelMetresPerPx, a.seed, a.variation, io.erosion);
-  w.h = infer::amplify_world(r.height_m, w.region_model, N, w.world_m, a.seed, r.erosion,
+  const infer::Rerolled r = infer::reroll_for_amplify(w.model_h, kModelMetresPerPx, a.seed, a.variation, io.amplification);
+  w.h = infer::amplify_world(r.height_m, w.region_model, N, w.world_m, a.seed, r.params,
                              [&](int done, int) { progress.tick(size_t(done)); }, {}, s.ruggedness);
   cv::min(cv::max(w.h, gen.range.lo_m), gen.range.hi_m, w.h);
   if (!quiet) std::fprintf(stderr, "world: amplified to %d² in %.1f s\n", w.h.cols, seconds_since(t));
@@ -420,7 +420,7 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
             io.engine = infer::engine_from_string(a->engine);
             io.seed = a->seed;
             if (const double m = maturity_for(a->age_myr, a->maturity); m != kNotSet)
-              io.erosion = terrain::matured(io.erosion, m);
+              io.amplification = infer::matured(io.amplification, m);
             // Two runs with one -o would remove each other's checkpoint and
             // stage into one folder: the second is refused.
             const fs::path out_dir = prefix.has_parent_path() ? prefix.parent_path() : fs::path(".");

@@ -1,19 +1,20 @@
 #!/usr/bin/env bash
 # Rebuilds docs/amplify-painted.png: three painted sketches of
 # tests/data/painted answered by the shipped model through `infer --size 1025`
-# (hypsometric previews, whole canvas). Top row: the amplification as it was
-# before 2026-11-25's afternoon (lobes from a 2D noise, the whole base-grid
-# erosion time, the model's beach plain kept: {"amplify_lobe_along_flow":
-# false, "amplify_duration_scale": 1, "amplify_plain_smooth_m": 0,
-# "amplify_low_island_m": 0, "amplify_pond_max_m2": 0}); bottom row: the defaults (lobes along flow
-# lines, half the time, the plain's rings smoothed off, the model's ponds
+# (hypsometric previews, whole canvas). Top row: without the later choices
+# (the whole base-grid erosion time, the model's beach plain kept, its ponds
+# kept: {"amplify_duration_scale": 1, "amplify_plain_smooth_m": 0,
+# "amplify_low_island_m": 0, "amplify_pond_max_m2": 0}); bottom row: the
+# defaults (half the time, the plain's rings smoothed off, the model's ponds
 # raised to land), docs/EROSION.md. Prints the realism statistics of both.
+# (The picture in docs/ was drawn when the top row also had the 2D-noise
+# lobes, a switch since removed.)
 # Needs python3-numpy and python3-opencv.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 R=build/cli/reefgen
 W=$(mktemp -d); trap 'rm -rf "$W"' EXIT
-echo '{"amplify_lobe_along_flow": false, "amplify_duration_scale": 1, "amplify_plain_smooth_m": 0, "amplify_low_island_m": 0, "amplify_pond_max_m2": 0}' > "$W/before.json"
+echo '{"amplify_duration_scale": 1, "amplify_plain_smooth_m": 0, "amplify_low_island_m": 0, "amplify_pond_max_m2": 0}' > "$W/before.json"
 names=(07-polygon-aa 03-two-islands 06-long-arc)
 for n in "${names[@]}"; do
   $R -q infer "tests/data/painted/$n.png" --size 1025 --erosion "$W/before.json" -o "$W/before-$n" --preview >/dev/null

@@ -250,6 +250,9 @@ echo '{"age_myr": -0.5}' > "$T/age.json"
 expect_error "age_myr = -0.5 is out of range" generate --spec "$T/age.json" -o "$T/e/x"
 expect_error "age-myr: value 61 must be" generate --preset atoll --age-myr 61 -o "$T/e/x"
 expect_error "use them with --preset or --spec, not --random" generate --random 2 --age-myr 3 --out "$T/e/r"
+# The amplification's keys are infer's (--erosion), not a spec's: refused there.
+echo '{"erosion": {"amplify_roughness": 0.5}}' > "$T/amp_spec.json"
+expect_error 'unknown key "erosion.amplify_roughness"' generate --spec "$T/amp_spec.json" -o "$T/e/x"
 
 # 4. Datasets: threads, shards + merge = unsharded, resume, foreign files.
 cat > "$T/ds.json" <<'JSON'

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <numeric>
 #include <set>
 #include <queue>
 #include <deque>
@@ -20,6 +21,7 @@
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
 #include "reefgen/infer/amplify.hpp"
+#include "reefgen/infer/amplify_params.hpp"
 #include "reefgen/terrain/flow.hpp"
 #include "reefgen/terrain/pits.hpp"
 #include "reefgen/terrain/flat_channels.hpp"
@@ -406,7 +408,7 @@ TEST(Erosion, APaintedSmoothHalfIsSmootherThanTheRuggedHalf) {
   cv::Mat1f up;
   cv::resize(h, up, label.size(), 0, 0, cv::INTER_CUBIC);
   label.setTo(kIsland, up > 0);
-  const ErosionParams p;
+  const AmplifyParams p;
   const cv::Mat1f plain = amplify_heights(h, label, kCanvasWorldSizeM, 3, p);
   EXPECT_EQ(cv::norm(amplify_heights(h, label, kCanvasWorldSizeM, 3, p, true, cv::Mat1b(64, 64, uint8_t(255))), plain,
                      cv::NORM_INF),
@@ -446,7 +448,7 @@ TEST(Erosion, AmplifyCarvesValleysIntoASmoothAnswer) {
     for (int x = 0; x < 257; ++x)
       if (h_up(y, x) > 0) label(y, x) = 0;  // island
   const double mpp = kCanvasWorldSizeM / 257;
-  ErosionParams p;
+  AmplifyParams p;
   const cv::Mat1f a = amplify_heights(h, label, kCanvasWorldSizeM, 3, p);
   ASSERT_EQ(a.size(), cv::Size(257, 257));
   const RealismStats st = realism_stats(a, mpp);
@@ -457,8 +459,8 @@ TEST(Erosion, AmplifyCarvesValleysIntoASmoothAnswer) {
   // The roughening moves the land only (on a perfect cone the detail noise
   // already starts valleys: 0.35 without it; its gain is on model answers,
   // measured by `bench realism`, docs/REALISM.md).
-  ErosionParams smooth = p;
-  smooth.amplify_roughness = 0;
+  AmplifyParams smooth = p;
+  smooth.roughness = 0;
   EXPECT_GT(cv::norm(amplify_heights(h, label, kCanvasWorldSizeM, 3, smooth), a, cv::NORM_INF), 1.0);
   // The sea is the answer's (bicubic) with the model grid smoothed away: a
   // Gaussian of half a model cell plus sea-floor grain of a few cm (below
@@ -496,16 +498,17 @@ namespace {
 // Only the step under test: no roughening, no erosion, the answer's own size.
 // The shaping of sides above the model's, tested on one grid (at the model's
 // own side only ponds and pits are touched by default).
-ErosionParams shaping_only() {
-  return erosion_params_from_json({{"amplify_erode_at_model_side", true},
-                                   {"amplify_roughness", 0},
-                                   {"amplify_steps", 0},
-                                   {"amplify_duration_scale", 0},
-                                   {"amplify_lobe_m", 0},
-                                   {"amplify_plain_smooth_m", 0},
-                                   {"amplify_low_island_m", 0},
-                                   {"amplify_pond_max_m2", 0}},
-                                  "shaping_only");
+AmplifyParams shaping_only() {
+  AmplifyParams p = amplify_params_from_json({{"amplify_roughness", 0},
+                                              {"amplify_steps", 0},
+                                              {"amplify_duration_scale", 0},
+                                              {"amplify_lobe_m", 0},
+                                              {"amplify_plain_smooth_m", 0},
+                                              {"amplify_low_island_m", 0},
+                                              {"amplify_pond_max_m2", 0}},
+                                             "shaping_only");
+  p.erode_at_model_side = true;
+  return p;
 }
 
 // Radius (cells, from the canvas centre) where the field first drops below
@@ -540,25 +543,26 @@ double correlation(const std::vector<double>& a, const std::vector<double>& b) {
 // The lobes read their noise where each flow line reaches the foot of the
 // flank, so on a cone every contour is pushed by the same amount along one
 // radius: spurs and re-entrants run up the slope (docs/EROSION.md). A 2D
-// noise pushes each contour on its own.
+// noise pushed each contour on its own: its 45 % and 75 % contours
+// correlated far less (docs/notes/erosion-history.md); these above 0.6.
 TEST(Erosion, LobesAlongFlowLinesRunUpTheSlope) {
   const cv::Mat1f h = cone(256, 400.f);
   const cv::Mat1b label(256, 256, uint8_t(0));
-  ErosionParams p = shaping_only();
-  p.amplify_lobe_m = 300;
-  auto lobe_correlation = [&](bool along_flow) {
-    p.amplify_lobe_along_flow = along_flow;
-    const cv::Mat1f a = amplify_heights(h, label, kCanvasWorldSizeM, 5, p);
-    // the contours at 45 % and 75 % of the peak (above the 20 % fade-in)
-    return correlation(contour_radii(a, 180.f), contour_radii(a, 300.f));
-  };
-  const double flow = lobe_correlation(true), plain2d = lobe_correlation(false);
-  EXPECT_GT(flow, 0.6) << "2D noise: " << plain2d;
-  EXPECT_GT(flow, plain2d + 0.2) << flow << " vs " << plain2d;
+  AmplifyParams p = shaping_only();
+  p.lobe_m = 300;
+  const cv::Mat1f a = amplify_heights(h, label, kCanvasWorldSizeM, 5, p);
+  // the contours at 45 % and 75 % of the peak (above the 20 % fade-in)
+  const std::vector<double> r45 = contour_radii(a, 180.f), r75 = contour_radii(a, 300.f);
+  EXPECT_GT(correlation(r45, r75), 0.6);
+  // and they are lobed: the 45 % contour is no circle
+  const double mean = std::accumulate(r45.begin(), r45.end(), 0.0) / double(r45.size());
+  double var = 0;
+  for (double r : r45) var += (r - mean) * (r - mean) / double(r45.size());
+  EXPECT_GT(std::sqrt(var), 1.0);
 }
 
 // A painted sketch's even beach and lagoon bands come back from the model
-// with concentric ridges on the low plain; amplify_plain_smooth_m takes them
+// with concentric ridges on the low plain; AmplifyParams::plain_smooth_m takes them
 // off the plain's land (and leaves the mountain, the coast and the sea).
 TEST(Erosion, PlainSmoothingTakesTheRingsOffTheBeachPlain) {
   const int W = 256;
@@ -584,9 +588,9 @@ TEST(Erosion, PlainSmoothingTakesTheRingsOffTheBeachPlain) {
     }
     return ring;
   };
-  ErosionParams p = shaping_only();
+  AmplifyParams p = shaping_only();
   const cv::Mat1f kept = amplify_heights(h, label, kCanvasWorldSizeM, 1, p);
-  p.amplify_plain_smooth_m = 150;
+  p.plain_smooth_m = 150;
   const cv::Mat1f smoothed = amplify_heights(h, label, kCanvasWorldSizeM, 1, p);
   EXPECT_GT(ring_m(kept), 9.0);                        // the ring is there without the smoothing
   EXPECT_LT(ring_m(smoothed), 0.5 * ring_m(kept));     // and at most half as high with it
@@ -604,7 +608,7 @@ TEST(Erosion, PlainSmoothingTakesTheRingsOffTheBeachPlain) {
 }
 
 // An older, low island comes back from the model as a dome ringed by ridges
-// on its mountain too; amplify_low_island_m smooths them there. A high
+// on its mountain too; AmplifyParams::low_island_m smooths them there. A high
 // volcano's mountain is left as the model drew it.
 TEST(Erosion, LowIslandsLoseTheirRingsHighOnesKeepTheirMountain) {
   const int W = 256;
@@ -630,10 +634,10 @@ TEST(Erosion, LowIslandsLoseTheirRingsHighOnesKeepTheirMountain) {
     }
     return ring;
   };
-  ErosionParams p = shaping_only();
-  p.amplify_plain_smooth_m = 150;
+  AmplifyParams p = shaping_only();
+  p.plain_smooth_m = 150;
   const cv::Mat1f kept = amplify_heights(low, label, kCanvasWorldSizeM, 1, p);
-  p.amplify_low_island_m = 120;
+  p.low_island_m = 120;
   const cv::Mat1f smoothed = amplify_heights(low, label, kCanvasWorldSizeM, 1, p);
   EXPECT_GT(ring_m(kept, 50.f), 9.0);
   EXPECT_LT(ring_m(smoothed, 50.f), 0.5 * ring_m(kept, 50.f));
@@ -687,9 +691,9 @@ TEST(Erosion, AmplifyRaisesTheModelsPondsButNotAClosedLagoon) {
     }
   ASSERT_GT(pond * cell_m * cell_m, 1e4);  // a real pond, well under the default 0.25 km²
   ASSERT_EQ(enclosed_sea_cells(volcano), pond);
-  ErosionParams p = shaping_only();
+  AmplifyParams p = shaping_only();
   EXPECT_EQ(enclosed_sea_cells(amplify_heights(volcano, lagoon_paint, kCanvasWorldSizeM, 1, p)), pond);  // off: kept
-  p.amplify_pond_max_m2 = 2.5e5;
+  p.pond_max_m2 = 2.5e5;
   const cv::Mat1f filled = amplify_heights(volcano, lagoon_paint, kCanvasWorldSizeM, 1, p);
   EXPECT_EQ(enclosed_sea_cells(filled), 0);
   for (int y = 0; y < W; ++y)
@@ -738,6 +742,29 @@ TEST(Erosion, ParamsJsonRoundTripAndErrors) {
   test::expect_error_naming(parse(R"({"k_fluvial": -1})"), "out of range");
   test::expect_error_naming(parse(R"({"rain": 1})"), "erosion.rain");
   test::expect_error_naming(parse(R"({"enabled": 1})"), "true or false");
+  // The amplification's keys are infer's (infer --erosion), not the generator's.
+  test::expect_error_naming(parse(R"({"amplify_roughness": 0.5})"), "erosion.amplify_roughness");
+}
+
+// infer --erosion FILE: one flat object, the erosion's keys and the
+// amplification's; a key of neither is named.
+TEST(Erosion, AmplifyParamsJsonRoundTripAndErrors) {
+  reefgen::test::expect_params_round_trip<AmplifyParams>(
+      [](const nlohmann::json& j) { return amplify_params_from_json(j, "t.json"); });
+  const AmplifyParams a = amplify_params_from_json(nlohmann::json::parse(R"({"amplify_roughness": 0.5, "steps": 4})"), "t.json");
+  EXPECT_EQ(a.roughness, 0.5);
+  EXPECT_EQ(a.erosion.steps, 4);
+  EXPECT_EQ(a.steps, AmplifyParams{}.steps);
+  test::expect_error_naming([] { amplify_params_from_json(nlohmann::json::parse(R"({"amplify_rough": 1})"), "t.json"); },
+                            "erosion.amplify_rough");
+  test::expect_error_naming([] { amplify_params_from_json(nlohmann::json::parse(R"({"amplify_steps": -1})"), "t.json"); },
+                            "out of range");
+  // Aged: the erosion matured, more steps, a young island roughened less.
+  const AmplifyParams young = matured(AmplifyParams{}, 0.25), old = matured(AmplifyParams{}, 4);
+  EXPECT_EQ(young.roughness, 0.25 * AmplifyParams{}.roughness);
+  EXPECT_EQ(old.roughness, AmplifyParams{}.roughness);
+  EXPECT_EQ(old.steps, 2 * AmplifyParams{}.steps);
+  EXPECT_EQ(old.erosion.duration_yr, 4 * ErosionParams{}.duration_yr);
 }
 
 TEST(Erosion, GoldenValues) {
@@ -1006,9 +1033,9 @@ TEST(Erosion, WorldBandsAreInvisible) {
   // and the bands differ there by centimetres (up to 19 cm on 12 cells since
   // the drained depression is shaped like a valley: its floor's fall depends
   // on how much of it a band sees).
-  terrain::ErosionParams calm;
-  calm.amplify_roughness = 0.35;
-  calm.amplify_lobe_m = 300;
+  AmplifyParams calm;
+  calm.roughness = 0.35;
+  calm.lobe_m = 300;
   const cv::Mat1f a0 = amplify_world(h, label, 385, world_m, 5, calm, {}, small);
   const cv::Mat1f b0 = amplify_world(h, label, 385, world_m, 5, calm, {}, WorldBands{200, 100, 16});
   EXPECT_EQ(cv::norm(a0, b0, cv::NORM_INF), 0.0);

@@ -169,7 +169,7 @@ TEST(Infer, AnAgeIsItsSubsidenceAndItsMaturity) {
   sunk.subsidence.setTo(float(subsidence_of_age(3.5)));
   InferOptions by_hand;
   by_hand.size_px = 96;
-  by_hand.erosion = terrain::matured(by_hand.erosion, maturity_of_age(3.5));
+  by_hand.amplification = matured(by_hand.amplification, maturity_of_age(3.5));
   EXPECT_EQ(cv::norm(aged, infer_heights(g, {sunk}, by_hand)[0], cv::NORM_INF), 0.0);
   InferOptions plain;
   plain.size_px = 96;
@@ -177,7 +177,7 @@ TEST(Infer, AnAgeIsItsSubsidenceAndItsMaturity) {
   InferOptions young = plain;
   young.maturity = 0.25;
   InferOptions young_by_hand = plain;
-  young_by_hand.erosion = terrain::matured(plain.erosion, 0.25);
+  young_by_hand.amplification = matured(plain.amplification, 0.25);
   EXPECT_EQ(cv::norm(infer_heights(g, {s}, young)[0], infer_heights(g, {s}, young_by_hand)[0], cv::NORM_INF), 0.0);
   fs::remove_all(d);
 }

@@ -32,19 +32,19 @@ std::vector<float> island_peaks(const cv::Mat1f& h, cv::Mat1i& island) {
 // erosion carves few valleys. Real volcanic flanks are lobed (lava flows,
 // landslide scars), as the generator's irregular outlines are. Each flank
 // contour is pushed up or down the slope by a noise of one feature per
-// amplify_lobe_spacing_m (h'(x) = h(x − d(x)·∇h/|∇h|), |d| ≤ amplify_lobe_m),
+// lobe_spacing_m (h'(x) = h(x − d(x)·∇h/|∇h|), |d| ≤ lobe_m),
 // faded in over the lowest 20 % of each island (of its own peak) so the
 // coast stays where the sketch put it; the concave bends then gather the
 // water the base-grid erosion turns into valleys (docs/EROSION.md).
-void lobe_contours(cv::Mat1f& h, double world_size_m, uint64_t seed, const ErosionParams& p, const cv::Mat1f& rugged) {
-  if (p.amplify_lobe_m <= 0) return;
+void lobe_contours(cv::Mat1f& h, double world_size_m, uint64_t seed, const AmplifyParams& p, const cv::Mat1f& rugged) {
+  if (p.lobe_m <= 0) return;
   const int S = h.cols;
   const double cell_m = world_size_m / S;
   double hmax = 0;
   cv::minMaxLoc(h, nullptr, &hmax);
   if (hmax <= 1) return;
   cv::Mat1f sm;
-  const double sig = std::max(1.0, 0.25 * p.amplify_lobe_spacing_m / cell_m);
+  const double sig = std::max(1.0, 0.25 * p.lobe_spacing_m / cell_m);
   cv::GaussianBlur(h, sm, cv::Size(0, 0), sig, sig, cv::BORDER_REPLICATE);
   cv::Mat1f gx, gy;
   cv::Sobel(sm, gx, CV_32F, 1, 0, 3, 1.0 / 8);
@@ -52,8 +52,8 @@ void lobe_contours(cv::Mat1f& h, double world_size_m, uint64_t seed, const Erosi
   const NoiseTile& tile = NoiseTile::get(2);
   Rng rng(seed, 0, "amplify-lobes");
   const float u0 = float(rng.uniform(0, NoiseTile::kSize)), v0 = float(rng.uniform(0, NoiseTile::kSize));
-  const float tpc = float(NoiseTile::kBaseCell * cell_m / p.amplify_lobe_spacing_m);
-  const float amp_px = float(p.amplify_lobe_m / cell_m);
+  const float tpc = float(NoiseTile::kBaseCell * cell_m / p.lobe_spacing_m);
+  const float amp_px = float(p.lobe_m / cell_m);
   // Each island is lobed from 20 % of its own peak: a low, older island
   // beside a young volcano has a flank of its own (with the canvas's peak it
   // would stay a smooth dome).
@@ -71,7 +71,7 @@ void lobe_contours(cv::Mat1f& h, double world_size_m, uint64_t seed, const Erosi
   for (int y = 0; y < S; ++y)
     for (int x = 0; x < S; ++x) {
       float px = float(x), py = float(y);
-      if (p.amplify_lobe_along_flow && h(y, x) > 0) {
+      if (h(y, x) > 0) {
         const float h_foot = foot_m(y, x);
         for (int step = 0; step < 2 * S; ++step) {
           const int ix = std::clamp(int(px + 0.5f), 0, S - 1), iy = std::clamp(int(py + 0.5f), 0, S - 1);
@@ -107,18 +107,18 @@ void lobe_contours(cv::Mat1f& h, double world_size_m, uint64_t seed, const Erosi
 // A model answer is smoother than a rendered island (an L1-trained network
 // predicts the mean of the valleys it cannot place), so a cone would shed
 // water radially and erosion on it carves few valleys. Relief proportional
-// to height (fBm, one feature per amplify_feature_m) gives the drainage
+// to height (fBm, one feature per feature_m) gives the drainage
 // somewhere to start, as the render's noise does for the generator; the
 // coast (h → 0) does not move.
-void roughen_land(cv::Mat1f& h, double world_size_m, uint64_t seed, const ErosionParams& p, const cv::Mat1f& rugged) {
+void roughen_land(cv::Mat1f& h, double world_size_m, uint64_t seed, const AmplifyParams& p, const cv::Mat1f& rugged) {
   lobe_contours(h, world_size_m, seed, p, rugged);
-  if (p.amplify_roughness <= 0) return;
+  if (p.roughness <= 0) return;
   const int S = h.cols;
   const NoiseTile& tile = NoiseTile::get(3);
   Rng rng(seed, 0, "amplify-rough");
   const float u0 = float(rng.uniform(0, NoiseTile::kSize)), v0 = float(rng.uniform(0, NoiseTile::kSize));
-  const float texels_per_cell = float(NoiseTile::kBaseCell * world_size_m / (S * p.amplify_feature_m));
-  const float a = float(p.amplify_roughness);
+  const float texels_per_cell = float(NoiseTile::kBaseCell * world_size_m / (S * p.feature_m));
+  const float a = float(p.roughness);
   for (int y = 0; y < S; ++y)
     for (int x = 0; x < S; ++x)
       if (h(y, x) > 0) {
@@ -305,32 +305,33 @@ cv::Mat1f ruggedness_at(const cv::Mat1b& ruggedness, int side, double world_size
 }
 
 cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, double world_size_m, uint64_t seed,
-                          const ErosionParams& p, bool lowland_relief, const cv::Mat1b& ruggedness) {
+                          const AmplifyParams& a, bool lowland_relief, const cv::Mat1b& ruggedness) {
+  const ErosionParams& p = a.erosion;
   if (coarse_m.empty() || coarse_m.rows != coarse_m.cols || label.rows != label.cols)
     throw Error("amplify: the height field and the label map must be square");
   const int S = coarse_m.cols, N = label.cols;
   cv::Mat1f coarse = coarse_m.clone();
   cv::Mat1b label_s;
   cv::resize(label, label_s, cv::Size(S, S), 0, 0, cv::INTER_NEAREST);
-  const bool erode = N > S || p.amplify_erode_at_model_side;
-  if (p.enabled && erode) smooth_plains(coarse, label_s, p.amplify_plain_smooth_m / (world_size_m / S), p.amplify_low_island_m);
-  if (p.enabled) fill_ponds(coarse, label_s, world_size_m / S, p.amplify_pond_max_m2);
+  const bool erode = N > S || a.erode_at_model_side;
+  if (p.enabled && erode) smooth_plains(coarse, label_s, a.plain_smooth_m / (world_size_m / S), a.low_island_m);
+  if (p.enabled) fill_ponds(coarse, label_s, world_size_m / S, a.pond_max_m2);
   const cv::Mat1f rugged_s = ruggedness_at(ruggedness, S, world_size_m);
   if (p.enabled && erode) {
-    roughen_land(coarse, world_size_m, seed, p, rugged_s);
-    // Few steps (amplify_steps, not the generator's `steps`): measured, 8 steps
+    roughen_land(coarse, world_size_m, seed, a, rugged_s);
+    // Few steps (AmplifyParams::steps, not the generator's `steps`): measured, 8 steps
     // give the painted set 0.298 valleys, 3 give 0.306 (docs/EROSION.md). The
     // drainage is routed once per step; our reading is that each re-routing
     // lets the deeper valleys capture the shallow ones the lobes started.
     erode_level(coarse, erodibility_map(harden(resistance_of_labels(label_s), rugged_s), seed, p), world_size_m / S,
-                p.amplify_steps,
-                p.duration_yr * p.amplify_duration_scale, p);
+                a.steps,
+                p.duration_yr * a.duration_scale, p);
   }
   cv::Mat1f land = resampled(coarse, N, cv::INTER_CUBIC);
   if (N <= S || !p.enabled) {
     if (N < S) cv::resize(coarse, land, cv::Size(N, N), 0, 0, cv::INTER_AREA);
     if (p.enabled) finish_painted_reef(land, label_s, world_size_m, seed);
-    if (p.enabled) fill_ponds(land, label, world_size_m / N, p.amplify_pond_max_m2);
+    if (p.enabled) fill_ponds(land, label, world_size_m / N, a.pond_max_m2);
     drain_pits(land, kPitDepthM, float(p.pit_breach_m), world_size_m / N);
     if (p.enabled && lowland_relief) add_lowland_relief(land, 0, seed);
     grade_land(land, world_size_m / N);
@@ -347,7 +348,7 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
   cv::Mat1f out = refine_heights(coarse, land, resistance, world_size_m, seed, p, detail);
   smooth_model_grid_underwater(out, S, seed);
   finish_painted_reef(out, label_s, world_size_m, seed);
-  fill_ponds(out, label, world_size_m / N, p.amplify_pond_max_m2);
+  fill_ponds(out, label, world_size_m / N, a.pond_max_m2);
   drain_pits(out, kPitDepthM, float(p.pit_breach_m), world_size_m / N);
   if (lowland_relief) add_lowland_relief(out, 0, seed);
   grade_land(out, world_size_m / N);

@@ -133,10 +133,10 @@ DecodedSketch with_age(const DecodedSketch& s, double age_myr) {
   return a;
 }
 
-// The amplification's erosion for the options' age or maturity.
-terrain::ErosionParams amplify_erosion(const InferOptions& o) {
+// The amplification's params for the options' age or maturity.
+AmplifyParams amplification_of(const InferOptions& o) {
   const double m = maturity_for(o.age_myr, o.maturity);
-  return m == kNotSet ? o.erosion : terrain::matured(o.erosion, m);
+  return m == kNotSet ? o.amplification : matured(o.amplification, m);
 }
 
 // The network's answers in metres at the model's side, one per sketch.
@@ -183,8 +183,8 @@ cv::Mat1f finish_answer(cv::Mat1f h, const DecodedSketch& sketch, const InferOpt
   if (want.width == want.height && o.amplify && h.rows == h.cols) {
     cv::Mat1b label;
     cv::resize(sketch.label, label, want, 0, 0, cv::INTER_NEAREST);
-    const Rerolled r = reroll_for_amplify(h, o.world_size_m / h.cols, o.seed, o.variation, amplify_erosion(o));
-    h = amplify_heights(r.height_m, label, o.world_size_m, o.seed, r.erosion, true, sketch.ruggedness);
+    const Rerolled r = reroll_for_amplify(h, o.world_size_m / h.cols, o.seed, o.variation, amplification_of(o));
+    h = amplify_heights(r.height_m, label, o.world_size_m, o.seed, r.params, true, sketch.ruggedness);
     cv::min(cv::max(h, range.lo_m), range.hi_m, h);
   } else if (want.width <= h.cols && want.height <= h.rows && h.size() != want) {
     cv::resize(h, h, want, 0, 0, cv::INTER_AREA);

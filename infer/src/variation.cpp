@@ -52,9 +52,9 @@ cv::Mat1f reroll_land(const cv::Mat1f& height_m, double metres_per_px, uint64_t 
 }
 
 Rerolled reroll_for_amplify(const cv::Mat1f& height_m, double metres_per_px, uint64_t seed, double variation,
-                            const terrain::ErosionParams& erosion) {
-  Rerolled r{reroll_land(height_m, metres_per_px, seed, variation), erosion};
-  if (variation > 0) r.erosion.amplify_erode_at_model_side = true;
+                            const AmplifyParams& params) {
+  Rerolled r{reroll_land(height_m, metres_per_px, seed, variation), params};
+  if (variation > 0) r.params.erode_at_model_side = true;
   return r;
 }
 

@@ -67,7 +67,7 @@ namespace {
 // the world's last rows 57 m down: a seam score of 13), amplified with
 // `size` for its longer side, and cropped back.
 cv::Mat1f amplify_oblong(const cv::Mat1f& coarse_m, const cv::Mat1b& label, int size, double world_size_m,
-                         uint64_t seed, const ErosionParams& p, const std::function<void(int, int)>& progress,
+                         uint64_t seed, const AmplifyParams& p, const std::function<void(int, int)>& progress,
                          const WorldBands& wb, const cv::Mat1b& ruggedness) {
   const int W = coarse_m.cols, H = coarse_m.rows, S = std::max(W, H);
   cv::Mat1f sq;
@@ -87,7 +87,7 @@ cv::Mat1f amplify_oblong(const cv::Mat1f& coarse_m, const cv::Mat1b& label, int 
 }  // namespace
 
 cv::Mat1f amplify_world(const cv::Mat1f& coarse_m, const cv::Mat1b& label, int size, double world_size_m,
-                        uint64_t seed, const ErosionParams& p, const std::function<void(int, int)>& progress,
+                        uint64_t seed, const AmplifyParams& p, const std::function<void(int, int)>& progress,
                         const WorldBands& wb, const cv::Mat1b& ruggedness) {
   if (coarse_m.empty()) throw Error("world: nothing to amplify");
   const int S = std::max(coarse_m.rows, coarse_m.cols);
@@ -112,8 +112,8 @@ cv::Mat1f amplify_world(const cv::Mat1f& coarse_m, const cv::Mat1b& label, int s
   for (int b = 0; b < bands; ++b) {
     const int y0 = b * wb.rows_px, y1 = std::min(size, y0 + wb.rows_px);
     const int h0 = std::max(0, y0 - wb.halo_px), h1 = std::min(size, y1 + wb.halo_px);
-    cv::Mat1f band = band_of(level, size, h0, h1, world_size_m, seed, p, rugged_m);
-    drain_pits(band, kPitDepthM, float(p.pit_breach_m), world_size_m / size);
+    cv::Mat1f band = band_of(level, size, h0, h1, world_size_m, seed, p.erosion, rugged_m);
+    drain_pits(band, kPitDepthM, float(p.erosion.pit_breach_m), world_size_m / size);
     add_lowland_relief(band, h0, seed);
     band(cv::Rect(0, y0 - h0, size, y1 - y0)).copyTo(out(cv::Rect(0, y0, size, y1 - y0)));
     if (progress) progress(b + 1, bands);

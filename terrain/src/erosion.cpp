@@ -25,9 +25,7 @@ ErosionParams matured(const ErosionParams& p, double maturity) {
   ErosionParams e = p;
   e.duration_yr *= maturity;
   e.steps = std::max(e.steps, int(std::lround(e.steps * std::sqrt(maturity))));
-  e.amplify_steps = std::max(e.amplify_steps, int(std::lround(e.amplify_steps * std::sqrt(maturity))));
   e.channel_head_m2 = std::max(e.channel_head_m2, kMaturedChannelHeadM2);
-  e.amplify_roughness *= std::min(1.0, maturity);
   return e;
 }
 

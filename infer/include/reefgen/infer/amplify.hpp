@@ -7,7 +7,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "reefgen/terrain/erosion.hpp"
+#include "reefgen/infer/amplify_params.hpp"
 
 namespace reefgen::infer {
 
@@ -28,13 +28,13 @@ inline constexpr float kLowlandFeaturePx = 8.f;
 void add_lowland_relief(cv::Mat1f& height_m, int y0, uint64_t seed);
 
 // Amplification of a coarse height field (a 256² model answer) to size×size
-// (infer --size N): the coarse field's land is roughened (amplify_roughness)
+// (infer --size N): the coarse field's land is roughened (AmplifyParams::roughness)
 // and eroded once on its own grid (pits
 // filled by sediment, valleys the model smoothed re-carved), then refined
 // level by level as the generator refines its own islands, with fractal
 // detail noise (amplitude ∝ cell size) standing in for the render's finer
 // detail. Only land moves; the sea is the coarse answer, bicubic, except
-// the small ponds of sea enclosed by land (amplify_pond_max_m2), which
+// the small ponds of sea enclosed by land (AmplifyParams::pond_max_m2), which
 // become land. label: the sketch's regions at
 // size×size. lowland_relief: add_lowland_relief before the grading (false
 // for a world's level below its banded last doubling, which adds it after
@@ -46,7 +46,7 @@ void add_lowland_relief(cv::Mat1f& height_m, int y0, uint64_t seed);
 // shrink and the ground erodes as harder rock (docs/INFERENCE.md
 // "Per-region style").
 cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, double world_size_m, uint64_t seed,
-                          const terrain::ErosionParams& p = {}, bool lowland_relief = true,
+                          const AmplifyParams& p = {}, bool lowland_relief = true,
                           const cv::Mat1b& ruggedness = {});
 
 // The style blends over this distance (Gaussian σ, m): a brush's edge, JPEG
@@ -92,7 +92,7 @@ struct WorldBands {
   int halo_px = kWorldBandHaloPx;             // rows of halo a band's pit draining sees, ≥ 0
 };
 cv::Mat1f amplify_world(const cv::Mat1f& coarse_m, const cv::Mat1b& label, int size, double world_size_m,
-                        uint64_t seed, const terrain::ErosionParams& p = {},
+                        uint64_t seed, const AmplifyParams& p = {},
                         const std::function<void(int, int)>& progress = {}, const WorldBands& bands = {},
                         const cv::Mat1b& ruggedness = {});
 

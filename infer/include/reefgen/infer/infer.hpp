@@ -11,7 +11,7 @@
 #include "reefgen/labels.hpp"
 #include "reefgen/model/dnnl_conv.hpp"
 #include "reefgen/model/generator_file.hpp"
-#include "reefgen/terrain/erosion.hpp"
+#include "reefgen/infer/amplify_params.hpp"
 
 namespace reefgen::infer {
 
@@ -48,7 +48,7 @@ struct InferOptions {
   double variation = 1.0;
   // The island's age in My (reefgen/age.hpp; kNotSet = the painting's own
   // brightness): its subsidence replaces the painted one everywhere, and its
-  // erosion maturity sets the amplification's (terrain::matured). maturity
+  // erosion maturity sets the amplification's (infer::matured). maturity
   // alone (or over the age's) sets the latter only.
   double age_myr = kNotSet;
   double maturity = kNotSet;
@@ -60,7 +60,7 @@ struct InferOptions {
   // sides also erosion + detail at each finer level. false (`--raw`): the
   // network's answer, only resized.
   bool amplify = true;
-  terrain::ErosionParams erosion;  // the amplification's erosion and detail (docs/EROSION.md); defaults = the shipped tuning
+  AmplifyParams amplification;  // the amplification's erosion and shaping (docs/EROSION.md); defaults = the shipped tuning
 };
 
 // The engine and precision these options run with this generator on this

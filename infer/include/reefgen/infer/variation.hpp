@@ -8,7 +8,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "reefgen/terrain/erosion.hpp"
+#include "reefgen/infer/amplify_params.hpp"
 
 namespace reefgen::infer {
 
@@ -38,9 +38,9 @@ cv::Mat1f reroll_land(const cv::Mat1f& height_m, double metres_per_px, uint64_t 
 // model's side too, so its valleys are its own. variation 0: both unchanged.
 struct Rerolled {
   cv::Mat1f height_m;
-  terrain::ErosionParams erosion;
+  AmplifyParams params;
 };
 Rerolled reroll_for_amplify(const cv::Mat1f& height_m, double metres_per_px, uint64_t seed, double variation,
-                            const terrain::ErosionParams& erosion);
+                            const AmplifyParams& params);
 
 }  // namespace reefgen::infer

@@ -50,23 +50,6 @@ struct ErosionParams {
   double flow_exponent = 1.0;         // multiple-flow-direction share ∝ slope^p (Quinn et al.: 1; large = one direction), [0, 10]
   double pit_breach_m = 5;            // closed depressions left at the end: breached up to this depth, filled below it (0: filled flat), m, [0, 100]
   double channel_head_m2 = 0;         // drainage area where incision begins (above it hillslopes only diffuse; 0: every cell incises), m², [0, 1e8]
-  // Amplification of a model answer only (amplify_heights; the generator ignores them):
-  double amplify_roughness = 0.8;     // relief added to the land before eroding, share of the height, [0, 1]
-  double amplify_feature_m = 140;     // spacing of that relief's features, m, [1, 1e5]
-  double amplify_duration_scale = 0.5;  // base-grid erosion time as a multiple of duration_yr, [0, 100]
-  int amplify_steps = 3;              // implicit steps of that erosion (few: the lobes' valleys are not captured), [0, 1000]
-  double amplify_lobe_m = 500;        // flank contours pushed up or down the slope by up to this, m, [0, 2000]
-  double amplify_lobe_spacing_m = 400;  // spacing of those lobes along a contour, m, [1, 1e5]
-  bool amplify_lobe_along_flow = true;  // one push per flow line (spurs and re-entrants from the low flank up), not a 2D noise
-  double amplify_plain_smooth_m = 150;  // Gaussian σ that takes the model's rings off the beach/lagoon plain's land, m, [0, 2000] (0 = off)
-  double amplify_low_island_m = 120;  // islands whose own peak is below this get that smoothing on all their land (fully below half), m, [0, 1e4] (0 = off)
-  double amplify_pond_max_m2 = 2.5e5;  // sea enclosed by land up to this area (any size where painted island/beach) is raised to land, m², [0, 1e9] (0 = off)
-  // At or below the model's own side: the light clean-up (ponds raised, pits
-  // breached) only, or also the plain smoothing, roughening and erosion of
-  // larger sides. Light by default: held-out MAE 3.279 -> 3.275 m, painted
-  // pits 9.4 % -> 0; with erosion 3.55 m, with the smoothing 3.32 m
-  // (docs/EROSION.md, "The model's own side").
-  bool amplify_erode_at_model_side = false;
 };
 
 // The one field list (common/params_json.hpp): JSON both ways and the ranges.
@@ -89,17 +72,6 @@ void fields(ErosionParams& p, F&& f) {
   f("flow_exponent", p.flow_exponent, Range{0, 10});
   f("pit_breach_m", p.pit_breach_m, Range{0, 100});
   f("channel_head_m2", p.channel_head_m2, Range{0, 1e8});
-  f("amplify_roughness", p.amplify_roughness, Range{0, 1});
-  f("amplify_feature_m", p.amplify_feature_m, Range{1, 1e5});
-  f("amplify_duration_scale", p.amplify_duration_scale, Range{0, 100});
-  f("amplify_steps", p.amplify_steps, Range{0, 1000});
-  f("amplify_lobe_m", p.amplify_lobe_m, Range{0, 2000});
-  f("amplify_lobe_spacing_m", p.amplify_lobe_spacing_m, Range{1, 1e5});
-  f("amplify_lobe_along_flow", p.amplify_lobe_along_flow);
-  f("amplify_plain_smooth_m", p.amplify_plain_smooth_m, Range{0, 2000});
-  f("amplify_low_island_m", p.amplify_low_island_m, Range{0, 1e4});
-  f("amplify_pond_max_m2", p.amplify_pond_max_m2, Range{0, 1e9});
-  f("amplify_erode_at_model_side", p.amplify_erode_at_model_side);
 }
 // Channels begin at this contributing area in matured params: above it
 // hillslopes only diffuse, so long erosion deepens valleys between ridges
@@ -108,9 +80,8 @@ inline constexpr double kMaturedChannelHeadM2 = 5e3;
 // The params of an island `maturity` times as eroded (reefgen/age.hpp): the
 // time (duration_yr, which the generator and the amplification both scale)
 // × maturity, more implicit steps for a longer time (stable at any length,
-// but a few coarse strokes cut blunt valley walls), channels beginning at
-// kMaturedChannelHeadM2, and a young island's amplification roughened less
-// (amplify_roughness × maturity below 1: fewer gullies on a young shield).
+// but a few coarse strokes cut blunt valley walls) and channels beginning at
+// kMaturedChannelHeadM2 (infer::matured ages the amplification's own).
 ErosionParams matured(const ErosionParams& p, double maturity);
 
 void to_json(nlohmann::json& j, const ErosionParams& p);
