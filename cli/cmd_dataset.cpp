@@ -22,6 +22,8 @@ struct BuildArgs {
 
 }  // namespace
 
+// Long: the build and merge subcommands' flags, one per line; the work is
+// augment/'s dataset builder.
 Command add_dataset_command(CLI::App& app, const GlobalOptions& g) {
   auto* sub = app.add_subcommand("dataset", "Build training sets (generator + augmentation)\n\n"
                                             "Examples:\n"

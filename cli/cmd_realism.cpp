@@ -91,6 +91,8 @@ FileStats stats_of(const std::string& file, const RealismArgs& a, const std::opt
 
 }  // namespace
 
+// Long: one flag per line (the report's many switches), then a body that
+// calls terrain/'s measures; the work is not here.
 Command add_realism_command(CLI::App& app, const GlobalOptions&) {
   auto a = std::make_shared<RealismArgs>();
   auto* sub = app.add_subcommand("realism",

@@ -69,13 +69,31 @@ cv::Mat3b variations_sheet(const std::vector<cv::Mat1f>& heights, uint64_t first
   }
   return sheet;
 }
-}  // namespace
+// Where a run's files go: -o PREFIX (or NAME.exr) for one sketch, a folder
+// for several; variation k of the one sketch at PREFIX.seedS.
+struct OutputLayout {
+  bool many = false;
+  OutputNames single;  // one sketch: its prefix and EXR name
+  fs::path out_dir;
+  uint64_t first_seed = 0;
+  fs::path prefix_of(const fs::path& in) const { return many ? out_dir / in.stem() : single.prefix; }
+  fs::path variation_prefix(int k) const {
+    return fs::path(single.prefix.string() + ".seed" + std::to_string(first_seed + uint64_t(k)));
+  }
+  fs::path contact_sheet() const { return single.prefix.string() + ".variations.png"; }
+};
 
-InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
-                        const std::function<void(size_t)>& done) {
-  const std::vector<fs::path>& inputs = job.inputs.files;
-  if (inputs.empty()) throw Error("infer: no sketches given");
-  const bool many = inputs.size() > 1 || job.inputs.from_folder || fs::is_directory(job.out);
+OutputLayout output_layout(const InferJob& job) {
+  OutputLayout o;
+  o.many = job.inputs.files.size() > 1 || job.inputs.from_folder || fs::is_directory(job.out);
+  o.single = o.many ? OutputNames{} : output_names(job.out);  // -o PREFIX or -o NAME.exr (one sketch)
+  o.out_dir = o.many ? fs::path(job.out) : o.single.prefix.parent_path();
+  o.first_seed = job.options.seed;
+  return o;
+}
+
+// The height files asked for, with --mesh checked (a path names one file).
+HeightFiles height_files_of(const InferJob& job, bool many) {
   HeightFiles hf = job.files;
   hf.mesh = job.mesh;
   if (!job.mesh.empty() && job.mesh != "obj" && job.mesh != "glb") {
@@ -86,77 +104,143 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
     hf.mesh = ext.substr(1);
   }
   if (!(hf.exaggeration > 0 && hf.exaggeration <= 100)) throw Error("--exaggeration must be in (0, 100]");
+  if (job.variations > 1 && !hf.mesh_path.empty())
+    throw Error("--variations: --mesh " + job.mesh + " names one file; use --mesh obj|glb (one mesh per island)");
+  return hf;
+}
+
+// The options the generator and the inputs can honour.
+void check_job(const model::GeneratorFile& gen, const InferJob& job, bool many) {
   const InferOptions& io = job.options;
   if (!(io.world_size_m > 0)) throw Error("--world-size must be > 0");
   if (io.stochastic && (gen.g->options().depth < 6 || gen.g->options().dropout == 0))
     throw Error("--stochastic: " + job.model_path + " has no dropout layers (depth " +
                 std::to_string(gen.g->options().depth) + ", dropout " + std::to_string(gen.g->options().dropout) +
                 "), so outputs cannot vary; drop --stochastic");
-  const int variations = job.variations;
-  if (variations < 1 || variations > kMaxVariations)
-    throw Error("--variations " + std::to_string(variations) + ": expected 1 to " + std::to_string(kMaxVariations));
-  if (variations > 1 && many)
-    throw Error("--variations takes one sketch (" + std::to_string(inputs.size()) +
+  if (job.variations < 1 || job.variations > kMaxVariations)
+    throw Error("--variations " + std::to_string(job.variations) + ": expected 1 to " + std::to_string(kMaxVariations));
+  if (job.variations > 1 && many)
+    throw Error("--variations takes one sketch (" + std::to_string(job.inputs.files.size()) +
                 " given, or a folder); infer each sketch with its own -o");
-  if (variations > 1 && !hf.mesh_path.empty())
-    throw Error("--variations: --mesh " + job.mesh + " names one file; use --mesh obj|glb (one mesh per island)");
-  const OutputNames single = many ? OutputNames{} : output_names(job.out);  // -o PREFIX or -o NAME.exr (one sketch)
-  const fs::path out_dir = many ? fs::path(job.out) : single.prefix.parent_path();
-  auto prefix_of = [&](const fs::path& in) { return many ? out_dir / in.stem() : single.prefix; };
-  // Variation k of the one sketch: PREFIX.seedS, S its seed.
-  auto variation_prefix = [&](int k) {
-    return fs::path(single.prefix.string() + ".seed" + std::to_string(job.options.seed + uint64_t(k)));
-  };
-  const fs::path contact_sheet = single.prefix.string() + ".variations.png";
-  {
-    // Every file this run may write, checked before any is written: no
-    // output may be an input, no two sketches may share a result name.
-    engines::PlannedOutputs planned;
-    std::map<std::string, fs::path> stems;
-    for (const auto& in : inputs) {
-      const fs::path prefix = prefix_of(in);
-      if (many) {
-        const auto [it, fresh] = stems.emplace(in.stem().string(), in);
-        if (!fresh)
-          throw Error(in.string() + " and " + it->second.string() + " would both write " + prefix.string() +
-                      ".*; rename one of them or infer them into different -o folders");
-      } else if (variations == 1) {
-        planned.files.push_back(single.height);
-      }
-      std::vector<fs::path> prefixes = {prefix};
-      if (variations > 1) {
-        prefixes.clear();
-        for (int k = 0; k < variations; ++k) prefixes.push_back(variation_prefix(k));
-        planned.files.push_back(contact_sheet);
-      }
-      for (const fs::path& p : prefixes) {
-        const engines::PlannedOutputs mine = engines::planned_outputs(p, job.bundles);
-        planned.files.insert(planned.files.end(), mine.files.begin(), mine.files.end());
-        planned.folders.insert(planned.folders.end(), mine.folders.begin(), mine.folders.end());
-      }
-    }
-    if (!hf.mesh_path.empty()) planned.files.push_back(hf.mesh_path);
-    engines::refuse_outputs_over_inputs(inputs, planned);
-  }
-  ensure_writable_dir(out_dir.empty() ? fs::path(".") : out_dir);
+}
 
-  // The mode every sidecar records (resolve throws for impossible pairs).
-  // A generator without BatchNorm (the shipped one: instance norm) has no
-  // running statistics: --running-stats changes nothing there, and says so.
-  const bool has_bn = gen.g->options().norm == model::Norm::Batch;
-  nlohmann::json mode = {{"stochastic", io.stochastic}, {"seed", io.seed}, {"variation", io.variation},
-                               {"batchnorm", !has_bn             ? "none (the generator uses " +
-                                                                   std::string(gen.g->options().norm == model::Norm::Instance
-                                                                                   ? "instance norm"
-                                                                                   : "no normalisation") +
-                                                                   ")"
-                                             : io.running_stats ? "running statistics"
-                                                                : "batch statistics"},
-                               {"precision", to_string(resolve(io, gen))},
-                               {"engine", to_string(resolve_engine(io))}};
+// Every file this run may write, checked before any is written: no output
+// may be an input, no two sketches may share a result name.
+void refuse_overwrites(const InferJob& job, const OutputLayout& o, const HeightFiles& hf) {
+  const std::vector<fs::path>& inputs = job.inputs.files;
+  engines::PlannedOutputs planned;
+  std::map<std::string, fs::path> stems;
+  for (const auto& in : inputs) {
+    const fs::path prefix = o.prefix_of(in);
+    if (o.many) {
+      const auto [it, fresh] = stems.emplace(in.stem().string(), in);
+      if (!fresh)
+        throw Error(in.string() + " and " + it->second.string() + " would both write " + prefix.string() +
+                    ".*; rename one of them or infer them into different -o folders");
+    } else if (job.variations == 1) {
+      planned.files.push_back(o.single.height);
+    }
+    std::vector<fs::path> prefixes = {prefix};
+    if (job.variations > 1) {
+      prefixes.clear();
+      for (int k = 0; k < job.variations; ++k) prefixes.push_back(o.variation_prefix(k));
+      planned.files.push_back(o.contact_sheet());
+    }
+    for (const fs::path& p : prefixes) {
+      const engines::PlannedOutputs mine = engines::planned_outputs(p, job.bundles);
+      planned.files.insert(planned.files.end(), mine.files.begin(), mine.files.end());
+      planned.folders.insert(planned.folders.end(), mine.folders.begin(), mine.folders.end());
+    }
+  }
+  if (!hf.mesh_path.empty()) planned.files.push_back(hf.mesh_path);
+  engines::refuse_outputs_over_inputs(inputs, planned);
+}
+
+// The mode every sidecar records (resolve throws for impossible pairs).
+// A generator without BatchNorm (the shipped one: instance norm) has no
+// running statistics: --running-stats changes nothing there, and says so.
+nlohmann::json sidecar_mode(const model::GeneratorFile& gen, const InferOptions& io) {
+  const model::Norm norm = gen.g->options().norm;
+  const std::string batchnorm =
+      norm != model::Norm::Batch
+          ? "none (the generator uses " + std::string(norm == model::Norm::Instance ? "instance norm" : "no normalisation") + ")"
+      : io.running_stats ? "running statistics"
+                         : "batch statistics";
+  nlohmann::json mode = {{"stochastic", io.stochastic}, {"seed", io.seed},         {"variation", io.variation},
+                         {"batchnorm", batchnorm},      {"precision", to_string(resolve(io, gen))},
+                         {"engine", to_string(resolve_engine(io))}};
   // The age and maturity asked for, and what they set (reefgen/age.hpp).
   if (io.age_myr != kNotSet) mode["age_myr"] = io.age_myr, mode["subsidence"] = subsidence_of_age(io.age_myr);
   if (const double m = maturity_for(io.age_myr, io.maturity); m != kNotSet) mode["maturity"] = m;
+  return mode;
+}
+
+// Sketches [first, first + count) read and checked against what is asked of
+// their output; a sketch much larger than the model's side gets a note.
+std::vector<DecodedSketch> read_sketches(const model::GeneratorFile& gen, const InferJob& job, size_t first,
+                                         size_t count, std::vector<std::string>& world_notes) {
+  const InferOptions& io = job.options;
+  std::vector<DecodedSketch> sketches;
+  for (size_t k = first; k < first + count; ++k) {
+    const fs::path& in = job.inputs.files[k];
+    sketches.push_back(read_sketch(in));
+    const cv::Size sz = sketches.back().label.size();
+    // The output is the sketch's size unless --size: its layers and
+    // bundles take at least 2 samples a side, the bundles a square.
+    const cv::Size out = io.size_px > 0 ? cv::Size(io.size_px, io.size_px) : sz;
+    const std::string would = in.string() + ": the output would be " + std::to_string(out.width) + "x" +
+                              std::to_string(out.height) + "; ";
+    if (std::min(out.width, out.height) < 2 && (job.layers || job.geotiff || !job.bundles.empty()))
+      throw Error(would + "layers, GeoTIFFs and engine bundles need at least 2 samples a side: pass --size N "
+                          "(e.g. --size 257)");
+    if (out.width != out.height && !job.bundles.empty())
+      throw Error(would + "engine bundles take a square field: pass --size N (e.g. --size 257)");
+    if (std::max(sz.width, sz.height) > kWorldHintSidePx)
+      world_notes.push_back(in.string() + ": " + std::to_string(sz.width) + "x" + std::to_string(sz.height) +
+                            " read as one " + std::to_string(int(io.world_size_m / 1000)) +
+                            " km island (resized to the model's " + std::to_string(gen.size_px) +
+                            "²); `reefgen world` reads it at the model's scale, " +
+                            std::to_string(int(std::lround(sz.width * kModelMetresPerPx / 1000))) + " km across");
+  }
+  return sketches;
+}
+
+// One island's sidecar before its files are staged into it.
+nlohmann::json island_sidecar(const model::GeneratorFile& gen, const InferJob& job, const fs::path& sketch,
+                              const nlohmann::json& mode, uint64_t seed, const cv::Mat1f& h, double mpp) {
+  double hmin, hmax;
+  cv::minMaxLoc(h, &hmin, &hmax);
+  nlohmann::json island_mode = mode;
+  island_mode["seed"] = seed;
+  // The model's range is kept for reference; the 16-bit files span the
+  // field's own (stage_height_files).
+  nlohmann::json side = {
+      {"reefgen_version", kVersion},
+      {"sketch", fs::absolute(sketch).string()},
+      {"model", {{"path", fs::absolute(job.model_path).string()}, {"train_step", gen.train_step},
+                 {"ngf", gen.g->options().ngf}, {"reefgen_version", gen.reefgen_version}}},
+      {"mode", island_mode},
+      {"size_px", {h.cols, h.rows}},
+      {"metres_per_px", mpp},
+      {"height_range_m", {hmin, hmax}},
+      {"model_range_m", {gen.range.lo_m, gen.range.hi_m}}};
+  if (job.options.ocean_floor_m < 0) side["ocean_floor_m"] = job.options.ocean_floor_m;
+  return side;
+}
+}  // namespace
+
+InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
+                        const std::function<void(size_t)>& done) {
+  const std::vector<fs::path>& inputs = job.inputs.files;
+  if (inputs.empty()) throw Error("infer: no sketches given");
+  const OutputLayout layout = output_layout(job);
+  HeightFiles hf = height_files_of(job, layout.many);
+  check_job(gen, job, layout.many);
+  refuse_overwrites(job, layout, hf);
+  ensure_writable_dir(layout.out_dir.empty() ? fs::path(".") : layout.out_dir);
+  const InferOptions& io = job.options;
+  const int variations = job.variations;
+  const nlohmann::json mode = sidecar_mode(gen, io);
   constexpr size_t kChunk = 32;
   if (job.geotiff) gis::check_crs(job.geo.crs);
   std::vector<cv::Mat1f> heights, before;
@@ -165,27 +249,8 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
   InferResult r;
   for (size_t i = 0; i < inputs.size(); ++i) {
     if (i % kChunk == 0) {
-      std::vector<DecodedSketch> sketches;
-      for (size_t k = i; k < std::min(inputs.size(), i + kChunk); ++k) {
-        sketches.push_back(read_sketch(inputs[k]));
-        const cv::Size sz = sketches.back().label.size();
-        // The output is the sketch's size unless --size: its layers and
-        // bundles take at least 2 samples a side, the bundles a square.
-        const cv::Size out = io.size_px > 0 ? cv::Size(io.size_px, io.size_px) : sz;
-        const std::string would = inputs[k].string() + ": the output would be " + std::to_string(out.width) + "x" +
-                                  std::to_string(out.height) + "; ";
-        if (std::min(out.width, out.height) < 2 && (job.layers || job.geotiff || !job.bundles.empty()))
-          throw Error(would + "layers, GeoTIFFs and engine bundles need at least 2 samples a side: pass --size N "
-                              "(e.g. --size 257)");
-        if (out.width != out.height && !job.bundles.empty())
-          throw Error(would + "engine bundles take a square field: pass --size N (e.g. --size 257)");
-        if (std::max(sz.width, sz.height) > kWorldHintSidePx)
-          r.world_notes.push_back(inputs[k].string() + ": " + std::to_string(sz.width) + "x" + std::to_string(sz.height) +
-                                  " read as one " + std::to_string(int(io.world_size_m / 1000)) +
-                                  " km island (resized to the model's " + std::to_string(gen.size_px) +
-                                  "²); `reefgen world` reads it at the model's scale, " +
-                                  std::to_string(int(std::lround(sz.width * kModelMetresPerPx / 1000))) + " km across");
-      }
+      const std::vector<DecodedSketch> sketches =
+          read_sketches(gen, job, i, std::min(inputs.size(), i + kChunk) - i, r.world_notes);
       before.clear();
       labels.clear();
       std::vector<cv::Mat1f>* keep_before = job.layers || job.geotiff || !job.bundles.empty() ? &before : nullptr;
@@ -205,24 +270,8 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
     const auto write_island = [&](size_t k, const fs::path& prefix, const fs::path& exr, uint64_t seed) {
       const cv::Mat1f& h = heights[k];
       const double mpp = io.world_size_m / h.cols;
-      double hmin, hmax;
-      cv::minMaxLoc(h, &hmin, &hmax);
       hf.exr_path = exr;
-      nlohmann::json island_mode = mode;
-      island_mode["seed"] = seed;
-      // The model's range is kept for reference; the 16-bit files span the
-      // field's own (stage_height_files).
-      nlohmann::json side = {
-          {"reefgen_version", kVersion},
-          {"sketch", fs::absolute(inputs[i]).string()},
-          {"model", {{"path", fs::absolute(job.model_path).string()}, {"train_step", gen.train_step},
-                     {"ngf", gen.g->options().ngf}, {"reefgen_version", gen.reefgen_version}}},
-          {"mode", island_mode},
-          {"size_px", {h.cols, h.rows}},
-          {"metres_per_px", mpp},
-          {"height_range_m", {hmin, hmax}},
-          {"model_range_m", {gen.range.lo_m, gen.range.hi_m}}};
-      if (io.ocean_floor_m < 0) side["ocean_floor_m"] = io.ocean_floor_m;
+      nlohmann::json side = island_sidecar(gen, job, inputs[i], mode, seed, h, mpp);
       side.update(stage_height_files(staged, prefix, h, mpp, hf));
       stage_layers_and_geotiffs(staged, job, prefix.string(), h, before, labels, k, mpp, side);
       if (hf.r16) r.r16_notes.push_back(prefix.string() + ".r16: " + side["r16"]["import_note"].get<std::string>());
@@ -231,14 +280,15 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
     };
     if (variations > 1) {
       for (int k = 0; k < variations; ++k) {
-        const fs::path prefix = variation_prefix(k);
+        const fs::path prefix = layout.variation_prefix(k);
         write_island(size_t(k), prefix, prefix.string() + ".height.exr", io.seed + uint64_t(k));
       }
       const cv::Mat3b sheet = variations_sheet(heights, io.seed);
-      staged.write(contact_sheet, [&](const fs::path& t) { write_png(t, sheet); });
+      staged.write(layout.contact_sheet(), [&](const fs::path& t) { write_png(t, sheet); });
     } else {
-      const fs::path prefix = prefix_of(inputs[i]);
-      write_island(i % kChunk, prefix, many ? fs::path(prefix.string() + ".height.exr") : single.height, io.seed);
+      const fs::path prefix = layout.prefix_of(inputs[i]);
+      write_island(i % kChunk, prefix, layout.many ? fs::path(prefix.string() + ".height.exr") : layout.single.height,
+                   io.seed);
     }
     if (done) done(i + 1);
   }

@@ -195,6 +195,9 @@ struct ShellStats {
   double top_max_m, depth_m;
 };
 
+// Long on purpose (~150 lines): the shell's top, bottom, walls and colours
+// share the grid of vertex heights and crossings built at its start; split,
+// every piece would carry that grid. Its stages are marked inside.
 ShellStats add_shell(const std::vector<cv::Point>& poly, const cv::Rect& bbox, const cv::Mat1f& h0_m,
                      double painted_depth_m, const FloatingParams& p, const cv::Mat3f& top_rgb, const cv::Vec3f& rock,
                      cv::Size canvas, Mesh& out, cv::Mat1f& top_canvas, cv::Mat1f& bottom_canvas) {

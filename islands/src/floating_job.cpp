@@ -32,6 +32,8 @@ void check_outputs(const FloatingJob& job, const fs::path& sidecar) {
 }
 }  // namespace
 
+// Long: the job's steps in order (read, shape, check the mesh, stage every
+// file, commit), each marked; the staged set spans all of them.
 nlohmann::json make_floating(const FloatingJob& job, FloatingParams p) {
   const fs::path sidecar = job.meshes.empty() ? fs::path() : fs::path(job.meshes.front()).replace_extension(".json");
   check_outputs(job, sidecar);

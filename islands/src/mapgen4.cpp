@@ -54,6 +54,9 @@ std::vector<cv::Point2d> poisson_disk(double radius, uint64_t seed) {
   return pts;
 }
 
+// Long: mapgen4's recipe in its order (points, elevation, Delaunay, the dual
+// mesh drawn to pixels), each step marked; they share the point and
+// triangle arrays, which is how the original reads too.
 cv::Mat1f mapgen4_height(const Mapgen4Params& p, uint64_t seed) {
   check_params(p, "mapgen4", "configs/terrains/mapgen4.json");
   if (!(p.mountain_spacing >= p.spacing))

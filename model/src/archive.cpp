@@ -24,7 +24,8 @@ uint64_t le64(const unsigned char* p) { return uint64_t(le32(p)) | uint64_t(le32
 // every corruption of their contents (a flipped byte in a type string
 // segfaults its TorchScript type parser; found by tests/fuzz). So every entry
 // is checked here first: stored (LibTorch never compresses), inside the file,
-// and with its recorded CRC-32. Returns "" or what is wrong.
+// and with its recorded CRC-32. Returns "" or what is wrong. Long: one
+// pass over the central directory, each field checked where it is read.
 std::string check_zip_integrity(const std::filesystem::path& path) {
   FILE* f = std::fopen(path.c_str(), "rb");
   if (!f) return "cannot open it";

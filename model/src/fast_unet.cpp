@@ -481,6 +481,9 @@ std::string fast_unet_unsupported(UNetGeneratorImpl& g) {
   return "";
 }
 
+// Long: one walk over the U-Net's layers in forward()'s order, packing each
+// level's weights and sizing its buffers (marked: buffers, encoder, decoder,
+// output); split, each part would re-derive the level geometry.
 FastUNet::FastUNet(UNetGeneratorImpl& g, const FastUNetOptions& options) : impl_(std::make_unique<Impl>()) {
   Impl& m = *impl_;
   m.o = options;

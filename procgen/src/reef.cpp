@@ -257,6 +257,9 @@ class NoiseTable {
 
 }  // namespace
 
+// Long: the reef's six numbered steps (lagoon floor, passes, coral growth,
+// motu, spur-and-groove, flank) run in one pass per cell over the distance
+// fields computed at the top; each step is marked.
 void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, const IslandSpec& spec,
                 const OutlineTable& outlines, const ReefPlan& plan) {
   const auto& c = spec.coral;

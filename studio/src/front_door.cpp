@@ -165,6 +165,8 @@ struct Waiting {
 
 }  // namespace
 
+// Long: one poll loop (accept, read heads, relay, time out) over the
+// connection table, its only state; each branch is marked.
 void FrontDoor::run(int backend_port) {
   std::vector<Waiting> waiting;  // accept order, so deadline order
   std::vector<pollfd> fds;

@@ -197,6 +197,8 @@ int64_t grade_land(cv::Mat1f& h, double cell_m, double slope) {
   return raised;
 }
 
+// Long: fill and breach share the flood's depression labels and routes built
+// at its top; the two stages are marked.
 int64_t drain_pits(cv::Mat1f& h, float max_depth_m, float breach_m, double cell_m) {
   check_interrupt();
   if (!h.isContinuous()) h = h.clone();
