@@ -1,5 +1,5 @@
 // reefgen bench realism: the realism bars measured the way docs/REALISM.md
-// defines them (infer::realism_bench) — N random specs generated at --size,
+// defines them (bench::realism_bench) — N random specs generated at --size,
 // and the painted sketches of tests/data/painted answered by `infer --size`.
 // One JSON object on stdout, the CPU model included: figures depend on it.
 #include <cstdio>
@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app.hpp"
-#include "reefgen/infer/realism_bench.hpp"
+#include "reefgen/bench/realism_bench.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/model/generator_file.hpp"
 #include "reefgen/model/shipped.hpp"
@@ -50,7 +50,7 @@ std::function<int()> add_bench_realism_command(CLI::App* bench, const GlobalOpti
       ->capture_default_str()
       ->check(finite_in(0, 1));
   return [a, &g]() -> int {
-    infer::RealismBenchOptions o;
+    bench::RealismBenchOptions o;
     o.specs = a->specs;
     o.size_px = a->size;
     o.spec_seed = a->seed;
@@ -70,7 +70,7 @@ std::function<int()> add_bench_realism_command(CLI::App* bench, const GlobalOpti
       if (!a->erosion.empty()) o.infer.amplification = infer::amplify_params_from_json(read_json(a->erosion), a->erosion);
     }
     nlohmann::json out = {{"bench", "realism"}, {"size", a->size}, {"cpu", cpu_model()}};
-    out.update(infer::realism_bench(o, gen ? &*gen : nullptr, files));
+    out.update(bench::realism_bench(o, gen ? &*gen : nullptr, files));
     if (gen) out["painted"]["model"] = model_path.string();
     std::printf("%s\n", out.dump(1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
     return 0;

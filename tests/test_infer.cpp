@@ -11,7 +11,7 @@
 
 #include "reefgen/infer/metrics.hpp"
 #include "reefgen/infer/infer.hpp"
-#include "reefgen/infer/realism_bench.hpp"
+#include "reefgen/bench/realism_bench.hpp"
 #include "reefgen/infer/run.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
@@ -236,13 +236,13 @@ TEST(Infer, RealismBenchMeasuresWhatGenerateAndInferGive) {
     const procgen::Sketch s = procgen::random_sketch({}, uint64_t(i));
     write_png(d / ("painted/" + std::to_string(i) + ".png"), encode_labels(s.label, s.subsidence));
   }
-  RealismBenchOptions o;
+  bench::RealismBenchOptions o;
   o.specs = 2;
   o.size_px = 96;
   o.spec_seed = 3;
   o.quiet = true;
   const std::vector<fs::path> files = {d / "painted/1.png", d / "painted/2.png"};
-  const nlohmann::json r = realism_bench(o, &g, files);
+  const nlohmann::json r = bench::realism_bench(o, &g, files);
   std::vector<double> valleys;
   for (int i = 0; i < 2; ++i) {
     procgen::RenderOptions ro;
@@ -261,10 +261,10 @@ TEST(Infer, RealismBenchMeasuresWhatGenerateAndInferGive) {
   const double pm = r["painted"]["median_pits"], tm = r["painted"]["median_terraces"], vm = r["painted"]["median_valleys"];
   EXPECT_EQ(r["painted"]["bars_met"].get<bool>(), pm <= 0.01 && tm <= 0.03 && vm >= 0.30);
   // No painted sketches: no "painted" object, and no generator needed.
-  EXPECT_FALSE(realism_bench(o, nullptr, {}).contains("painted"));
-  expect_error_naming([&] { realism_bench(o, nullptr, files); }, "need a generator");
+  EXPECT_FALSE(bench::realism_bench(o, nullptr, {}).contains("painted"));
+  expect_error_naming([&] { bench::realism_bench(o, nullptr, files); }, "need a generator");
   o.size_px = 32;
-  expect_error_naming([&] { realism_bench(o, &g, files); }, "size must be in 64..8192");
+  expect_error_naming([&] { bench::realism_bench(o, &g, files); }, "size must be in 64..8192");
   fs::remove_all(d);
 }
 

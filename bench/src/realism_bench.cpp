@@ -1,4 +1,4 @@
-#include "reefgen/infer/realism_bench.hpp"
+#include "reefgen/bench/realism_bench.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -11,7 +11,7 @@
 #include "reefgen/stats.hpp"
 #include "reefgen/terrain/realism.hpp"
 
-namespace reefgen::infer {
+namespace reefgen::bench {
 
 using terrain::realism_stats;
 using terrain::RealismStats;
@@ -71,7 +71,7 @@ nlohmann::json realism_bench(const RealismBenchOptions& o, model::GeneratorFile*
   }
   if (!painted.empty()) {
     if (g == nullptr) throw Error("realism bench: painted sketches need a generator");
-    InferOptions io = o.infer;
+    infer::InferOptions io = o.infer;
     io.size_px = o.size_px;
     std::vector<RealismStats> stats;
     std::vector<double> ms;
@@ -80,7 +80,7 @@ nlohmann::json realism_bench(const RealismBenchOptions& o, model::GeneratorFile*
     for (size_t i = 0; i < painted.size(); ++i) {
       const DecodedSketch s = read_sketch(painted[i]);
       cv::Mat1f h;
-      ms.push_back(ms_of([&] { h = infer_heights(*g, {s}, io)[0]; }));
+      ms.push_back(ms_of([&] { h = infer::infer_heights(*g, {s}, io)[0]; }));
       stats.push_back(realism_stats(h, io.world_size_m / o.size_px));
       per[painted[i].filename().string()] = {
           {"pits", stats.back().pits}, {"terraces", stats.back().terraces}, {"valleys", stats.back().valleys}};
@@ -94,4 +94,4 @@ nlohmann::json realism_bench(const RealismBenchOptions& o, model::GeneratorFile*
   return out;
 }
 
-}  // namespace reefgen::infer
+}  // namespace reefgen::bench

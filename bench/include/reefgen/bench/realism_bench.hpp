@@ -13,14 +13,14 @@
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/model/generator_file.hpp"
 
-namespace reefgen::infer {
+namespace reefgen::bench {
 
 struct RealismBenchOptions {
   int specs = 50;                 // random specs generated directly (0 = none), [0, 10000]
   int size_px = 1025;             // side of every island, [64, 8192]
   uint64_t spec_seed = 1;         // seed of the random specs
   double subsidence = 0;          // λ of every random spec, [0, 1] (0: young islands, the most flank to judge)
-  InferOptions infer;             // the painted sketches' inference (its size_px is set to size_px)
+  infer::InferOptions infer;             // the painted sketches' inference (its size_px is set to size_px)
   bool quiet = false;             // no progress lines on stderr
 };
 
@@ -30,4 +30,4 @@ struct RealismBenchOptions {
 nlohmann::json realism_bench(const RealismBenchOptions& o, model::GeneratorFile* g,
                              const std::vector<std::filesystem::path>& painted);
 
-}  // namespace reefgen::infer
+}  // namespace reefgen::bench
