@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <functional>
 
+#include "reefgen/train/checkpoint.hpp"
 #include "reefgen/train/distributed.hpp"
 #include "reefgen/train/params.hpp"
 #include "reefgen/train/pix2pix.hpp"
@@ -60,33 +61,5 @@ struct RunResult {
 };
 
 RunResult run_training(const TrainParams& params, const RunOptions& run);
-
-// The architecture keys of TrainParams (what must match for weights to load).
-bool same_architecture(const TrainParams& a, const TrainParams& b, std::string* differing = nullptr);
-// Loads G's and D's weights (not optimizers, step or RNG) from a checkpoint
-// of a run with the same architecture; throws reefgen::Error naming the file
-// and the differing key otherwise.
-void load_checkpoint_weights(const std::filesystem::path& path, Pix2Pix& p, const TrainParams& params);
-
-// Checkpoint file (LibTorch archive, written atomically).
-struct LogWindow {
-  double sums[4] = {0, 0, 0, 0};  // G_GAN, G_L1, D_real, D_fake over the current log window
-  int64_t steps = 0;
-  // Wall-clock of the steps timed in this process; not checkpointed, so
-  // checkpoints are byte-identical between interrupted and uninterrupted runs.
-  double seconds = 0;
-  int64_t timed_steps = 0;
-  double allreduce_seconds = 0;  // in collectives over the timed steps
-};
-void save_checkpoint(const std::filesystem::path& path, Pix2Pix& p, const TrainParams& params, int64_t step,
-                     const LogWindow& window, int world_size = 1);
-// Restores weights, optimizers and RNG; returns the step. `torch_threads`, when
-// given, receives the LibTorch thread count the checkpoint was written with. Throws reefgen::Error
-// for a missing, truncated or foreign file and for a config that differs from
-// `params` in anything but the thread and loader settings; the batch may be
-// split over another number of ranks (`world_size` now, `world_size_then`
-// receives the checkpoint's) as long as the global batch is the same.
-int64_t load_checkpoint(const std::filesystem::path& path, Pix2Pix& p, const TrainParams& params, LogWindow* window,
-                        int64_t* torch_threads = nullptr, int world_size = 1, int64_t* world_size_then = nullptr);
 
 }  // namespace reefgen::train
