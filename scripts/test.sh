@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Sets up a fresh machine and runs the whole test suite (GoogleTest + CLI
-# end-to-end), as CI does. Tests use tiny sizes; the whole suite takes about
-# 10 minutes on 2 cores (no test is timed: speed is benchmarked apart,
+# end-to-end), as CI does. Tests use tiny sizes; on a built tree both suites
+# take about 6–7 minutes on 2 cores (AMD EPYC, 2026-11-28; no test is timed: speed is benchmarked apart,
 # docs/BENCHMARKS.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
