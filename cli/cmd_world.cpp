@@ -15,7 +15,6 @@
 #include "reefgen/labels.hpp"
 #include "reefgen/model/shipped.hpp"
 #include "reefgen/parallel.hpp"
-#include "reefgen/sha256.hpp"
 
 namespace reefgen {
 
@@ -41,8 +40,6 @@ infer::WorldJob world_job(const WorldArgs& a, int threads, bool quiet) {
   job.sketch = a.sketch;
   job.prefix = a.out;
   job.size = a.size;
-  job.seed = a.seed;
-  job.variation = a.variation;
   job.age_myr = a.age_myr;
   job.maturity = a.maturity;
   job.raw = a.raw;
@@ -52,6 +49,7 @@ infer::WorldJob world_job(const WorldArgs& a, int threads, bool quiet) {
   job.options.precision = infer::precision_from_string(a.precision);
   job.options.engine = infer::engine_from_string(a.engine);
   job.options.seed = a.seed;
+  job.options.variation = a.variation;
   if (const double m = maturity_for(a.age_myr, a.maturity); m != kNotSet)
     job.options.amplification = infer::matured(job.options.amplification, m);
   job.layers = a.finish.layers;
@@ -61,10 +59,8 @@ infer::WorldJob world_job(const WorldArgs& a, int threads, bool quiet) {
   job.geo = fin.geo;
   job.bundles = fin.bundles;
   job.ocean_floor_m = a.finish.ocean_floor_m;
-  std::string rules;
-  if (!a.finish.layer_rules.empty()) rules = read_text(a.finish.layer_rules, size_t(1) << 20);
   job.flags_key = {a.png16, a.r16, a.preview, a.finish.layers, a.finish.geotiff, a.finish.crs, a.finish.origin,
-                   a.finish.engines, sha256_hex(rules.data(), rules.size())};
+                   a.finish.engines};
   job.threads = threads;
   job.quiet = quiet;
   return job;

@@ -132,8 +132,9 @@ nlohmann::json world_key(const WorldJob& a, const std::string& model_path, int64
           {"train_step", train_step},
           {"size", a.size},
           {"sketch_metres_per_px", a.sketch_metres_per_px},
-          {"seed", a.seed},
-          {"variation", a.variation},
+          {"seed", a.options.seed},
+          {"variation", a.options.variation},
+          {"layer_rules", a.layer_rules},
           {"age_myr", a.age_myr},
           {"maturity", a.maturity},
           {"raw", a.raw},
@@ -269,8 +270,8 @@ WorldFields world_fields(const WorldJob& a, model::GeneratorFile& gen, const Dec
   if (!quiet) std::fprintf(stderr, "world: amplifying to %d² ...\n", N);
   Progress progress("world: last level, bands", size_t((N + kWorldBandRowsPx - 1) / kWorldBandRowsPx), quiet);
   // Every island re-rolled by the seed, then eroded anew at every size, as infer does.
-  const Rerolled r = reroll_for_amplify(w.model_h, kModelMetresPerPx, a.seed, a.variation, io.amplification);
-  w.h = amplify_world(r.height_m, w.region_model, N, w.world_m, a.seed, r.params,
+  const Rerolled r = reroll_for_amplify(w.model_h, kModelMetresPerPx, io.seed, io.variation, io.amplification);
+  w.h = amplify_world(r.height_m, w.region_model, N, w.world_m, io.seed, r.params,
                              [&](int done, int) { progress.tick(size_t(done)); }, {}, s.ruggedness);
   cv::min(cv::max(w.h, gen.range.lo_m), gen.range.hi_m, w.h);
   if (!quiet) std::fprintf(stderr, "world: amplified to %d² in %.1f s\n", w.h.cols, seconds_since(t));
@@ -296,8 +297,8 @@ void write_world(const WorldJob& a, const WorldFields& w, int64_t train_step, co
                                     {"model_metres_per_px", kModelMetresPerPx},
                                     {"model_side_px", {w.model_h.cols, w.model_h.rows}},
                                     {"raw", a.raw},
-                                    {"seed", a.seed},
-                                    {"variation", a.variation},
+                                    {"seed", a.options.seed},
+                                    {"variation", a.options.variation},
                                     {"age_myr", a.age_myr == kNotSet ? nlohmann::json() : nlohmann::json(a.age_myr)},
                                     {"maturity", a.maturity == kNotSet ? nlohmann::json() : nlohmann::json(a.maturity)}}},
                          {"ocean_floor_m", a.ocean_floor_m < 0 ? nlohmann::json(a.ocean_floor_m) : nlohmann::json()},

@@ -26,12 +26,10 @@ struct WorldJob {
   std::string model_path;         // the generator's file: recorded, and part of the resume key
   double sketch_metres_per_px = kModelMetresPerPx;  // ground of one sketch pixel, m
   int size = 0;                   // output side along the longer axis (0: the model's answer's), px
-  uint64_t seed = 0;
-  double variation = 1.0;         // how far the seed re-rolls the islands, [0, 1]
   double age_myr = kNotSet, maturity = kNotSet;  // reefgen/age.hpp; recorded (the options carry their effect)
   bool raw = false;               // the network's bare answer at the model's scale
   HeightFiles files;              // png16 / r16 / preview
-  InferOptions options;           // precision, engine, seed, the amplification (aged)
+  InferOptions options;           // precision, engine, seed and variation (the re-roll), the amplification (aged)
   // Finishing: the layer files, GeoTIFFs, bundles and the deeper flank.
   bool layers = false;            // the layer files (tiled past one file)
   bool need_layers = false;       // layers, or a bundle that carries them
@@ -40,8 +38,8 @@ struct WorldJob {
   gis::GeoReference geo;
   std::vector<engines::Engine> bundles;
   double ocean_floor_m = 0;       // < 0: the open ocean's flank stretched down to it
-  // The flags as given (files asked for, CRS, origin, rules file's text): a
-  // checkpoint is resumed only by the same command.
+  // The flags as given (files asked for, CRS, origin, bundles): a checkpoint
+  // is resumed only by the same command (with the same layer rules).
   nlohmann::json flags_key;
   int threads = 1;
   bool quiet = false;
