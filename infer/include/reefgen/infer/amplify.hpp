@@ -1,5 +1,5 @@
 #pragma once
-// The model's answer finished (docs/EROSION.md, "The model's own side"):
+// The model's answer finished (docs/EROSION.md, "At the model's side"):
 // ponds of sea inside land raised, pits drained, and above the model's side
 // the answer amplified with the generator's refinement. LibTorch-free.
 #include <cstdint>

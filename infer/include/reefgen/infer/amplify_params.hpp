@@ -1,6 +1,6 @@
 #pragma once
 // The settings of a model answer's amplification (amplify_heights,
-// amplify_world; docs/EROSION.md "The model's own side"): the generator's
+// amplify_world; docs/EROSION.md "At the model's side"): the generator's
 // erosion it runs, and the shaping before it that only a model answer needs
 // (roughening, lobes, the plain's smoothing, ponds). They live here, not in
 // terrain::ErosionParams, so a spec or a dataset config — which the
