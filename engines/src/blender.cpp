@@ -68,11 +68,11 @@ cv::Mat3f normals_of(const Mesh& m, int side) {
 std::string displace_script(const std::string& name, int side, double metres_per_px, double lo_m, double hi_m) {
   return "# reefgen: the island " + name + " as a displaced grid in Blender (3.x or 4.x).\n"
          "# Run: blender --python " + name + ".displace.py   or Scripting > Open > Run Script.\n"
-         "# One vertex per pixel of " + name + ".height.exr (metres, sea level 0, " + fmt("%.1f", lo_m) + " ... " +
-         fmt("%.1f", hi_m) + " m).\n"
+         "# One vertex per pixel of " + name + ".height.exr (metres, sea level 0, " + format_num("%.1f", lo_m) + " ... " +
+         format_num("%.1f", hi_m) + " m).\n"
          "import os\nimport bpy\nimport numpy as np\n\n"
          "HERE = os.path.dirname(os.path.abspath(__file__))\n"
-         "NAME = '" + name + "'\nSIDE = " + std::to_string(side) + "\nSPACING_M = " + fmt("%.9g", metres_per_px) + "\n\n"
+         "NAME = '" + name + "'\nSIDE = " + std::to_string(side) + "\nSPACING_M = " + format_num("%.9g", metres_per_px) + "\n\n"
          "n = SIDE\nr, c = np.mgrid[0:n, 0:n]\n"
          "xy = np.stack([(c - (n - 1) / 2) * SPACING_M, ((n - 1) / 2 - r) * SPACING_M, 0 * r], -1).reshape(-1, 3)\n"
          "a = (r[:-1, :-1] * n + c[:-1, :-1]).ravel()\n"
@@ -143,7 +143,7 @@ nlohmann::json stage_blender(StagedOutputs& staged, const fs::path& dir, const s
                              const BundleInput& in, int threads) {
   const int n = in.height_m.cols, m = std::min(n, kMeshMaxSide), T = std::min(n, kTextureMaxSide);
   const double span_m = in.metres_per_px * (n - 1);
-  const ExrAttributes attrs{{"reefgen:metres_per_pixel", fmt("%.9g", in.metres_per_px)}};
+  const ExrAttributes attrs{{"reefgen:metres_per_pixel", format_num("%.9g", in.metres_per_px)}};
   const cv::Mat1f& h = in.height_m;
   double lo = 0, hi = 0;
   cv::minMaxLoc(h, &lo, &hi);
@@ -167,15 +167,15 @@ nlohmann::json stage_blender(StagedOutputs& staged, const fs::path& dir, const s
   const std::string readme =
       "reefgen island for Blender\n\n"
       "A. The mesh: File > Import > glTF 2.0, " + name + ".glb. " + std::to_string(m) + "x" + std::to_string(m) +
-      " vertices, " + fmt("%.3f", span_m) + " m across, heights in metres (" + fmt("%.1f", lo) + " ... " +
-      fmt("%.1f", hi) + " m, sea level at z = 0),\n"
+      " vertices, " + format_num("%.3f", span_m) + " m across, heights in metres (" + format_num("%.1f", lo) + " ... " +
+      format_num("%.1f", hi) + " m, sea level at z = 0),\n"
       "   north = +Y; base colour (the materials) and normal textures " + std::to_string(T) + "x" + std::to_string(T) +
       " inside it.\n"
       "   (Debian 12's Blender 3.4 with numpy 1.24 fails in the glTF importer with \"module 'numpy' has no\n"
       "   attribute 'bool'\": type  import numpy; numpy.bool = bool  in Blender's Python console first.)\n"
       "B. Full detail by displacement: blender --python " + name + ".displace.py (or Scripting > Open > Run Script).\n"
       "   It builds a grid of " + std::to_string(n) + "x" + std::to_string(n) + " vertices, " +
-      fmt("%.4f", in.metres_per_px) + " m apart, and a Displace modifier reading " + name + ".height.exr with:\n"
+      format_num("%.4f", in.metres_per_px) + " m apart, and a Displace modifier reading " + name + ".height.exr with:\n"
       "   Texture Coordinates UV, Direction Z, Strength 1, Midlevel 0; image Non-Color, Interpolation off,\n"
       "   Extension Extend, and Clamp OFF (Clamp is on by default and sets every height below sea level to 0 m).\n";
   stage_text(staged, dir / "README.txt", readme);

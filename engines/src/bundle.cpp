@@ -21,12 +21,6 @@ void stage_text(StagedOutputs& staged, const fs::path& path, const std::string& 
   staged.write(path, [&](const fs::path& t) { write_text_atomic(t, text); });
 }
 
-std::string fmt(const char* f, double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, f, v);
-  return b;
-}
-
 cv::Mat3f resample_corners3(const cv::Mat3f& f, int side) {
   std::vector<cv::Mat1f> ch;
   cv::split(f, ch);
@@ -42,9 +36,9 @@ UnrealPlacement unreal_placement(int side, double mpp, const HeightRange& r) {
 }
 
 std::string UnrealPlacement::readme_line() const {
-  return "Location X " + fmt("%.1f", -half_cm) + ", Y " + fmt("%.1f", -half_cm) + ", Z " + fmt("%.1f", location_z_cm) +
-         " (sea level at Z = 0); Scale X " + fmt("%.4f", scale_xy_cm) + ", Y " + fmt("%.4f", scale_xy_cm) + ", Z " +
-         fmt("%.4f", scale_z) + ".\n";
+  return "Location X " + format_num("%.1f", -half_cm) + ", Y " + format_num("%.1f", -half_cm) + ", Z " + format_num("%.1f", location_z_cm) +
+         " (sea level at Z = 0); Scale X " + format_num("%.4f", scale_xy_cm) + ", Y " + format_num("%.4f", scale_xy_cm) + ", Z " +
+         format_num("%.4f", scale_z) + ".\n";
 }
 
 terrain::Layers weights_at(const terrain::Layers& L, int side) {
@@ -71,7 +65,6 @@ cv::Mat1b weight_layer(const std::array<cv::Mat4b, 2>& splat, int m) {
   return out;
 }
 
-using detail::fmt;
 using detail::stage_text;
 
 }  // namespace
@@ -122,7 +115,7 @@ nlohmann::json stage_unity_tiles(StagedOutputs& staged, const fs::path& dir, con
       "Assets/reefgen/" + name + "/). By hand, as follows.\n\n"
       "Heights: " + std::to_string(tile_side) + "x" + std::to_string(tile_side) +
       " samples per tile, 16-bit little-endian RAW, southern row first (no flip needed).\n"
-      "Range: " + fmt("%.1f", r.lo_m) + " m ... " + fmt("%.1f", r.hi_m) + " m -> 0 ... 65535 (linear).\n" +
+      "Range: " + format_num("%.1f", r.lo_m) + " m ... " + format_num("%.1f", r.hi_m) + " m -> 0 ... 65535 (linear).\n" +
       (side != resampled_from ? "Resampled from " + std::to_string(resampled_from) + " to " + std::to_string(side) +
                        " samples a side (Unity takes 2^n+1 up to 4097; larger terrains are tiled).\n"
                  : std::string()) +
@@ -130,10 +123,10 @@ nlohmann::json stage_unity_tiles(StagedOutputs& staged, const fs::path& dir, con
       "1. Create a Terrain; Terrain Settings > Texture Resolutions: Heightmap Resolution " + std::to_string(tile_side) +
       ", Control Texture Resolution " + std::to_string(alpha) + ".\n"
       "2. Import Raw...: Depth Bit 16, Width " + std::to_string(tile_side) + ", Height " + std::to_string(tile_side) +
-      ", Byte Order Windows, Flip Vertically OFF, Terrain Size X " + fmt("%.3f", width_m) + ", Y " +
-      fmt("%.3f", height_m) + ", Z " + fmt("%.3f", width_m) + ".\n"
-      "3. Position: X = " + fmt("%.3f", width_m) + " * X_index - " + fmt("%.3f", half_m) + ", Y " + fmt("%.3f", r.lo_m) +
-      " (sea level at world Y = 0), Z = " + fmt("%.3f", width_m) + " * Z_index - " + fmt("%.3f", half_m) +
+      ", Byte Order Windows, Flip Vertically OFF, Terrain Size X " + format_num("%.3f", width_m) + ", Y " +
+      format_num("%.3f", height_m) + ", Z " + format_num("%.3f", width_m) + ".\n"
+      "3. Position: X = " + format_num("%.3f", width_m) + " * X_index - " + format_num("%.3f", half_m) + ", Y " + format_num("%.3f", r.lo_m) +
+      " (sea level at world Y = 0), Z = " + format_num("%.3f", width_m) + " * Z_index - " + format_num("%.3f", half_m) +
       "\n   (the " + kind + "'s centre at the world's origin, as the Unreal and Godot bundles place it).\n"
       "4. Materials: add 8 Terrain Layers in this order, then copy NAME.splat0.png (layers 1-4 in R,G,B,A) and\n"
       "   NAME.splat1.png (layers 5-8) into TerrainData.alphamapTextures (import each PNG as Read/Write, sRGB off,\n"
@@ -197,7 +190,7 @@ nlohmann::json stage_unreal(StagedOutputs& staged, const fs::path& dir, const st
       "reefgen island for Unreal Engine (Landscape)\n\n"
       "Heights: " + name + ".png, " + std::to_string(side) + "x" + std::to_string(side) +
       " 16-bit greyscale, row 0 = north (-Y side of the Landscape).\n"
-      "Range: " + fmt("%.1f", r.lo_m) + " m ... " + fmt("%.1f", r.hi_m) + " m -> 0 ... 65535 (linear).\n" +
+      "Range: " + format_num("%.1f", r.lo_m) + " m ... " + format_num("%.1f", r.hi_m) + " m -> 0 ... 65535 (linear).\n" +
       (side != n ? "Resampled from " + std::to_string(n) + " to " + std::to_string(side) +
                        " samples a side, the nearest Landscape size (505, 1009, 2017, 4033, 8129).\n"
                  : std::string()) +
@@ -221,7 +214,7 @@ nlohmann::json stage_gis(StagedOutputs& staged, const fs::path& dir, const std::
   const std::string crs = in.geo.crs.empty() ? "none: a local metric grid centred on (0, 0) unless --origin" : in.geo.crs;
   std::string readme =
       "reefgen island for GIS (GDAL, QGIS)\n\n"
-      "Heights: " + name + ".height.tif, float32 metres (sea level 0), pixel size " + fmt("%.6f", in.metres_per_px) +
+      "Heights: " + name + ".height.tif, float32 metres (sea level 0), pixel size " + format_num("%.6f", in.metres_per_px) +
       " m.\nCRS: " + crs + ".\n"
       "Layers: the float layers as GeoTIFFs beside it (slope in degrees, flow in m^2, wear and deposit in m).\n\n"
       "  gdalinfo -stats " + name + ".height.tif\n"

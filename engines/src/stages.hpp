@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "reefgen/engines/bundle.hpp"
+#include "reefgen/text.hpp"
 
 namespace reefgen::engines::detail {
 
@@ -18,8 +19,6 @@ namespace reefgen::engines::detail {
 constexpr int kExrZipLevel = 1;
 
 void stage_text(StagedOutputs& staged, const std::filesystem::path& path, const std::string& text);
-// printf of one number, for README lines.
-std::string fmt(const char* format, double v);
 // resample_corners of each channel.
 cv::Mat3f resample_corners3(const cv::Mat3f& field, int side);
 // The eight weights resampled to side² samples, corner-aligned.

@@ -104,10 +104,10 @@ nlohmann::json stage_godot(StagedOutputs& staged, const fs::path& dir, const std
       "Maps: " + std::to_string(side) + "x" + std::to_string(side) + " samples (the island's " + std::to_string(n) +
       " centred: " + std::to_string(pad) + " samples of its edge added on the north and west,\n"
       "the rest on the south and east) so the maps fill whole regions of " + std::to_string(region) + ".\n"
-      "  " + name + ".height.exr   float32 metres, sea level 0 (" + fmt("%.1f", lo) + " ... " + fmt("%.1f", hi) + " m)\n"
+      "  " + name + ".height.exr   float32 metres, sea level 0 (" + format_num("%.1f", lo) + " ... " + format_num("%.1f", hi) + " m)\n"
       "  " + name + ".control.exr  Terrain3D's control map: uint32 bits in a float32 EXR (base texture, overlay, blend)\n"
       "  " + name + ".color.png    colour map: RGB tints the textures, alpha 0.5 (roughness unchanged)\n\n"
-      "1. Terrain3D node: Region Size " + std::to_string(region) + ", Vertex Spacing " + fmt("%.4f", in.metres_per_px) +
+      "1. Terrain3D node: Region Size " + std::to_string(region) + ", Vertex Spacing " + format_num("%.4f", in.metres_per_px) +
       " (metres between samples).\n"
       "2. Texture list: add 8 textures, ids in this order:\n";
   for (int m = 0; m < terrain::kNumMaterials; ++m)
@@ -178,10 +178,10 @@ nlohmann::json stage_godot_world(StagedOutputs& staged, const fs::path& dir, con
       std::to_string(tile / layout.region_px) + " regions of " + std::to_string(layout.region_px) + " each), x<i> from the west, y<j> from the north;\n"
       "one world of " + std::to_string(side) + "x" + std::to_string(side) + " samples" +
       (side != n ? " (resampled corner to corner from " + std::to_string(n) + ")" : std::string()) + ".\n"
-      "  .height.exr   float32 metres, sea level 0 (" + fmt("%.1f", lo) + " ... " + fmt("%.1f", hi) + " m)\n"
+      "  .height.exr   float32 metres, sea level 0 (" + format_num("%.1f", lo) + " ... " + format_num("%.1f", hi) + " m)\n"
       "  .control.exr  Terrain3D's control map: uint32 bits in a float32 EXR (base texture, overlay, blend)\n"
       "  .color.png    colour map: RGB tints the textures, alpha 0.5 (roughness unchanged)\n\n"
-      "1. Terrain3D node: Region Size " + std::to_string(layout.region_px) + ", Vertex Spacing " + fmt("%.4f", mpp) +
+      "1. Terrain3D node: Region Size " + std::to_string(layout.region_px) + ", Vertex Spacing " + format_num("%.4f", mpp) +
       " (metres between samples).\n"
       "2. Texture list: add 8 textures, ids in this order:\n";
   for (int m = 0; m < terrain::kNumMaterials; ++m) readme += "   " + std::to_string(m) + " " + terrain::material_name(m) + "\n";

@@ -9,7 +9,6 @@
 namespace reefgen::engines {
 
 namespace fs = std::filesystem;
-using detail::fmt;
 using detail::stage_text;
 
 namespace {
@@ -88,7 +87,7 @@ nlohmann::json stage_unreal_world(StagedOutputs& staged, const fs::path& dir, co
       std::to_string(tile_px) + "x" + std::to_string(tile_px) +
       " 16-bit greyscale, no overlap: one Landscape of " + std::to_string(side) + "x" + std::to_string(side) +
       " samples.\nTile x<i> is the i-th from the west, y<j> the j-th from the north (row 0 = north, the -Y side).\n"
-      "Range: " + fmt("%.1f", r.lo_m) + " m ... " + fmt("%.1f", r.hi_m) + " m -> 0 ... 65535 (linear), the same in every tile.\n" +
+      "Range: " + format_num("%.1f", r.lo_m) + " m ... " + format_num("%.1f", r.hi_m) + " m -> 0 ... 65535 (linear), the same in every tile.\n" +
       (side != n ? "Resampled from " + std::to_string(n) + " to " + std::to_string(side) + " samples a side (corner to corner).\n"
                  : std::string()) +
       "\n1. A World Partition level; Landscape mode > Manage > New > Import from File: Heightmap File " + name +
@@ -144,7 +143,7 @@ nlohmann::json stage_gis_world(StagedOutputs& staged, const fs::path& dir, const
       threads, in.tiling.gis_tile_max_px);
   const std::string readme =
       "reefgen world for GIS: " + std::to_string(h.cols) + "x" + std::to_string(h.rows) + " float32 heights in metres, " +
-      fmt("%.6f", in.metres_per_px) + " m a pixel, in GeoTIFF tiles NAME_xI_yJ.height.tif (I east, J south, no overlap)\n"
+      format_num("%.6f", in.metres_per_px) + " m a pixel, in GeoTIFF tiles NAME_xI_yJ.height.tif (I east, J south, no overlap)\n"
       "and one mosaic " + name + ".height.vrt that GDAL and QGIS open as the whole world" +
       (in.field ? "; the float layers (flow in m^2, slope in degrees, wear and deposit in m) tiled the same way,\n"
                   "each with its own mosaic NAME.<layer>.vrt"

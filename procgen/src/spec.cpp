@@ -4,9 +4,9 @@
 
 #include <cmath>
 #include <algorithm>
-#include <sstream>
 
 #include "reefgen/files.hpp"
+#include "reefgen/text.hpp"
 
 namespace reefgen::procgen {
 
@@ -24,15 +24,9 @@ std::vector<double> default_resistance() {
 
 namespace {
 
-std::string fmt(double v) {
-  std::ostringstream ss;
-  ss << v;
-  return ss.str();
-}
-
 void check_range(const std::string& name, double v, double lo, double hi) {
   if (!std::isfinite(v) || v < lo || v > hi)
-    throw Error(name + " = " + fmt(v) + " is out of range; expected [" + fmt(lo) + ", " + fmt(hi) + "]");
+    throw Error(name + " = " + short_num(v) + " is out of range; expected [" + short_num(lo) + ", " + short_num(hi) + "]");
 }
 
 }  // namespace

@@ -141,19 +141,10 @@ class PairFolder(Dataset):
         self._cv2 = cv2
         os.environ.setdefault("OPENCV_IO_ENABLE_OPENEXR", "1")
         self.root = os.fspath(root)
-        manifest = os.path.join(self.root, "manifest.jsonl")
-        _refuse_other_layouts(self.root)
-        try:
-            with open(manifest, encoding="utf-8") as f:
-                rows = [json.loads(line) for line in f if line.strip()]
-        except OSError as e:
-            raise reefgen.Error(f"{manifest}: {e.strerror}; is {self.root} a folder made by `reefgen dataset build`?") from None
-        self.rows = [r for r in rows if r.get("split") == split]
+        # The manifest read and checked as `reefgen train` reads it: reefgen's
+        # layout, paths inside the folder and, with verify, every file's checksum.
+        self.rows = [json.loads(r) for r in reefgen._reefgen.manifest_records(self.root, split, verify)]
         self.height_range_m = height_range_m
-        if verify:
-            for r in self.rows:
-                for key in ("label", "height"):
-                    _check(os.path.join(self.root, r[key]), r.get(key + "_fnv64"))
 
     def __len__(self):
         return len(self.rows)
@@ -166,21 +157,3 @@ class PairFolder(Dataset):
         if bgr is None or heights is None:
             raise reefgen.Error(f"{self.root}: cannot read pair {r.get('index')}; rebuild the dataset")
         return to_tensors(heights.astype(np.float32), bgr[:, :, ::-1], self.height_range_m)
-
-
-def _refuse_other_layouts(root):
-    """`dataset build --format pix2pix|webdataset|imagefolder` folders are for other tools' readers."""
-    try:
-        with open(os.path.join(root, "dataset.json"), encoding="utf-8") as f:
-            layout = json.load(f).get("layout", "reefgen")
-    except (OSError, ValueError):
-        return  # the manifest's own checks name what is wrong
-    if layout != "reefgen":
-        raise reefgen.Error(f"{root}: a dataset in the {layout} layout (dataset build --format {layout}), for other "
-                            "tools; PairFolder reads reefgen's layout: build one without --format")
-
-
-def _check(path, expected):
-    """The file's checksum against the manifest's (reefgen's file_checksum, as `reefgen train` verifies)."""
-    if expected is not None and reefgen._reefgen.file_checksum(path) != expected:
-        raise reefgen.Error(f"{path}: checksum differs from the manifest's; the file changed since `reefgen dataset build` wrote it: rebuild or resume the dataset")

@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "reefgen/augment/dataset.hpp"
+#include "reefgen/augment/manifest.hpp"
 #include "reefgen/constants.hpp"
 #include "reefgen/files.hpp"
 #include "reefgen/labels.hpp"
@@ -186,10 +187,21 @@ py::dict realism(py::array_t<float, py::array::c_style | py::array::forcecast> h
   return d;
 }
 
-// The manifest's checksum of a file (FNV-1a 64, hex), as `reefgen train` checks it.
-std::string checksum(const std::string& path) {
-  py::gil_scoped_release free_python;
-  return file_checksum(path);
+// One split of a built dataset: its manifest records (JSON text), read and
+// checked by the reader `reefgen train` uses (reefgen's layout, paths inside
+// the folder, each index once and, with `verify`, every file's checksum).
+py::list manifest_records(const std::string& root, const std::string& split, bool verify) {
+  std::vector<augment::ManifestPair> pairs;
+  {
+    py::gil_scoped_release free_python;
+    augment::ManifestCheck check;
+    check.verify_checksums = verify;
+    pairs = augment::read_manifest(root, check);
+  }
+  py::list records;
+  for (const auto& p : pairs)
+    if (p.split == split) records.append(p.record.dump());
+  return records;
 }
 
 py::list presets() {
@@ -217,5 +229,5 @@ PYBIND11_MODULE(_reefgen, m) {
         py::arg("subsidence"), py::arg("age_myr"), py::arg("maturity"));
   m.def("realism", &realism, py::arg("heights"), py::arg("metres_per_px"));
   m.def("presets", &presets);
-  m.def("file_checksum", &checksum, py::arg("path"));
+  m.def("manifest_records", &manifest_records, py::arg("root"), py::arg("split"), py::arg("verify"));
 }

@@ -6,7 +6,6 @@
 #include <cmath>
 #include <fstream>
 #include <optional>
-#include <sstream>
 #include <thread>
 
 #include <opencv2/imgproc.hpp>
@@ -18,6 +17,7 @@
 #include "reefgen/preview.hpp"
 #include "reefgen/rng.hpp"
 #include "reefgen/sha256.hpp"
+#include "reefgen/text.hpp"
 #include "reefgen/train/data.hpp"
 #include "reefgen/train/fused_adam.hpp"
 #include "reefgen/version.hpp"
@@ -56,12 +56,6 @@ cv::Mat3b tensor_to_label_bgr(const torch::Tensor& t) {  // {3,S,S} in [-1,1]
   cv::Mat3b bgr;
   cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
   return bgr;
-}
-
-std::string fmt(double v) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%.6g", v);
-  return b;
 }
 
 // Rank 0's step, weights and optimizer states, everywhere: a fresh run's
@@ -221,10 +215,10 @@ void log_step(LogWindow& window, const Losses& l, double dt, double allreduce_s,
   window.timed_steps += 1;
   window.allreduce_seconds += allreduce_s;
   if (step % params.log_every != 0 && step != plan.total) return;
-  std::string row = std::to_string(step) + "," + fmt(double(step) / double(plan.per_epoch)) + "," + fmt(lr);
-  for (double s : window.sums) row += "," + fmt(s / double(window.steps));
+  std::string row = std::to_string(step) + "," + short_num(double(step) / double(plan.per_epoch)) + "," + short_num(lr);
+  for (double s : window.sums) row += "," + short_num(s / double(window.steps));
   const double timed_steps = double(std::max<int64_t>(1, window.timed_steps));
-  row += "," + fmt(window.seconds / timed_steps) + "," + fmt(window.allreduce_seconds / timed_steps);
+  row += "," + short_num(window.seconds / timed_steps) + "," + short_num(window.allreduce_seconds / timed_steps);
   if (lead) append_line(log_csv, "step,epoch,lr,G_GAN,G_L1,D_real,D_fake,s_per_iter,allreduce_s", row);
   window = {};
 }
@@ -274,7 +268,7 @@ void open_job(Job& job, const TrainParams& requested, const RunOptions& run) {
                 " px, not a multiple of 2^depth = " + std::to_string(multiple) +
                 "; lower depth or build the dataset at another size");
   if (!(run.bucket_mb > 0 && run.bucket_mb <= 1024))
-    throw Error("--bucket-mb " + fmt(run.bucket_mb) + ": must be in (0, 1024]");
+    throw Error("--bucket-mb " + short_num(run.bucket_mb) + ": must be in (0, 1024]");
   set_torch_threads(job.params, run.dist);
   job.plan = plan_steps(job.params, int64_t(job.data.train.size()), job.world, run.max_steps);
   check_run_apart_from_data(run);
@@ -394,8 +388,8 @@ bool validate_and_save(const Job& job, const RunOptions& run, Pix2Pix& p, Valida
   if (step % job.params.val_every == 0 || step == plan.total || step == end) val.write_grid(step);  // end: --max-steps too
   if (step % plan.per_epoch == 0 || step == plan.total)
     append_line(job.val_csv, "step,epoch,mae_m_batchstats,mae_m_running",
-                std::to_string(step) + "," + fmt(double(step) / double(plan.per_epoch)) + "," + fmt(val.mae_m(true)) +
-                    "," + fmt(val.mae_m(false)));
+                std::to_string(step) + "," + short_num(double(step) / double(plan.per_epoch)) + "," + short_num(val.mae_m(true)) +
+                    "," + short_num(val.mae_m(false)));
   if (!(step % job.params.checkpoint_every == 0 || step == end || stopping)) return false;
   save_checkpoint(job.ckpt, p, job.params, step, window, job.world);
   if (run.on_log) run.on_log("checkpoint at step " + std::to_string(step) + ": " + job.ckpt.string());
