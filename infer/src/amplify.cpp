@@ -319,8 +319,8 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
   const cv::Mat1f rugged_s = ruggedness_at(ruggedness, S, world_size_m);
   if (p.enabled && erode) {
     roughen_land(coarse, world_size_m, seed, a, rugged_s);
-    // Few steps (AmplifyParams::steps, not the generator's `steps`): measured, 8 steps
-    // give the painted set 0.298 valleys, 3 give 0.306 (docs/EROSION.md). The
+    // Few steps (AmplifyParams::steps, not the generator's `steps`): fewer
+    // steps carve more valleys on the painted set (docs/notes/realism-history.md). The
     // drainage is routed once per step; our reading is that each re-routing
     // lets the deeper valleys capture the shallow ones the lobes started.
     erode_level(coarse, erodibility_map(harden(resistance_of_labels(label_s), rugged_s), seed, p), world_size_m / S,

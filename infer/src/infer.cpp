@@ -26,10 +26,9 @@ const char* to_string(Precision p) {
 Precision resolve(Precision p) {
   if (p == Precision::Bf16) model::require_bf16_convolution("use --precision fp32 or auto");
   if (p != Precision::Auto) return p;
-  // Measured (docs/BENCHMARKS.md): with the oneDNN engine, bf16 ran the
-  // shipped model in 20 ms vs 32 ms fp32 on an AMD EPYC with avx512_bf16
-  // (no AMX); without native bf16 instructions it would be emulated, and
-  // below AVX-512 oneDNN has no bf16 convolution at all.
+  // With the oneDNN engine bf16 runs the shipped model faster where the CPU
+  // has native bf16 instructions (docs/BENCHMARKS.md); without them it would
+  // be emulated, and below AVX-512 oneDNN has no bf16 convolution at all.
   return cpu_has_native_bf16() ? Precision::Bf16 : Precision::Fp32;
 }
 

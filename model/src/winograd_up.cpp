@@ -89,9 +89,9 @@ WinogradGemm winograd_gemm() {
   }
 }
 
-// Capped to AVX2, sides 32 and 16 run 2.8 and 2.3 ms faster per level than
-// the direct kernels; on AVX-512 side 32 gains ~2 ms and side 16 nothing
-// (docs/BENCHMARKS.md, "Winograd decoder").
+// The smallest side where the Winograd decoder beats oneDNN's direct kernels:
+// 16 on the sgemm path (AVX2), 32 on AVX-512, where side 16 gains nothing
+// (docs/BENCHMARKS.md, "Winograd decoder", has the figures per CPU class).
 int64_t winograd_min_side(WinogradGemm gemm) { return gemm == WinogradGemm::Sgemm ? 16 : 32; }
 
 ParityWinograd::ParityWinograd(const torch::Tensor& w, const torch::Tensor& b, int64_t N, int64_t s,

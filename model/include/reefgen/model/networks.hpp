@@ -45,8 +45,8 @@ struct PatchOptions {
 
 // Which code runs the convolutions, a run-time choice that changes no
 // parameter: LibTorch's own kernels, or oneDNN directly (dnnl_conv.hpp; equal
-// within 1e-4 in float32, 1.3-2x faster per training step, bf16 where the CPU
-// has it). Modules whose weights are not float32 always use LibTorch.
+// within 1e-4 in float32, faster per training step (docs/BENCHMARKS.md), bf16
+// where the CPU has it). Modules whose weights are not float32 always use LibTorch.
 enum class ConvEngine { Torch, OneDnn };
 struct ConvOptions {
   ConvEngine engine = ConvEngine::Torch;

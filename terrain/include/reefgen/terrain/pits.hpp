@@ -15,7 +15,8 @@ constexpr float kPitDepthM = 0.5f;
 // A drained depression shaped like a valley (drain_pits with a cell size)
 // keeps this fall along its raised floor and its breach, 1 %: a channel cut
 // into an island's flank falls more than that, and a flat fill (0 %) or a
-// flat breach reads from above as a canal (docs/EROSION.md "Pits").
+// flat breach reads from above as a canal (docs/EROSION.md "The equations":
+// "Shaped like a valley, not a lake and a slot").
 constexpr double kDrainFloorSlope = 0.01;
 // A breach's banks rise at most this much per metre from the cut (0.6, 31°:
 // a valley side), over at most kBreachBankMaxPx cells.
