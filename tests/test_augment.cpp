@@ -172,6 +172,86 @@ TEST(Affine, OutsideContinuesTheSeaFloorWithoutAStep) {
   EXPECT_GE(lo, -97.01);
 }
 
+// Median height of the abyss cells whose distance from the nearest other
+// cell is in [d, d + 1) px.
+double abyss_median_at(const Pair& p, double d) {
+  cv::Mat1f dist;
+  cv::distanceTransform(p.label == kAbyss, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  std::vector<float> v;
+  for (int y = 0; y < dist.rows; ++y)
+    for (int x = 0; x < dist.cols; ++x)
+      if (p.label(y, x) == kAbyss && dist(y, x) >= d && dist(y, x) < d + 1) v.push_back(p.height_m(y, x));
+  if (v.empty()) return NAN;
+  std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+// The redrawn sea floor follows the canvas the pair ends up in: one island
+// shrunk to 0.6 or left at 1 has, at the same distance in pixels from its
+// reef, the same sea floor (it differed by metres before the redraw: the
+// descent had been drawn at the generator's scale), the foot at the reef and
+// the floor approached as the flank says; other cells are untouched.
+TEST(RedrawFlank, FollowsTheCanvasNotTheAugmentationScale) {
+  const int W = 128;
+  const Pair big = island_pair(2, W), small = island_pair(2, W, 0.6);
+  const FlankShape f{6000.0 / W, -100, -80, 900, 4};
+  const Pair big_r = redraw_flank(big, f, 5), small_r = redraw_flank(small, f, 5);
+  for (double d : {6.0, 12.0, 20.0}) {
+    EXPECT_NEAR(abyss_median_at(big_r, d), abyss_median_at(small_r, d), 0.6) << d;
+    const double flank = -99 + 19 * std::exp(-(d + 0.5 - 0.5) * f.metres_per_px / 900);
+    EXPECT_NEAR(abyss_median_at(big_r, d), flank + 2, 1.5) << d;  // + the relief's mean, 2 m far out
+  }
+  EXPECT_GT(std::fabs(abyss_median_at(big, 12) - abyss_median_at(small, 12)), 1.0);  // what the redraw removes
+  EXPECT_NEAR(abyss_median_at(big_r, 1), -80, 1.0);
+  const cv::Mat1b other = big.label != kAbyss;
+  EXPECT_EQ(cv::norm(big.height_m, big_r.height_m, cv::NORM_INF, other), 0.0);
+  EXPECT_EQ(cv::norm(big.label, big_r.label, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(redraw_flank(big, f, 5).height_m, big_r.height_m, cv::NORM_INF), 0.0);  // deterministic
+  EXPECT_GT(cv::norm(redraw_flank(big, f, 6).height_m, big_r.height_m, cv::NORM_INF), 0.0);  // the seed is the relief's
+  // No abyss at all: unchanged.
+  Pair land{cv::Mat1f(16, 16, 5.f), cv::Mat1b(16, 16, uint8_t(kIsland)), cv::Mat1f(16, 16, 0.f)};
+  EXPECT_EQ(cv::norm(redraw_flank(land, f, 1).height_m, land.height_m, cv::NORM_INF), 0.0);
+}
+
+// A rotated, shrunk and wrapped pair: the canvas edges moved inwards drew
+// straight creases on the sea floor; redrawn, the floor has none (the
+// largest curvature far from the reef stays that of the relief).
+TEST(RedrawFlank, LeavesNoSeamsOfTheMovedCanvas) {
+  const int W = 128;
+  const Pair moved = translate_wrap(affine(island_pair(3, W), 30, 0.7, false), 37, 11);
+  const Pair redrawn = redraw_flank(moved, FlankShape{6000.0 / W, -100, -80, 900, 4}, 2);
+  cv::Mat1f dist;
+  cv::distanceTransform(moved.label == kAbyss, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  auto max_curvature = [&](const cv::Mat1f& h) {
+    float c = 0;
+    for (int y = 1; y + 1 < W; ++y)
+      for (int x = 1; x + 1 < W; ++x)
+        if (dist(y, x) > 6)
+          c = std::max({c, std::fabs(h(y, x - 1) - 2 * h(y, x) + h(y, x + 1)),
+                        std::fabs(h(y - 1, x) - 2 * h(y, x) + h(y + 1, x))});
+    return c;
+  };
+  EXPECT_GT(max_curvature(moved.height_m), 0.5f);  // the seams
+  EXPECT_LT(max_curvature(redrawn.height_m), 0.25f);
+}
+
+// The dataset key: off by default (earlier datasets byte for byte), on it
+// redraws curve pairs and says so in the pair's record.
+TEST(Dataset, RedrawFlankIsAKeyAndRecorded) {
+  DatasetParams p;
+  p.size_px = 64;
+  p.p_affine = 1;
+  PairInfo off_info, on_info;
+  const Pair off = make_pair(3, 4, p, &off_info);
+  p.redraw_flank = true;
+  const Pair on = make_pair(3, 4, p, &on_info);
+  EXPECT_FALSE(off_info.augmentation.contains("flank_redrawn"));
+  EXPECT_TRUE(on_info.augmentation.value("flank_redrawn", false));
+  EXPECT_EQ(cv::norm(off.label, on.label, cv::NORM_INF), 0.0);
+  EXPECT_GT(cv::norm(off.height_m, on.height_m, cv::NORM_INF, on.label == kAbyss), 0.0);
+  EXPECT_EQ(cv::norm(off.height_m, on.height_m, cv::NORM_INF, on.label != kAbyss), 0.0);
+}
+
 TEST(Dataset, OtherIslandSystemsAsPairs) {
   DatasetParams p;
   p.size_px = 48;

@@ -25,6 +25,27 @@ struct Pair {
 // streaks wherever an island touched the border.
 Pair affine(const Pair& p, double angle_deg, double scale, bool flip_x, double ocean_m = -100.0);
 
+// The generator's sea floor beyond the reef (docs/REEF.md, step 6), in
+// metres: from the fore-reef foot it descends towards the floor, e-folding
+// over decay_m, with low relief that grows in over the first few hundred
+// metres.
+struct FlankShape {
+  double metres_per_px = 6000.0 / 256;  // the canvas's cells
+  double floor_m = -100;                // the abyss floor (the spec's heights.floor_m)
+  double foot_m = -80;                  // the fore-reef foot (coral.abyss_m)
+  double decay_m = 900;                 // reef.abyss_decay_m
+  double relief_m = 4;                  // reef.abyss_relief_m
+};
+
+// The pair's abyss redrawn in its own canvas: every abyss cell gets the
+// flank of `f` at its distance from the nearest cell that is not abyss, with
+// the relief drawn from `seed`. Drawn after the affine and wrap-around steps,
+// the descent no longer stretches with their random scale (which a sketch
+// does not show), and the canvas edges those steps move inwards leave no
+// seams or straight steps on the sea floor (docs/DATASET.md "The sea
+// floor"). Other cells are unchanged; a pair with no abyss is returned as is.
+Pair redraw_flank(const Pair& p, const FlankShape& f, uint64_t seed);
+
 // Translation by (dx, dy) pixels with wrap-around: what leaves one side comes
 // back on the other. dx > 0 moves content right, dy > 0 down.
 Pair translate_wrap(const Pair& p, int dx, int dy);

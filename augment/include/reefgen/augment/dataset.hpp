@@ -52,6 +52,10 @@ struct DatasetParams {
   double age_max_myr = -1;     // My, [age_min_myr, 60]
   double maturity_min = 1;     // [0.05, 20]
   double maturity_max = 1;     // [maturity_min, 20]
+  // Redraw the sea floor of every curve pair after its augmentation
+  // (redraw_flank): its descent then follows the augmented canvas, not the
+  // generator's (whose scale the affine step changed). Off: earlier datasets.
+  bool redraw_flank = false;
 };
 
 // The one field list (common/params_json.hpp); dataset_params_from_json adds
@@ -84,6 +88,7 @@ void fields(DatasetParams& p, F&& f) {
   f("age_max_myr", p.age_max_myr, Range{-1, 60});
   f("maturity_min", p.maturity_min, Range{0.05, 20});
   f("maturity_max", p.maturity_max, Range{0.05, 20});
+  f("redraw_flank", p.redraw_flank);
 }
 void to_json(nlohmann::json& j, const DatasetParams& p);
 // Every key optional; unknown keys and out-of-range values throw Error naming them.
