@@ -7,6 +7,7 @@
 #include "reefgen/files.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/generator.hpp"
+#include "reefgen/procgen/reef.hpp"
 #include "reefgen/rng.hpp"
 #include "reefgen/terrain/noise.hpp"
 
@@ -80,17 +81,14 @@ cv::Mat_<T> roll(const cv::Mat_<T>& m, int dx, int dy) {
 }
 }  // namespace
 
-// The relief's features (m) and the distance over which it grows in from
-// the reef (m): procgen's reef step 6 (procgen/src/reef.cpp).
-constexpr double kFlankReliefFeatureM = 1500;
-constexpr double kFlankReliefRiseM = 300;
 // Gaussian σ (px) over the distance field: takes its staircase ripples off.
 constexpr double kFlankDistanceSmoothPx = 2;
 
 Pair redraw_flank(const Pair& p, const FlankShape& f, uint64_t seed) {
   check(p);
   const cv::Mat1b abyss = p.label == kAbyss;
-  if (cv::countNonZero(abyss) == 0 || cv::countNonZero(abyss) == abyss.rows * abyss.cols) return p;
+  const int abyss_cells = cv::countNonZero(abyss);
+  if (abyss_cells == 0 || abyss_cells == abyss.rows * abyss.cols) return p;
   // Distance (px) from each abyss cell to the nearest other cell: 1 next to
   // the reef, whose outline lies half a cell further in.
   cv::Mat1f dist_px;
@@ -100,15 +98,13 @@ Pair redraw_flank(const Pair& p, const FlankShape& f, uint64_t seed) {
   cv::GaussianBlur(dist_px, dist_px, cv::Size(), kFlankDistanceSmoothPx);
   const terrain::GradientNoise2 noise(derive_seed(seed, 0, "flank-relief"));
   Pair out{p.height_m.clone(), p.label.clone(), p.subsidence.clone()};
-  const double top = f.floor_m + 1.0;  // the floor is approached, never reached: no flat plane
   for (int y = 0; y < out.height_m.rows; ++y)
     for (int x = 0; x < out.height_m.cols; ++x) {
       if (!abyss(y, x)) continue;
       const double d = std::max(0.0, dist_px(y, x) - 0.5) * f.metres_per_px;
-      const double n = noise.fbm(float(x * f.metres_per_px / kFlankReliefFeatureM),
-                                 float(y * f.metres_per_px / kFlankReliefFeatureM), 3);
-      out.height_m(y, x) = float(top + (f.foot_m - top) * std::exp(-d / f.decay_m) +
-                                 f.relief_m * (0.5 + 0.5 * n) * (1.0 - std::exp(-d / kFlankReliefRiseM)));
+      const double n = noise.fbm(float(x * f.metres_per_px / procgen::kAbyssReliefFeatureM),
+                                 float(y * f.metres_per_px / procgen::kAbyssReliefFeatureM), 3);
+      out.height_m(y, x) = float(procgen::flank_height_m(d, f.floor_m, f.foot_m, f.decay_m, f.relief_m, n));
     }
   return out;
 }

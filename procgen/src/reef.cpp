@@ -279,7 +279,7 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
   const double groove_amp = rp.groove_amplitude_m * groove_fade;
   const double floor_m = spec.heights.floor_m;
   const NoiseTable abyss_relief([&](float x, float y) {
-    return noise.fbm(float(x * to_m / 1500), float(y * to_m / 1500), 3);
+    return noise.fbm(float(x * to_m / kAbyssReliefFeatureM), float(y * to_m / kAbyssReliefFeatureM), 3);
   });
 
   for (int y = 0; y < W; ++y) {
@@ -352,10 +352,8 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
       // e-folding over abyss_decay_m, with relief: never a flat plane.
       if (xt >= 4.0) {
         const double d = std::max(0.0, r - R[3]) * to_m;
-        const double base = floor_m + 1.0 + (c.abyss_m - floor_m - 1.0) * std::exp(-d / rp.abyss_decay_m);
         const double n = abyss_relief.at(float(sx), float(sy));
-        const double relief = rp.abyss_relief_m * (0.5 + 0.5 * n) * (1.0 - std::exp(-d / 300.0));
-        g = std::max(g, base + relief);
+        g = std::max(g, flank_height_m(d, floor_m, c.abyss_m, rp.abyss_decay_m, rp.abyss_relief_m, n));
       }
       h[x] = float(g);
     }

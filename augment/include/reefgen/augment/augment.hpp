@@ -25,7 +25,7 @@ struct Pair {
 // streaks wherever an island touched the border.
 Pair affine(const Pair& p, double angle_deg, double scale, bool flip_x, double ocean_m = -100.0);
 
-// The generator's sea floor beyond the reef (docs/REEF.md, step 6), in
+// The generator's sea floor beyond the reef (procgen::flank_height_m), in
 // metres: from the fore-reef foot it descends towards the floor, e-folding
 // over decay_m, with low relief that grows in over the first few hundred
 // metres.

@@ -3,6 +3,7 @@
 // piece a named step over the generator's per-pixel fields, each with the
 // real-reef figures it follows in its doc comment. LibTorch-free.
 #include <array>
+#include <cmath>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -12,6 +13,19 @@
 namespace reefgen::procgen {
 
 class OutlineTable;
+
+// Step 6, the sea floor beyond the reef: from the fore-reef foot (foot_m) it
+// descends towards the floor, e-folding over decay_m, never reaching it (no
+// flat plane), with low relief (n ∈ [−1, 1], fbm over kAbyssReliefFeatureM)
+// that grows in over kAbyssReliefRiseM from the reef. d_m: distance from the
+// reef's outer edge. Also what augment::redraw_flank draws after augmentation.
+inline constexpr double kAbyssReliefFeatureM = 1500;
+inline constexpr double kAbyssReliefRiseM = 300;
+inline double flank_height_m(double d_m, double floor_m, double foot_m, double decay_m, double relief_m, double n) {
+  const double base = floor_m + 1.0 + (foot_m - floor_m - 1.0) * std::exp(-d_m / decay_m);
+  const double relief = relief_m * (0.5 + 0.5 * n) * (1.0 - std::exp(-d_m / kAbyssReliefRiseM));
+  return base + relief;
+}
 
 // Feature size of the patch-reef noise (m): about the spacing of patch
 // reefs on atoll lagoon floors, a few per km².
