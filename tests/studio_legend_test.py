@@ -1,5 +1,5 @@
-"""The studio's legend (studio/web/app.js AGE_TABLE: what each colour
-becomes at each Age) says what docs/INFERENCE.md's table of the shipped
+"""The studio's legend (studio/web/app.js SUBSIDENCE_TABLE: what each colour
+becomes at each Subsidence) says what docs/INFERENCE.md's table of the shipped
 model's training data says: the same median metres and share above the sea,
 colour by colour and band by band (the legend said a bright lagoon was a
 +41 m plain after the model had been retrained on lagoons of water)."""
@@ -15,7 +15,7 @@ for name in ["yellow island", "green beach", "cyan lagoon", "blue reef", "red ab
     cells = [c.strip() for c in line.split("|")[2:-1]]
     rows[name] = [(int(re.match(r"(−?-?\d+)", c).group(1).replace("−", "-")),
                    int(re.search(r"(\d+) % dry", c).group(1)) / 100) for c in cells]
-table = js[js.index("const AGE_TABLE = ["):js.index("];", js.index("const AGE_TABLE = ["))]
+table = js[js.index("const SUBSIDENCE_TABLE = ["):js.index("];", js.index("const SUBSIDENCE_TABLE = ["))]
 legend = [[(int(m), float(d)) for m, d in re.findall(r"\[(-?\d+), ([\d.]+)\]", line)]
           for line in table.splitlines()[1:] if "[[" in line]
 assert len(legend) == 5, legend

@@ -210,6 +210,33 @@ TEST_F(Studio, AnAgeIsTheCliAge) {
   }
 }
 
+// ?maturity=M is infer --maturity (the erosion's maturity alone: the
+// painting keeps its subsidence) — what the page's Age and Maturity sliders
+// send; a bad maturity is one 400 line naming the parameter.
+TEST_F(Studio, AMaturityIsTheCliMaturity) {
+  const fs::path sketch = kRoot / "docs" / "examples" / "painted-sketch.png";
+  const std::string png = file_bytes(sketch);
+  auto r = client->Post("/api/infer?seed=1&maturity=0.25", png, "image/png");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  model::GeneratorFile g = model::load_generator(kRoot / "models" / "reef-256.pt");
+  infer::InferOptions io;
+  io.seed = 1;
+  io.maturity = 0.25;
+  const cv::Mat1f want = infer::infer_heights(g, {read_sketch(sketch)}, io)[0];
+  const cv::Mat1f got = parse_heights(r->body).h;
+  EXPECT_EQ(cv::norm(got, want, cv::NORM_INF), 0.0) << "the studio must give --maturity 0.25's heights";
+  io.maturity = kNotSet;
+  const cv::Mat1f unset = infer::infer_heights(g, {read_sketch(sketch)}, io)[0];
+  EXPECT_GT(cv::norm(got, unset, cv::NORM_INF), 1.0) << "a maturity of 0.25 must change the island";
+  for (const std::string bad : {"0.01", "21", "abc", "-1", "", "1e1"}) {
+    r = client->Post("/api/infer?maturity=" + bad, png, "image/png");
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 400) << bad;
+    EXPECT_NE(r->body.find("maturity must be"), std::string::npos) << bad << ": " << r->body;
+  }
+}
+
 // A burst of inference requests, some of them corrupt: every one is answered
 // (200, 409 when a newer one superseded it, 400 for the corrupt ones), and
 // afterwards the studio still answers with the CLI's heights — the decode

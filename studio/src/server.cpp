@@ -359,20 +359,33 @@ struct StudioServer::Impl {
     o.seed = seed;
     return o;
   }
-  // ?age_myr=T (infer --age-myr: the painting's subsidence and the erosion
-  // maturity of that age, reefgen/age.hpp): a number in [0, 60].
-  static double age_param(const std::string& v) {
-    const std::string what = "age_myr must be a number of millions of years in [0, 60] (infer --age-myr)";
+  // A plain decimal number in [lo, hi] (no sign, no exponent), or the line `what`.
+  static double number_param(const std::string& v, double lo, double hi, const std::string& what) {
     if (v.empty() || v.size() > 12 || v.find_first_not_of("0123456789.") != std::string::npos) throw BadRequest(what);
     char* end = nullptr;
     const double t = std::strtod(v.c_str(), &end);
-    if (end != v.c_str() + v.size() || !(t >= 0 && t <= kMaxAgeMyr)) throw BadRequest(what);
+    if (end != v.c_str() + v.size() || !(t >= lo && t <= hi)) throw BadRequest(what);
     return t;
   }
-  // The island a request asks for: ?seed= and ?age_myr=.
+  // body[key], a number in [lo, hi], or `otherwise` when absent.
+  static double json_number(const json& body, const char* key, double lo, double hi, const std::string& what,
+                            double otherwise) {
+    if (!body.contains(key)) return otherwise;
+    if (!body[key].is_number() || !(body[key].get<double>() >= lo && body[key].get<double>() <= hi)) throw BadRequest(what);
+    return body[key].get<double>();
+  }
+  // ?age_myr=T (infer --age-myr: the painting's subsidence and the erosion
+  // maturity of that age, reefgen/age.hpp): a number in [0, 60].
+  static constexpr const char* kAgeWhat = "age_myr must be a number of millions of years in [0, 60] (infer --age-myr)";
+  // ?maturity=M (infer --maturity: the erosion maturity alone; the painting
+  // keeps its subsidence): a number in [0.05, 20].
+  static constexpr const char* kMaturityWhat = "maturity must be a number in [0.05, 20] (infer --maturity)";
+  // The island a request asks for: ?seed=, ?age_myr= and ?maturity=.
   infer::InferOptions island_options(const httplib::Request& req) const {
     infer::InferOptions o = with_seed(req.has_param("seed") ? seed_param(req.get_param_value("seed")) : 0);
-    if (req.has_param("age_myr")) o.age_myr = age_param(req.get_param_value("age_myr"));
+    if (req.has_param("age_myr")) o.age_myr = number_param(req.get_param_value("age_myr"), 0, kMaxAgeMyr, kAgeWhat);
+    if (req.has_param("maturity"))
+      o.maturity = number_param(req.get_param_value("maturity"), kMinMaturity, kMaxMaturity, kMaturityWhat);
     return o;
   }
 
@@ -446,11 +459,8 @@ struct StudioServer::Impl {
       seed = body["seed"].get<uint64_t>();
     }
     infer::InferOptions options = with_seed(seed);
-    if (body.contains("age_myr")) {
-      if (!body["age_myr"].is_number() || !(body["age_myr"].get<double>() >= 0 && body["age_myr"].get<double>() <= kMaxAgeMyr))
-        throw BadRequest("age_myr must be a number of millions of years in [0, 60] (infer --age-myr)");
-      options.age_myr = body["age_myr"].get<double>();
-    }
+    options.age_myr = json_number(body, "age_myr", 0, kMaxAgeMyr, kAgeWhat, options.age_myr);
+    options.maturity = json_number(body, "maturity", kMinMaturity, kMaxMaturity, kMaturityWhat, options.maturity);
     const DecodedSketch s = sketch_of(png);
     src.height_m = infer::infer_heights(gen, {s}, options)[0];
     src.label = encode_labels(s.label, s.subsidence);

@@ -22,12 +22,12 @@ function regionColour(id, subsidence) {
   const v = Math.round(255 * (1 - 0.75 * subsidence));
   return REGIONS[id].rgb.map((c) => c * v);
 }
-// What each colour becomes at each Age: the shipped model's training data,
+// What each colour becomes at each Subsidence: the shipped model's training data,
 // median height (m) and share above the sea per subsidence band, measured in
 // docs/INFERENCE.md ("What each colour means, at each brightness"). Bands:
 // λ < 0.1, < 0.3, < 0.5, < 0.7, < 0.9, ≤ 1.
-const AGE_BANDS = [0.1, 0.3, 0.5, 0.7, 0.9, 1.01];
-const AGE_TABLE = [
+const SUBSIDENCE_BANDS = [0.1, 0.3, 0.5, 0.7, 0.9, 1.01];
+const SUBSIDENCE_TABLE = [
   [[151, 1], [84, 1], [1, 0.55], [-27, 0.03], [-29, 0], [-29, 0]],          // island
   [[6, 0.99], [2, 0.74], [-17, 0.24], [-27, 0.24], [-27, 0.24], [-27, 0.26]],  // beach
   [[-6, 0.01], [-18, 0], [-25, 0], [-25, 0], [-25, 0], [-25, 0]],           // lagoon
@@ -35,7 +35,7 @@ const AGE_TABLE = [
   [[-88, 0], [-88, 0], [-89, 0], [-88, 0], [-88, 0], [-88, 0]],             // abyss
 ];
 function becomes(id, subsidence) {
-  const [m, dry] = AGE_TABLE[id][AGE_BANDS.findIndex((b) => subsidence < b)];
+  const [m, dry] = SUBSIDENCE_TABLE[id][SUBSIDENCE_BANDS.findIndex((b) => subsidence < b)];
   const what = dry >= 0.9 ? 'land' : dry >= 0.1 ? `${Math.round(100 * dry)} % land` : 'water';
   return { m, dry, text: `${what}, ${m > 0 ? '+' : ''}${m} m` };
 }
@@ -116,19 +116,19 @@ async function runUpdate(makeRequest, t0) {
 const paint = $('paint');
 const pctx = paint.getContext('2d', { willReadFrequently: true });
 let region = 0, tool = 'brush';
-let ageBase = null;  // the painting as it was when the Age slider was grabbed
-let paintAge = '0';  // the Age slider's value the painting's pixels have
+let sinkBase = null;  // the painting as it was when the Subsidence slider was grabbed
+let paintSubsidence = '0';  // the Subsidence slider's value the painting's pixels have
 const undoStack = [], redoStack = [];
-function age() { return Number($('age').value) / 100; }
+function subsidence() { return Number($('paint-subsidence').value) / 100; }
 function clearCanvas() {
-  const [r, g, b] = regionColour(ABYSS, age());
+  const [r, g, b] = regionColour(ABYSS, subsidence());
   pctx.fillStyle = `rgb(${r},${g},${b})`;
   pctx.fillRect(0, 0, paint.width, paint.height);
 }
-// Undo steps remember the Age slider with the pixels (a re-age is a step).
+// Undo steps remember the Subsidence slider with the pixels (a re-sink is a step).
 function grab() {
   const img = pctx.getImageData(0, 0, paint.width, paint.height);
-  img.ageValue = paintAge;
+  img.subsidenceValue = paintSubsidence;
   return img;
 }
 function snapshot() {
@@ -140,9 +140,9 @@ function restore(from, to) {
   if (!from.length) return;
   to.push(grab());
   const img = from.pop();
-  $('age').value = paintAge = img.ageValue;
-  $('age').dispatchEvent(new Event('sync'));
-  ageBase = null;
+  $('paint-subsidence').value = paintSubsidence = img.subsidenceValue;
+  $('paint-subsidence').dispatchEvent(new Event('sync'));
+  sinkBase = null;
   if (img.width !== paint.width) { paint.width = paint.height = img.width; }
   $('canvas-size').value = String(img.width);  // the menu shows the canvas it restored
   pctx.putImageData(img, 0, 0);
@@ -159,7 +159,7 @@ function withRelief([r, g, b], rel) {
   return [r, g, b].map((c) => Math.round(v - (v - c) * sat));
 }
 function brushColour() {
-  return tool === 'eraser' ? regionColour(ABYSS, age()) : withRelief(regionColour(region, age()), relief());
+  return tool === 'eraser' ? regionColour(ABYSS, subsidence()) : withRelief(regionColour(region, subsidence()), relief());
 }
 function dab(x, y) {
   const radius = Number($('brush').value) * paint.width / 256;
@@ -272,6 +272,21 @@ paint.addEventListener('pointercancel', endStroke);
 // same painting; exports and layer views use the seed shown.
 let islandSeed = 0;
 probe.islandSeed = () => islandSeed;
+// The erosion maturity the page asks for (the Age and Maturity sliders below).
+const AGE_MIN_MYR = 0.05, AGE_MAX_MYR = 60, ATOLL_AGE_MYR = 60, MATURITY_MIN = 0.05, MATURITY_MAX = 20;
+// A slider's 0..100 on a log scale from lo to hi, and back.
+const logScale = (lo, hi) => ({
+  value: (p) => Math.min(hi, lo * Math.pow(hi / lo, p / 100)),
+  position: (v) => Math.round(100 * Math.log(v / lo) / Math.log(hi / lo)),
+});
+const ageScale = logScale(AGE_MIN_MYR, AGE_MAX_MYR), maturityScale = logScale(MATURITY_MIN, MATURITY_MAX);
+let maturitySet = false;
+const shortNumber = (v) => v.toFixed(v < 1 ? 2 : v < 10 ? 1 : 0);
+function ageMyr() { return ageScale.value(Number($('age-myr').value)); }
+function maturity() { return Number(maturityScale.value(Number($('maturity').value)).toFixed(4)); }
+function maturityParam() { return maturitySet ? `&maturity=${maturity()}` : ''; }
+function showMaturity() { $('maturity-out').textContent = maturitySet ? `${shortNumber(maturity())}` : '–'; }
+probe.maturity = () => (maturitySet ? maturity() : null);
 function sketchBlob() { return new Promise((r) => paint.toBlob(r, 'image/png')); }
 // The canvas goes to the server as raw RGBA: getImageData takes ~1 ms where
 // PNG encoding (toBlob) took up to a second of the main thread per stroke.
@@ -280,7 +295,7 @@ function requestInfer() {
     const t = performance.now();
     const px = pctx.getImageData(0, 0, paint.width, paint.height).data;
     probe.encode_ms = performance.now() - t;
-    return api(`/api/infer?w=${paint.width}&h=${paint.height}&enc=u16&seed=${islandSeed}`, px, 'application/x-reefgen-rgba');
+    return api(`/api/infer?w=${paint.width}&h=${paint.height}&enc=u16&seed=${islandSeed}${maturityParam()}`, px, 'application/x-reefgen-rgba');
   });
 }
 
@@ -695,7 +710,7 @@ async function sourceBody(size) {
   const buf = new Uint8Array(await (await sketchBlob()).arrayBuffer());
   let s = '';
   for (let i = 0; i < buf.length; i += 8192) s += String.fromCharCode(...buf.subarray(i, i + 8192));
-  return { sketch_png: btoa(s), seed: islandSeed };
+  return maturitySet ? { sketch_png: btoa(s), seed: islandSeed, maturity: maturity() } : { sketch_png: btoa(s), seed: islandSeed };
 }
 async function showLayer() {
   const view = $('layer-view').value, token = ++layerToken;
@@ -783,54 +798,74 @@ for (const r of REGIONS) {
   };
   $('regions').appendChild(b);
 }
-// Swatches in the current Age's colours, and what each becomes at that Age.
-function showAge() {
-  const a = age();
+// Swatches in the current Subsidence's colours, and what each becomes at it.
+function showSubsidence() {
+  const a = subsidence();
   for (const b of document.querySelectorAll('.region')) {
     b.querySelector('.chip').style.background = `rgb(${regionColour(Number(b.dataset.region), a).join(',')})`;
   }
   const rows = REGIONS.map((r) => `<div data-region="${r.id}"><b>${LABELS[r.id]}</b> → ${becomes(r.id, a).text}</div>`);
-  $('age-legend').innerHTML = `<div>At Age ${Math.round(100 * a)} (median of the training data):</div>` + rows.join('');
+  $('subsidence-legend').innerHTML = `<div>At subsidence ${Math.round(100 * a)} (median of the training data):</div>` + rows.join('');
 }
-// Slider values beside the sliders.
+// Slider values beside the sliders (Age and Maturity show their own).
 for (const out of document.querySelectorAll('output[for]')) {
+  if (out.id) continue;
   const input = $(out.htmlFor.value), unit = { brush: ' px', softness: ' %', exaggeration: '×' }[input.id] || '';
   const show = () => { out.textContent = input.value + unit; };
   input.addEventListener('input', show);
   input.addEventListener('sync', show);
   show();
 }
-// Age re-ages the whole painting as if it had been painted at the new Age:
-// every region colour is its hue times V = 1 − 0.75·Age, so a pixel painted
-// at one Age — a pure colour or a soft edge blending several — is the same
-// blend at another Age scaled by V(new) / V(old). (Scaling each pixel to
+// Subsidence re-sinks the whole painting as if it had been painted at the
+// new subsidence: every region colour is its hue times V = 1 − 0.75·λ, so a
+// pixel painted at one λ — a pure colour or a soft edge blending several — is
+// the same blend at another λ scaled by V(new) / V(old). (Scaling each pixel to
 // full brightness instead lifted the dim blends of a soft edge — yellow
 // over blue is grey at half V — to V itself: bright land rings.) Rescaled
 // from the painting as it was when the slider was grabbed (no rounding drift
 // while dragging); one undo step per drag, one request per change
 // (coalesced while dragging).
-let ageBaseV = 0;  // V of the Age the painting had when the slider was grabbed
-function reage() {
-  if (!ageBase) {
+let sinkBaseV = 0;  // V of the Subsidence the painting had when the slider was grabbed
+function resink() {
+  if (!sinkBase) {
     snapshot();
-    ageBase = pctx.getImageData(0, 0, paint.width, paint.height);
-    ageBaseV = 1 - 0.75 * Number(paintAge) / 100;
+    sinkBase = pctx.getImageData(0, 0, paint.width, paint.height);
+    sinkBaseV = 1 - 0.75 * Number(paintSubsidence) / 100;
   }
-  paintAge = $('age').value;
-  const src = ageBase.data, img = pctx.createImageData(ageBase.width, ageBase.height), d = img.data;
-  const k = (1 - 0.75 * age()) / ageBaseV;
+  paintSubsidence = $('paint-subsidence').value;
+  const src = sinkBase.data, img = pctx.createImageData(sinkBase.width, sinkBase.height), d = img.data;
+  const k = (1 - 0.75 * subsidence()) / sinkBaseV;
   for (let i = 0; i < src.length; i += 4) {
     for (let c = 0; c < 3; ++c) d[i + c] = Math.min(255, Math.round(src[i + c] * k));
     d[i + 3] = 255;
   }
   pctx.putImageData(img, 0, 0);
-  showAge();
+  showSubsidence();
   requestInfer();
 }
-$('age').addEventListener('input', reage);
-$('age').addEventListener('change', () => { ageBase = null; });
-$('age').addEventListener('sync', showAge);
-showAge();
+$('paint-subsidence').addEventListener('input', resink);
+$('paint-subsidence').addEventListener('change', () => { sinkBase = null; });
+$('paint-subsidence').addEventListener('sync', showSubsidence);
+showSubsidence();
+// Age (infer --age-myr; docs/SPEC.md "Age"): one age in millions of years
+// sets both things an island's age changes (reefgen/age.hpp) — the
+// Subsidence, the painting's brightness (λ = √(t / 60 My), re-sunk as the
+// Subsidence slider does), and the erosion Maturity (t / 1 My). Either can
+// then be moved alone. The page sends the maturity (?maturity=), never the
+// age: the painting's own brightness is its subsidence. Until the Age or the
+// Maturity moves, neither is sent (the default island).
+$('age-myr').addEventListener('input', () => {
+  const t = ageMyr();
+  $('age-myr-out').textContent = `${shortNumber(t)} My`;
+  maturitySet = true;
+  $('maturity').value = maturityScale.position(Math.min(MATURITY_MAX, Math.max(MATURITY_MIN, t)));
+  showMaturity();
+  $('paint-subsidence').value = Math.round(100 * Math.min(1, Math.sqrt(t / ATOLL_AGE_MYR)));
+  $('paint-subsidence').dispatchEvent(new Event('sync'));
+  resink();
+});
+$('age-myr').addEventListener('change', () => { sinkBase = null; });
+$('maturity').addEventListener('input', () => { maturitySet = true; showMaturity(); requestInfer(); });
 function setTool(t) {
   tool = t;
   for (const n of ['brush', 'fill', 'eraser']) $('tool-' + n).classList.toggle('active', n === t);
@@ -869,7 +904,7 @@ $('variations').onclick = async () => {
   const px = pctx.getImageData(0, 0, paint.width, paint.height).data;
   $('variations').disabled = true;
   try {
-    const res = await api(`/api/variations?w=${paint.width}&h=${paint.height}&n=4&seed=${islandSeed + 1}`, px,
+    const res = await api(`/api/variations?w=${paint.width}&h=${paint.height}&n=4&seed=${islandSeed + 1}${maturityParam()}`, px,
       'application/x-reefgen-rgba');
     if (!res) return;  // a newer request overtook this one
     const j = await res.json();

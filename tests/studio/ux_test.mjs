@@ -76,36 +76,66 @@ async function check(name, body) {
 }
 const expect = (cond, msg) => { if (!cond) throw new Error(msg); };
 
-// 1. Age re-ages the whole painting, live, in one request per change.
-await check('age-reages-the-painting', async () => {
+// 1. Subsidence re-sinks the whole painting, live, in one request per change.
+await check('subsidence-resinks-the-painting', async () => {
   const page = await open();
   const before = await pixelAt(page, 0.5, 0.5), sum0 = await page.evaluate(() => window.__reefgen.lastSum);
   const n = await updates(page);
   let infers = 0;
   page.on('request', (r) => { if (r.url().includes('/api/infer')) infers += 1; });
-  await page.locator('#age').fill('80');
+  await page.locator('#paint-subsidence').fill('80');
   await nextUpdate(page, n);
   await page.waitForTimeout(300);
   const after = await pixelAt(page, 0.5, 0.5);
-  expect(Math.max(...before) > 240, `the default painting is not bright at Age 0 (${before})`);
-  expect(Math.abs(Math.max(...after) - 255 * (1 - 0.75 * 0.8)) <= 3, `centre pixel ${after} is not at Age 80's brightness`);
+  expect(Math.max(...before) > 240, `the default painting is not bright at Subsidence 0 (${before})`);
+  expect(Math.abs(Math.max(...after) - 255 * (1 - 0.75 * 0.8)) <= 3, `centre pixel ${after} is not at Subsidence 80's brightness`);
   expect(after[2] === 0 && after[0] > 0 && after[1] > 0, `centre pixel ${after} lost its hue (island = yellow)`);
   const sum1 = await page.evaluate(() => window.__reefgen.lastSum);
-  expect(sum1 < sum0, 'the heights did not sink with the Age');
-  expect(infers === 1, `${infers} inference requests for one Age change`);
+  expect(sum1 < sum0, 'the heights did not sink with the Subsidence');
+  expect(infers === 1, `${infers} inference requests for one Subsidence change`);
   // One undo step restores the painting and the slider.
   await page.click('#undo');
   await page.waitForTimeout(200);
-  expect(await page.inputValue('#age') === '0', 'undo did not restore the Age slider');
+  expect(await page.inputValue('#paint-subsidence') === '0', 'undo did not restore the Subsidence slider');
   expect(Math.max(...await pixelAt(page, 0.5, 0.5)) > 240, 'undo did not restore the bright painting');
   return page;
 });
 
-// 1b. Re-ageing a soft edge gives what painting it at that Age gives: the
+// 1a. Age (in My, infer --age-myr) moves both things an age sets: the
+// Subsidence slider to √(t / 60 My) (the painting re-sunk) and the Maturity
+// to t / 1 My, sent as ?maturity= in the one request of that change; the
+// Maturity then moves alone. Untouched, no maturity is sent.
+await check('age-sets-subsidence-and-maturity', async () => {
+  const page = await open();
+  const urls = [];
+  page.on('request', (r) => { if (r.url().includes('/api/infer')) urls.push(r.url()); });
+  expect(await page.evaluate(() => window.__reefgen.maturity()) === null, 'a maturity is set before the Age moved');
+  const n = await updates(page);
+  // Position 77 of the log scale 0.05…60 My: 0.05 · 1200^0.77 = 11.8 My.
+  await page.locator('#age-myr').fill('77');
+  await nextUpdate(page, n);
+  await page.waitForTimeout(300);
+  const t = 0.05 * Math.pow(1200, 0.77);
+  const sub = Number(await page.inputValue('#paint-subsidence'));
+  expect(sub === Math.round(100 * Math.sqrt(t / 60)), `Age ${t.toFixed(1)} My set Subsidence ${sub}, not ${Math.round(100 * Math.sqrt(t / 60))}`);
+  expect(Math.abs(Math.max(...await pixelAt(page, 0.5, 0.5)) - 255 * (1 - 0.75 * sub / 100)) <= 3, 'the painting was not re-sunk to the Age');
+  const m = await page.evaluate(() => window.__reefgen.maturity());
+  expect(Math.abs(m - t) / t < 0.07, `Age ${t.toFixed(1)} My set Maturity ${m}`);
+  expect(urls.length === 1 && urls[0].includes(`maturity=${m}`), `one request with maturity=${m}: ${urls.join(' ')}`);
+  expect((await page.$eval('#age-myr-out', (o) => o.textContent)) === `${t.toFixed(0)} My`, 'the Age does not show its years');
+  const k = await updates(page);
+  await page.locator('#maturity').fill('10');
+  await nextUpdate(page, k);
+  expect(Number(await page.inputValue('#paint-subsidence')) === sub, 'the Maturity moved the Subsidence');
+  expect(urls.length === 2 && /maturity=0\.091(&|$)/.test(urls[1]), `Maturity alone: ${urls[1]}`);
+  return page;
+});
+
+// 1b. Re-sinking a soft edge gives what painting it at that Subsidence gives: the
 // blend of yellow over blue is dim grey, and must stay as dim (scaling each
 // pixel to full brightness made it a bright land ring: +46.5 m where
-// painting at that Age gives −1.8 m).
-await check('reaging-a-soft-edge-equals-painting-it-at-that-age', async () => {
+// painting at that Subsidence gives −1.8 m).
+await check('resinking-a-soft-edge-equals-painting-it-at-that-subsidence', async () => {
   const paintStrokes = async (page) => {
     await page.click('#clear');
     await page.locator('#softness').fill('100');
@@ -120,10 +150,10 @@ await check('reaging-a-soft-edge-equals-painting-it-at-that-age', async () => {
   });
   const reaged = await open();
   await paintStrokes(reaged);
-  await reaged.locator('#age').fill('60');
+  await reaged.locator('#paint-subsidence').fill('60');
   const a = await canvas(reaged);
   const direct = await open();
-  await direct.locator('#age').fill('60');
+  await direct.locator('#paint-subsidence').fill('60');
   await paintStrokes(direct);
   const b = await canvas(direct);
   await direct.close();
@@ -132,23 +162,23 @@ await check('reaging-a-soft-edge-equals-painting-it-at-that-age', async () => {
   // Rounding only: each of the stroke's overlapping dabs is composited and
   // rounded to 8 bits at its own brightness (measured: 6 at most); 8 of 255
   // is a subsidence error of 0.04. Scaling each pixel to V gave 71 here.
-  expect(worst <= 8, `re-aged pixel ${at >> 2} differs by ${worst} from painting at Age 60 (${a.slice(at & ~3, (at & ~3) + 3)} vs ${b.slice(at & ~3, (at & ~3) + 3)})`);
+  expect(worst <= 8, `re-aged pixel ${at >> 2} differs by ${worst} from painting at Subsidence 60 (${a.slice(at & ~3, (at & ~3) + 3)} vs ${b.slice(at & ~3, (at & ~3) + 3)})`);
   return reaged;
 });
 
-// 2. A legend says what each colour becomes at the current Age, before painting.
+// 2. A legend says what each colour becomes at the current Subsidence, before painting.
 await check('legend-says-what-each-colour-becomes', async () => {
   const page = await open();
-  const legend = page.locator('#age-legend');
+  const legend = page.locator('#subsidence-legend');
   expect(await legend.isVisible(), 'no legend beside the brushes');
-  const row = (r) => page.locator(`#age-legend [data-region="${r}"]`).innerText();
-  // docs/INFERENCE.md's table: a lagoon is water at every Age; a bright
+  const row = (r) => page.locator(`#subsidence-legend [data-region="${r}"]`).innerText();
+  // docs/INFERENCE.md's table: a lagoon is water at every Subsidence; a bright
   // beach is land, a dark one partly (green on a reef ring: motu).
-  expect(/^\S+ → land/.test(await row(0)) && /→ land/.test(await row(1)), `at Age 0 island/beach should say land: ${await row(0)} / ${await row(1)}`);
-  expect(/water/.test(await row(2)), `a lagoon is water at Age 0: ${await row(2)}`);
-  await page.locator('#age').fill('60');
-  expect(/water/.test(await row(0)) && /water/.test(await row(2)), `at Age 60 island/lagoon should say water: ${await row(0)} / ${await row(2)}`);
-  expect(/\d+ % land/.test(await row(1)), `at Age 60 a beach is partly land (motu): ${await row(1)}`);
+  expect(/^\S+ → land/.test(await row(0)) && /→ land/.test(await row(1)), `at Subsidence 0 island/beach should say land: ${await row(0)} / ${await row(1)}`);
+  expect(/water/.test(await row(2)), `a lagoon is water at Subsidence 0: ${await row(2)}`);
+  await page.locator('#paint-subsidence').fill('60');
+  expect(/water/.test(await row(0)) && /water/.test(await row(2)), `at Subsidence 60 island/lagoon should say water: ${await row(0)} / ${await row(2)}`);
+  expect(/\d+ % land/.test(await row(1)), `at Subsidence 60 a beach is partly land (motu): ${await row(1)}`);
   expect(/water/.test(await row(4)), 'abyss should say water');
   return page;
 });
@@ -159,7 +189,7 @@ await check('swatches-named-sliders-show-values', async () => {
   const names = await page.$$eval('.region', (bs) => bs.map((b) => [b.innerText.trim(), b.getAttribute('aria-label')]));
   expect(names.length === 5, `${names.length} swatches`);
   for (const [text, aria] of names) expect(text.length > 2 && aria && aria.includes(text), `swatch "${text}" / aria "${aria}"`);
-  for (const id of ['brush', 'softness', 'age', 'exaggeration']) {
+  for (const id of ['brush', 'softness', 'paint-subsidence', 'exaggeration']) {
     const out = () => page.$eval(`output[for="${id}"]`, (o) => o.textContent).catch(() => '');
     const v = await page.inputValue(`#${id}`);
     expect((await out()).startsWith(v), `#${id} shows "${await out()}", value ${v}`);

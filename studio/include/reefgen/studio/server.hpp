@@ -8,7 +8,7 @@
 //   GET  /api/presets              {name: spec} of the built-in island presets
 //   GET  /api/defaults             the default spec (the paper's profile and resistance curves)
 //   POST /api/infer                body: a sketch image (PNG/JPEG, ≤ max_side²), or with ?w=&h= the
-//                                  canvas's raw RGBA; ?seed=, ?age_myr= as infer's flags
+//                                  canvas's raw RGBA; ?seed=, ?age_myr=, ?maturity= as infer's flags
 //                                  -> heights: [uint32 LE n][n bytes JSON {size, min_m, max_m, lo_m,
 //                                     hi_m, metres_per_px, ms}][size² float32 LE metres, row 0 = north];
 //                                     with ?enc=u16 uint16 steps (the JSON says lo and step)
