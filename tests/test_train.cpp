@@ -186,6 +186,36 @@ TEST(Train, SlopeL1ChargesAShapeThatL1Forgives) {
   EXPECT_GT(loss_with(500), loss_with(0));
 }
 
+// rise_l1 charges a ring valley on a cone (a fall along the truth's uphill
+// direction where the truth rises) and not an offset of the same per-cell L1,
+// nor a valley running down the cone; its gradient reaches fake.
+TEST(Train, RiseL1ChargesARingAndNotAnOffsetOrARadialValley) {
+  const int64_t S = 64;
+  const torch::Tensor y = torch::arange(S, torch::kFloat32).view({1, 1, S, 1}).expand({1, 1, S, S}) - 31.5;
+  const torch::Tensor x = torch::arange(S, torch::kFloat32).view({1, 1, 1, S}).expand({1, 1, S, S}) - 31.5;
+  const torch::Tensor r = torch::sqrt(x * x + y * y);
+  const double sea = -0.5;
+  const torch::Tensor cone = 0.8 - 0.05 * r;  // land (above sea) within r = 26
+  const torch::Tensor ring = cone - 0.2 * torch::exp(-torch::pow((r - 12) / 2, 2));
+  const float c = (ring - cone).abs().mean().item<float>();
+  // A valley 0.2 deep down the ray y = 0, x > 0, full depth from r 6 to 18.
+  const torch::Tensor along = torch::clamp(torch::min((r - 4) / 2, (20 - r) / 2), 0, 1) * (x > 0).to(torch::kFloat32);
+  const torch::Tensor valley = cone - 0.2 * torch::exp(-torch::pow(y / 1.5, 2)) * along;
+  const double charge_ring = rise_l1(ring, cone, sea).item<double>();
+  EXPECT_GT(charge_ring, 0.005);
+  EXPECT_LT(rise_l1(cone + c, cone, sea).item<double>(), 1e-6);
+  EXPECT_NEAR(rise_l1(cone, cone, sea).item<double>(), 0.0, 1e-7);
+  EXPECT_LT(rise_l1(valley, cone, sea).item<double>(), 0.25 * charge_ring)
+      << "a valley down the cone is charged like a ring (per-cell L1 " << (valley - cone).abs().mean().item<double>()
+      << " against the ring's " << c << ")";
+  torch::Tensor f = ring.clone().requires_grad_(true);
+  rise_l1(f, cone, sea).backward();
+  EXPECT_GT(f.grad().abs().sum().item<double>(), 0.0);
+  TrainParams params;
+  params.lambda_rise = 300;
+  EXPECT_EQ(pix2pix_options(params).lambda_rise, 300);
+}
+
 TEST(Train, LossGoesDownOnAFixedBatch) {
   // LibTorch's convolutions, reefgen's oneDNN ones, and those in bf16 (where
   // the CPU has it): each must learn, and bf16 must keep float32 weights.

@@ -1,5 +1,8 @@
 #include "reefgen/train/pix2pix.hpp"
 
+#include <cmath>
+#include <utility>
+
 #include "reefgen/train/distributed.hpp"
 
 namespace reefgen::train {
@@ -27,6 +30,49 @@ torch::Tensor slope_l1(const torch::Tensor& fake, const torch::Tensor& target) {
   const auto dx = [](const torch::Tensor& t) { return t.slice(3, 1) - t.slice(3, 0, -1); };  // {N,1,S,S-1}
   const auto dy = [](const torch::Tensor& t) { return t.slice(2, 1) - t.slice(2, 0, -1); };  // {N,1,S-1,S}
   return 0.5 * ((dx(fake) - dx(target)).abs().mean() + (dy(fake) - dy(target)).abs().mean());
+}
+
+namespace {
+// A normalised 1-D Gaussian of σ cells, 3σ each side: {1,1,1,K}.
+torch::Tensor gaussian_row(double sigma) {
+  const int64_t r = int64_t(std::ceil(3 * sigma));
+  const torch::Tensor x = torch::arange(-r, r + 1, torch::kFloat32);
+  const torch::Tensor g = torch::exp(-x * x / float(2 * sigma * sigma));
+  return (g / g.sum()).view({1, 1, 1, -1});
+}
+// t {N,1,S,S} blurred by the separable kernel row (and its transpose), edges replicated.
+torch::Tensor blur(const torch::Tensor& t, const torch::Tensor& row) {
+  const int64_t r = row.size(3) / 2;
+  torch::Tensor x = F::pad(t, F::PadFuncOptions({r, r, 0, 0}).mode(torch::kReplicate));
+  x = F::conv2d(x, row);
+  x = F::pad(x, F::PadFuncOptions({0, 0, r, r}).mode(torch::kReplicate));
+  return F::conv2d(x, row.transpose(2, 3));
+}
+// Central differences along x and y, edges replicated: {N,1,S,S} each.
+std::pair<torch::Tensor, torch::Tensor> central_gradient(const torch::Tensor& t) {
+  const torch::Tensor p = F::pad(t, F::PadFuncOptions({1, 1, 1, 1}).mode(torch::kReplicate));
+  const int64_t S = t.size(2), W = t.size(3);
+  return {0.5 * (p.slice(2, 1, S + 1).slice(3, 2, W + 2) - p.slice(2, 1, S + 1).slice(3, 0, W)),
+          0.5 * (p.slice(2, 2, S + 2).slice(3, 1, W + 1) - p.slice(2, 0, S).slice(3, 1, W + 1))};
+}
+}  // namespace
+
+torch::Tensor rise_l1(const torch::Tensor& fake, const torch::Tensor& target, double sea) {
+  // The truth's uphill direction and the land mask follow the truth only.
+  const torch::Tensor truth = target.detach();
+  const auto [sx, sy] = central_gradient(blur(truth, gaussian_row(kRiseSmoothCells)));  // {N,1,S,S}
+  const torch::Tensor norm = torch::sqrt(sx * sx + sy * sy);
+  // Where the smoothed truth is flat there is no uphill to follow (1e-5 of
+  // the normalised range per cell: ~3 mm at reefgen's 660 m range).
+  const torch::Tensor sloped = (norm > 1e-5) & (truth > sea);
+  const torch::Tensor nx = sx / norm.clamp_min(1e-5), ny = sy / norm.clamp_min(1e-5);
+  const auto [fx, fy] = central_gradient(fake);
+  const auto [tx, ty] = central_gradient(truth);
+  const torch::Tensor diff = (fx - tx) * nx + (fy - ty) * ny;           // {N,1,S,S}
+  const torch::Tensor local = F::avg_pool2d(F::pad(diff, F::PadFuncOptions({2, 2, 2, 2}).mode(torch::kReplicate)),
+                                            F::AvgPool2dFuncOptions(5).stride(1));  // {N,1,S,S}
+  const torch::Tensor m = sloped.to(fake.scalar_type());
+  return (local.abs() * m).sum() / m.sum().clamp_min(1);
 }
 
 Pix2Pix::Pix2Pix(const Pix2PixOptions& o) : options_(o), g_(o.g), d_(o.d), lr_(o.lr) {
@@ -101,6 +147,7 @@ Losses Pix2Pix::step(const torch::Tensor& label, const torch::Tensor& height) {
   const torch::Tensor g_gan = F::binary_cross_entropy_with_logits(pred, torch::ones_like(pred));
   torch::Tensor g_l1 = weighted_l1(fake, height, options_.l1) * options_.lambda_l1;
   if (options_.lambda_slope > 0) g_l1 = g_l1 + slope_l1(fake, height) * options_.lambda_slope;
+  if (options_.lambda_rise > 0) g_l1 = g_l1 + rise_l1(fake, height, options_.l1.sea) * options_.lambda_rise;
   if (reduce_g_) reduce_g_->begin();
   (g_gan + g_l1).backward();
   if (reduce_g_) reduce_g_->end();

@@ -30,6 +30,7 @@ struct TrainParams {
   double l1_shore_weight = 0;   // extra L1 weight on cells whose truth is near sea level (pix2pix.hpp L1Weighting); 0 = plain L1, [0, 100]
   double l1_shore_m = 3;        // half-width of that band, metres, (0, 100]
   double lambda_slope = 0;      // weight of the slope L1 in G's loss (pix2pix.hpp slope_l1); 0 = pix2pix's loss, [0, 1e5]
+  double lambda_rise = 0;       // weight of the uphill-slope L1 on land in G's loss (pix2pix.hpp rise_l1); 0 = none, [0, 1e5]
   int batch_size = 1;           // pix2pix: 1, [1, 64]
   double epochs = 1;            // epochs at constant lr, [0, 1e4]
   double epochs_decay = 1;      // then epochs of linear decay to 0, [0, 1e4]; both 0 is refused
@@ -70,6 +71,7 @@ void fields(TrainParams& p, F&& f) {
   f("l1_shore_weight", p.l1_shore_weight, Range{0, 100});
   f("l1_shore_m", p.l1_shore_m, Range{0, 100, true, false});
   f("lambda_slope", p.lambda_slope, Range{0, 1e5});
+  f("lambda_rise", p.lambda_rise, Range{0, 1e5});
   f("batch_size", p.batch_size, Range{1, 64});
   f("epochs", p.epochs, Range{0, 1e4});
   f("epochs_decay", p.epochs_decay, Range{0, 1e4});

@@ -35,6 +35,18 @@ torch::Tensor weighted_l1(const torch::Tensor& fake, const torch::Tensor& target
 // "Slope loss").
 torch::Tensor slope_l1(const torch::Tensor& fake, const torch::Tensor& target);
 
+// L1 between the uphill slopes of fake and target {N,1,S,S} on land: each
+// land cell's slope along the truth's own uphill direction n — the gradient
+// of the truth smoothed over ~4 cells (Gaussian σ = kRiseSmoothCells), so
+// valleys a sketch cannot place do not turn it — of fake and of target,
+// their difference box-averaged over 5×5 cells, then |·| averaged over the
+// land cells (truth above `sea`) where the smoothed truth slopes at all.
+// A ring valley, a rim or a bench parallel to the coast is a fall or a
+// flat along n where the truth rises (docs/MODEL.md "The ring loss"); a
+// valley running downhill, or an offset, costs nothing.
+inline constexpr double kRiseSmoothCells = 4;
+torch::Tensor rise_l1(const torch::Tensor& fake, const torch::Tensor& target, double sea);
+
 struct Pix2PixOptions {
   model::UNetOptions g;       // generator: 3 -> 1 channels
   model::PatchOptions d;      // discriminator: 4 input channels (label ⊕ height)
@@ -44,11 +56,12 @@ struct Pix2PixOptions {
   double lambda_l1 = 100.0;   // weight of the L1 term in G's loss; [0, 1e4]
   L1Weighting l1;             // extra L1 weight near sea level (none by default: pix2pix's plain mean)
   double lambda_slope = 0;    // weight of slope_l1 in G's loss (0: pix2pix's loss); [0, 1e5]
+  double lambda_rise = 0;     // weight of rise_l1 in G's loss (0: none); [0, 1e5]
   model::ConvOptions conv;    // who runs G's and D's convolutions (LibTorch by default)
 };
 
 struct Losses {
-  double g_gan = 0, g_l1 = 0, d_real = 0, d_fake = 0;  // g_l1: lambda_l1·L1 + lambda_slope·slope L1
+  double g_gan = 0, g_l1 = 0, d_real = 0, d_fake = 0;  // g_l1: lambda_l1·L1 + lambda_slope·slope L1 + lambda_rise·rise L1
 };
 
 class Pix2Pix {
