@@ -216,6 +216,35 @@ TEST(Train, RiseL1ChargesARingAndNotAnOffsetOrARadialValley) {
   EXPECT_EQ(pix2pix_options(params).lambda_rise, 300);
 }
 
+// d_crop: D sees each step's pairs at a random offset (drawn from torch's
+// generator, so a reseeded step repeats it); the step runs on the smaller
+// view and its losses differ from the whole pair's.
+TEST(Train, DCropShowsDARandomViewReproducibly) {
+  const auto losses = [](int d_crop, uint64_t seed) {
+    torch::manual_seed(3);
+    Pix2PixOptions o;
+    o.g.ngf = 8;
+    o.g.depth = 5;
+    o.d.ndf = 8;
+    o.d_crop = d_crop;
+    Pix2Pix p(o);
+    p.G()->set_dropout_enabled(false);
+    torch::manual_seed(4);
+    const auto label = torch::rand({1, 3, 32, 32}) * 2 - 1;
+    torch::manual_seed(seed);
+    const Losses l = p.step(label, torch::tanh(label.sum(1, true)));
+    return std::vector<double>{l.g_gan, l.d_real, l.d_fake};
+  };
+  EXPECT_EQ(losses(8, 1), losses(8, 1));
+  EXPECT_NE(losses(8, 1), losses(0, 1));
+  bool moved = false;
+  for (uint64_t s = 2; s < 8 && !moved; ++s) moved = losses(8, s) != losses(8, 1);
+  EXPECT_TRUE(moved) << "the view never moved between steps";
+  TrainParams params;
+  params.d_crop_px = 8;
+  EXPECT_EQ(pix2pix_options(params).d_crop, 8);
+}
+
 TEST(Train, LossGoesDownOnAFixedBatch) {
   // LibTorch's convolutions, reefgen's oneDNN ones, and those in bf16 (where
   // the CPU has it): each must learn, and bf16 must keep float32 weights.

@@ -1,6 +1,7 @@
 #include "reefgen/train/pix2pix.hpp"
 
 #include <cmath>
+#include <functional>
 #include <utility>
 
 #include "reefgen/train/distributed.hpp"
@@ -105,6 +106,20 @@ void Pix2Pix::set_comm(Comm* comm, double bucket_mb) {
   reduce_d_ = std::make_shared<GradientReducer>(*comm, d_->parameters(), "the all-reduce of D's gradients", bucket_mb);
 }
 
+// What D sees of a {N,C,H,W} pair this step: with d_crop > 0 the pair cut
+// to (H − d_crop) × (W − d_crop) at an offset drawn from torch's generator
+// (reseeded per step by the trainer), the same for the real and the fake
+// pairs. A PatchGAN whose stride-1 layers pad one side more than the other
+// has one patch at the top-left corner unlike any other; G learnt a fixed
+// pattern there that D rewards (docs/MODEL.md "Reef stages measured and not
+// shipped"). With the crop no cell of G's answer sits at that patch every step.
+std::function<torch::Tensor(const torch::Tensor&)> Pix2Pix::d_view(int64_t h, int64_t w) const {
+  const int64_t c = options_.d_crop;
+  if (c <= 0) return [](const torch::Tensor& t) { return t; };
+  const int64_t oy = torch::randint(c + 1, {1}).item<int64_t>(), ox = torch::randint(c + 1, {1}).item<int64_t>();
+  return [=](const torch::Tensor& t) { return t.slice(2, oy, oy + h - c).slice(3, ox, ox + w - c); };
+}
+
 Losses Pix2Pix::step(const torch::Tensor& label, const torch::Tensor& height) {
   g_->train();
   d_->train();
@@ -126,13 +141,14 @@ Losses Pix2Pix::step(const torch::Tensor& label, const torch::Tensor& height) {
     }
   } sync(*this);
   const torch::Tensor fake = g_->forward(label);  // {N,1,S,S}
+  const auto seen = d_view(label.size(2), label.size(3));
 
   // D step: fake pairs detached so G gets no gradient from it.
   set_requires_grad(*d_, true);
   clear_grads(d_->parameters());
-  const torch::Tensor pred_fake = d_->forward(torch::cat({label, fake.detach()}, 1));  // {N,1,P,P}
+  const torch::Tensor pred_fake = d_->forward(seen(torch::cat({label, fake.detach()}, 1)));  // {N,1,P,P}
   const torch::Tensor d_fake = F::binary_cross_entropy_with_logits(pred_fake, torch::zeros_like(pred_fake));
-  const torch::Tensor pred_real = d_->forward(torch::cat({label, height}, 1));
+  const torch::Tensor pred_real = d_->forward(seen(torch::cat({label, height}, 1)));
   const torch::Tensor d_real = F::binary_cross_entropy_with_logits(pred_real, torch::ones_like(pred_real));
   // Halved so D learns more slowly than G (pix2pix).
   if (reduce_d_) reduce_d_->begin();
@@ -143,7 +159,7 @@ Losses Pix2Pix::step(const torch::Tensor& label, const torch::Tensor& height) {
   // G step against a frozen D: no gradients accumulate in D's parameters.
   set_requires_grad(*d_, false);
   clear_grads(g_->parameters());
-  const torch::Tensor pred = d_->forward(torch::cat({label, fake}, 1));
+  const torch::Tensor pred = d_->forward(seen(torch::cat({label, fake}, 1)));
   const torch::Tensor g_gan = F::binary_cross_entropy_with_logits(pred, torch::ones_like(pred));
   torch::Tensor g_l1 = weighted_l1(fake, height, options_.l1) * options_.lambda_l1;
   if (options_.lambda_slope > 0) g_l1 = g_l1 + slope_l1(fake, height) * options_.lambda_slope;

@@ -2,6 +2,8 @@
 // One pix2pix training step (Isola et al. 2017, paper §6), exactly as the
 // original optimize_parameters(): D on (label, G(label)) detached and on
 // (label, truth), D loss halved; then G against the frozen D with 100·L1.
+#include <functional>
+
 #include <torch/torch.h>
 
 #include "reefgen/model/networks.hpp"
@@ -57,6 +59,7 @@ struct Pix2PixOptions {
   L1Weighting l1;             // extra L1 weight near sea level (none by default: pix2pix's plain mean)
   double lambda_slope = 0;    // weight of slope_l1 in G's loss (0: pix2pix's loss); [0, 1e5]
   double lambda_rise = 0;     // weight of rise_l1 in G's loss (0: none); [0, 1e5]
+  int d_crop = 0;             // D sees each step's pairs cropped by a random 0..d_crop cells per side (0: whole); [0, 64]
   model::ConvOptions conv;    // who runs G's and D's convolutions (LibTorch by default)
 };
 
@@ -83,6 +86,7 @@ class Pix2Pix {
   torch::optim::Adam& opt_D() { return *opt_d_; }
 
  private:
+  std::function<torch::Tensor(const torch::Tensor&)> d_view(int64_t h, int64_t w) const;
   Pix2PixOptions options_;
   model::UNetGenerator g_;
   model::PatchDiscriminator d_;
