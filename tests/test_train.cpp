@@ -3,6 +3,7 @@
 // data loading and jitter alignment, config and file errors.
 #include <fstream>
 #include <functional>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -56,6 +57,22 @@ RunOptions run_in(const fs::path& data, const fs::path& out) {
   r.data = data;
   r.out = out;
   return r;
+}
+
+// One step of a tiny pix2pix (ngf 8, U-Net depth 5, ndf 8; the rest from
+// `o`) on a fixed 32² pair, dropout off; with step_seed, torch's generator
+// is reseeded before the step, as the trainer does.
+Losses tiny_step(Pix2PixOptions o, std::optional<uint64_t> step_seed = std::nullopt) {
+  torch::manual_seed(3);
+  o.g.ngf = 8;
+  o.g.depth = 5;
+  o.d.ndf = 8;
+  Pix2Pix p(o);
+  p.G()->set_dropout_enabled(false);
+  torch::manual_seed(4);
+  const auto label = torch::rand({1, 3, 32, 32}) * 2 - 1;
+  if (step_seed) torch::manual_seed(*step_seed);
+  return p.step(label, torch::tanh(label.sum(1, true)));
 }
 
 struct Loaded {
@@ -171,17 +188,9 @@ TEST(Train, SlopeL1ChargesAShapeThatL1Forgives) {
   params.lambda_slope = 500;
   EXPECT_EQ(pix2pix_options(params).lambda_slope, 500);
   const auto loss_with = [](double lambda_slope) {
-    torch::manual_seed(3);
     Pix2PixOptions o;
-    o.g.ngf = 8;
-    o.g.depth = 5;
-    o.d.ndf = 8;
     o.lambda_slope = lambda_slope;
-    Pix2Pix p(o);
-    p.G()->set_dropout_enabled(false);
-    torch::manual_seed(4);
-    const auto label = torch::rand({1, 3, 32, 32}) * 2 - 1;
-    return p.step(label, torch::tanh(label.sum(1, true))).g_l1;
+    return tiny_step(o).g_l1;
   };
   EXPECT_GT(loss_with(500), loss_with(0));
 }
@@ -221,18 +230,9 @@ TEST(Train, RiseL1ChargesARingAndNotAnOffsetOrARadialValley) {
 // view and its losses differ from the whole pair's.
 TEST(Train, DCropShowsDARandomViewReproducibly) {
   const auto losses = [](int d_crop, uint64_t seed) {
-    torch::manual_seed(3);
     Pix2PixOptions o;
-    o.g.ngf = 8;
-    o.g.depth = 5;
-    o.d.ndf = 8;
     o.d_crop = d_crop;
-    Pix2Pix p(o);
-    p.G()->set_dropout_enabled(false);
-    torch::manual_seed(4);
-    const auto label = torch::rand({1, 3, 32, 32}) * 2 - 1;
-    torch::manual_seed(seed);
-    const Losses l = p.step(label, torch::tanh(label.sum(1, true)));
+    const Losses l = tiny_step(o, seed);
     return std::vector<double>{l.g_gan, l.d_real, l.d_fake};
   };
   EXPECT_EQ(losses(8, 1), losses(8, 1));
