@@ -129,6 +129,24 @@ class Studio : public ::testing::Test {
     EXPECT_NE(msg.find(needle), std::string::npos) << msg;
     EXPECT_EQ(msg.find('\n'), std::string::npos) << "one line: " << msg;
   }
+  // The painted example's heights from the studio for `query` (empty on a
+  // failed request, which is reported) and from the CLI's code for `io`.
+  std::pair<cv::Mat1f, cv::Mat1f> studio_and_cli(const std::string& query, const infer::InferOptions& io) {
+    const fs::path sketch = kRoot / "docs" / "examples" / "painted-sketch.png";
+    auto r = client->Post("/api/infer?" + query, file_bytes(sketch), "image/png");
+    EXPECT_TRUE(r && r->status == 200) << (r ? r->body : "no answer");
+    model::GeneratorFile g = model::load_generator(kRoot / "models" / "reef-256.pt");
+    const cv::Mat1f cli = infer::infer_heights(g, {read_sketch(sketch)}, io)[0];
+    return {r && r->status == 200 ? parse_heights(r->body).h : cv::Mat1f(), cli};
+  }
+  // Each of `bads` as ?param= is a 400 whose one line contains `needle`.
+  void expect_refused(const std::string& param, const std::vector<std::string>& bads, const std::string& needle) {
+    const std::string png = file_bytes(kRoot / "docs" / "examples" / "painted-sketch.png");
+    for (const std::string& bad : bads) {
+      SCOPED_TRACE(param + "=" + bad);
+      expect_error(client->Post("/api/infer?" + param + "=" + bad, png, "image/png"), 400, needle);
+    }
+  }
   fs::path out;
   std::unique_ptr<studio::StudioServer> server;
   std::thread thread;
@@ -191,50 +209,29 @@ TEST_F(Studio, ASeedReRollsTheIslandAsTheCliDoes) {
 // ?age_myr=T is infer --age-myr: the CLI's heights for that age; a bad age
 // is one 400 line naming the parameter.
 TEST_F(Studio, AnAgeIsTheCliAge) {
-  const fs::path sketch = kRoot / "docs" / "examples" / "painted-sketch.png";
-  const std::string png = file_bytes(sketch);
-  auto r = client->Post("/api/infer?seed=2&age_myr=3.5", png, "image/png");
-  ASSERT_TRUE(r);
-  ASSERT_EQ(r->status, 200) << r->body;
-  model::GeneratorFile g = model::load_generator(kRoot / "models" / "reef-256.pt");
   infer::InferOptions io;
   io.seed = 2;
   io.age_myr = 3.5;
-  const cv::Mat1f want = infer::infer_heights(g, {read_sketch(sketch)}, io)[0];
-  EXPECT_EQ(cv::norm(parse_heights(r->body).h, want, cv::NORM_INF), 0.0) << "the studio must give --age-myr 3.5's heights";
-  for (const std::string bad : {"-1", "61", "abc", "1e3", "", "3.5.1"}) {
-    r = client->Post("/api/infer?age_myr=" + bad, png, "image/png");
-    ASSERT_TRUE(r);
-    EXPECT_EQ(r->status, 400) << bad;
-    EXPECT_NE(r->body.find("age_myr must be"), std::string::npos) << bad << ": " << r->body;
-  }
+  const auto [got, want] = studio_and_cli("seed=2&age_myr=3.5", io);
+  ASSERT_FALSE(got.empty());
+  EXPECT_EQ(cv::norm(got, want, cv::NORM_INF), 0.0) << "the studio must give --age-myr 3.5's heights";
+  expect_refused("age_myr", {"-1", "61", "abc", "1e3", "", "3.5.1"}, "age_myr must be");
 }
 
 // ?maturity=M is infer --maturity (the erosion's maturity alone: the
 // painting keeps its subsidence) — what the page's Age and Maturity sliders
 // send; a bad maturity is one 400 line naming the parameter.
 TEST_F(Studio, AMaturityIsTheCliMaturity) {
-  const fs::path sketch = kRoot / "docs" / "examples" / "painted-sketch.png";
-  const std::string png = file_bytes(sketch);
-  auto r = client->Post("/api/infer?seed=1&maturity=0.25", png, "image/png");
-  ASSERT_TRUE(r);
-  ASSERT_EQ(r->status, 200) << r->body;
-  model::GeneratorFile g = model::load_generator(kRoot / "models" / "reef-256.pt");
   infer::InferOptions io;
   io.seed = 1;
   io.maturity = 0.25;
-  const cv::Mat1f want = infer::infer_heights(g, {read_sketch(sketch)}, io)[0];
-  const cv::Mat1f got = parse_heights(r->body).h;
+  const auto [got, want] = studio_and_cli("seed=1&maturity=0.25", io);
+  ASSERT_FALSE(got.empty());
   EXPECT_EQ(cv::norm(got, want, cv::NORM_INF), 0.0) << "the studio must give --maturity 0.25's heights";
   io.maturity = kNotSet;
-  const cv::Mat1f unset = infer::infer_heights(g, {read_sketch(sketch)}, io)[0];
+  const cv::Mat1f unset = studio_and_cli("seed=1", io).second;
   EXPECT_GT(cv::norm(got, unset, cv::NORM_INF), 1.0) << "a maturity of 0.25 must change the island";
-  for (const std::string bad : {"0.01", "21", "abc", "-1", "", "1e1"}) {
-    r = client->Post("/api/infer?maturity=" + bad, png, "image/png");
-    ASSERT_TRUE(r);
-    EXPECT_EQ(r->status, 400) << bad;
-    EXPECT_NE(r->body.find("maturity must be"), std::string::npos) << bad << ": " << r->body;
-  }
+  expect_refused("maturity", {"0.01", "21", "abc", "-1", "", "1e1"}, "maturity must be");
 }
 
 // A burst of inference requests, some of them corrupt: every one is answered
