@@ -710,7 +710,9 @@ async function sourceBody(size) {
   const buf = new Uint8Array(await (await sketchBlob()).arrayBuffer());
   let s = '';
   for (let i = 0; i < buf.length; i += 8192) s += String.fromCharCode(...buf.subarray(i, i + 8192));
-  return maturitySet ? { sketch_png: btoa(s), seed: islandSeed, maturity: maturity() } : { sketch_png: btoa(s), seed: islandSeed };
+  const body = { sketch_png: btoa(s), seed: islandSeed };
+  if (maturitySet) body.maturity = maturity();
+  return body;
 }
 async function showLayer() {
   const view = $('layer-view').value, token = ++layerToken;
