@@ -235,10 +235,16 @@ void FrontDoor::run(int backend_port) {
       }
       fd = -1;
     }
-    // Heads past their deadline: 408.
+    // Heads past their deadline: 408, unless the head has arrived since the
+    // poll (this loop may have been held up handing heads off).
     const auto now = Clock::now();
-    for (Waiting& w : waiting)
-      if (w.fd >= 0 && w.deadline <= now) answer_and_close(w.fd, 408, "Request Timeout", late), w.fd = -1;
+    for (Waiting& w : waiting) {
+      if (w.fd < 0 || w.deadline > now) continue;
+      const ssize_t n = ::recv(w.fd, peek.data(), peek.size(), MSG_PEEK);
+      if (n > 0 && (head_complete(peek.data(), size_t(n)) || size_t(n) == peek.size())) hand_off(w.fd);
+      else answer_and_close(w.fd, 408, "Request Timeout", late);
+      w.fd = -1;
+    }
     waiting.erase(std::remove_if(waiting.begin(), waiting.end(), [](const Waiting& w) { return w.fd < 0; }),
                   waiting.end());
     // New connections; past max_waiting the oldest waiting one is closed.
