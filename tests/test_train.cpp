@@ -225,6 +225,43 @@ TEST(Train, RiseL1ChargesARingAndNotAnOffsetOrARadialValley) {
   EXPECT_EQ(pix2pix_options(params).lambda_rise, 300);
 }
 
+// logit_excess charges only logits beyond ±kLogitMax, linearly; and it moves
+// a generator whose answer is parked in tanh's tail, which no other term of
+// G's loss can: with the output layer's bias at −60 every cell is exactly −1
+// in float32 and G's gradients are all zero without the bound.
+TEST(Train, LogitBoundMovesASaturatedGeneratorTheOtherTermsCannot) {
+  const torch::Tensor z = torch::tensor({0.0f, 3.0f, -3.8f, 4.8f, -13.8f});
+  EXPECT_NEAR(logit_excess(z).item<double>(), (1.0 + 10.0) / 5, 1e-5);
+  EXPECT_EQ(logit_excess(z.slice(0, 0, 3)).item<double>(), 0.0);
+  const auto bias_after_steps = [](double lambda_logit) {
+    torch::manual_seed(3);
+    Pix2PixOptions o;
+    o.g.ngf = 8;
+    o.g.depth = 5;
+    o.d.ndf = 8;
+    o.lr = 0.05;
+    o.lambda_logit = lambda_logit;
+    Pix2Pix p(o);
+    p.G()->set_dropout_enabled(false);
+    torch::Tensor bias;
+    for (const auto& kv : p.G()->named_parameters())
+      if (kv.key() == "levels.0.up_conv.bias") bias = kv.value();
+    {
+      torch::NoGradGuard ng;
+      bias.fill_(-60);
+    }
+    torch::manual_seed(4);
+    const auto label = torch::rand({1, 3, 32, 32}) * 2 - 1;
+    for (int i = 0; i < 5; ++i) p.step(label, torch::tanh(label.sum(1, true)));
+    return bias.item<double>();
+  };
+  EXPECT_EQ(bias_after_steps(0), -60.0) << "a saturated G moved without the bound: the premise of the bound is wrong";
+  EXPECT_GT(bias_after_steps(100), -60.0 + 0.1) << "the bound did not pull the parked logits back";
+  TrainParams params;
+  params.lambda_logit = 250;
+  EXPECT_EQ(pix2pix_options(params).lambda_logit, 250);
+}
+
 // d_crop: D sees each step's pairs at a random offset (drawn from torch's
 // generator, so a reseeded step repeats it); the step runs on the smaller
 // view and its losses differ from the whole pair's.

@@ -202,7 +202,9 @@ UNetGeneratorImpl::UNetGeneratorImpl(const UNetOptions& options) : options_(opti
   for (int k = 0; k < options_.depth; ++k) levels_->push_back(UNetLevel(options_, k));
 }
 
-torch::Tensor UNetGeneratorImpl::forward(torch::Tensor x) {
+torch::Tensor UNetGeneratorImpl::forward(torch::Tensor x) { return torch::tanh(logits(std::move(x))); }
+
+torch::Tensor UNetGeneratorImpl::logits(torch::Tensor x) {
   const int depth = options_.depth;
   const int64_t side = x.size(-1), multiple = int64_t(1) << depth;
   if (x.dim() != 4 || x.size(1) != options_.in_channels || x.size(-2) != side || side % multiple)
@@ -235,7 +237,7 @@ torch::Tensor UNetGeneratorImpl::forward(torch::Tensor x) {
       u = torch::dropout(u, L->dropout, is_training() && dropout_enabled_);
     u = torch::cat({skips[k - 1], u}, 1);  // skip first, as in torch.cat([x, model(x)], 1)
   }
-  return torch::tanh(level(0)->up(torch::relu_(u), conv_));  // {N,out,S,S}
+  return level(0)->up(torch::relu_(u), conv_);  // {N,out,S,S}
 }
 
 void UNetGeneratorImpl::set_replica_sum(const ReplicaSum& sum) { set_replica_sum_on(*this, sum); }

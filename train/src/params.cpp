@@ -73,6 +73,7 @@ Pix2PixOptions pix2pix_options(const TrainParams& p, const model::HeightRange& r
   o.lambda_l1 = p.lambda_l1;
   o.lambda_slope = p.lambda_slope;
   o.lambda_rise = p.lambda_rise;
+  o.lambda_logit = p.lambda_logit;
   o.d_crop = p.d_crop_px;
   // Heights are normalised as 2 (h - lo) / (hi - lo) - 1 (model/codec.hpp).
   const double per_m = 2.0 / (range.hi_m - range.lo_m);

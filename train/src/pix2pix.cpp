@@ -76,6 +76,10 @@ torch::Tensor rise_l1(const torch::Tensor& fake, const torch::Tensor& target, do
   return (local.abs() * m).sum() / m.sum().clamp_min(1);
 }
 
+torch::Tensor logit_excess(const torch::Tensor& logits) {
+  return torch::relu(logits.abs() - kLogitMax).mean();
+}
+
 Pix2Pix::Pix2Pix(const Pix2PixOptions& o) : options_(o), g_(o.g), d_(o.d), lr_(o.lr) {
   if (o.d.in_channels != o.g.in_channels + o.g.out_channels)
     throw std::invalid_argument("Pix2PixOptions: D takes label ⊕ height, so d.in_channels must be " +
@@ -140,7 +144,8 @@ Losses Pix2Pix::step(const torch::Tensor& label, const torch::Tensor& height) {
       p.d_->set_replica_sum(nullptr);
     }
   } sync(*this);
-  const torch::Tensor fake = g_->forward(label);  // {N,1,S,S}
+  const torch::Tensor logits = g_->logits(label);  // {N,1,S,S}
+  const torch::Tensor fake = torch::tanh(logits);  // G's answer, as g_->forward(label)
   const auto seen = d_view(label.size(2), label.size(3));
 
   // D step: fake pairs detached so G gets no gradient from it.
@@ -164,6 +169,7 @@ Losses Pix2Pix::step(const torch::Tensor& label, const torch::Tensor& height) {
   torch::Tensor g_l1 = weighted_l1(fake, height, options_.l1) * options_.lambda_l1;
   if (options_.lambda_slope > 0) g_l1 = g_l1 + slope_l1(fake, height) * options_.lambda_slope;
   if (options_.lambda_rise > 0) g_l1 = g_l1 + rise_l1(fake, height, options_.l1.sea) * options_.lambda_rise;
+  if (options_.lambda_logit > 0) g_l1 = g_l1 + logit_excess(logits) * options_.lambda_logit;
   if (reduce_g_) reduce_g_->begin();
   (g_gan + g_l1).backward();
   if (reduce_g_) reduce_g_->end();

@@ -66,7 +66,9 @@ using ReplicaSum = std::function<torch::Tensor(const torch::Tensor&)>;
 class UNetGeneratorImpl : public torch::nn::Module {
  public:
   explicit UNetGeneratorImpl(const UNetOptions& options = {});
-  torch::Tensor forward(torch::Tensor x);  // {N,in,S,S} -> {N,out,S,S} in (-1, 1)
+  torch::Tensor forward(torch::Tensor x);  // {N,in,S,S} -> {N,out,S,S} in (-1, 1): tanh(logits(x))
+  // The answer before its tanh: what a bound on saturation needs (train/pix2pix.hpp logit_excess).
+  torch::Tensor logits(torch::Tensor x);   // {N,in,S,S} -> {N,out,S,S}
   const UNetOptions& options() const { return options_; }
   // Dropout on/off independently of BatchNorm's train/eval mode: pix2pix runs
   // G in train mode at test time; tests and deterministic inference need

@@ -31,6 +31,7 @@ struct TrainParams {
   double l1_shore_m = 3;        // half-width of that band, metres, (0, 100]
   double lambda_slope = 0;      // weight of the slope L1 in G's loss (pix2pix.hpp slope_l1); 0 = pix2pix's loss, [0, 1e5]
   double lambda_rise = 0;       // weight of the uphill-slope L1 on land in G's loss (pix2pix.hpp rise_l1); 0 = none, [0, 1e5]
+  double lambda_logit = 0;      // weight of the bound on G's saturated logits (pix2pix.hpp logit_excess); 0 = none, [0, 1e5]
   int d_crop_px = 0;            // D sees the pairs cropped by a random 0..d_crop_px cells per side (pix2pix.hpp); 0 = whole, [0, 64]
   int batch_size = 1;           // pix2pix: 1, [1, 64]
   double epochs = 1;            // epochs at constant lr, [0, 1e4]
@@ -73,6 +74,7 @@ void fields(TrainParams& p, F&& f) {
   f("l1_shore_m", p.l1_shore_m, Range{0, 100, true, false});
   f("lambda_slope", p.lambda_slope, Range{0, 1e5});
   f("lambda_rise", p.lambda_rise, Range{0, 1e5});
+  f("lambda_logit", p.lambda_logit, Range{0, 1e5});
   f("d_crop_px", p.d_crop_px, Range{0, 64});
   f("batch_size", p.batch_size, Range{1, 64});
   f("epochs", p.epochs, Range{0, 1e4});

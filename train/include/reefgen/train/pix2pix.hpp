@@ -49,6 +49,18 @@ torch::Tensor slope_l1(const torch::Tensor& fake, const torch::Tensor& target);
 inline constexpr double kRiseSmoothCells = 4;
 torch::Tensor rise_l1(const torch::Tensor& fake, const torch::Tensor& target, double sea);
 
+// How far G's answers sit in tanh's flat tails: the mean over cells of
+// max(0, |z| − kLogitMax), z the logits before G's tanh {N,1,S,S}. Where
+// |z| ≫ 1 tanh passes no gradient (sech²(20) ≈ 1e-17), so the L1, the GAN
+// and the ring terms cannot move such a cell: a generator trained on a flat
+// −100 m floor (the range's end) learnt to park cells there, and later
+// stages on a floor with relief inherited them as a fixed pattern they
+// could not remove (docs/MODEL.md "Saturated cells"). The bound gives those
+// cells back a gradient and charges nothing inside ±kLogitMax, where tanh
+// reaches 0.999 of the range: within 0.33 m of its ends at reefgen's 660 m.
+inline constexpr double kLogitMax = 3.8;
+torch::Tensor logit_excess(const torch::Tensor& logits);
+
 struct Pix2PixOptions {
   model::UNetOptions g;       // generator: 3 -> 1 channels
   model::PatchOptions d;      // discriminator: 4 input channels (label ⊕ height)
@@ -59,12 +71,13 @@ struct Pix2PixOptions {
   L1Weighting l1;             // extra L1 weight near sea level (none by default: pix2pix's plain mean)
   double lambda_slope = 0;    // weight of slope_l1 in G's loss (0: pix2pix's loss); [0, 1e5]
   double lambda_rise = 0;     // weight of rise_l1 in G's loss (0: none); [0, 1e5]
+  double lambda_logit = 0;    // weight of logit_excess in G's loss (0: none); [0, 1e5]
   int d_crop = 0;             // D sees each step's pairs cropped by a random 0..d_crop cells per side (0: whole); [0, 64]
   model::ConvOptions conv;    // who runs G's and D's convolutions (LibTorch by default)
 };
 
 struct Losses {
-  double g_gan = 0, g_l1 = 0, d_real = 0, d_fake = 0;  // g_l1: lambda_l1·L1 + lambda_slope·slope L1 + lambda_rise·rise L1
+  double g_gan = 0, g_l1 = 0, d_real = 0, d_fake = 0;  // g_l1: lambda_l1·L1 + lambda_slope·slope L1 + lambda_rise·rise L1 + lambda_logit·logit excess
 };
 
 class Pix2Pix {
