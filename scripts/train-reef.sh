@@ -1,12 +1,17 @@
 #!/usr/bin/env bash
-# Rebuilds the shipped model of the reef (models/reef-256.pt since 2026-11-27,
-# docs/REEF.md, models/README.md): the dataset of configs/dataset/shipped.json
-# (seed 11) on the reef generator, then two stages: configs/train/reef-finetune.json
-# started with --init from the model shipped before the reef (G only, D
-# fresh), then configs/train/reef-shore.json (L1 weighted ×11 at sea level)
-# with --init from that; the float16 pack and the measurements. Work folders go to $WORK
-# (default ../reefgen-work-reef), outside the repository; Ctrl-C and run it
-# again to resume.
+# Rebuilds the shipped model of the reef (models/reef-256.pt, docs/REEF.md,
+# docs/MODEL.md, models/README.md). First the reef model of 2026-11-27: the
+# dataset of configs/dataset/shipped.json (seed 11) on the reef generator,
+# configs/train/reef-finetune.json started with --init from the model shipped
+# before the reef (G only, D fresh), then configs/train/reef-shore.json (L1
+# weighted ×11 at sea level) with --init from that, packed as float16. Then
+# the ring stages on configs/dataset/reef.json (seed 11: the same islands,
+# the sea floor redrawn): configs/train/reef-rise.json with --init from that
+# pack (G only, D fresh; the ring loss and the logit bound), then
+# configs/train/reef-rise2.json with --init from its checkpoint (G and D);
+# the float16 pack and the measurements. Work folders go to $WORK (default
+# ../reefgen-work-reef), outside the repository; Ctrl-C and run it again to
+# resume.
 #   bash scripts/train-reef.sh [BASE_MODEL]   # BASE_MODEL: the generator to start from
 #                                             # (default: the pre-reef model from git history, commit 6938da5)
 set -euo pipefail
@@ -21,19 +26,23 @@ if [ ! -f "$BASE" ]; then
   git show 6938da5:models/reef-256.pt > "$BASE.tmp" && mv "$BASE.tmp" "$BASE"
 fi
 $BIN dataset build --config configs/dataset/shipped.json --seed 11 --out "$WORK/data" >/dev/null
+$BIN dataset build --config configs/dataset/reef.json --seed 11 --out "$WORK/data-reef" >/dev/null
 # One stage: resumed from its checkpoint if one is there (a finished run
 # only exports its generator again), else started from INIT.
-stage() {  # stage CONFIG RUN INIT
-  if [ -f "$2/checkpoint.pt" ]; then
-    $BIN train --data "$WORK/data" --out "$2" --resume >/dev/null
+stage() {  # stage CONFIG DATA RUN INIT
+  if [ -f "$3/checkpoint.pt" ]; then
+    $BIN train --data "$2" --out "$3" --resume >/dev/null
   else
-    $BIN train --config "$1" --data "$WORK/data" --out "$2" --init "$3" >/dev/null
+    $BIN train --config "$1" --data "$2" --out "$3" --init "$4" >/dev/null
   fi
 }
-stage configs/train/reef-finetune.json "$WORK/run" "$BASE"
-stage configs/train/reef-shore.json "$WORK/shore" "$WORK/run/generator.pt"
-$BIN model pack "$WORK/shore/generator.pt" -o "$WORK/reef-256.pt" --storage float16 >/dev/null
-$BIN -q eval -m "$WORK/reef-256.pt" --data "$WORK/data" --split test --out "$WORK/eval" >/dev/null
+stage configs/train/reef-finetune.json "$WORK/data" "$WORK/run" "$BASE"
+stage configs/train/reef-shore.json "$WORK/data" "$WORK/shore" "$WORK/run/generator.pt"
+$BIN model pack "$WORK/shore/generator.pt" -o "$WORK/shore-256.pt" --storage float16 >/dev/null
+stage configs/train/reef-rise.json "$WORK/data-reef" "$WORK/rise" "$WORK/shore-256.pt"
+stage configs/train/reef-rise2.json "$WORK/data-reef" "$WORK/rise2" "$WORK/rise/checkpoint.pt"
+$BIN model pack "$WORK/rise2/generator.pt" -o "$WORK/reef-256.pt" --storage float16 >/dev/null
+$BIN -q eval -m "$WORK/reef-256.pt" --data "$WORK/data-reef" --split test --out "$WORK/eval" >/dev/null
 $BIN -q eval-sketches tests/data/painted -m "$WORK/reef-256.pt" --out "$WORK/eval-painted" >/dev/null
 PY=/usr/bin/python3; [ -x "$PY" ] || PY=python3
 "$PY" scripts/reef-bars.py -m "$WORK/reef-256.pt" --out "$WORK/reef-bars" > "$WORK/reef-bars.json"

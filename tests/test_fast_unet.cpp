@@ -177,6 +177,48 @@ TEST(FastUNet, ShippedModelFp32AndBf16WithinTheHeightBars) {
   EXPECT_GE(n, 10) << "painted sketches at 256²";
 }
 
+// The shipped generator parks no cell of its answers in tanh's flat tail,
+// where no loss can move it: a generator whose logits reached −80 at the
+// canvas's top-left drew a fixed pattern there once trained on a floor with
+// relief (docs/MODEL.md "Saturated cells"). Over the painted sketches, the
+// logits stay within ±kLogitCeiling, and the corners painted abyss get
+// alike answers (the highest of each one's 8×8 cells).
+TEST(FastUNet, ShippedModelParksNoCellInTanhsTail) {
+  constexpr double kLogitCeiling = 6;     // tanh′(6) = 2.5e-5: still a gradient; training bounds at 3.8
+  constexpr double kCornerSpreadM = 15;   // the corners' 8×8 maxima (metres) agree within this
+  const auto root = std::filesystem::path(REEFGEN_SOURCE_DIR);
+  model::GeneratorFile gf = model::load_generator(root / "models" / "reef-256.pt");
+  c10::InferenceMode im;
+  gf.g->train(true);
+  gf.g->set_dropout_enabled(false);
+  const double half_span_m = (gf.range.hi_m - gf.range.lo_m) / 2;
+  int n = 0, compared = 0;
+  for (const auto& e : std::filesystem::directory_iterator(root / "tests" / "data" / "painted")) {
+    const DecodedSketch s = read_sketch(e.path());
+    if (s.label.rows != 256 || s.label.cols != 256) continue;
+    ++n;
+    const torch::Tensor x = model::label_to_tensor(encode_labels(s.label, s.subsidence)).unsqueeze(0);  // {1,3,256,256}
+    const torch::Tensor z = gf.g->logits(x)[0][0];                                                      // {256,256}
+    EXPECT_LT(z.abs().max().item<double>(), kLogitCeiling) << e.path().filename();
+    // The 8×8 answer's highest cell, metres, at the corners painted abyss 16 cells deep.
+    std::vector<double> corners;
+    for (const int64_t r : {0, 248})
+      for (const int64_t c : {0, 248}) {
+        const cv::Mat1b near = s.label(cv::Rect(int(c == 0 ? 0 : 240), int(r == 0 ? 0 : 240), 16, 16));
+        if (cv::countNonZero(near != uint8_t(kAbyss)) > 0) continue;
+        corners.push_back((torch::tanh(z.slice(0, r, r + 8).slice(1, c, c + 8)).max().item<double>() + 1) * half_span_m +
+                          gf.range.lo_m);
+      }
+    if (corners.size() < 2) continue;
+    ++compared;
+    const auto [lo, hi] = std::minmax_element(corners.begin(), corners.end());
+    EXPECT_LT(*hi - *lo, kCornerSpreadM) << e.path().filename() << ": the abyss corners' highest cells differ by "
+                                         << *hi - *lo << " m";
+  }
+  EXPECT_GE(compared, 10) << "painted sketches with at least two abyss corners";
+  EXPECT_GE(n, 10) << "painted sketches at 256²";
+}
+
 TEST(FastUNet, RefusesWhatItCannotRun) {
   UNetGenerator g = net(Upsample::Bilinear, Norm::Batch, 8, 6, 3);
   g->train(true);
