@@ -113,10 +113,9 @@ void Pix2Pix::set_comm(Comm* comm, double bucket_mb) {
 // What D sees of a {N,C,H,W} pair this step: with d_crop > 0 the pair cut
 // to (H − d_crop) × (W − d_crop) at an offset drawn from torch's generator
 // (reseeded per step by the trainer), the same for the real and the fake
-// pairs. G learnt a fixed pattern at the canvas's top-left that the L1 alone
-// removes slowly (docs/MODEL.md "Reef stages measured and not shipped"); with
-// the crop, a pattern at a fixed place of G's answer is never at the same
-// place of D's view, so D cannot reward it step after step.
+// pairs, so a pattern at a fixed place of G's answer is never at the same
+// place of D's view. Measured against G's fixed top-left pattern, it only
+// shrank it; the logit bound removed it (docs/MODEL.md "Saturated cells").
 std::function<torch::Tensor(const torch::Tensor&)> Pix2Pix::d_view(int64_t h, int64_t w) const {
   const int64_t c = options_.d_crop;
   if (c <= 0) return [](const torch::Tensor& t) { return t; };
