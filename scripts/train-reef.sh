@@ -8,8 +8,9 @@
 # the ring stages on configs/dataset/reef.json (seed 11: the same islands,
 # the sea floor redrawn): configs/train/reef-rise.json with --init from that
 # pack (G only, D fresh; the ring loss and the logit bound), then
-# configs/train/reef-rise2.json with --init from its checkpoint (G and D);
-# the float16 pack and the measurements. Work folders go to $WORK (default
+# configs/train/reef-rise2.json and configs/train/reef-rise3.json, each with
+# --init from the checkpoint before it (G and D); the float16 pack and the
+# measurements. Work folders go to $WORK (default
 # ../reefgen-work-reef), outside the repository; Ctrl-C and run it again to
 # resume.
 #   bash scripts/train-reef.sh [BASE_MODEL]   # BASE_MODEL: the generator to start from
@@ -41,7 +42,8 @@ stage configs/train/reef-shore.json "$WORK/data" "$WORK/shore" "$WORK/run/genera
 $BIN model pack "$WORK/shore/generator.pt" -o "$WORK/shore-256.pt" --storage float16 >/dev/null
 stage configs/train/reef-rise.json "$WORK/data-reef" "$WORK/rise" "$WORK/shore-256.pt"
 stage configs/train/reef-rise2.json "$WORK/data-reef" "$WORK/rise2" "$WORK/rise/checkpoint.pt"
-$BIN model pack "$WORK/rise2/generator.pt" -o "$WORK/reef-256.pt" --storage float16 >/dev/null
+stage configs/train/reef-rise3.json "$WORK/data-reef" "$WORK/rise3" "$WORK/rise2/checkpoint.pt"
+$BIN model pack "$WORK/rise3/generator.pt" -o "$WORK/reef-256.pt" --storage float16 >/dev/null
 $BIN -q eval -m "$WORK/reef-256.pt" --data "$WORK/data-reef" --split test --out "$WORK/eval" >/dev/null
 $BIN -q eval-sketches tests/data/painted -m "$WORK/reef-256.pt" --out "$WORK/eval-painted" >/dev/null
 PY=/usr/bin/python3; [ -x "$PY" ] || PY=python3
