@@ -141,15 +141,43 @@ TEST(FastUNet, SameBytesWhateverTheThreadCount) {
   }
 }
 
+namespace {
+
+// The shipped generator as users run it (pix2pix's test-time mode, no
+// dropout), and the painted test sketches at the model's 256²: each one's
+// file name, decoded labels and network input {1,3,256,256}.
+model::GeneratorFile shipped_generator() {
+  model::GeneratorFile gf =
+      model::load_generator(std::filesystem::path(REEFGEN_SOURCE_DIR) / "models" / "reef-256.pt");
+  gf.g->train(true);
+  gf.g->set_dropout_enabled(false);
+  return gf;
+}
+struct PaintedInput {
+  std::string name;
+  DecodedSketch sketch;
+  torch::Tensor x;
+};
+std::vector<PaintedInput> painted_inputs_256() {
+  std::vector<PaintedInput> out;
+  const auto dir = std::filesystem::path(REEFGEN_SOURCE_DIR) / "tests" / "data" / "painted";
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    DecodedSketch s = read_sketch(e.path());
+    if (s.label.rows != 256 || s.label.cols != 256) continue;
+    torch::Tensor x = model::label_to_tensor(encode_labels(s.label, s.subsidence)).unsqueeze(0);
+    out.push_back({e.path().filename().string(), std::move(s), std::move(x)});
+  }
+  return out;
+}
+
+}  // namespace
+
 TEST(FastUNet, ShippedModelFp32AndBf16WithinTheHeightBars) {
   // The model users run, on the painted test sketches: fp32 equals LibTorch
   // to a centimetre; bf16 stays within 1 m (99th percentile, 0.25 m mean) of
   // float32 on each sketch, the bar of the LibTorch bf16 path.
-  const auto root = std::filesystem::path(REEFGEN_SOURCE_DIR);
-  model::GeneratorFile gf = model::load_generator(root / "models" / "reef-256.pt");
+  model::GeneratorFile gf = shipped_generator();
   c10::InferenceMode im;
-  gf.g->train(true);
-  gf.g->set_dropout_enabled(false);
   const double half_span_m = (gf.range.hi_m - gf.range.lo_m) / 2;
   FastUNet f32(*gf.g, FastUNetOptions{1, 256, FastPrecision::Fp32});
   std::unique_ptr<FastUNet> b16;
@@ -159,22 +187,18 @@ TEST(FastUNet, ShippedModelFp32AndBf16WithinTheHeightBars) {
     if (model::bf16_convolution_available()) throw;
     std::cerr << "no bf16 convolutions on this CPU, bf16 not checked: " << e.what() << "\n";
   }
-  int n = 0;
-  for (const auto& e : std::filesystem::directory_iterator(root / "tests" / "data" / "painted")) {
-    const DecodedSketch s = read_sketch(e.path());
-    if (s.label.rows != 256 || s.label.cols != 256) continue;
-    ++n;
-    const torch::Tensor x = model::label_to_tensor(encode_labels(s.label, s.subsidence)).unsqueeze(0);  // {1,3,256,256}
-    const torch::Tensor ref = gf.g->forward(x);
-    EXPECT_LT(max_diff(f32.forward(x), ref) * half_span_m, 0.01) << e.path().filename() << ": fp32 engine, metres";
+  const std::vector<PaintedInput> painted = painted_inputs_256();
+  for (const PaintedInput& p : painted) {
+    const torch::Tensor ref = gf.g->forward(p.x);
+    EXPECT_LT(max_diff(f32.forward(p.x), ref) * half_span_m, 0.01) << p.name << ": fp32 engine, metres";
     if (!b16) continue;
-    const torch::Tensor err_m = (b16->forward(x) - ref).abs().flatten() * half_span_m;
+    const torch::Tensor err_m = (b16->forward(p.x) - ref).abs().flatten() * half_span_m;
     const double p99 = std::get<0>(err_m.sort()).index({int64_t(0.99 * double(err_m.numel()))}).item<double>();
-    EXPECT_LT(p99, 1.0) << e.path().filename() << ": bf16 p99 error, metres";
-    EXPECT_LT(err_m.mean().item<double>(), 0.25) << e.path().filename() << ": bf16 mean error, metres";
+    EXPECT_LT(p99, 1.0) << p.name << ": bf16 p99 error, metres";
+    EXPECT_LT(err_m.mean().item<double>(), 0.25) << p.name << ": bf16 mean error, metres";
     EXPECT_GT(err_m.max().item<double>(), 0.0) << "bf16 must actually run in bf16";
   }
-  EXPECT_GE(n, 10) << "painted sketches at 256²";
+  EXPECT_GE(painted.size(), 10u) << "painted sketches at 256²";
 }
 
 // The shipped generator parks no cell of its answers in tanh's flat tail,
@@ -186,25 +210,19 @@ TEST(FastUNet, ShippedModelFp32AndBf16WithinTheHeightBars) {
 TEST(FastUNet, ShippedModelParksNoCellInTanhsTail) {
   constexpr double kLogitCeiling = 6;     // tanh′(6) = 2.5e-5: still a gradient; training bounds at 3.8
   constexpr double kCornerSpreadM = 15;   // the corners' 8×8 maxima (metres) agree within this
-  const auto root = std::filesystem::path(REEFGEN_SOURCE_DIR);
-  model::GeneratorFile gf = model::load_generator(root / "models" / "reef-256.pt");
+  model::GeneratorFile gf = shipped_generator();
   c10::InferenceMode im;
-  gf.g->train(true);
-  gf.g->set_dropout_enabled(false);
   const double half_span_m = (gf.range.hi_m - gf.range.lo_m) / 2;
-  int n = 0, compared = 0;
-  for (const auto& e : std::filesystem::directory_iterator(root / "tests" / "data" / "painted")) {
-    const DecodedSketch s = read_sketch(e.path());
-    if (s.label.rows != 256 || s.label.cols != 256) continue;
-    ++n;
-    const torch::Tensor x = model::label_to_tensor(encode_labels(s.label, s.subsidence)).unsqueeze(0);  // {1,3,256,256}
-    const torch::Tensor z = gf.g->logits(x)[0][0];                                                      // {256,256}
-    EXPECT_LT(z.abs().max().item<double>(), kLogitCeiling) << e.path().filename();
+  const std::vector<PaintedInput> painted = painted_inputs_256();
+  int compared = 0;
+  for (const PaintedInput& p : painted) {
+    const torch::Tensor z = gf.g->logits(p.x)[0][0];  // {256,256}
+    EXPECT_LT(z.abs().max().item<double>(), kLogitCeiling) << p.name;
     // The 8×8 answer's highest cell, metres, at the corners painted abyss 16 cells deep.
     std::vector<double> corners;
     for (const int64_t r : {0, 248})
       for (const int64_t c : {0, 248}) {
-        const cv::Mat1b near = s.label(cv::Rect(int(c == 0 ? 0 : 240), int(r == 0 ? 0 : 240), 16, 16));
+        const cv::Mat1b near = p.sketch.label(cv::Rect(int(c == 0 ? 0 : 240), int(r == 0 ? 0 : 240), 16, 16));
         if (cv::countNonZero(near != uint8_t(kAbyss)) > 0) continue;
         corners.push_back((torch::tanh(z.slice(0, r, r + 8).slice(1, c, c + 8)).max().item<double>() + 1) * half_span_m +
                           gf.range.lo_m);
@@ -212,11 +230,11 @@ TEST(FastUNet, ShippedModelParksNoCellInTanhsTail) {
     if (corners.size() < 2) continue;
     ++compared;
     const auto [lo, hi] = std::minmax_element(corners.begin(), corners.end());
-    EXPECT_LT(*hi - *lo, kCornerSpreadM) << e.path().filename() << ": the abyss corners' highest cells differ by "
-                                         << *hi - *lo << " m";
+    EXPECT_LT(*hi - *lo, kCornerSpreadM) << p.name << ": the abyss corners' highest cells differ by " << *hi - *lo
+                                         << " m";
   }
   EXPECT_GE(compared, 10) << "painted sketches with at least two abyss corners";
-  EXPECT_GE(n, 10) << "painted sketches at 256²";
+  EXPECT_GE(painted.size(), 10u) << "painted sketches at 256²";
 }
 
 TEST(FastUNet, RefusesWhatItCannotRun) {
