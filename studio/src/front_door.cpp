@@ -173,6 +173,8 @@ void FrontDoor::run(int backend_port) {
   std::vector<char> peek(limits_.max_head_bytes);
   const std::string late = "request head not received within " +
                            std::to_string(limits_.head_deadline.count()) + " ms; send the whole request at once";
+  // What recv peeked (n > 0 bytes) is a whole head, or too long to wait for.
+  auto head_ready = [&](ssize_t n) { return head_complete(peek.data(), size_t(n)) || size_t(n) == peek.size(); };
   auto hand_off = [&](int fd) {
     if (*relays_ >= limits_.max_relays) return answer_and_close(fd, 503, "Service Unavailable", "too many connections; retry");
     const int backend = connect_loopback(backend_port);
@@ -225,8 +227,7 @@ void FrontDoor::run(int backend_port) {
       if (n < 0 && (errno == EAGAIN || errno == EINTR)) continue;
       if (n <= 0) {
         ::close(fd);
-      } else if (head_complete(peek.data(), size_t(n)) || size_t(n) == peek.size() ||
-                 (fds[k + 2].revents & POLLRDHUP)) {
+      } else if (head_ready(n) || (fds[k + 2].revents & POLLRDHUP)) {
         // Complete, too long to wait for, or never to be completed (the
         // client has half-closed): the library answers, as it would have.
         hand_off(fd);
@@ -241,7 +242,7 @@ void FrontDoor::run(int backend_port) {
     for (Waiting& w : waiting) {
       if (w.fd < 0 || w.deadline > now) continue;
       const ssize_t n = ::recv(w.fd, peek.data(), peek.size(), MSG_PEEK);
-      if (n > 0 && (head_complete(peek.data(), size_t(n)) || size_t(n) == peek.size())) hand_off(w.fd);
+      if (n > 0 && head_ready(n)) hand_off(w.fd);
       else answer_and_close(w.fd, 408, "Request Timeout", late);
       w.fd = -1;
     }
