@@ -1,0 +1,27 @@
+#pragma once
+// The network's answer near the canvas edge (docs/INFERENCE.md "Canvas
+// edges"): the generator's convolutions pad with zeros, and its answer on the
+// outermost cells of an open-sea edge departs from the sea floor it draws
+// everywhere else — a step up on the last row and a groove ~1.5 m deep a few
+// rows in, which every hill-shade of an output shows as a square frame
+// parallel to the edges. The training targets' floor keeps its trend to the
+// edge. On open-sea edges only, the band is blended into the floor's own
+// trend, read just inside it. LibTorch-free.
+#include <opencv2/core.hpp>
+
+namespace reefgen::infer {
+
+struct EdgeRepairParams {
+  int band_px = 14;             // cells from the edge blended into the trend, model cells, [0, 64] (0 = off)
+  double open_sea_m = -40;      // a line is open sea when every cell of band and fit window is below this, metres
+};
+
+// Each line across each edge whose 2·band_px cells lie below open_sea_m gets
+// its band (distance d < band_px) blended, with weight 1 at the edge falling
+// smoothly to 0 at band_px, into the least-squares line through the next
+// band_px cells; the share of lines repaired is smoothed along the edge, so
+// an island reaching the edge keeps its cells and nothing steps beside it.
+// h: heights in metres, any size of at least 2·band_px a side; in place.
+void repair_canvas_edges(cv::Mat1f& h, const EdgeRepairParams& p = {});
+
+}  // namespace reefgen::infer

@@ -1,0 +1,91 @@
+// The network's answer at the canvas edge (infer/edge_repair.hpp): an open-sea
+// floor whose outer rows carry the zero-padding artefact the shipped model
+// draws (a step up on the last row, a groove a few rows in) is blended back
+// into the floor's own trend; land reaching the edge, and everything past the
+// band, keep their values.
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "reefgen/infer/edge_repair.hpp"
+
+using namespace reefgen::infer;
+
+namespace edge_repair_test {
+
+constexpr int kEdgeSide = 96;
+
+// A sea floor falling 0.1 m a cell towards every edge from −80 m.
+float floor_m(int x, int y) {
+  const int d = std::min(std::min(x, kEdgeSide - 1 - x), std::min(y, kEdgeSide - 1 - y));
+  return float(-80.0 - 0.1 * (kEdgeSide / 2 - d));
+}
+
+// The artefact as measured on the shipped model's answers (docs/INFERENCE.md
+// "Canvas edges"): +1 m on the last row, −1.4 m on the next, fading inwards.
+float artefact_m(int d) {
+  static const float kRows[] = {1.0f, -1.4f, -1.2f, -0.7f, -0.8f, -0.2f, -0.2f, -0.25f};
+  return d < 8 ? kRows[d] : 0.f;
+}
+
+cv::Mat1f floor_with_artefact() {
+  cv::Mat1f h(kEdgeSide, kEdgeSide);
+  for (int y = 0; y < kEdgeSide; ++y)
+    for (int x = 0; x < kEdgeSide; ++x) {
+      const int d = std::min(std::min(x, kEdgeSide - 1 - x), std::min(y, kEdgeSide - 1 - y));
+      h(y, x) = floor_m(x, y) + artefact_m(d);
+    }
+  return h;
+}
+
+}  // namespace edge_repair_test
+
+using namespace edge_repair_test;
+
+TEST(EdgeRepair, OpenSeaBandReturnsToTheFloorsTrend) {
+  cv::Mat1f h = floor_with_artefact();
+  repair_canvas_edges(h);
+  // Away from the corners (where the floor's trend bends) every cell of the
+  // band is within 0.15 m of the floor; the artefact was up to 1.4 m.
+  const int B = EdgeRepairParams{}.band_px;
+  double worst = 0;
+  for (int x = 2 * B; x < kEdgeSide - 2 * B; ++x)
+    for (int d = 0; d < B; ++d) worst = std::max(worst, double(std::abs(h(d, x) - floor_m(x, d))));
+  EXPECT_LT(worst, 0.15);
+  // Across the edge the profile is smooth: no second difference above 0.1 m
+  // (the artefact's is 3.4 m).
+  for (int x = 2 * B; x < kEdgeSide - 2 * B; ++x)
+    for (int d = 1; d < 2 * B; ++d)
+      ASSERT_LT(std::abs(h(d + 1, x) - 2 * h(d, x) + h(d - 1, x)), 0.1) << "column " << x << ", row " << d;
+}
+
+TEST(EdgeRepair, InteriorAndLandAtTheEdgeKeepTheirValues) {
+  cv::Mat1f h = floor_with_artefact();
+  // An island reaching the top edge.
+  for (int y = 0; y < 20; ++y)
+    for (int x = 40; x < 56; ++x) h(y, x) = 30.f;
+  const cv::Mat1f before = h.clone();
+  repair_canvas_edges(h);
+  const int reach = EdgeRepairParams{}.band_px + 4;  // the band and its light smoothing's reach
+  for (int y = 0; y < kEdgeSide; ++y)
+    for (int x = 0; x < kEdgeSide; ++x) {
+      const int d = std::min(std::min(x, kEdgeSide - 1 - x), std::min(y, kEdgeSide - 1 - y));
+      const bool island = before(y, x) > 0;
+      if (d >= reach || island) ASSERT_EQ(h(y, x), before(y, x)) << x << "," << y;
+    }
+  // The lines beside the island are eased, not cut: no jump along the edge
+  // larger than the artefact's own rows differ.
+  for (int x = 1; x < kEdgeSide; ++x)
+    if (before(1, x) < 0 && before(1, x - 1) < 0) EXPECT_LT(std::abs(h(1, x) - h(1, x - 1)), 0.5) << x;
+}
+
+TEST(EdgeRepair, OffOrTooSmallLeavesTheFieldAlone) {
+  cv::Mat1f h = floor_with_artefact();
+  const cv::Mat1f before = h.clone();
+  repair_canvas_edges(h, EdgeRepairParams{0});
+  EXPECT_EQ(cv::norm(h, before, cv::NORM_INF), 0);
+  cv::Mat1f small = before(cv::Rect(0, 0, 20, 20)).clone();
+  const cv::Mat1f small_before = small.clone();
+  repair_canvas_edges(small);  // narrower than two bands
+  EXPECT_EQ(cv::norm(small, small_before, cv::NORM_INF), 0);
+}
