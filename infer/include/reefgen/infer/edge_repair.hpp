@@ -17,10 +17,12 @@ struct EdgeRepairParams {
 };
 
 // Each line across each edge whose 2·band_px cells lie below open_sea_m gets
-// its band (distance d < band_px) blended, with weight 1 at the edge falling
-// smoothly to 0 at band_px, into the least-squares line through the next
-// band_px cells; the share of lines repaired is smoothed along the edge, so
-// an island reaching the edge keeps its cells and nothing steps beside it.
+// its band (distance d < band_px) blended, with weight 1 over the outer half
+// easing to 0 at band_px, into the least-squares line through the next
+// band_px cells; the share of lines repaired is eased along the edge, so an
+// island reaching the edge keeps its cells and nothing steps beside it. Then
+// the open sea of the band is lightly smoothed (the corners, where the two
+// edges' fits meet).
 // h: heights in metres, any size of at least 2·band_px a side; in place.
 void repair_canvas_edges(cv::Mat1f& h, const EdgeRepairParams& p = {});
 
