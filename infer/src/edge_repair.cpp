@@ -15,20 +15,17 @@ constexpr double kAlongEdgeSigmaPx = 3;
 
 // The top edge of h (rows 0..2B−1 across it; the other edges are this one on
 // a flipped or transposed copy).
-void repair_top_edge(cv::Mat1f& h, const EdgeRepairParams& p, bool skip_corners) {
+void repair_top_edge(cv::Mat1f& h, const EdgeRepairParams& p) {
   const int B = p.band_px, W = h.cols;
-  // 1 where the whole line (band and fit window) is open sea. Lines in a
-  // corner square are left to the second pair of edges, whose fit windows
-  // then read this pass's repaired rows.
+  // 1 where the whole line (band and fit window) is open sea.
   cv::Mat1f open(1, W, 0.f);
-  for (int x = skip_corners ? B : 0; x < (skip_corners ? W - B : W); ++x) {
+  for (int x = 0; x < W; ++x) {
     bool sea = true;
     for (int d = 0; d < 2 * B && sea; ++d) sea = h(d, x) < p.open_sea_m;
     open(0, x) = sea ? 1.f : 0.f;
   }
   // Shrunk by 2σ before the blur, so the weight has eased to ~0 before a
-  // line that may not move: no step along the edge beside an island or a
-  // corner square.
+  // line that may not move: no step along the edge beside an island.
   const int shrink = int(std::ceil(2 * kAlongEdgeSigmaPx));
   cv::Mat1f inner;
   cv::erode(open, inner, cv::Mat1b::ones(1, 2 * shrink + 1), cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar(1));
@@ -90,15 +87,15 @@ void smooth_band(cv::Mat1f& h, const EdgeRepairParams& p) {
 void repair_canvas_edges(cv::Mat1f& h, const EdgeRepairParams& p) {
   if (p.band_px <= 0 || h.rows < 2 * p.band_px || h.cols < 2 * p.band_px) return;
   // top, bottom (flipped), left and right (transposed, then flipped)
-  repair_top_edge(h, p, false);
+  repair_top_edge(h, p);
   cv::Mat1f f;
   cv::flip(h, f, 0);
-  repair_top_edge(f, p, false);
+  repair_top_edge(f, p);
   cv::flip(f, h, 0);
   cv::Mat1f t = h.t();
-  repair_top_edge(t, p, false);
+  repair_top_edge(t, p);
   cv::flip(t, f, 0);
-  repair_top_edge(f, p, false);
+  repair_top_edge(f, p);
   cv::flip(f, t, 0);
   cv::Mat1f(t.t()).copyTo(h);
   smooth_band(h, p);
