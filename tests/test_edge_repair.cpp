@@ -71,12 +71,16 @@ TEST(EdgeRepair, InteriorAndLandAtTheEdgeKeepTheirValues) {
     for (int x = 0; x < kEdgeSide; ++x) {
       const int d = std::min(std::min(x, kEdgeSide - 1 - x), std::min(y, kEdgeSide - 1 - y));
       const bool island = before(y, x) > 0;
-      if (d >= reach || island) ASSERT_EQ(h(y, x), before(y, x)) << x << "," << y;
+      if (d >= reach || island) {
+        ASSERT_EQ(h(y, x), before(y, x)) << x << "," << y;
+      }
     }
   // The lines beside the island are eased, not cut: no jump along the edge
   // larger than the artefact's own rows differ.
   for (int x = 1; x < kEdgeSide; ++x)
-    if (before(1, x) < 0 && before(1, x - 1) < 0) EXPECT_LT(std::abs(h(1, x) - h(1, x - 1)), 0.5) << x;
+    if (before(1, x) < 0 && before(1, x - 1) < 0) {
+      EXPECT_LT(std::abs(h(1, x) - h(1, x - 1)), 0.5) << x;
+    }
 }
 
 TEST(EdgeRepair, OffOrTooSmallLeavesTheFieldAlone) {
