@@ -1,4 +1,4 @@
-// The network's answer at the canvas edge (infer/edge_repair.hpp): an open-sea
+// The network's open sea cleaned (infer/edge_repair.hpp). At the canvas edge: an open-sea
 // floor whose outer rows carry the zero-padding artefact the shipped model
 // draws (a step up on the last row, a groove a few rows in) is blended back
 // into the floor's own trend; land reaching the edge, and everything past the
@@ -92,4 +92,42 @@ TEST(EdgeRepair, OffOrTooSmallLeavesTheFieldAlone) {
   const cv::Mat1f small_before = small.clone();
   repair_canvas_edges(small);  // narrower than two bands
   EXPECT_EQ(cv::norm(small, small_before, cv::NORM_INF), 0);
+}
+
+// Ghost contours (a 4-cell ripple of ±0.3 m) on a deep floor are smoothed
+// away; a reef ring at −1 m and its neighbourhood keep their values, and so
+// does the floor's broad relief.
+TEST(OpenSea, GhostContoursFadeAndTheReefStays) {
+  constexpr int kSeaSide = 128;
+  cv::Mat1f h(kSeaSide, kSeaSide);
+  auto broad_m = [](int x, int y) { return float(-80.0 + 5.0 * std::sin(x / 20.0) * std::cos(y / 25.0)); };
+  auto ripple_m = [](int x) { return float(0.3 * std::sin(2 * M_PI * x / 4.0)); };
+  for (int y = 0; y < kSeaSide; ++y)
+    for (int x = 0; x < kSeaSide; ++x) h(y, x) = broad_m(x, y) + ripple_m(x);
+  // A reef: a band of rows at −1 m.
+  for (int y = 60; y < 64; ++y)
+    for (int x = 0; x < kSeaSide; ++x) h(y, x) = -1.f;
+  const cv::Mat1f before = h.clone();
+  const OpenSeaSmoothing p;
+  smooth_open_sea(h, p);
+  const int reach = 2 * int(std::ceil(2 * p.sigma_px));  // the neighbourhood the weight reads, cells
+  double ripple_before = 0, ripple_after = 0, broad_err = 0;
+  int n = 0;
+  for (int y = 8; y < 40; ++y)
+    for (int x = 8; x < kSeaSide - 8; ++x) {
+      ripple_before += std::pow(before(y, x) - broad_m(x, y), 2);
+      ripple_after += std::pow(h(y, x) - broad_m(x, y), 2);
+      broad_err = std::max(broad_err, double(std::abs(h(y, x) - broad_m(x, y))));
+      ++n;
+    }
+  // The 4-cell ripple is cut to under a tenth (a Gaussian of σ 2 cells passes
+  // e^(−2π²σ²/λ²) ≈ 0.7 % of it); the broad relief moves by under 0.1 m.
+  EXPECT_LT(std::sqrt(ripple_after / n), 0.1 * std::sqrt(ripple_before / n));
+  EXPECT_LT(broad_err, 0.1);
+  for (int y = 60 - reach / 2; y < 64 + reach / 2; ++y)
+    for (int x = 0; x < kSeaSide; ++x) ASSERT_EQ(h(y, x), before(y, x)) << x << "," << y;
+  // Off: nothing moves.
+  cv::Mat1f off = before.clone();
+  smooth_open_sea(off, OpenSeaSmoothing{0});
+  EXPECT_EQ(cv::norm(off, before, cv::NORM_INF), 0);
 }

@@ -101,4 +101,19 @@ void repair_canvas_edges(cv::Mat1f& h, const EdgeRepairParams& p) {
   smooth_band(h, p);
 }
 
+
+void smooth_open_sea(cv::Mat1f& h, const OpenSeaSmoothing& p) {
+  if (p.sigma_px <= 0) return;
+  cv::Mat1f smooth, highest;
+  cv::GaussianBlur(h, smooth, cv::Size(0, 0), p.sigma_px, p.sigma_px, cv::BORDER_REPLICATE);
+  const int k = 2 * int(std::ceil(2 * p.sigma_px)) + 1;
+  cv::dilate(h, highest, cv::Mat1b::ones(k, k), cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x) {
+      const double t = std::clamp((p.from_m - highest(y, x)) / (p.from_m - p.full_m), 0.0, 1.0);
+      const double w = t * t * (3 - 2 * t);
+      h(y, x) = float(h(y, x) + w * (smooth(y, x) - h(y, x)));
+    }
+}
+
 }  // namespace reefgen::infer

@@ -182,6 +182,7 @@ cv::Mat1f finish_answer(cv::Mat1f h, const DecodedSketch& sketch, const InferOpt
   // also eroded and refined; --raw (amplify off) keeps the network's bits.
   if (want.width == want.height && o.amplify && h.rows == h.cols) {
     repair_canvas_edges(h);
+    smooth_open_sea(h);
     cv::Mat1b label;
     cv::resize(sketch.label, label, want, 0, 0, cv::INTER_NEAREST);
     const Rerolled r = reroll_for_amplify(h, o.world_size_m / h.cols, o.seed, o.variation, amplification_of(o));

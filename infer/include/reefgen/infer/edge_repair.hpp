@@ -1,6 +1,6 @@
 #pragma once
-// The network's answer near the canvas edge (docs/INFERENCE.md "Canvas
-// edges"): the generator's convolutions pad with zeros, and its answer on the
+// The network's answer on the open sea, cleaned before amplifying
+// (docs/INFERENCE.md "The open sea"). Near the canvas edge: the generator's convolutions pad with zeros, and its answer on the
 // outermost cells of an open-sea edge departs from the sea floor it draws
 // everywhere else — a step up on the last row and a groove ~1.5 m deep a few
 // rows in, which every hill-shade of an output shows as a square frame
@@ -25,5 +25,21 @@ struct EdgeRepairParams {
 // edges' fits meet).
 // h: heights in metres, any size of at least 2·band_px a side; in place.
 void repair_canvas_edges(cv::Mat1f& h, const EdgeRepairParams& p = {});
+
+struct OpenSeaSmoothing {
+  double sigma_px = 2;    // Gaussian σ, model cells (47 m), [0, 16] (0 = off)
+  double from_m = -20;    // cells whose neighbourhood reaches above this are not moved, metres
+  double full_m = -40;    // fully smoothed where the whole neighbourhood lies below this, metres
+};
+
+// The ghost contours of the open sea: an L1-trained network answers the
+// fore-reef's many possible positions with their average, a few faint
+// contour-parallel steps outside the reef that no training target has
+// (fine relief at σ 2 cells: 0.20 m RMS in the shipped model's deep sea,
+// 0.07 m in the targets; docs/INFERENCE.md "The open sea"). A light
+// Gaussian smoothing of the deep sea, weighted by how deep the cell's whole
+// neighbourhood (±2σ) lies: the reef, its fore-reef slope and any land are
+// never moved, the broad relief of the floor stays.
+void smooth_open_sea(cv::Mat1f& h, const OpenSeaSmoothing& p = {});
 
 }  // namespace reefgen::infer
