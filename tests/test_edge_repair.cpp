@@ -22,7 +22,7 @@ float floor_m(int x, int y) {
 }
 
 // The artefact as measured on the shipped model's answers (docs/INFERENCE.md
-// "Canvas edges"): +1 m on the last row, −1.4 m on the next, fading inwards.
+// "The open sea"): +1 m on the last row, −1.4 m on the next, fading inwards.
 float artefact_m(int d) {
   static const float kRows[] = {1.0f, -1.4f, -1.2f, -0.7f, -0.8f, -0.2f, -0.2f, -0.25f};
   return d < 8 ? kRows[d] : 0.f;
