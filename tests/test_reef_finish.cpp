@@ -137,3 +137,52 @@ TEST(PaintedReef, TopIsTheGeneratorsCrestAndFlat) {
   EXPECT_EQ(painted.crest_m, coral.crest_m);
   EXPECT_EQ(painted.flat_m, coral.flat_m);
 }
+
+// Patch reefs on a painted lagoon's floor, at four times the label's side
+// (5.9 m cells): knolls rise from the floor over a share of it near the
+// generator's (patch_reefs 0.3), their tops stay under water (−0.5 m at
+// most), nothing outside the painted lagoon or above its floor moves, and
+// the seed places them.
+TEST(PaintedLagoon, PatchReefsRiseFromTheFloorAndStayUnderWater) {
+  constexpr int kLabelSide = 128, kOut = 4 * kLabelSide;
+  const double world_m = kCanvasWorldSizeM * kLabelSide / kModelSidePx;
+  cv::Mat1b label(kLabelSide, kLabelSide, uint8_t(kAbyss));
+  cv::circle(label, {64, 64}, 50, cv::Scalar(kReef), -1);
+  cv::circle(label, {64, 64}, 42, cv::Scalar(kLagoon), -1);
+  cv::Mat1f floor_m(kOut, kOut, -25.f);
+  // A shallow shelf (−1 m) in one quarter of the lagoon: above the floor.
+  floor_m(cv::Rect(kOut / 2, kOut / 2, 60, 60)).setTo(-1.f);
+  cv::Mat1b lagoon_out, near_lagoon;
+  cv::resize(label == kLagoon, lagoon_out, {kOut, kOut}, 0, 0, cv::INTER_NEAREST);
+  // The lagoon's edge is eased over a label cell (4 px here): past it nothing moves.
+  cv::dilate(lagoon_out, near_lagoon, cv::Mat1b::ones(11, 11));
+  auto grown = [&](uint64_t seed) {
+    cv::Mat1f h = floor_m.clone();
+    grow_painted_patch_reefs(h, label, world_m, seed);
+    return h;
+  };
+  const cv::Mat1f a = grown(3), b = grown(3), c = grown(4);
+  EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0);
+  EXPECT_GT(cv::norm(a, c, cv::NORM_INF), 1.0);
+  int64_t lagoon = 0, knoll = 0;
+  for (int y = 0; y < kOut; ++y)
+    for (int x = 0; x < kOut; ++x) {
+      ASSERT_GE(a(y, x), floor_m(y, x)) << "lowered at " << x << "," << y;
+      if (!near_lagoon(y, x) || floor_m(y, x) > -2.f) {
+        ASSERT_EQ(a(y, x), floor_m(y, x)) << "moved outside the lagoon's floor at " << x << "," << y;
+        continue;
+      }
+      if (!lagoon_out(y, x)) continue;
+      ++lagoon;
+      ASSERT_LE(a(y, x), -0.5f + 1e-4f) << x << "," << y;
+      if (a(y, x) > floor_m(y, x) + 1.f) ++knoll;
+    }
+  // The generator's rule at patch_reefs 0.3 lifts a few to ~20 % of a floor.
+  const double share = double(knoll) / double(lagoon);
+  EXPECT_GT(share, 0.02);
+  EXPECT_LT(share, 0.35);
+  // The knolls reach towards the surface: the highest top is shallower than −6 m.
+  double top = -1e9;
+  cv::minMaxLoc(a, nullptr, &top, nullptr, nullptr, lagoon_out & (floor_m < -2.f));
+  EXPECT_GT(top, -6.0);
+}

@@ -348,6 +348,7 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
   cv::Mat1f out = refine_heights(coarse, land, resistance, world_size_m, seed, p, detail);
   smooth_model_grid_underwater(out, S, seed);
   finish_painted_reef(out, label_s, world_size_m, seed);
+  grow_painted_patch_reefs(out, label_s, world_size_m, seed);
   fill_ponds(out, label, world_size_m / N, a.pond_max_m2);
   drain_pits(out, kPitDepthM, float(p.pit_breach_m), world_size_m / N);
   if (lowland_relief) add_lowland_relief(out, 0, seed);

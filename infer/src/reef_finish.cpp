@@ -1,6 +1,7 @@
 #include "reefgen/infer/reef_finish.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
@@ -182,6 +183,43 @@ void finish_painted_reef(cv::Mat1f& h, const cv::Mat1b& label, double world_size
                                     : kMotuShoreM + (berm - kMotuShoreM) * ramp(0, kMotuBermM, sd_m);
         z += reach_w * std::max(0.f, lv - z);
       }
+    }
+}
+
+namespace {
+// A lagoon cell is floor below this, metres: shallower is the reef flat,
+// the shore or a knoll the network already drew.
+constexpr float kLagoonFloorM = -2.f;
+// The generator's patch-reef rule (procgen reef.cpp patch_reef_m): noise
+// features of this size, metres, and knoll tops between these depths.
+constexpr double kPatchFeatureM = 250;
+constexpr double kKnollTopShallowM = -0.5, kKnollTopDeepM = -6.0;
+}  // namespace
+
+void grow_painted_patch_reefs(cv::Mat1f& h, const cv::Mat1b& label, double world_size_m, uint64_t seed,
+                              const PaintedLagoonParams& p) {
+  if (p.patch_reefs <= 0 || h.empty()) return;
+  const int N = h.cols;
+  // The painted lagoon at this side, eased in over a model cell from its edges.
+  cv::Mat1f lagoon_s;
+  cv::Mat1f(label == kLagoon).convertTo(lagoon_s, CV_32F, 1.0 / 255);
+  cv::GaussianBlur(lagoon_s, lagoon_s, cv::Size(0, 0), kZoneBlurPx, kZoneBlurPx, cv::BORDER_REPLICATE);
+  const cv::Mat1f lagoon = resized(lagoon_s, N);
+  const terrain::GradientNoise2 noise(derive_seed(seed, 0, "painted-patch-reefs"));
+  const double cell_m = world_size_m / N;
+  const double threshold = 0.35 - 0.4 * p.patch_reefs;
+  for (int y = 0; y < N; ++y)
+    for (int x = 0; x < N; ++x) {
+      const float w = std::clamp(2.f * lagoon(y, x) - 1.f, 0.f, 1.f);
+      if (w <= 0 || !(h(y, x) < kLagoonFloorM)) continue;
+      const float u = float(x * cell_m / kPatchFeatureM), v = float(y * cell_m / kPatchFeatureM);
+      const double n = noise.fbm(u, v, 3);
+      if (n <= threshold) continue;
+      const double top = kKnollTopShallowM + (kKnollTopDeepM - kKnollTopShallowM) *
+                                                 (0.5 + 0.5 * noise.perlin(u * 0.37f + 11.f, v * 0.37f - 5.f));
+      const double e = std::clamp((n - threshold) / 0.12, 0.0, 1.0), rise = e * e * (3 - 2 * e);
+      const double knoll = h(y, x) + (std::max(top, double(h(y, x))) - h(y, x)) * rise;
+      h(y, x) = float(h(y, x) + w * (knoll - h(y, x)));
     }
 }
 

@@ -40,4 +40,18 @@ cv::Mat1f reef_position(const cv::Mat1b& label, const PaintedReefParams& p, doub
 void finish_painted_reef(cv::Mat1f& h, const cv::Mat1b& label, double world_size_m, uint64_t seed,
                          const PaintedReefParams& p = {});
 
+// Patch reefs on the painted lagoon's floor (docs/REEF.md "Painted
+// lagoons"). The training targets' lagoons hold patch reefs at random places
+// the sketch does not show, so an L1-trained network answers their average:
+// a floor without knolls. Where the output is finer than the model's side,
+// they come back by the generator's own rule (procgen reef.cpp
+// patch_reef_m: knolls where a noise of ~250 m features passes a threshold
+// set by `patch_reefs`, tops 0.5–6 m under water), on painted lagoon floor
+// below −2 m, only lifting it. label: regions at any side (nearest), square.
+struct PaintedLagoonParams {
+  double patch_reefs = 0.3;   // how much of the floor rises in patch reefs (the generator's default), [0, 1]
+};
+void grow_painted_patch_reefs(cv::Mat1f& h, const cv::Mat1b& label, double world_size_m, uint64_t seed,
+                              const PaintedLagoonParams& p = {});
+
 }  // namespace reefgen::infer
