@@ -8,6 +8,7 @@
 
 #include "reefgen/constants.hpp"
 #include "reefgen/error.hpp"
+#include "reefgen/infer/edge_repair.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/rng.hpp"
 
@@ -127,6 +128,9 @@ cv::Mat1f world_model_heights(model::GeneratorFile& g, const DecodedSketch& sket
   cv::Mat1f h = forward_heights(g, label_sq, sub_sq, o)(cv::Rect(at, label.size())).clone();
   add_large_islands(g, label, sub, o, h);
   cv::Mat1f out = h(cv::Rect(mx, my, W, H)).clone();
+  // The ghost contours of the open sea, as infer takes them off (the
+  // reflected margin already keeps the canvas edges clean).
+  smooth_open_sea(out);
   keep_painted_land(out, s.label);
   return out;
 }
