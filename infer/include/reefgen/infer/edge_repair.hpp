@@ -27,19 +27,19 @@ struct EdgeRepairParams {
 void repair_canvas_edges(cv::Mat1f& h, const EdgeRepairParams& p = {});
 
 struct OpenSeaSmoothing {
-  double sigma_px = 2;    // Gaussian σ, model cells (47 m), [0, 16] (0 = off)
-  double from_m = -20;    // cells whose neighbourhood reaches above this are not moved, metres
+  double sigma_px = 4;    // Gaussian σ, model cells (94 m), [0, 16] (0 = off)
+  double from_m = -20;    // a cell whose neighbourhood (±2σ) reaches above this is not moved, metres
   double full_m = -40;    // fully smoothed where the whole neighbourhood lies below this, metres
 };
 
 // The ghost contours of the open sea: an L1-trained network answers the
-// fore-reef's many possible positions with their average, a few faint
+// fore reef's many possible positions with their average, faint
 // contour-parallel steps outside the reef that no training target has
-// (fine relief at σ 2 cells: 0.20 m RMS in the shipped model's deep sea,
-// 0.07 m in the targets; docs/INFERENCE.md "The open sea"). A light
-// Gaussian smoothing of the deep sea, weighted by how deep the cell's whole
-// neighbourhood (±2σ) lies: the reef, its fore-reef slope and any land are
-// never moved, the broad relief of the floor stays.
+// (relief at σ 4 cells: 0.29 m RMS in the shipped model's deep sea, 0.10 m
+// in the targets; docs/INFERENCE.md "The open sea"). A Gaussian smoothing of
+// the deep sea, weighted by how deep the cell's whole neighbourhood (±2σ)
+// lies: the reef, its fore-reef slope and any land are never moved; the
+// floor's broad relief (~1.5 km features) keeps most of its amplitude.
 void smooth_open_sea(cv::Mat1f& h, const OpenSeaSmoothing& p = {});
 
 }  // namespace reefgen::infer
