@@ -1,6 +1,6 @@
 #include "reefgen/infer/infer.hpp"
-#include "reefgen/infer/edge_repair.hpp"
 #include "reefgen/infer/amplify.hpp"
+#include "reefgen/infer/edge_repair.hpp"
 #include "reefgen/infer/variation.hpp"
 
 

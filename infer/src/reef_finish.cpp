@@ -11,6 +11,7 @@
 #include "reefgen/ramp.hpp"
 #include "reefgen/rng.hpp"
 #include "reefgen/terrain/noise.hpp"
+#include "reefgen/terrain/patch_reefs.hpp"
 
 namespace reefgen::infer {
 
@@ -190,10 +191,6 @@ namespace {
 // A lagoon cell is floor below this, metres: shallower is the reef flat,
 // the shore or a knoll the network already drew.
 constexpr float kLagoonFloorM = -2.f;
-// The generator's patch-reef rule (procgen reef.cpp patch_reef_m): noise
-// features of this size, metres, and knoll tops between these depths.
-constexpr double kPatchFeatureM = 250;
-constexpr double kKnollTopShallowM = -0.5, kKnollTopDeepM = -6.0;
 }  // namespace
 
 void grow_painted_patch_reefs(cv::Mat1f& h, const cv::Mat1b& label, double world_size_m, uint64_t seed,
@@ -207,18 +204,11 @@ void grow_painted_patch_reefs(cv::Mat1f& h, const cv::Mat1b& label, double world
   const cv::Mat1f lagoon = resized(lagoon_s, N);
   const terrain::GradientNoise2 noise(derive_seed(seed, 0, "painted-patch-reefs"));
   const double cell_m = world_size_m / N;
-  const double threshold = 0.35 - 0.4 * p.patch_reefs;
   for (int y = 0; y < N; ++y)
     for (int x = 0; x < N; ++x) {
       const float w = std::clamp(2.f * lagoon(y, x) - 1.f, 0.f, 1.f);
       if (w <= 0 || !(h(y, x) < kLagoonFloorM)) continue;
-      const float u = float(x * cell_m / kPatchFeatureM), v = float(y * cell_m / kPatchFeatureM);
-      const double n = noise.fbm(u, v, 3);
-      if (n <= threshold) continue;
-      const double top = kKnollTopShallowM + (kKnollTopDeepM - kKnollTopShallowM) *
-                                                 (0.5 + 0.5 * noise.perlin(u * 0.37f + 11.f, v * 0.37f - 5.f));
-      const double e = std::clamp((n - threshold) / 0.12, 0.0, 1.0), rise = e * e * (3 - 2 * e);
-      const double knoll = h(y, x) + (std::max(top, double(h(y, x))) - h(y, x)) * rise;
+      const float knoll = std::max(h(y, x), terrain::patch_reef_m(noise, x * cell_m, y * cell_m, -h(y, x), p.patch_reefs));
       h(y, x) = float(h(y, x) + w * (knoll - h(y, x)));
     }
 }

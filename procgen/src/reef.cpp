@@ -8,6 +8,7 @@
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/rng.hpp"
 #include "reefgen/terrain/noise.hpp"
+#include "reefgen/terrain/patch_reefs.hpp"
 
 namespace reefgen::procgen {
 
@@ -211,22 +212,6 @@ float pass_distance(const ReefPlan::Pass& p, float x, float y) {
   return best >= 1e30f ? 1e30f : std::sqrt(best);
 }
 
-// Patch reefs and pinnacles: where a band-limited noise field (features of
-// ~kPatchCellM) rises above a threshold set by `density`, the floor rises to
-// a knoll whose top lies 0.5–6 m under water (One Tree Reef's lagoon: patch
-// reefs to near the surface), in irregular clusters as on real lagoon floors.
-// Returns the knoll surface at (xm, ym) metres, or −∞ where there is none.
-float patch_reef_m(const terrain::GradientNoise2& noise, double xm, double ym, double depth_m, double density) {
-  const float u = float(xm / kPatchCellM), v = float(ym / kPatchCellM);
-  const double n = noise.fbm(u, v, 3);
-  // fbm is roughly symmetric about 0 with |n| < 0.6: density 0 → no knolls,
-  // 1 → about a third of the floor.
-  const double threshold = 0.35 - 0.4 * density;
-  if (n <= threshold) return -1e30f;
-  const double top = -0.5 - 5.5 * (0.5 + 0.5 * noise.perlin(u * 0.37f + 11.f, v * 0.37f - 5.f));
-  return float(-depth_m + (depth_m + top) * ease((n - threshold) / 0.12));
-}
-
 // A low-frequency noise tabulated once on a (kTableSide + 1)² grid over
 // ±kTableExtent canvas units (cells of ~23 m at the default 6 km canvas) and
 // read bilinearly: the sea floor's relief has features of 1500 m, so this
@@ -298,7 +283,7 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
       if (xr < c.flat_begin) {
         const double q = std::min(1.0, r / R[2]);
         double F = -D * (kBackReefShare + (1.0 - kBackReefShare) * (1.0 - q * q)) + 0.08 * D * noise.fbm(float(sx * to_m / 600), float(sy * to_m / 600), 2);
-        if (rp.patch_reefs > 0 && D > 1) F = std::max(F, double(patch_reef_m(patch_noise, sx * to_m, sy * to_m, D, rp.patch_reefs)));
+        if (rp.patch_reefs > 0 && D > 1) F = std::max(F, double(terrain::patch_reef_m(patch_noise, sx * to_m, sy * to_m, D, rp.patch_reefs)));
         g = std::max(g, std::min(F, -0.3));
       }
       // 2. Passes cut the coral down to their floor.

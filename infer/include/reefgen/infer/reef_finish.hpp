@@ -44,7 +44,7 @@ void finish_painted_reef(cv::Mat1f& h, const cv::Mat1b& label, double world_size
 // lagoons"). The training targets' lagoons hold patch reefs at random places
 // the sketch does not show, so an L1-trained network answers their average:
 // a floor without knolls. Where the output is finer than the model's side,
-// they come back by the generator's own rule (procgen reef.cpp
+// they come back by the generator's own rule (terrain/patch_reefs.hpp
 // patch_reef_m: knolls where a noise of ~250 m features passes a threshold
 // set by `patch_reefs`, tops 0.5–6 m under water), on painted lagoon floor
 // below −2 m, only lifting it. label: regions at any side (nearest), square.

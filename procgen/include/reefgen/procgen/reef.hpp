@@ -27,10 +27,6 @@ inline double flank_height_m(double d_m, double floor_m, double foot_m, double d
   return base + relief;
 }
 
-// Feature size of the patch-reef noise (m): about the spacing of patch
-// reefs on atoll lagoon floors, a few per km².
-inline constexpr double kPatchCellM = 250;
-
 // Deepest floor (m, positive) of a mature lagoon of `area_km2` (the area
 // inside the reef). Purdy & Winterer (2001, 301 atolls): lagoon depth grows
 // with atoll area, typically 20–60 m, up to ~90 m; this fit gives 18 m at

@@ -1,0 +1,35 @@
+#pragma once
+// Patch reefs and pinnacles on a lagoon floor (docs/REEF.md "The steps"):
+// one rule for the generator's lagoons (procgen reef.cpp) and for the
+// painted lagoons a model answer is finished with (infer reef_finish.cpp).
+#include <algorithm>
+
+#include "reefgen/terrain/noise.hpp"
+
+namespace reefgen::terrain {
+
+// Feature size of the patch-reef noise (m): about the spacing of patch
+// reefs on atoll lagoon floors, a few per km².
+inline constexpr double kPatchCellM = 250;
+
+// Where a band-limited noise field (features of ~kPatchCellM) rises above a
+// threshold set by `density` ([0, 1]: none to about a third of the floor),
+// the floor at depth_m (positive) rises to a knoll whose top lies 0.5–6 m
+// under water (One Tree Reef's lagoon: patch reefs to near the surface), in
+// irregular clusters as on real lagoon floors. Returns the knoll surface at
+// (xm, ym) metres, or −1e30 where there is none; callers take the max with
+// their floor.
+inline float patch_reef_m(const GradientNoise2& noise, double xm, double ym, double depth_m, double density) {
+  const float u = float(xm / kPatchCellM), v = float(ym / kPatchCellM);
+  const double n = noise.fbm(u, v, 3);
+  // fbm is roughly symmetric about 0 with |n| < 0.6: density 0 → no knolls,
+  // 1 → about a third of the floor.
+  const double threshold = 0.35 - 0.4 * density;
+  if (n <= threshold) return -1e30f;
+  const double top = -0.5 - 5.5 * (0.5 + 0.5 * noise.perlin(u * 0.37f + 11.f, v * 0.37f - 5.f));
+  const double t = std::clamp((n - threshold) / 0.12, 0.0, 1.0);
+  const double rise = t * t * (3.0 - 2.0 * t);
+  return float(-depth_m + (depth_m + top) * rise);
+}
+
+}  // namespace reefgen::terrain
