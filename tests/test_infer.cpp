@@ -256,7 +256,9 @@ TEST(Infer, RealismBenchMeasuresWhatGenerateAndInferGive) {
   InferOptions io;
   io.size_px = 96;
   const RealismStats s2 = realism_stats(infer_heights(g, {read_sketch(files[1])}, io)[0], io.world_size_m / 96);
-  EXPECT_DOUBLE_EQ(r["painted"]["per_sketch"]["2.png"]["valleys"].get<double>(), s2.valleys);
+  if (s2.flank_cells > 0) EXPECT_DOUBLE_EQ(r["painted"]["per_sketch"]["2.png"]["valleys"].get<double>(), s2.valleys);
+  else EXPECT_TRUE(r["painted"]["per_sketch"]["2.png"]["valleys"].is_null());
+  EXPECT_EQ(r["painted"]["per_sketch"]["2.png"]["flank_cells"].get<int64_t>(), s2.flank_cells);
   EXPECT_DOUBLE_EQ(r["painted"]["per_sketch"]["2.png"]["pits"].get<double>(), s2.pits);
   const double pm = r["painted"]["median_pits"], tm = r["painted"]["median_terraces"], vm = r["painted"]["median_valleys"];
   EXPECT_EQ(r["painted"]["bars_met"].get<bool>(), pm <= 0.01 && tm <= 0.03 && vm >= 0.30);
@@ -266,6 +268,31 @@ TEST(Infer, RealismBenchMeasuresWhatGenerateAndInferGive) {
   o.size_px = 32;
   expect_error_naming([&] { bench::realism_bench(o, &g, files); }, "size must be in 64..8192");
   fs::remove_all(d);
+}
+
+// A canvas without a flank (a painted atoll: no land between 10 % and 90 %
+// of its peak) has no valleys to measure: it is counted in no_flank and
+// left out of the terraces' and valleys' medians, not read as 0 valleys.
+TEST(Infer, RealismSummaryLeavesCanvasesWithoutAFlankOut) {
+  std::vector<RealismStats> s(4);
+  const double v[] = {0.31, 0.0, 0.27, 0.35};
+  for (size_t i = 0; i < s.size(); ++i) {
+    s[i].land_cells = 100;
+    s[i].flank_cells = i == 1 ? 0 : 50;
+    s[i].valleys = v[i];
+    s[i].terraces = 0.01 * double(i);
+  }
+  const nlohmann::json r = bench::realism_summary(s, {1, 2, 3, 4});
+  EXPECT_EQ(r["count"], 4);
+  EXPECT_EQ(r["no_flank"], 1);
+  EXPECT_DOUBLE_EQ(r["median_valleys"].get<double>(), 0.31);
+  EXPECT_DOUBLE_EQ(r["min_valleys"].get<double>(), 0.27);
+  EXPECT_DOUBLE_EQ(r["median_terraces"].get<double>(), 0.02);
+  EXPECT_DOUBLE_EQ(r["median_pits"].get<double>(), 0.0);
+  EXPECT_TRUE(r["bars_met"].get<bool>());
+  // Counted as 0, the same set would fail the bar (median 0.29).
+  s[1].flank_cells = 50;
+  EXPECT_FALSE(bench::realism_summary(s, {1, 2, 3, 4})["bars_met"].get<bool>());
 }
 
 TEST(Infer, FuzzySketchGivesTheCleanSketchResult) {

@@ -25,16 +25,23 @@ double ms_of(F&& f) {
   return 1e3 * std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// Medians of a set's statistics and whether they meet the bars.
-nlohmann::json summary(const std::vector<RealismStats>& s, const std::vector<double>& ms) {
+}  // namespace
+
+nlohmann::json realism_summary(const std::vector<RealismStats>& s, const std::vector<double>& ms) {
   std::vector<double> pits, terraces, valleys;
+  int no_flank = 0;
   for (const auto& r : s) {
     pits.push_back(r.pits);
+    if (r.flank_cells == 0) {
+      ++no_flank;
+      continue;
+    }
     terraces.push_back(r.terraces);
     valleys.push_back(r.valleys);
   }
   const double p = median(pits), t = median(terraces), v = median(valleys);
   return {{"count", s.size()},
+          {"no_flank", no_flank},
           {"median_pits", p},
           {"median_terraces", t},
           {"median_valleys", v},
@@ -42,8 +49,6 @@ nlohmann::json summary(const std::vector<RealismStats>& s, const std::vector<dou
           {"median_ms", median(ms)},
           {"bars_met", p <= 0.01 && t <= 0.03 && v >= 0.30}};
 }
-
-}  // namespace
 
 nlohmann::json realism_bench(const RealismBenchOptions& o, model::GeneratorFile* g,
                              const std::vector<std::filesystem::path>& painted) {
@@ -65,7 +70,7 @@ nlohmann::json realism_bench(const RealismBenchOptions& o, model::GeneratorFile*
       stats.push_back(realism_stats(f.height_m, spec.world_size_m / o.size_px));
       progress.tick(size_t(i + 1));
     }
-    out["specs"] = summary(stats, ms);
+    out["specs"] = realism_summary(stats, ms);
     out["specs"]["seed"] = o.spec_seed;
     out["specs"]["subsidence"] = o.subsidence;
   }
@@ -82,11 +87,15 @@ nlohmann::json realism_bench(const RealismBenchOptions& o, model::GeneratorFile*
       cv::Mat1f h;
       ms.push_back(ms_of([&] { h = infer::infer_heights(*g, {s}, io)[0]; }));
       stats.push_back(realism_stats(h, io.world_size_m / o.size_px));
-      per[painted[i].filename().string()] = {
-          {"pits", stats.back().pits}, {"terraces", stats.back().terraces}, {"valleys", stats.back().valleys}};
+      const RealismStats& st = stats.back();
+      const bool flank = st.flank_cells > 0;
+      per[painted[i].filename().string()] = {{"pits", st.pits},
+                                             {"flank_cells", st.flank_cells},
+                                             {"terraces", flank ? nlohmann::json(st.terraces) : nlohmann::json()},
+                                             {"valleys", flank ? nlohmann::json(st.valleys) : nlohmann::json()}};
       progress.tick(i + 1);
     }
-    out["painted"] = summary(stats, ms);
+    out["painted"] = realism_summary(stats, ms);
     out["painted"]["seed"] = io.seed;
     out["painted"]["variation"] = io.variation;
     out["painted"]["per_sketch"] = per;

@@ -12,6 +12,7 @@
 
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/model/generator_file.hpp"
+#include "reefgen/terrain/realism.hpp"
 
 namespace reefgen::bench {
 
@@ -25,9 +26,16 @@ struct RealismBenchOptions {
 };
 
 // {"specs": {...}} when o.specs > 0 and {"painted": {..., "per_sketch": {...}}}
-// when `painted` is not empty (then `g` must be given): count, median_pits,
-// median_terraces, median_valleys, min_valleys, median_ms, bars_met.
+// when `painted` is not empty (then `g` must be given): count, no_flank,
+// median_pits, median_terraces, median_valleys, min_valleys, median_ms,
+// bars_met (realism_summary's).
 nlohmann::json realism_bench(const RealismBenchOptions& o, model::GeneratorFile* g,
                              const std::vector<std::filesystem::path>& painted);
+
+// The medians of a set's statistics and whether they meet the bars. Terraces
+// and valleys are shares of the flank: a canvas with none (flank_cells 0, a
+// painted atoll whose rim is under water) is left out of their medians and
+// counted in no_flank, not counted as a canvas without valleys.
+nlohmann::json realism_summary(const std::vector<terrain::RealismStats>& s, const std::vector<double>& ms);
 
 }  // namespace reefgen::bench
