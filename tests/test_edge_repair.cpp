@@ -8,6 +8,8 @@
 #include <gtest/gtest.h>
 
 #include "reefgen/infer/edge_repair.hpp"
+#include "reefgen/labels.hpp"
+#include "test_util.hpp"
 
 using namespace reefgen::infer;
 
@@ -140,4 +142,59 @@ TEST(OpenSea, GhostContoursFadeAndTheReefStays) {
   cv::Mat1f off = before.clone();
   smooth_open_sea(off, OpenSeaSmoothing{0});
   EXPECT_EQ(cv::norm(off, before, cv::NORM_INF), 0);
+}
+
+// A painted lagoon ring (label kLagoon, water) carrying contour-parallel
+// ripples round an island: the ripples fade in the lagoon's interior, the
+// land, the open sea and the lagoon's edge cells keep their values, no water
+// comes above the sea, and an all-land or off call moves nothing.
+TEST(Lagoon, RingsFadeInsideThePaintedLagoonOnly) {
+  using reefgen::kAbyss, reefgen::kIsland, reefgen::kLagoon;
+  constexpr int kSide = 128;
+  constexpr double kRippleAmplitudeM = 0.4, kRipplePeriodPx = 5;
+  const cv::Point2f centre(64, 64);
+  cv::Mat1f h(kSide, kSide);
+  cv::Mat1b label(kSide, kSide);
+  auto ripple = [&](double r) { return std::sin(2 * M_PI * r / kRipplePeriodPx); };
+  for (int y = 0; y < kSide; ++y)
+    for (int x = 0; x < kSide; ++x) {
+      const double r = std::hypot(x - centre.x, y - centre.y);
+      // Island to r 20, lagoon 20..50 (a basin −8 m with ripples), reef and sea beyond.
+      if (r < 20) label(y, x) = kIsland, h(y, x) = float(10 + 2 * (20 - r));
+      else if (r < 50) label(y, x) = kLagoon, h(y, x) = float(-8 + kRippleAmplitudeM * ripple(r));
+      else label(y, x) = kAbyss, h(y, x) = float(-60 - 0.5 * (r - 50));
+    }
+  const cv::Mat1f before = h.clone();
+  const LagoonSmoothing p;
+  smooth_lagoon_floor(h, label, p);
+  // The ripple's amplitude by projection, over the lagoon's interior (≥ 2σ + 2 cells from its edges).
+  double proj_before = 0, proj_after = 0, norm = 0;
+  for (int y = 0; y < kSide; ++y)
+    for (int x = 0; x < kSide; ++x) {
+      const double r = std::hypot(x - centre.x, y - centre.y);
+      if (r >= 20 + 2 * p.sigma_px + 2 && r <= 50 - 2 * p.sigma_px - 2) {
+        proj_before += (before(y, x) + 8) * ripple(r);
+        proj_after += (h(y, x) + 8) * ripple(r);
+        norm += ripple(r) * ripple(r);
+      }
+      if (before(y, x) < 0) {
+        ASSERT_LT(h(y, x), 0.f) << x << "," << y;
+      }
+      const bool lagoon_edge = std::abs(r - 20) < 1.5 || std::abs(r - 50) < 1.5;
+      if (label(y, x) != kLagoon) {
+        ASSERT_EQ(h(y, x), before(y, x)) << x << "," << y;
+      } else if (lagoon_edge) {
+        ASSERT_NEAR(h(y, x), before(y, x), 0.05) << x << "," << y;
+      }
+    }
+  EXPECT_NEAR(proj_before / norm, kRippleAmplitudeM, 0.01);
+  EXPECT_LT(std::abs(proj_after / norm), 0.2 * kRippleAmplitudeM);
+  // Off, or no lagoon: nothing moves.
+  cv::Mat1f off = before.clone();
+  smooth_lagoon_floor(off, label, LagoonSmoothing{0});
+  EXPECT_EQ(cv::norm(off, before, cv::NORM_INF), 0);
+  cv::Mat1f dry = before.clone();
+  smooth_lagoon_floor(dry, cv::Mat1b(kSide, kSide, uint8_t(kIsland)));
+  EXPECT_EQ(cv::norm(dry, before, cv::NORM_INF), 0);
+  reefgen::test::expect_error_naming([&] { smooth_lagoon_floor(dry, cv::Mat1b(4, 4, uint8_t(kLagoon))); }, "differ in size");
 }

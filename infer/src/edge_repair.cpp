@@ -5,6 +5,9 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "reefgen/error.hpp"
+#include "reefgen/labels.hpp"
+
 namespace reefgen::infer {
 
 namespace {
@@ -113,6 +116,34 @@ void smooth_open_sea(cv::Mat1f& h, const OpenSeaSmoothing& p) {
       const double t = std::clamp((p.from_m - highest(y, x)) / (p.from_m - p.full_m), 0.0, 1.0);
       const double w = t * t * (3 - 2 * t);
       h(y, x) = float(h(y, x) + w * (smooth(y, x) - h(y, x)));
+    }
+}
+
+void smooth_lagoon_floor(cv::Mat1f& h, const cv::Mat1b& label, const LagoonSmoothing& p) {
+  if (p.sigma_px <= 0) return;
+  if (label.size() != h.size()) throw Error("internal: the lagoon's labels and heights differ in size");
+  cv::Mat1f water(h.size(), 0.f), masked(h.size(), 0.f);
+  cv::Mat1b inside(h.size(), uint8_t(0));
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x)
+      if ((label(y, x) == kLagoon || label(y, x) == kReef) && h(y, x) < 0) {
+        water(y, x) = 1.f;
+        masked(y, x) = h(y, x);
+        inside(y, x) = 255;
+      }
+  if (cv::countNonZero(inside) == 0) return;
+  cv::Mat1f weight, sum, from_edge;
+  cv::GaussianBlur(water, weight, cv::Size(0, 0), p.sigma_px, p.sigma_px, cv::BORDER_REPLICATE);
+  cv::GaussianBlur(masked, sum, cv::Size(0, 0), p.sigma_px, p.sigma_px, cv::BORDER_REPLICATE);
+  cv::distanceTransform(inside, from_edge, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x) {
+      if (!inside(y, x) || weight(y, x) < 1e-6f) continue;
+      const double t = std::clamp((from_edge(y, x) - 1.0) / (2 * p.sigma_px), 0.0, 1.0);
+      const double w = t * t * (3 - 2 * t);
+      // Never above the sea: a mean of water is water, kept so in float.
+      const float mean = std::min(sum(y, x) / weight(y, x), -1e-3f);
+      h(y, x) = float(h(y, x) + w * (mean - h(y, x)));
     }
 }
 

@@ -183,7 +183,9 @@ cv::Mat1f finish_answer(cv::Mat1f h, const DecodedSketch& sketch, const InferOpt
   if (want.width == want.height && o.amplify && h.rows == h.cols) {
     repair_canvas_edges(h);
     smooth_open_sea(h);
-    cv::Mat1b label;
+    cv::Mat1b label, label_model;
+    cv::resize(sketch.label, label_model, h.size(), 0, 0, cv::INTER_NEAREST);
+    smooth_lagoon_floor(h, label_model);
     cv::resize(sketch.label, label, want, 0, 0, cv::INTER_NEAREST);
     const Rerolled r = reroll_for_amplify(h, o.world_size_m / h.cols, o.seed, o.variation, amplification_of(o));
     h = amplify_heights(r.height_m, label, o.world_size_m, o.seed, r.params, true, sketch.ruggedness);

@@ -128,9 +128,11 @@ cv::Mat1f world_model_heights(model::GeneratorFile& g, const DecodedSketch& sket
   cv::Mat1f h = forward_heights(g, label_sq, sub_sq, o)(cv::Rect(at, label.size())).clone();
   add_large_islands(g, label, sub, o, h);
   cv::Mat1f out = h(cv::Rect(mx, my, W, H)).clone();
-  // The ghost contours of the open sea, as infer takes them off (the
-  // reflected margin already keeps the canvas edges clean).
+  // The ghost contours of the open sea and the painted lagoons, as infer
+  // takes them off (the reflected margin already keeps the canvas edges
+  // clean).
   smooth_open_sea(out);
+  smooth_lagoon_floor(out, s.label);
   keep_painted_land(out, s.label);
   return out;
 }

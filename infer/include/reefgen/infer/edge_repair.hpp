@@ -42,4 +42,22 @@ struct OpenSeaSmoothing {
 // floor's broad relief (~1.5 km features) keeps most of its amplitude.
 void smooth_open_sea(cv::Mat1f& h, const OpenSeaSmoothing& p = {});
 
+struct LagoonSmoothing {
+  double sigma_px = 3;    // Gaussian σ, model cells (70 m), [0, 16] (0 = off)
+};
+
+// The ghost contours of a painted lagoon: the same averaging leaves faint
+// rings parallel to the painted band edges on the lagoon's water and a
+// beaded moat where the lagoon meets the reef band (relief at σ 2 cells
+// 0.17 m RMS in the shipped model's painted lagoons; the targets' floors
+// have no rings, their relief is noise and patch reefs; docs/INFERENCE.md
+// "The open sea"). The water of the painted lagoon and reef bands (labels
+// kLagoon and kReef, h < 0) is replaced by its own Gaussian mean
+// (normalised over that water, so the land does not pull it up), eased in
+// over 2σ from the water's edge: the coast, the fore reef's drop to the
+// open sea and the edge cells never move, and no water comes above the sea.
+// The crest, the motu and the patch reefs are finished after
+// (reef_finish.hpp). label: region per cell, the size of h.
+void smooth_lagoon_floor(cv::Mat1f& h, const cv::Mat1b& label, const LagoonSmoothing& p = {});
+
 }  // namespace reefgen::infer
