@@ -1086,3 +1086,45 @@ TEST(Erosion, WorldBandsAreInvisible) {
   EXPECT_THROW(amplify_world(h, label, 50, world_m, 5), Error);
   EXPECT_THROW(amplify_world(h, label, 20000, world_m, 5), Error);
 }
+
+// The roughening's relief (local_relief): on a small cone every cell's
+// window reaches the sea, so it is the height itself, to the bit (the
+// roughening of the 6 km canvas unchanged); on a wide gentle cone it is what
+// the slope builds over the reach, far below the height inland.
+TEST(Erosion, LocalReliefIsTheHeightNearTheSeaAndTheSlopesReachInland) {
+  constexpr int kSide = 400;
+  constexpr double kCellM = 25, kReachM = 500;
+  auto cone = [&](double radius_px, double peak_m) {
+    cv::Mat1f h(kSide, kSide);
+    for (int y = 0; y < kSide; ++y)
+      for (int x = 0; x < kSide; ++x) {
+        const double r = std::hypot(x - kSide / 2.0, y - kSide / 2.0);
+        h(y, x) = float(r < radius_px ? peak_m * (1 - r / radius_px) : -50.0);
+      }
+    return h;
+  };
+  const cv::Mat1f small = cone(15, 300);  // 375 m: within reach of the sea everywhere
+  const cv::Mat1f rs = local_relief(small, kCellM, kReachM);
+  for (int y = 0; y < kSide; ++y)
+    for (int x = 0; x < kSide; ++x)
+      if (small(y, x) > 0) {
+        ASSERT_EQ(rs(y, x), small(y, x)) << x << "," << y;
+      }
+  const double radius_px = 180, peak_m = 400, slope = peak_m / (radius_px * kCellM);
+  const cv::Mat1f wide = cone(radius_px, peak_m);  // 4.5 km, 5°
+  const cv::Mat1f rw = local_relief(wide, kCellM, kReachM);
+  // Inland (≥ 2 reaches from the coast, ≥ 1 from the summit) a square window
+  // of half-side R holds the lowest point between R and R√2 downslope.
+  const double reach_px = kReachM / kCellM;
+  for (int y = 0; y < kSide; ++y)
+    for (int x = 0; x < kSide; ++x) {
+      const double r = std::hypot(x - kSide / 2.0, y - kSide / 2.0);
+      if (wide(y, x) > 0) {
+        ASSERT_LE(rw(y, x), wide(y, x));
+      }
+      if (r > radius_px - 2 * reach_px || r < reach_px) continue;
+      ASSERT_GT(rw(y, x), 0.7 * slope * kReachM) << x << "," << y;
+      ASSERT_LT(rw(y, x), 1.7 * slope * kReachM) << x << "," << y;
+    }
+  EXPECT_TRUE(local_relief(wide, kCellM, 0).empty());
+}

@@ -107,13 +107,20 @@ void lobe_contours(cv::Mat1f& h, double world_size_m, uint64_t seed, const Ampli
 // A model answer is smoother than a rendered island (an L1-trained network
 // predicts the mean of the valleys it cannot place), so a cone would shed
 // water radially and erosion on it carves few valleys. Relief proportional
-// to height (fBm, one feature per feature_m) gives the drainage
-// somewhere to start, as the render's noise does for the generator; the
-// coast (h → 0) does not move.
+// to the land's own relief (fBm, one feature per feature_m) gives the
+// drainage somewhere to start, as the render's noise does for the generator;
+// the coast (h → 0) does not move. The land's relief is its height over the
+// lowest land within relief_reach_m (local_relief): on an island of the
+// 6 km canvas, whose coast is within reach of nearly every cell, that is its
+// height; on a wide gentle island of a world (20 km across, 3° slopes) it is
+// what the slope builds over the reach, where relief ∝ height put bumps
+// steeper than the island itself everywhere inland and the erosion left a
+// crumpled surface without a valley network (docs/WORLDS.md).
 void roughen_land(cv::Mat1f& h, double world_size_m, uint64_t seed, const AmplifyParams& p, const cv::Mat1f& rugged) {
   lobe_contours(h, world_size_m, seed, p, rugged);
   if (p.roughness <= 0) return;
   const int S = h.cols;
+  const cv::Mat1f relief = local_relief(h, world_size_m / S, p.relief_reach_m);
   const NoiseTile& tile = NoiseTile::get(3);
   Rng rng(seed, 0, "amplify-rough");
   const float u0 = float(rng.uniform(0, NoiseTile::kSize)), v0 = float(rng.uniform(0, NoiseTile::kSize));
@@ -123,8 +130,10 @@ void roughen_land(cv::Mat1f& h, double world_size_m, uint64_t seed, const Amplif
     for (int x = 0; x < S; ++x)
       if (h(y, x) > 0) {
         const float style = rugged.empty() ? 1.f : rugged(y, x);
-        h(y, x) = std::max(kLandFloorM,
-                           h(y, x) * (1.f + style * a * tile.sample(x * texels_per_cell + u0, y * texels_per_cell + v0)));
+        // relief / height: exactly 1 where the reach meets the sea
+        const float share = relief.empty() || relief(y, x) == h(y, x) ? 1.f : relief(y, x) / h(y, x);
+        h(y, x) = std::max(kLandFloorM, h(y, x) * (1.f + style * a * share *
+                                                            tile.sample(x * texels_per_cell + u0, y * texels_per_cell + v0)));
       }
 }
 // The model answers a painted sketch whose beach and lagoon bands have even
@@ -290,6 +299,22 @@ cv::Mat1f harden(const cv::Mat1f& resistance, const cv::Mat1f& rugged) {
 }
 
 }  // namespace
+
+cv::Mat1f local_relief(const cv::Mat1f& h, double cell_m, double reach_m) {
+  if (reach_m <= 0) return {};
+  const int r = std::max(1, int(std::lround(reach_m / cell_m)));
+  cv::Mat1f lowest, base;
+  cv::erode(h, lowest, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * r + 1, 2 * r + 1)), cv::Point(-1, -1), 1,
+            cv::BORDER_REPLICATE);
+  // The square window's corners softened; a window reaching the sea keeps
+  // the height itself (base 0), so such cells are roughened as before.
+  cv::GaussianBlur(lowest, base, cv::Size(0, 0), 0.25 * r, 0.25 * r, cv::BORDER_REPLICATE);
+  cv::Mat1f relief = h.clone();
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x)
+      if (lowest(y, x) > 0 && h(y, x) > 0) relief(y, x) = std::clamp(h(y, x) - base(y, x), 0.f, h(y, x));
+  return relief;
+}
 
 cv::Mat1f ruggedness_at(const cv::Mat1b& ruggedness, int side, double world_size_m) {
   if (ruggedness.empty()) return {};

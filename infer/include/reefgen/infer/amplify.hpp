@@ -59,6 +59,14 @@ inline constexpr float kSmoothDetailShare = 0.35f;
 // sketch is rugged everywhere.
 cv::Mat1f ruggedness_at(const cv::Mat1b& ruggedness, int side, double world_size_m);
 
+// The land's relief the roughening follows (AmplifyParams::relief_reach_m):
+// each land cell's height over the lowest land within reach_m (a square
+// window, its lowest value softened by a Gaussian of a quarter of the
+// reach), clamped to [0, h]; exactly its height where the window reaches
+// the sea. Empty when reach_m ≤ 0 (the roughening then follows the height).
+// h: heights (m), cell_m: metres per cell.
+cv::Mat1f local_relief(const cv::Mat1f& h, double cell_m, double reach_m);
+
 }  // namespace reefgen::infer
 
 namespace reefgen::infer {

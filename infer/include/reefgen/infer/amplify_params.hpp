@@ -18,6 +18,7 @@ struct AmplifyParams {
   terrain::ErosionParams erosion;   // the erosion and refinement it runs (the generator's defaults)
   double roughness = 0.8;           // relief added to the land before eroding, share of the height, [0, 1]
   double feature_m = 140;           // spacing of that relief's features, m, [1, 1e5]
+  double relief_reach_m = 500;      // that relief follows the land's relief within this reach (its height over the lowest land there), not its height, m, [0, 1e5] (0 = the height)
   double duration_scale = 0.5;      // base-grid erosion time as a multiple of erosion.duration_yr, [0, 100]
   int steps = 3;                    // implicit steps of that erosion (few: the lobes' valleys are not captured), [0, 1000]
   double lobe_m = 500;              // flank contours pushed up or down the slope by up to this, m, [0, 2000]
@@ -39,6 +40,7 @@ void fields(AmplifyParams& p, F&& f) {
   fields(p.erosion, f);
   f("amplify_roughness", p.roughness, Range{0, 1});
   f("amplify_feature_m", p.feature_m, Range{1, 1e5});
+  f("amplify_relief_reach_m", p.relief_reach_m, Range{0, 1e5});
   f("amplify_duration_scale", p.duration_scale, Range{0, 100});
   f("amplify_steps", p.steps, Range{0, 1000});
   f("amplify_lobe_m", p.lobe_m, Range{0, 2000});
