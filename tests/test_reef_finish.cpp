@@ -78,12 +78,45 @@ TEST(PaintedReef, CrestAtSeaLevelPassAndLagoonUntouched) {
     at_sea += crest >= -1.f;
   }
   EXPECT_GE(at_sea, rays * 95 / 100) << at_sea << " of " << rays;
-  // Never lowered, never lifted out of the water outside the islets.
+  // Never lowered (this model's rim lies under the reef top everywhere),
+  // never lifted out of the water outside the islets.
   EXPECT_EQ(cv::countNonZero(h < before - 1e-6f), 0);
   // The lagoon's centre, the pass's throat and the open sea as the model left them.
   for (const cv::Point p : {cv::Point(N / 2, N / 2), cv::Point(int(c + (kRimInPx + 4) * scale), int(c)),
                             cv::Point(8, 8), cv::Point(N - 9, N / 2 + 40)})
     EXPECT_FLOAT_EQ(h(p), before(p)) << p;
+}
+
+// A rim the network answers with beads of land (+1 m on every other model
+// cell of the ring, as the shipped model does at a painted crest) is awash
+// after the finish away from the painted islets; the islets stay islets.
+TEST(PaintedReef, LandBeadsOnTheCrestGoAwashAndMotuStay) {
+  PaintedAtoll a = painted_atoll();
+  for (int y = 0; y < kSide; ++y)
+    for (int x = 0; x < kSide; ++x) {
+      const double r = radius_px(x, y);
+      if (a.label(y, x) == kReef && r > kRimOutPx - 3 && r < kRimOutPx - 1 && (x + y) % 4 < 2) a.model_m(y, x) = 1.f;
+    }
+  const int N = 4 * kSide;
+  const cv::Mat1f h = finished(a, N);
+  const double scale = double(N) / kSide;
+  int reef_land = 0, bead_cells = 0;
+  for (int y = 0; y < N; ++y)
+    for (int x = 0; x < N; ++x) {
+      const double mx = (x + 0.5) / scale - 0.5, my = (y + 0.5) / scale - 0.5;
+      const double r = std::hypot(mx - (kSide - 1) / 2.0, my - (kSide - 1) / 2.0);
+      bool by_motu = false;
+      for (const cv::Point2d& m : a.motu) by_motu = by_motu || std::hypot(mx - m.x, my - m.y) < 9;
+      if (r < kRimInPx + 1 || r > kRimOutPx - 1 || by_motu) continue;
+      ++bead_cells;
+      reef_land += h(y, x) > 0.f;
+    }
+  EXPECT_GT(bead_cells, 1000);
+  EXPECT_EQ(reef_land, 0);
+  for (const cv::Point2d& m : a.motu) {
+    const cv::Point c(int((m.x + 0.5) * scale), int((m.y + 0.5) * scale));
+    EXPECT_GT(h(c), 0.3f) << c;
+  }
 }
 
 // Each painted islet is an islet: most of it above +0.3 m, its top 1-5 m.

@@ -26,6 +26,10 @@ constexpr double kBankBackM = 2000;
 constexpr double kMotuReefShare = 0.5;
 // The features of the reef top's irregularity, metres (coral heads, rubble).
 constexpr float kTopFeatureM = 60.f;
+// Land on the reef band is lowered awash from this far off painted land
+// (island or beach), fully from the second distance, metres (about one and
+// three model cells): a fringing reef keeps its shore.
+constexpr float kShoreEaseFromM = 25.f, kShoreEaseToM = 70.f;
 // Blur of the painted zones (t, the reef mask), model cells.
 constexpr double kZoneBlurPx = 1.0;
 // A motu's shore: its outline wanders by this much with the noise, its beach
@@ -130,7 +134,8 @@ cv::Mat1f reef_position(const cv::Mat1b& label, const PaintedReefParams& p, doub
 // Per cell at the output side, with t and the masks interpolated:
 //   w     = ramp(crest_begin − 0.1, crest_begin, t) · (1 − ramp(flat_end, flat_end + 0.1, t)) · reef
 //   top   = crest_m → flat_m across t 0.3–0.36, + top_relief_m · noise, ≤ −5 cm
-//   h    += w · max(0, top − h)
+//   h    += w · max(0, top − h), and away from motu, where h > top,
+//   h    += w_down · (top − h),  w_down = reef band, eased out next to painted land
 // and on motu (sd: the signed distance to the painted islet's edge, metres,
 // wandering with the noise) h = max(h, a beach from the flat to +0.3 m at the
 // edge, then a berm of motu_height_m).
@@ -153,6 +158,14 @@ void finish_painted_reef(cv::Mat1f& h, const cv::Mat1b& label, double world_size
   if (any_motu) cv::GaussianBlur(sd_s, sd_s, cv::Size(0, 0), 0.7, 0.7, cv::BORDER_REPLICATE);
   const int N = h.cols;
   const cv::Mat1f t = resized(t_smooth, N), reef = resized(reef_s, N), sd = resized(sd_s, N);
+  // The painted reef band itself (not eased): land on it is lowered fully,
+  // easing out next to painted land (kShoreEase*), where a fringing reef
+  // meets its shore.
+  cv::Mat1b reef_band;
+  cv::resize(cv::Mat1b(label == kReef), reef_band, cv::Size(N, N), 0, 0, cv::INTER_NEAREST);
+  cv::Mat1f from_land;
+  cv::distanceTransform(cv::Mat1b((label != kIsland) & (label != kBeach)), from_land, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  from_land = resized(from_land, N);
   const terrain::GradientNoise2 noise(derive_seed(seed, 0, "painted-reef-top"));
   const float per_feature = float(world_size_m / N) / kTopFeatureM;
   const float crest = float(p.crest_m), flat = float(p.flat_m);
@@ -161,7 +174,11 @@ void finish_painted_reef(cv::Mat1f& h, const cv::Mat1b& label, double world_size
       const float tt = t(y, x);
       const float w = ramp(p.crest_begin - 0.1, p.crest_begin, tt) * (1 - ramp(p.flat_end, p.flat_end + 0.1, tt)) * reef(y, x);
       const bool near_motu = sd(y, x) > -reach_px + 0.5f;
-      if (w <= 0 && !near_motu) continue;
+      // Land on the reef band is lowered to the top (away from motu and
+      // painted land), also seaward of the crest where w eases in and
+      // beside a pass, which is painted lagoon.
+      const float w_down = ramp(kShoreEaseFromM, kShoreEaseToM, from_land(y, x) * label_cell_m) * (reef_band(y, x) ? 1.f : reef(y, x));
+      if (w <= 0 && w_down <= 0 && !near_motu) continue;
       const float n = noise.fbm(float(x) * per_feature, float(y) * per_feature, 3);
       // Irregular islets, not the painted disc: the shore wanders with the
       // noise; the apron below it does not (it would be as rough as the wander).
@@ -173,9 +190,14 @@ void finish_painted_reef(cv::Mat1f& h, const cv::Mat1b& label, double world_size
       const float reach_w = apron_w * ramp(-reach_px * label_cell_m, -reach_px * label_cell_m + kMotuBermM, sd_raw);
       const bool on_motu = near_motu;
       float& z = h(y, x);
-      if (w > 0) {
+      if (w > 0 || w_down > 0) {
         const float top = std::min(crest + (flat - crest) * ramp(0.3, 0.36, tt) + float(p.top_relief_m) * n, -0.05f);
         z += w * std::max(0.f, top - z);
+        // Away from motu the crest is awash, as the generator builds it: the
+        // network answers a painted crest with cells just above and below
+        // the sea a model cell or two apart, which amplified became a chain
+        // of land beads (0.3–1.7 m, ~44 m apart) along the crest at 4097².
+        if (!near_motu && z > top) z += w_down * (top - z);
       }
       if (on_motu) {
         const float berm = float(p.motu_height_m) * (1 + 0.2f * n);
