@@ -13,6 +13,8 @@
 #include "reefgen/terrain/noise.hpp"
 #include "reefgen/terrain/pits.hpp"
 
+#include "masked_blur.hpp"
+
 namespace reefgen::infer {
 
 using namespace reefgen::terrain;
@@ -153,21 +155,18 @@ void roughen_land(cv::Mat1f& h, double world_size_m, uint64_t seed, const Amplif
 void smooth_plains(cv::Mat1f& h, const cv::Mat1b& label, double sigma_px, double low_island_m) {
   if (sigma_px <= 0) return;
   const int S = h.cols;
-  cv::Mat1f land(S, S), hl(S, S), plain(S, S);
+  cv::Mat1f plain(S, S);
   cv::Mat1i island;
   const std::vector<float> peak = island_peaks(h, island);
   for (int y = 0; y < S; ++y)
     for (int x = 0; x < S; ++x) {
-      land(y, x) = h(y, x) > 0 ? 1.f : 0.f;
-      hl(y, x) = h(y, x) > 0 ? h(y, x) : 0.f;
       const float low = low_island_m > 0
                             ? std::clamp(float(2.0 - 2.0 * peak[size_t(island(y, x))] / low_island_m), 0.f, 1.f)
                             : 0.f;
       plain(y, x) = (label(y, x) >= 1 && label(y, x) <= 3) ? 1.f : (h(y, x) > 0 ? low : 0.f);
     }
-  cv::Mat1f bl, bh;
-  cv::GaussianBlur(land, bl, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REPLICATE);
-  cv::GaussianBlur(hl, bh, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REPLICATE);
+  const MaskedBlur land = masked_blur(h, h > 0.f, sigma_px);
+  const cv::Mat1f &bl = land.weight, &bh = land.sum;
   cv::GaussianBlur(plain, plain, cv::Size(0, 0), 0.5 * sigma_px, 0.5 * sigma_px, cv::BORDER_REPLICATE);
   for (int y = 0; y < S; ++y)
     for (int x = 0; x < S; ++x) {
@@ -267,10 +266,8 @@ void smooth_model_grid_underwater(cv::Mat1f& h, int model_side, uint64_t seed) {
   const float inv_cell = float(double(model_side) / h.cols);  // noise features per pixel: one per model cell
   // The water's own mean: land left out of the blur (normalised convolution),
   // so that shallows beside a coast are not pulled up into a shelf.
-  cv::Mat1f water = cv::Mat1f::zeros(h.size()), wet, blur;
-  h.copyTo(water, h < 0.f);
-  cv::GaussianBlur(water, blur, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
-  cv::GaussianBlur(cv::Mat1f(h < 0.f) / 255.f, wet, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
+  const MaskedBlur water = masked_blur(h, h < 0.f, sigma);
+  const cv::Mat1f &blur = water.sum, &wet = water.weight;
   for (int y = 0; y < h.rows; ++y) {
     float* r = h.ptr<float>(y);
     const float* b = blur.ptr<float>(y);

@@ -8,6 +8,8 @@
 #include "reefgen/error.hpp"
 #include "reefgen/labels.hpp"
 
+#include "masked_blur.hpp"
+
 namespace reefgen::infer {
 
 namespace {
@@ -122,19 +124,11 @@ void smooth_open_sea(cv::Mat1f& h, const OpenSeaSmoothing& p) {
 void smooth_lagoon_floor(cv::Mat1f& h, const cv::Mat1b& label, const LagoonSmoothing& p) {
   if (p.sigma_px <= 0) return;
   if (label.size() != h.size()) throw Error("internal: the lagoon's labels and heights differ in size");
-  cv::Mat1f water(h.size(), 0.f), masked(h.size(), 0.f);
-  cv::Mat1b inside(h.size(), uint8_t(0));
-  for (int y = 0; y < h.rows; ++y)
-    for (int x = 0; x < h.cols; ++x)
-      if ((label(y, x) == kLagoon || label(y, x) == kReef) && h(y, x) < 0) {
-        water(y, x) = 1.f;
-        masked(y, x) = h(y, x);
-        inside(y, x) = 255;
-      }
+  const cv::Mat1b inside = ((label == kLagoon) | (label == kReef)) & (h < 0.f);
   if (cv::countNonZero(inside) == 0) return;
-  cv::Mat1f weight, sum, from_edge;
-  cv::GaussianBlur(water, weight, cv::Size(0, 0), p.sigma_px, p.sigma_px, cv::BORDER_REPLICATE);
-  cv::GaussianBlur(masked, sum, cv::Size(0, 0), p.sigma_px, p.sigma_px, cv::BORDER_REPLICATE);
+  const MaskedBlur water = masked_blur(h, inside, p.sigma_px);
+  const cv::Mat1f &sum = water.sum, &weight = water.weight;
+  cv::Mat1f from_edge;
   cv::distanceTransform(inside, from_edge, cv::DIST_L2, cv::DIST_MASK_PRECISE);
   for (int y = 0; y < h.rows; ++y)
     for (int x = 0; x < h.cols; ++x) {
