@@ -853,6 +853,12 @@ TEST(Realism, StatisticsOfKnownShapes) {
       grooved(y, x) = r < 0.6f ? 500 * (1 - r / 0.6f) - 60 * r * (1 + std::cos(12 * std::atan2(v, u))) : -50.f;
     }
   EXPECT_GT(realism_stats(grooved, mpp).valleys, 0.25);
+  // A low islet (a motu, 5 m) has no flank to judge; a 30 m cone has one.
+  const RealismStats islet = realism_stats(cone(200, 5.f), mpp);
+  EXPECT_GT(islet.land_cells, 0);
+  EXPECT_EQ(islet.flank_cells, 0);
+  EXPECT_EQ(islet.terraces, 0.0);
+  EXPECT_GT(realism_stats(cone(200, 30.f), mpp).flank_cells, 0);
   // Errors: NaN, bad cell size.
   cv::Mat1f bad = cone(20, 10.f);
   bad(3, 3) = NAN;

@@ -12,6 +12,7 @@
 #include "reefgen/engines/world_bundle.hpp"
 #include "reefgen/error.hpp"
 #include "reefgen/infer/amplify.hpp"
+#include "reefgen/infer/reef_details.hpp"
 #include "reefgen/infer/variation.hpp"
 #include "reefgen/infer/world.hpp"
 #include "reefgen/io.hpp"
@@ -255,6 +256,12 @@ WorldFields world_fields(const WorldJob& a, model::GeneratorFile& gen, const Dec
     return f;
   };
   if (a.raw) return deepened(w);
+  // Passes and motu where the painting shows none, placed by the seed: the
+  // motu on the regions (so the layers see their sand), the passes cut
+  // after the amplification (a resumed run's heights have them already).
+  const SeededReefDetails details =
+      plan_reef_details(w.region_model, s.subsidence, kModelMetresPerPx, io.seed, io.variation);
+  paint_seeded_motu(w.region_model, details, kModelMetresPerPx);
   if (auto saved = checkpoint.load("heights.exr")) {
     w.h = *saved;
     if (!quiet) std::fprintf(stderr, "world: amplified heights resumed from %s\n", checkpoint.dir().c_str());
@@ -273,6 +280,7 @@ WorldFields world_fields(const WorldJob& a, model::GeneratorFile& gen, const Dec
   const Rerolled r = reroll_for_amplify(w.model_h, kModelMetresPerPx, io.seed, io.variation, io.amplification);
   w.h = amplify_world(r.height_m, w.region_model, N, w.world_m, io.seed, r.params,
                              [&](int done, int) { progress.tick(size_t(done)); }, {}, s.ruggedness);
+  cut_seeded_passes(w.h, w.region_model, details, kModelMetresPerPx * w.model_h.cols / w.h.cols, io.seed);
   cv::min(cv::max(w.h, gen.range.lo_m), gen.range.hi_m, w.h);
   if (!quiet) std::fprintf(stderr, "world: amplified to %d² in %.1f s\n", w.h.cols, seconds_since(t));
   checkpoint.save("heights.exr", w.h);

@@ -53,6 +53,7 @@ RealismStats realism_stats(const cv::Mat1f& h, double metres_per_px) {
         st.max_height_m = std::max(st.max_height_m, double(hc(y, x)));
       }
   if (st.land_cells == 0) return st;
+  const bool has_flank = st.max_height_m >= kFlankMinPeakM;
 
   // Pits: filled from the sea and the canvas edge.
   const FloodRoute fr = flood_route(hc, sea_and_edge_roles(hc));
@@ -75,7 +76,7 @@ RealismStats realism_stats(const cv::Mat1f& h, double metres_per_px) {
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
       const double v = hc(y, x);
-      if (!(v > 0 && v >= lo && v <= hi)) continue;
+      if (!(has_flank && v > 0 && v >= lo && v <= hi)) continue;
       ++st.flank_cells;
       if (grad_raw(y, x) < flat) ++flats;
       if (grad_s(y, x) > 0.02 && curv(y, x) < -1e-3) ++valleys;
@@ -210,6 +211,7 @@ RealismStats realism_stats_streamed(const RowSource& read, cv::Size size, double
   std::vector<double> row_p(t.row_pairs.size(), -1.0);
   std::vector<uint32_t> col_hist(t.col_pairs.size() * kStreamStepBins, 0);
   const double lo = 0.1 * st.max_height_m, hi = 0.9 * st.max_height_m, flat = std::tan(2.0 * M_PI / 180.0);
+  const bool has_flank = st.max_height_m >= kFlankMinPeakM;
   int64_t pits = 0, flats = 0, valleys = 0;
   std::vector<float> steps;
   for (int y0 = 0; y0 < H; y0 += sb.band_rows) {
@@ -229,7 +231,7 @@ RealismStats realism_stats_streamed(const RowSource& read, cv::Size size, double
         if (v > 0 && fr.filled(r, x) - a[x] > 1.f) ++pits;
         if (x + 1 < W && v > 0 && a[x + 1] > 0 && t.col_pairs[size_t(x)] >= kSeamMinRowShare * busiest_col)
           ++col_hist[size_t(x) * kStreamStepBins + size_t(step_bin(std::abs(a[x + 1] - a[x])))];
-        if (!(v > 0 && v >= lo && v <= hi)) continue;
+        if (!(has_flank && v > 0 && v >= lo && v <= hi)) continue;
         ++st.flank_cells;
         if (grad_raw(r, x) < flat) ++flats;
         if (grad_s(r, x) > 0.02 && curv(r, x) < -1e-3) ++valleys;

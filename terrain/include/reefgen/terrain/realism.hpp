@@ -13,7 +13,7 @@ namespace reefgen::terrain {
 // height field in metres with sea level 0.
 struct RealismStats {
   int64_t land_cells = 0;    // h > 0
-  int64_t flank_cells = 0;   // land with 10–90 % of the highest land height
+  int64_t flank_cells = 0;   // land with 10–90 % of the highest land height; none below kFlankMinPeakM
   double max_height_m = 0;
   double pits = 0;      // share of land cells in closed depressions deeper than 1 m
   double terraces = 0;  // share of flank cells with slope < 2°
@@ -22,6 +22,13 @@ struct RealismStats {
   double seams_rows = 0;  // seam_score along rows (a horizontal border between row r and r+1); 0 = no land
   double seams_cols = 0;  // the same along columns (a vertical border)
 };
+
+// A canvas whose highest land is lower than this has no flank, metres: its
+// land is motu, sand cays or a reef islet (real motu 1–4 m, docs/REEF.md),
+// flat by nature and too low for valleys, so its terraces and valleys are
+// not judged (a painted atoll's seeded motu would count as a canvas of
+// flats without valleys).
+inline constexpr double kFlankMinPeakM = 20;
 
 // Rows (or columns) that hold fewer than this share of the busiest row's land
 // cells are left out of the seam profile: a coast's few cells give a noisy median.
