@@ -37,6 +37,9 @@ constexpr double kIsletMaxAreaM2 = 2e6, kIsletReefShare = 0.5;
 constexpr double kPassOverhangPx = 3;
 // Features of the pass floor's unevenness, metres.
 constexpr double kPassFloorFeatureM = 80;
+// The pass's walls wander by this share of its half-width, with features of
+// kPassWallFeatureM (coral spurs and embayments along a real pass).
+constexpr double kPassWallWander = 0.35, kPassWallFeatureM = 50;
 
 struct Ring {
   std::vector<int> cells;  // indices y·W + x
@@ -302,7 +305,7 @@ void cut_seeded_passes(cv::Mat1f& h, const cv::Mat1b& label, const SeededReefDet
   if (lab.size() != h.size()) cv::resize(label, lab, h.size(), 0, 0, cv::INTER_NEAREST);
   const terrain::GradientNoise2 noise(derive_seed(seed, 0, "seeded-pass-floor"));
   for (const auto& p : d.passes) {
-    const double hw = 0.5 * p.width_m, reach = 1.3 * hw;
+    const double hw = 0.5 * p.width_m, reach = (1.3 + kPassWallWander) * hw;
     double x0 = 1e30, y0 = 1e30, x1 = -1e30, y1 = -1e30;
     for (const auto& q : p.path_m) x0 = std::min(x0, q.x), y0 = std::min(y0, q.y), x1 = std::max(x1, q.x), y1 = std::max(y1, q.y);
     const int c0 = std::max(0, int((x0 - reach) / metres_per_px)), c1 = std::min(h.cols - 1, int((x1 + reach) / metres_per_px));
@@ -315,7 +318,11 @@ void cut_seeded_passes(cv::Mat1f& h, const cv::Mat1b& label, const SeededReefDet
         if (dist >= reach) continue;
         const float n = noise.fbm(float(c.x / kPassFloorFeatureM), float(c.y / kPassFloorFeatureM), 2);
         const float floor = -float(p.depth_m) * (1.f + 0.15f * std::clamp(n, -1.f, 1.f));
-        const float keep = ramp(0.7 * hw, reach, dist);
+        // Coral-lined walls wander: the half-width varies by ±kPassWallWander
+        // along the pass, so the cut is no straight-sided slot.
+        const float wall = noise.fbm(float(c.x / kPassWallFeatureM) + 57.3f, float(c.y / kPassWallFeatureM) + 19.1f, 2);
+        const double hw_here = hw * (1.0 + kPassWallWander * std::clamp(double(wall) * 2.0, -1.0, 1.0));
+        const float keep = ramp(0.5 * hw_here, 1.0 * hw_here + 0.3 * hw, dist);
         h(y, x) += (1.f - keep) * (std::min(h(y, x), floor) - h(y, x));
       }
   }

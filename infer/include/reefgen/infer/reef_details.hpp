@@ -56,8 +56,9 @@ void paint_seeded_motu(cv::Mat1b& label, const SeededReefDetails& d, double metr
 
 // Cuts the plan's passes into h (any side; label at the same side): water
 // and reef cells within a pass are lowered to its floor (only lowered; land
-// is never touched), the banks eased over ±30 % of its half-width, the
-// floor varying by ±15 % with a seeded noise so it is no flat slab.
+// is never touched), its walls wandering by ±35 % of its half-width and
+// eased over the outer half of it, the floor varying by ±15 % with a
+// seeded noise so it is no flat slab or straight-sided slot.
 void cut_seeded_passes(cv::Mat1f& h, const cv::Mat1b& label, const SeededReefDetails& d, double metres_per_px,
                        uint64_t seed);
 
