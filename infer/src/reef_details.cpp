@@ -29,9 +29,11 @@ constexpr double kPassT = 0.5, kMotuT = 0.62, kTTolerance = 0.15;
 // A motu is at most this share of its ring's width across, and a ring
 // narrower than kMinMotuRingPx cells gets none (too thin to hold one).
 constexpr double kMotuRingShare = 0.6, kMinMotuRingPx = 3;
-// A painted islet on a ring: small (reef_finish's motu limits) with at least
-// half the cells around it reef.
-constexpr double kIsletMaxAreaM2 = 2e6, kIsletReefShare = 0.5;
+// Places tried for each motu before it is given up (it would meet a pass or
+// another motu, or the ring is too thin there).
+constexpr int kMotuAttempts = 4;
+// A painted islet on a ring: no larger than reef_finish's largest motu.
+constexpr double kIsletMaxAreaM2 = 2e6;
 // A pass reaches this many cells past the ring on either side, so the fore
 // reef the network drew beyond the painted band is cut too.
 constexpr double kPassOverhangPx = 3;
@@ -74,12 +76,13 @@ std::vector<uint8_t> open_lagoons(const cv::Mat1b& label, const cv::Mat1i& lagoo
   return open;
 }
 
-// Marks the rings with painted islets: small land with reef around it.
-void mark_painted_islets(const cv::Mat1b& label, const cv::Mat1i& reef_comp, double mpp, std::vector<Ring>& rings) {
+// The painted islets of a ring: small land (reef_finish's largest motu)
+// touching reef, wherever else it reaches (an islet painted across the
+// whole band meets lagoon and sea too). 255 on their cells.
+cv::Mat1b painted_islets(const cv::Mat1b& label, double mpp) {
   cv::Mat1i comp;
   const int n = cv::connectedComponents(cv::Mat1b((label == kIsland) | (label == kBeach)), comp, 8, CV_32S);
-  std::vector<int64_t> area(size_t(n), 0), around(size_t(n), 0), reef(size_t(n), 0);
-  std::vector<std::vector<int>> touches(static_cast<size_t>(n));
+  std::vector<int64_t> area(size_t(n), 0), reef(size_t(n), 0);
   for (int y = 0; y < label.rows; ++y)
     for (int x = 0; x < label.cols; ++x) {
       if (land_region(label(y, x))) {
@@ -95,25 +98,43 @@ void mark_painted_islets(const cv::Mat1b& label, const cv::Mat1i& reef_comp, dou
           const int c = comp(yy, xx);
           if (std::find(seen, seen + k, c) != seen + k) continue;
           seen[k++] = c;
-          ++around[size_t(c)];
-          if (label(y, x) == kReef) {
-            ++reef[size_t(c)];
-            touches[size_t(c)].push_back(reef_comp(y, x));
-          }
+          reef[size_t(c)] += label(y, x) == kReef;
         }
     }
-  for (int c = 1; c < n; ++c) {
-    if (double(area[size_t(c)]) * mpp * mpp > kIsletMaxAreaM2) continue;
-    if (double(reef[size_t(c)]) < kIsletReefShare * double(around[size_t(c)])) continue;
-    for (int r : touches[size_t(c)]) rings[size_t(r)].painted_islets = true;
-  }
+  std::vector<uint8_t> islet(size_t(n), 0);
+  for (int c = 1; c < n; ++c)
+    islet[size_t(c)] = double(area[size_t(c)]) * mpp * mpp <= kIsletMaxAreaM2 && reef[size_t(c)] > 0;
+  cv::Mat1b out(label.size(), uint8_t(0));
+  for (int y = 0; y < label.rows; ++y)
+    for (int x = 0; x < label.cols; ++x)
+      if (islet[size_t(comp(y, x))]) out(y, x) = 255;
+  return out;
+}
+
+// A ring's length along its middle: half the length of all its edges (the
+// outer and the inner edge of a closed rim, both sides of an open bank).
+double ring_length_m(const Ring& ring, int W, double mpp) {
+  int x0 = W, y0 = 1 << 30, x1 = 0, y1 = 0;
+  for (int i : ring.cells) x0 = std::min(x0, i % W), x1 = std::max(x1, i % W), y0 = std::min(y0, i / W), y1 = std::max(y1, i / W);
+  // One cell of margin, so an edge on the box's border is still an edge.
+  const cv::Rect box(x0 - 1, y0 - 1, x1 - x0 + 3, y1 - y0 + 3);
+  cv::Mat1b mask(box.size(), uint8_t(0));
+  for (int i : ring.cells) mask(i / W - box.y, i % W - box.x) = 255;
+  std::vector<std::vector<cv::Point>> edges;
+  cv::findContours(mask, edges, cv::RETR_LIST, cv::CHAIN_APPROX_SIMPLE);
+  double px = 0;
+  for (const auto& e : edges) px += cv::arcLength(e, true);
+  return 0.5 * px * mpp;
 }
 
 // The painted reef rings, with what the painting already shows on each.
 std::vector<Ring> find_rings(const cv::Mat1b& label, const cv::Mat1f& subsidence, double mpp, const cv::Mat1f& d_in,
                              const cv::Mat1f& d_out, cv::Mat1i& reef_comp) {
   const int W = label.cols;
-  const int n = cv::connectedComponents(cv::Mat1b(label == kReef), reef_comp, 8, CV_32S);
+  // A ring is its reef and the islets on it: painted motu that span the
+  // band do not cut it into rings of their own.
+  const cv::Mat1b islets = painted_islets(label, mpp);
+  const int n = cv::connectedComponents(cv::Mat1b((label == kReef) | islets), reef_comp, 8, CV_32S);
   cv::Mat1i lagoon_comp;
   const int nl = cv::connectedComponents(cv::Mat1b(label == kLagoon), lagoon_comp, 8, CV_32S);
   const std::vector<uint8_t> open = open_lagoons(label, lagoon_comp, nl);
@@ -124,6 +145,10 @@ std::vector<Ring> find_rings(const cv::Mat1b& label, const cv::Mat1f& subsidence
       const int r = reef_comp(y, x);
       if (r == 0) continue;
       Ring& ring = rings[size_t(r)];
+      if (islets(y, x)) {
+        ring.painted_islets = true;
+        continue;
+      }
       ring.cells.push_back(y * W + x);
       ring.centroid += cv::Point2d(x + 0.5, y + 0.5);
       lambda[size_t(r)] += subsidence.empty() ? 1.0 : double(subsidence(y, x));
@@ -135,16 +160,16 @@ std::vector<Ring> find_rings(const cv::Mat1b& label, const cv::Mat1f& subsidence
           if (open[size_t(lagoon_comp(yy, xx))]) ring.painted_pass = true;
         }
     }
-  mark_painted_islets(label, reef_comp, mpp, rings);
   for (int r = 1; r < n; ++r) {
     Ring& ring = rings[size_t(r)];
+    if (ring.cells.empty()) continue;  // islets alone
     const double cells = double(ring.cells.size());
     ring.centroid /= cells;
     ring.subsidence = lambda[size_t(r)] / cells;
-    // Its width: twice the deepest a cell lies inside it; its length: area / width.
+    // Its width: twice the deepest a cell lies inside it.
     for (int i : ring.cells) ring.width_px = std::max(ring.width_px, 2.0 * std::min(d_in(i / W, i % W), d_out(i / W, i % W)));
     ring.width_px = std::max(ring.width_px, 1.0);
-    ring.length_m = cells * mpp / ring.width_px;
+    ring.length_m = ring_length_m(ring, W, mpp);
   }
   return rings;
 }
@@ -201,41 +226,55 @@ void plan_passes(const Ring& ring, double leeward, Rng& rng, const cv::Mat1f& d_
   }
 }
 
+// One motu towards theta, or false when the ring is too thin there or it
+// would meet a pass or another motu.
+bool place_islet(const Ring& ring, double theta, Rng& rng, const cv::Mat1f& d_in, const cv::Mat1f& d_out,
+                 const cv::Mat1f& across, double mpp, const SeededReefDetails& out, size_t first_pass,
+                 size_t first_motu, SeededReefDetails::Islet& m) {
+  const int W = d_in.cols;
+  const double len = rng.uniform(kMotuLenM[0], kMotuLenM[1]), wid = rng.uniform(kMotuWidM[0], kMotuWidM[1]);
+  const int i = cell_towards(ring, theta, kMotuT, d_in, d_out, W);
+  if (i < 0) return false;
+  const int y = i / W, x = i % W;
+  // The ring's width here: a motu fills at most kMotuRingShare of it, so the crest stays seaward of it.
+  const double width_px = d_in(y, x) + d_out(y, x);
+  if (width_px < kMinMotuRingPx) return false;
+  const cv::Point2d c = cv::Point2d(x + 0.5, y + 0.5) * mpp;
+  const double ring_r_m = std::hypot(x + 0.5 - ring.centroid.x, y + 0.5 - ring.centroid.y) * mpp;
+  m.centre_m = c;
+  const cv::Point2d u = seaward(across, ring, y, x);
+  m.angle_rad = std::atan2(u.x, -u.y);  // along the ring: u turned a quarter
+  m.half_wid_m = std::min(0.5 * wid, 0.5 * kMotuRingShare * width_px * mpp);
+  // Straight, so no longer than what stays within a quarter of the ring's
+  // width of its curve (sagitta l²/2R ≤ width/4).
+  m.half_len_m = std::max(m.half_wid_m, std::min(0.5 * len, std::sqrt(0.5 * ring_r_m * width_px * mpp)));
+  for (size_t j = first_pass; j < out.passes.size(); ++j) {
+    const cv::Point2d mid = 0.5 * (out.passes[j].path_m[1] + out.passes[j].path_m[2]);
+    const double pass_theta = std::atan2(mid.y / mpp - ring.centroid.y, mid.x / mpp - ring.centroid.x);
+    if (angle_gap(theta, pass_theta) < kMotuPassGap ||
+        std::hypot(mid.x - c.x, mid.y - c.y) <= m.half_len_m + out.passes[j].width_m)
+      return false;
+  }
+  for (size_t j = first_motu; j < out.motu.size(); ++j)
+    if (std::hypot(out.motu[j].centre_m.x - c.x, out.motu[j].centre_m.y - c.y) <= m.half_len_m + out.motu[j].half_len_m)
+      return false;
+  return true;
+}
+
 void plan_motu(const Ring& ring, Rng& rng, const cv::Mat1f& d_in, const cv::Mat1f& d_out, const cv::Mat1f& across,
                double mpp, SeededReefDetails& out, size_t first_pass) {
-  const int W = d_in.cols;
   if (ring.width_px < kMinMotuRingPx) return;
   const double share = std::min(1.0, ring.subsidence / kMotuFullSubsidence);
   const int count = int(std::lround(kSeededMotuPerM * ring.length_m * share));
   const size_t first_motu = out.motu.size();
-  for (int k = 0; k < count; ++k) {
-    const double theta = rng.uniform(-M_PI, M_PI);
-    const double len = rng.uniform(kMotuLenM[0], kMotuLenM[1]), wid = rng.uniform(kMotuWidM[0], kMotuWidM[1]);
-    const int i = cell_towards(ring, theta, kMotuT, d_in, d_out, W);
-    if (i < 0) continue;
-    const int y = i / W, x = i % W;
-    const cv::Point2d c = cv::Point2d(x + 0.5, y + 0.5) * mpp;
-    const double ring_r_m = std::hypot(x + 0.5 - ring.centroid.x, y + 0.5 - ring.centroid.y) * mpp;
-    SeededReefDetails::Islet m;
-    m.centre_m = c;
-    const cv::Point2d u = seaward(across, ring, y, x);
-    m.angle_rad = std::atan2(u.x, -u.y);  // along the ring: u turned a quarter
-    m.half_wid_m = std::min(0.5 * wid, 0.5 * kMotuRingShare * ring.width_px * mpp);
-    // Straight, so no longer than what stays within a quarter of the ring's
-    // width of its curve (sagitta l²/2R ≤ width/4).
-    m.half_len_m = std::max(m.half_wid_m, std::min(0.5 * len, std::sqrt(0.5 * ring_r_m * ring.width_px * mpp)));
-    bool clear = true;
-    for (size_t j = first_pass; j < out.passes.size() && clear; ++j) {
-      const cv::Point2d mid = 0.5 * (out.passes[j].path_m[1] + out.passes[j].path_m[2]);
-      const double pass_theta = std::atan2(mid.y / mpp - ring.centroid.y, mid.x / mpp - ring.centroid.x);
-      clear = angle_gap(theta, pass_theta) >= kMotuPassGap &&
-              std::hypot(mid.x - c.x, mid.y - c.y) > m.half_len_m + out.passes[j].width_m;
+  for (int k = 0; k < count; ++k)
+    for (int attempt = 0; attempt < kMotuAttempts; ++attempt) {
+      SeededReefDetails::Islet m;
+      if (!place_islet(ring, rng.uniform(-M_PI, M_PI), rng, d_in, d_out, across, mpp, out, first_pass, first_motu, m))
+        continue;
+      out.motu.push_back(m);
+      break;
     }
-    for (size_t j = first_motu; j < out.motu.size() && clear; ++j)
-      clear = std::hypot(out.motu[j].centre_m.x - c.x, out.motu[j].centre_m.y - c.y) >
-              m.half_len_m + out.motu[j].half_len_m;
-    if (clear) out.motu.push_back(m);
-  }
 }
 
 }  // namespace

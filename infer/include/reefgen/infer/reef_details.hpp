@@ -36,7 +36,7 @@ struct SeededReefDetails {
     cv::Point2d centre_m;
     double angle_rad = 0;   // direction of the long axis (along the ring)
     double half_len_m = 0;  // 75–600 m (Johnson & Ortiz: motu 263 ± 210 m wide)
-    double half_wid_m = 0;  // at most a third of the ring's width
+    double half_wid_m = 0;  // at most 30 % of the ring's width there
   };
   std::vector<Pass> passes;
   std::vector<Islet> motu;
