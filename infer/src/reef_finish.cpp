@@ -193,11 +193,14 @@ void finish_painted_reef(cv::Mat1f& h, const cv::Mat1b& label, double world_size
       if (w > 0 || w_down > 0) {
         const float top = std::min(crest + (flat - crest) * ramp(0.3, 0.36, tt) + float(p.top_relief_m) * n, -0.05f);
         z += w * std::max(0.f, top - z);
-        // Away from motu the crest is awash, as the generator builds it: the
-        // network answers a painted crest with cells just above and below
-        // the sea a model cell or two apart, which amplified became a chain
-        // of land beads (0.3–1.7 m, ~44 m apart) along the crest at 4097².
-        if (!near_motu && z > top) z += w_down * (top - z);
+        // The crest is awash, as the generator builds it: the network
+        // answers a painted crest with cells just above and below the sea a
+        // model cell or two apart, which amplified became a chain of land
+        // beads (0.3–1.7 m, ~44 m apart) along the crest at 4097². Beside a
+        // motu too (w_down eases out next to it as next to any painted land;
+        // beads kept within its reach stood as slivers of land along it);
+        // the motu's own profile is raised after.
+        if (z > top) z += w_down * (top - z);
       }
       if (on_motu) {
         const float berm = float(p.motu_height_m) * (1 + 0.2f * n);
