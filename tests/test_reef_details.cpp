@@ -35,7 +35,7 @@ cv::Mat1f ring_answer(const cv::Mat1b& label) {
   return h;
 }
 
-cv::Point2d middle(const reefgen::infer::SeededReefDetails::Pass& p) { return 0.5 * (p.path_m[1] + p.path_m[2]); }
+cv::Point2d middle(const reefgen::infer::SeededReefDetails::Pass& p) { return p.middle_m(); }
 
 double angle_of(const cv::Point2d& m) {
   const double c = 0.5 * kRingSide * kRingCellM;
@@ -148,4 +148,25 @@ TEST(SeededReefDetails, PassesCutTheFinishedCrestAndMotuAreIslets) {
   cv::Mat1f land(N, N, 5.f);
   cut_seeded_passes(land, cv::Mat1b(kRingSide, kRingSide, uint8_t(reefgen::kIsland)), d, out_m, 3);
   EXPECT_EQ(cv::countNonZero(land != 5.f), 0);
+}
+
+// Across a wide ring (~940 m) a pass winds, as real passes do across a reef
+// flat: a straight cut that long reads as a canal at 1:1.
+TEST(SeededReefDetails, APassAcrossAWideRingWinds) {
+  using namespace reefgen::infer;
+  cv::Mat1b label(kRingSide, kRingSide, uint8_t(reefgen::kAbyss));
+  cv::circle(label, cv::Point(kRingSide / 2, kRingSide / 2), 110, cv::Scalar(reefgen::kReef), -1);
+  cv::circle(label, cv::Point(kRingSide / 2, kRingSide / 2), 70, cv::Scalar(reefgen::kLagoon), -1);
+  for (uint64_t seed = 1; seed <= 3; ++seed) {
+    const SeededReefDetails d = plan_reef_details(label, {}, kRingCellM, seed, 1.0);
+    ASSERT_FALSE(d.passes.empty());
+    for (const auto& p : d.passes) {
+      // Its centre line strays from the straight line between its ends by half its width or more.
+      const cv::Point2d ab = p.path_m.back() - p.path_m.front();
+      double stray = 0;
+      for (const auto& q : p.path_m) stray = std::max(stray, std::fabs(ab.cross(q - p.path_m.front())) / std::hypot(ab.x, ab.y));
+      EXPECT_GE(stray, 0.5 * p.width_m) << "seed " << seed;
+      EXPECT_GT(std::hypot(ab.x, ab.y), 900.0);
+    }
+  }
 }

@@ -37,6 +37,8 @@ constexpr double kIsletMaxAreaM2 = 2e6;
 // A pass reaches this many cells past the ring on either side, so the fore
 // reef the network drew beyond the painted band is cut too.
 constexpr double kPassOverhangPx = 3;
+// A pass winds: its bends' wavelength and amplitude, in pass widths.
+constexpr double kPassWaveWidths[2] = {4, 7}, kPassBendWidths[2] = {0.5, 1.0};
 // Features of the pass floor's unevenness, metres.
 constexpr double kPassFloorFeatureM = 80;
 // The pass's walls wander by this share of its half-width, with features of
@@ -201,6 +203,29 @@ cv::Point2d seaward(const cv::Mat1f& across, const Ring& ring, int y, int x) {
   return l > 0 ? u / l : cv::Point2d(1, 0);
 }
 
+// A pass's centre line from a to b (metres): a point every half-width,
+// an odd count so the middle one sits mid-ring, each pushed sideways by two
+// sines of the seed's own (wavelengths 4–7 widths and 0.4–0.6 of that,
+// amplitude 0.5–1 width): a channel that winds across the reef flat as
+// real passes do, however wide the ring (two bends on a narrow ring, a
+// meander across a wide one; a straight cut read as a canal at 1:1).
+std::vector<cv::Point2d> winding_path(const cv::Point2d& a, const cv::Point2d& b, const cv::Point2d& side,
+                                      double width, Rng& rng) {
+  const double length = std::hypot(b.x - a.x, b.y - a.y);
+  const int half = std::max(2, int(std::ceil(length / width)));
+  const double wave = rng.uniform(kPassWaveWidths[0], kPassWaveWidths[1]) * width;
+  const double wave2 = wave * rng.uniform(0.4, 0.6);
+  const double phase = rng.uniform(0, 2 * M_PI), phase2 = rng.uniform(0, 2 * M_PI);
+  const double amp = rng.uniform(kPassBendWidths[0], kPassBendWidths[1]) * width / 1.5;
+  std::vector<cv::Point2d> path;
+  for (int j = 0; j <= 2 * half; ++j) {
+    const double f = double(j) / (2 * half), s = f * length;
+    const double off = amp * (std::sin(2 * M_PI * s / wave + phase) + 0.5 * std::sin(2 * M_PI * s / wave2 + phase2));
+    path.push_back(a + (b - a) * f + side * off);
+  }
+  return path;
+}
+
 void plan_passes(const Ring& ring, double leeward, Rng& rng, const cv::Mat1f& d_in, const cv::Mat1f& d_out,
                  const cv::Mat1f& across, double mpp, SeededReefDetails& out) {
   const int W = d_in.cols;
@@ -216,12 +241,7 @@ void plan_passes(const Ring& ring, double leeward, Rng& rng, const cv::Mat1f& d_
     SeededReefDetails::Pass pass;
     pass.width_m = width;
     pass.depth_m = depth;
-    // Four points across the ring, the middle two pushed sideways: a channel that winds.
-    for (int j = 0; j < 4; ++j) {
-      const double jitter = (j == 1 || j == 2) ? rng.uniform(-0.5, 0.5) * width / mpp : 0.0;
-      const cv::Point2d q = a + (b - a) * (j / 3.0) + side * jitter;
-      pass.path_m.push_back(q * mpp);
-    }
+    pass.path_m = winding_path(a * mpp, b * mpp, side, width, rng);
     out.passes.push_back(std::move(pass));
   }
 }
@@ -249,7 +269,7 @@ bool place_islet(const Ring& ring, double theta, Rng& rng, const cv::Mat1f& d_in
   // width of its curve (sagitta l²/2R ≤ width/4).
   m.half_len_m = std::max(m.half_wid_m, std::min(0.5 * len, std::sqrt(0.5 * ring_r_m * width_px * mpp)));
   for (size_t j = first_pass; j < out.passes.size(); ++j) {
-    const cv::Point2d mid = 0.5 * (out.passes[j].path_m[1] + out.passes[j].path_m[2]);
+    const cv::Point2d mid = out.passes[j].middle_m();
     const double pass_theta = std::atan2(mid.y / mpp - ring.centroid.y, mid.x / mpp - ring.centroid.x);
     if (angle_gap(theta, pass_theta) < kMotuPassGap ||
         std::hypot(mid.x - c.x, mid.y - c.y) <= m.half_len_m + out.passes[j].width_m)

@@ -31,6 +31,8 @@ struct SeededReefDetails {
     std::vector<cv::Point2d> path_m;  // centre line, lagoon side first, metres from the canvas's top-left corner
     double width_m = 0;               // full width (real passes tens of metres to ~1 km; the generator 100–260 m)
     double depth_m = 0;               // floor below sea level, m (the generator 8–20 m)
+    // Where it crosses the middle of the ring (an odd number of points).
+    cv::Point2d middle_m() const { return path_m.empty() ? cv::Point2d() : path_m[path_m.size() / 2]; }
   };
   struct Islet {
     cv::Point2d centre_m;
