@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <fstream>
+#include <numeric>
 #include <optional>
 
 #include <gtest/gtest.h>
@@ -701,11 +702,16 @@ TEST(World, PaintedLandStaysLand) {
   infer::keep_painted_land(h, label);
   EXPECT_EQ(h(32, 32), 40.f);
   EXPECT_EQ(h(32, 2), -5.f);                             // abyss
-  EXPECT_EQ(h(32, 32 - 15), -5.f);                       // lagoon
-  EXPECT_FLOAT_EQ(h(32, 32 - 12), infer::kPaintedCoastFloorM);  // the painted coast
+  EXPECT_EQ(h(32, 32 - 19), -5.f);                       // lagoon, 7 cells out
+  EXPECT_GT(h(32, 32 - 12), infer::kPaintedCoastFloorM);  // the painted coast: land,
+  EXPECT_LT(h(32, 32 - 12), infer::kPaintedLandFloorM);   // low
   EXPECT_FLOAT_EQ(h(32, 32 - 6), infer::kPaintedLandFloorM);    // inland
   EXPECT_GT(h(32, 32 - 11), h(32, 32 - 12));
-  EXPECT_LT(h(32, 32 - 11), infer::kPaintedLandFloorM);
+  // Off the raised coast a shoreface: under water, deepening, down to the floor.
+  EXPECT_LT(h(32, 32 - 13), 0.f);
+  EXPECT_GT(h(32, 32 - 13), -1.f);
+  EXPECT_LT(h(32, 32 - 15), h(32, 32 - 13));
+  EXPECT_GE(h(32, 32 - 15), -5.f);
   const terrain::SketchAgreement a = terrain::sketch_agreement(h, label, lambda);
   EXPECT_EQ(a.land_above_sea, 1.0);
   EXPECT_EQ(a.land_cells, cv::countNonZero(label <= kBeach));
@@ -717,4 +723,42 @@ TEST(World, PaintedLandStaysLand) {
   EXPECT_EQ(terrain::sketch_agreement(half_h, half_label, cv::Mat1f(32, 32, 0.f)).land_cells,
             cv::countNonZero(half_label <= kBeach));
   EXPECT_THROW(infer::keep_painted_land(h, half_label), reefgen::Error);
+}
+
+// A painted coast is a staircase of model cells; kept land by land cell, it
+// came back as one at 1:1. Through the shoreface the upsampled coast of a
+// stepped diagonal is a straight line; a coast the network drew itself is
+// left as it is.
+TEST(World, KeptPaintedCoastIsNoStaircase) {
+  cv::Mat1b label(48, 48, uint8_t(kLagoon));
+  for (int y = 0; y < 48; ++y)
+    for (int x = 0; x < 48; ++x)
+      if (2 * x + y < 60) label(y, x) = kBeach;  // a coast at 63°: a step every two rows
+  cv::Mat1f h(48, 48, -5.f);
+  infer::keep_painted_land(h, label);
+  EXPECT_EQ(terrain::sketch_agreement(h, label, cv::Mat1f(48, 48, 0.f)).land_above_sea, 1.0);
+  cv::Mat1f up;
+  cv::resize(h, up, {240, 240}, 0, 0, cv::INTER_CUBIC);
+  // Per output row, where the coast crosses it, against the painted line
+  // x = (60 − y) / 2 − 0.5 (cells): the mean offset (a little seaward, so
+  // every painted cell is land) and the wobble round it.
+  std::vector<double> off;
+  for (int r = 40; r < 200; ++r) {
+    int c = 0;
+    while (c + 1 < 240 && up(r, c + 1) > 0) ++c;
+    off.push_back((c + 1.0) / 5 - 0.5 - ((60 - ((r + 0.5) / 5 - 0.5)) / 2 - 0.5));
+  }
+  const double mean = std::accumulate(off.begin(), off.end(), 0.0) / double(off.size());
+  double wobble = 0;
+  for (double o : off) wobble = std::max(wobble, std::fabs(o - mean));
+  EXPECT_GT(mean, 0.0);
+  EXPECT_LT(mean, 1.0);
+  EXPECT_LT(wobble, 0.15) << "cells: the staircase's steps show";
+  // The network's own coast (its land on the painted land, its sea below): untouched.
+  cv::Mat1f own(48, 48);
+  for (int y = 0; y < 48; ++y)
+    for (int x = 0; x < 48; ++x) own(y, x) = label(y, x) == kBeach ? 3.f : -4.f;
+  const cv::Mat1f before = own.clone();
+  infer::keep_painted_land(own, label);
+  EXPECT_EQ(cv::norm(own, before, cv::NORM_INF), 0.0);
 }

@@ -137,6 +137,57 @@ cv::Mat1f world_model_heights(model::GeneratorFile& g, const DecodedSketch& sket
   return out;
 }
 
+namespace {
+// Where keep_painted_land raises a painted coast the network drew inland
+// (docs/WORLDS.md), the kept coast is the smoothed painted line, not the
+// painted staircase of model cells (raised cell by cell it came back as a
+// staircase at 1:1): a shoreface runs through it.
+constexpr double kCoastSmoothCells = 1.2;   // σ of the painted coast's smoothing, model cells
+constexpr double kCoastOutsetCells = 0.3;   // the kept coast lies this far seaward of the smoothed line, cells (the staircase's outer corners stay land)
+constexpr double kShorefaceMPerCell = 0.5;  // its rise through the coast, m a model cell (23.4 m: 2 %, a beach)
+constexpr double kShorefaceCells = 2.5;     // how far it runs out to sea at that slope, cells
+constexpr double kForeslopeMPerCell = 4;    // then down at this until it meets the sea floor, m a cell (17 %)
+constexpr double kKeptZoneCells = 4;        // how far round a raised coast the shoreface reaches, cells
+// The blurred mask is read as a distance between these shares (±3.1σ).
+constexpr double kMaskEps = 1e-3;
+
+// Φ⁻¹(m), the standard normal quantile: Newton on Φ from a logistic start.
+double normal_quantile(double m) {
+  double x = std::log(m / (1 - m)) / 1.702;
+  for (int i = 0; i < 5; ++i) {
+    const double cdf = 0.5 * std::erfc(-x / std::sqrt(2.0)), pdf = std::exp(-0.5 * x * x) / std::sqrt(2 * M_PI);
+    x -= (cdf - m) / std::max(pdf, 1e-12);
+  }
+  return x;
+}
+
+// Signed distance to the smoothed painted coast, cells (> 0 on land), the
+// outset included: a blurred straight edge is Φ(x/σ), so σ·Φ⁻¹(m) is the
+// distance where the blurred mask m is between kMaskEps and 1 − kMaskEps;
+// beyond, the exact distance (far from the coast its staircase is harmless).
+cv::Mat1f coast_distance(const cv::Mat1b& land) {
+  cv::Mat1f m, in, out;
+  land.convertTo(m, CV_32F, 1.0 / 255);
+  cv::GaussianBlur(m, m, cv::Size(0, 0), kCoastSmoothCells, kCoastSmoothCells, cv::BORDER_REPLICATE);
+  cv::distanceTransform(land, in, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  cv::distanceTransform(cv::Mat1b(land == 0), out, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  cv::Mat1f sd(land.size());
+  for (int y = 0; y < land.rows; ++y)
+    for (int x = 0; x < land.cols; ++x) {
+      const double v = m(y, x);
+      sd(y, x) = float(kCoastOutsetCells + (v > kMaskEps && v < 1 - kMaskEps ? kCoastSmoothCells * normal_quantile(v)
+                                                                              : double(in(y, x) - out(y, x))));
+    }
+  return sd;
+}
+
+float shoreface_m(double sd) {
+  const double f = sd >= -kShorefaceCells ? kShorefaceMPerCell * sd
+                                          : -kShorefaceMPerCell * kShorefaceCells - kForeslopeMPerCell * (-kShorefaceCells - sd);
+  return std::min(kPaintedLandFloorM, float(f));
+}
+}  // namespace
+
 void keep_painted_land(cv::Mat1f& h, const cv::Mat1b& label) {
   if (h.size() != label.size()) throw Error("internal: painted land and heights differ in size");
   cv::Mat1b land(label.size());
@@ -144,15 +195,28 @@ void keep_painted_land(cv::Mat1f& h, const cv::Mat1b& label) {
     for (int x = 0; x < label.cols; ++x) land(y, x) = label(y, x) == kIsland || label(y, x) == kBeach ? 255 : 0;
   // Distance to the nearest painted water (1 on the coast). A canvas without
   // water has none: every cell is far inland.
+  const bool all_land = cv::countNonZero(land) == int(land.total());
   cv::Mat1f d;
-  if (cv::countNonZero(land) == int(land.total())) d = cv::Mat1f(land.size(), float(1 + kPaintedLandRampPx));
+  if (all_land) d = cv::Mat1f(land.size(), float(1 + kPaintedLandRampPx));
   else cv::distanceTransform(land, d, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  // The painted cells the network left below their floor: round them the shoreface.
+  cv::Mat1f raised(land.size(), 0.f);
   for (int y = 0; y < h.rows; ++y)
     for (int x = 0; x < h.cols; ++x) {
       if (!land(y, x)) continue;
       const double t = std::clamp((d(y, x) - 1.0) / kPaintedLandRampPx, 0.0, 1.0);
       const float floor_m = kPaintedCoastFloorM + (kPaintedLandFloorM - kPaintedCoastFloorM) * float(t * t * (3 - 2 * t));
+      if (h(y, x) < floor_m) raised(y, x) = 1.f;
       h(y, x) = std::max(h(y, x), floor_m);
+    }
+  if (all_land || cv::countNonZero(raised) == 0) return;
+  cv::dilate(raised, raised, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * int(kKeptZoneCells) + 1, 2 * int(kKeptZoneCells) + 1)));
+  cv::GaussianBlur(raised, raised, cv::Size(0, 0), 0.5 * kKeptZoneCells, 0.5 * kKeptZoneCells, cv::BORDER_REPLICATE);
+  const cv::Mat1f sd = coast_distance(land);
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x) {
+      const float w = std::min(1.f, 2.f * raised(y, x)), f = shoreface_m(sd(y, x));
+      if (w > 0 && f > h(y, x)) h(y, x) += w * (f - h(y, x));
     }
 }
 

@@ -34,11 +34,15 @@ inline constexpr double kCoarseFadePx = 32;
 
 // Painted land stays land: where a world's sketch paints island or beach,
 // heights are at least kPaintedLandFloorM, rising from kPaintedCoastFloorM on
-// the painted coast over kPaintedLandRampPx px (model scale). The network
-// sinks the land of subsided islands (atoll islets, a barrier reef's
-// beaches) as the paper's generator does; a painter wants it above the sea
-// (docs/WORLDS.md: 94.6 % of a 2048² archipelago's painted land was).
-inline constexpr float kPaintedCoastFloorM = 0.3f, kPaintedLandFloorM = 1.0f;
+// the painted coast over kPaintedLandRampPx px (model scale); where that
+// raised a coast the network drew inland, a shoreface (2 %, then a 17 %
+// fore-slope to the sea floor) runs through the painted coast smoothed over
+// a model cell, so the kept coast is a curve, not the painted staircase of
+// cells. The network sinks the land of subsided islands (atoll islets, a
+// barrier reef's beaches) as the paper's generator does; a painter wants it
+// above the sea (docs/WORLDS.md: 94.6 % of a 2048² archipelago's painted
+// land was).
+inline constexpr float kPaintedCoastFloorM = 0.05f, kPaintedLandFloorM = 1.0f;
 inline constexpr double kPaintedLandRampPx = 2;
 // Raises `height_m` to the floor above on the painted land of `label` (same size).
 void keep_painted_land(cv::Mat1f& height_m, const cv::Mat1b& label);
