@@ -84,28 +84,26 @@ std::vector<uint8_t> open_lagoons(const cv::Mat1b& label, const cv::Mat1i& lagoo
 cv::Mat1b painted_islets(const cv::Mat1b& label, double mpp) {
   cv::Mat1i comp;
   const int n = cv::connectedComponents(cv::Mat1b((label == kIsland) | (label == kBeach)), comp, 8, CV_32S);
-  std::vector<int64_t> area(size_t(n), 0), reef(size_t(n), 0);
+  std::vector<int64_t> area(size_t(n), 0);
+  std::vector<uint8_t> on_reef(size_t(n), 0);
   for (int y = 0; y < label.rows; ++y)
     for (int x = 0; x < label.cols; ++x) {
       if (land_region(label(y, x))) {
         ++area[size_t(comp(y, x))];
         continue;
       }
-      // A border cell of every islet it touches (counted once per islet).
-      int seen[9], k = 0;
+      if (label(y, x) != kReef) continue;
+      // A reef cell: every islet beside it touches reef.
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
           const int yy = y + dy, xx = x + dx;
-          if (yy < 0 || xx < 0 || yy >= label.rows || xx >= label.cols || !land_region(label(yy, xx))) continue;
-          const int c = comp(yy, xx);
-          if (std::find(seen, seen + k, c) != seen + k) continue;
-          seen[k++] = c;
-          reef[size_t(c)] += label(y, x) == kReef;
+          if (yy >= 0 && xx >= 0 && yy < label.rows && xx < label.cols && land_region(label(yy, xx)))
+            on_reef[size_t(comp(yy, xx))] = 1;
         }
     }
   std::vector<uint8_t> islet(size_t(n), 0);
   for (int c = 1; c < n; ++c)
-    islet[size_t(c)] = double(area[size_t(c)]) * mpp * mpp <= kIsletMaxAreaM2 && reef[size_t(c)] > 0;
+    islet[size_t(c)] = double(area[size_t(c)]) * mpp * mpp <= kIsletMaxAreaM2 && on_reef[size_t(c)];
   cv::Mat1b out(label.size(), uint8_t(0));
   for (int y = 0; y < label.rows; ++y)
     for (int x = 0; x < label.cols; ++x)
@@ -131,11 +129,12 @@ double ring_length_m(const Ring& ring, int W, double mpp) {
 
 // The painted reef rings, with what the painting already shows on each.
 std::vector<Ring> find_rings(const cv::Mat1b& label, const cv::Mat1f& subsidence, double mpp, const cv::Mat1f& d_in,
-                             const cv::Mat1f& d_out, cv::Mat1i& reef_comp) {
+                             const cv::Mat1f& d_out) {
   const int W = label.cols;
   // A ring is its reef and the islets on it: painted motu that span the
   // band do not cut it into rings of their own.
   const cv::Mat1b islets = painted_islets(label, mpp);
+  cv::Mat1i reef_comp;
   const int n = cv::connectedComponents(cv::Mat1b((label == kReef) | islets), reef_comp, 8, CV_32S);
   cv::Mat1i lagoon_comp;
   const int nl = cv::connectedComponents(cv::Mat1b(label == kLagoon), lagoon_comp, 8, CV_32S);
@@ -309,8 +308,7 @@ SeededReefDetails plan_reef_details(const cv::Mat1b& label, const cv::Mat1f& sub
   const cv::Mat1f d_out = distance_to_cells(cv::Mat1b(label == kAbyss));
   cv::Mat1f across = d_out - d_in;
   cv::GaussianBlur(across, across, cv::Size(0, 0), 1.0, 1.0, cv::BORDER_REPLICATE);
-  cv::Mat1i reef_comp;
-  const std::vector<Ring> rings = find_rings(label, lambda, metres_per_px, d_in, d_out, reef_comp);
+  const std::vector<Ring> rings = find_rings(label, lambda, metres_per_px, d_in, d_out);
   // One wind for the canvas (a painting has no wind strokes): the generator
   // draws its windward side at random when none is given.
   Rng wind(seed, 0, "painted-reef-windward");
