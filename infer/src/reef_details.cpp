@@ -10,11 +10,11 @@
 #include "reefgen/rng.hpp"
 #include "reefgen/terrain/noise.hpp"
 
+#include "regions.hpp"
+
 namespace reefgen::infer {
 
 namespace {
-
-bool land_region(uint8_t r) { return r == kIsland || r == kBeach; }
 
 // The generator's sizes (procgen/src/reef.cpp add_random_passes,
 // add_random_motu): passes 100–260 m wide, 8–20 m deep, within ±60° of
@@ -54,13 +54,6 @@ struct Ring {
 
 double angle_gap(double a, double b) { return std::fabs(std::remainder(a - b, 2.0 * M_PI)); }
 
-// Distance (px) from each cell to the nearest cell of `target`.
-cv::Mat1f distance_to_cells(const cv::Mat1b& target) {
-  cv::Mat1f d;
-  cv::distanceTransform(cv::Mat1b(target == 0), d, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-  return d;
-}
-
 // Which lagoon components touch the open sea directly: a painted gap in the
 // ring, that is a painted pass.
 std::vector<uint8_t> open_lagoons(const cv::Mat1b& label, const cv::Mat1i& lagoon_comp, int n) {
@@ -88,7 +81,7 @@ cv::Mat1b painted_islets(const cv::Mat1b& label, double mpp) {
   std::vector<uint8_t> on_reef(size_t(n), 0);
   for (int y = 0; y < label.rows; ++y)
     for (int x = 0; x < label.cols; ++x) {
-      if (land_region(label(y, x))) {
+      if (landlike(label(y, x))) {
         ++area[size_t(comp(y, x))];
         continue;
       }
@@ -97,7 +90,7 @@ cv::Mat1b painted_islets(const cv::Mat1b& label, double mpp) {
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
           const int yy = y + dy, xx = x + dx;
-          if (yy >= 0 && xx >= 0 && yy < label.rows && xx < label.cols && land_region(label(yy, xx)))
+          if (yy >= 0 && xx >= 0 && yy < label.rows && xx < label.cols && landlike(label(yy, xx)))
             on_reef[size_t(comp(yy, xx))] = 1;
         }
     }
@@ -304,8 +297,10 @@ SeededReefDetails plan_reef_details(const cv::Mat1b& label, const cv::Mat1f& sub
   if (!(variation > 0) || label.empty()) return out;
   cv::Mat1f lambda;
   if (!subsidence.empty()) cv::resize(subsidence, lambda, label.size(), 0, 0, cv::INTER_AREA);
-  const cv::Mat1f d_in = distance_to_cells((label == kLagoon) | (label == kIsland) | (label == kBeach));
-  const cv::Mat1f d_out = distance_to_cells(cv::Mat1b(label == kAbyss));
+  // Capped beyond any distance on the canvas (a canvas without open sea or lagoon reads the cap).
+  const float far = float(label.rows + label.cols);
+  const cv::Mat1f d_in = distance_to((label == kLagoon) | (label == kIsland) | (label == kBeach), far);
+  const cv::Mat1f d_out = distance_to(cv::Mat1b(label == kAbyss), far);
   cv::Mat1f across = d_out - d_in;
   cv::GaussianBlur(across, across, cv::Size(0, 0), 1.0, 1.0, cv::BORDER_REPLICATE);
   const std::vector<Ring> rings = find_rings(label, lambda, metres_per_px, d_in, d_out);
@@ -369,7 +364,7 @@ void cut_seeded_passes(cv::Mat1f& h, const cv::Mat1b& label, const SeededReefDet
     const int r0 = std::max(0, int((y0 - reach) / metres_per_px)), r1 = std::min(h.rows - 1, int((y1 + reach) / metres_per_px));
     for (int y = r0; y <= r1; ++y)
       for (int x = c0; x <= c1; ++x) {
-        if (land_region(lab(y, x))) continue;
+        if (landlike(lab(y, x))) continue;
         const cv::Point2d c((x + 0.5) * metres_per_px, (y + 0.5) * metres_per_px);
         const double dist = to_path(p.path_m, c);
         if (dist >= reach) continue;

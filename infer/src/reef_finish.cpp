@@ -13,6 +13,8 @@
 #include "reefgen/terrain/noise.hpp"
 #include "reefgen/terrain/patch_reefs.hpp"
 
+#include "regions.hpp"
+
 namespace reefgen::infer {
 
 namespace {
@@ -52,8 +54,6 @@ constexpr float kMotuApronSlope = 0.5f;
 // apron has reached -48 m by then, below any lagoon floor around it.
 constexpr float kMotuReachM = 150.f;
 
-bool landlike(uint8_t r) { return r == kIsland || r == kBeach; }
-
 // The painted islets small enough to be motu and ringed by reef.
 cv::Mat1b motu_mask(const cv::Mat1b& label, double cell_m, const PaintedReefParams& p) {
   cv::Mat1i comp;
@@ -87,14 +87,6 @@ cv::Mat1b motu_mask(const cv::Mat1b& label, double cell_m, const PaintedReefPara
   for (int y = 0; y < label.rows; ++y)
     for (int x = 0; x < label.cols; ++x) motu(y, x) = is_motu[size_t(comp(y, x))] ? 255 : 0;
   return motu;
-}
-
-// Distance (px) from each cell to the nearest cell where `zero` holds; `cap` where none does.
-cv::Mat1f distance_to(const cv::Mat1b& zero, float cap) {
-  cv::Mat1f d;
-  if (cv::countNonZero(zero) == 0) return cv::Mat1f(zero.size(), cap);
-  cv::distanceTransform(cv::Mat1b(zero == 0), d, cv::DIST_L2, cv::DIST_MASK_PRECISE);
-  return cv::min(d, cap);
 }
 
 // Signed distance (model cells) to the painted islets' edge, > 0 inside,
@@ -140,7 +132,7 @@ cv::Mat1f reef_position(const cv::Mat1b& label, const PaintedReefParams& p, doub
 // Per cell at the output side, with t and the masks interpolated:
 //   w     = ramp(crest_begin − 0.1, crest_begin, t) · (1 − ramp(flat_end, flat_end + 0.1, t)) · reef
 //   top   = crest_m → flat_m across t 0.3–0.36, + top_relief_m · noise, ≤ −5 cm
-//   h    += w · max(0, top − h), and away from motu, where h > top,
+//   h    += w · max(0, top − h), and where h > top,
 //   h    += w_down · (top − h),  w_down = reef band, eased out next to painted land
 // and on motu (sd: the signed distance to the painted islet's edge, metres,
 // wandering with the noise) h = max(h, a beach from the flat to +0.3 m at the
@@ -181,8 +173,8 @@ void finish_painted_reef(cv::Mat1f& h, const cv::Mat1b& label, double world_size
       const float tt = t(y, x);
       const float w = ramp(p.crest_begin - 0.1, p.crest_begin, tt) * (1 - ramp(p.flat_end, p.flat_end + 0.1, tt)) * reef(y, x);
       const bool near_motu = sd(y, x) > -reach_px + 0.5f;
-      // Land on the reef band is lowered to the top (away from motu and
-      // painted land), also seaward of the crest where w eases in and
+      // Land on the reef band is lowered to the top (eased off painted
+      // land, motu included), also seaward of the crest where w eases in and
       // beside a pass, which is painted lagoon.
       const float w_down = ramp(kShoreEaseFromM, kShoreEaseToM, from_land(y, x) * label_cell_m) *
                            (reef_band(y, x) || open_sea(y, x) ? 1.f : std::min(1.f, reef(y, x) / kBandEdgeReef));

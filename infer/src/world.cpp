@@ -165,11 +165,11 @@ double normal_quantile(double m) {
 // outset included: a blurred straight edge is Φ(x/σ), so σ·Φ⁻¹(m) is the
 // distance where the blurred mask m is between kMaskEps and 1 − kMaskEps;
 // beyond, the exact distance (far from the coast its staircase is harmless).
-cv::Mat1f coast_distance(const cv::Mat1b& land) {
-  cv::Mat1f m, in, out;
+// in: each land cell's distance to the painted water (0 on water).
+cv::Mat1f coast_distance(const cv::Mat1b& land, const cv::Mat1f& in) {
+  cv::Mat1f m, out;
   land.convertTo(m, CV_32F, 1.0 / 255);
   cv::GaussianBlur(m, m, cv::Size(0, 0), kCoastSmoothCells, kCoastSmoothCells, cv::BORDER_REPLICATE);
-  cv::distanceTransform(land, in, cv::DIST_L2, cv::DIST_MASK_PRECISE);
   cv::distanceTransform(cv::Mat1b(land == 0), out, cv::DIST_L2, cv::DIST_MASK_PRECISE);
   cv::Mat1f sd(land.size());
   for (int y = 0; y < land.rows; ++y)
@@ -212,11 +212,13 @@ void keep_painted_land(cv::Mat1f& h, const cv::Mat1b& label) {
   if (all_land || cv::countNonZero(raised) == 0) return;
   cv::dilate(raised, raised, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * int(kKeptZoneCells) + 1, 2 * int(kKeptZoneCells) + 1)));
   cv::GaussianBlur(raised, raised, cv::Size(0, 0), 0.5 * kKeptZoneCells, 0.5 * kKeptZoneCells, cv::BORDER_REPLICATE);
-  const cv::Mat1f sd = coast_distance(land);
+  const cv::Mat1f sd = coast_distance(land, d);
   for (int y = 0; y < h.rows; ++y)
     for (int x = 0; x < h.cols; ++x) {
-      const float w = std::min(1.f, 2.f * raised(y, x)), f = shoreface_m(sd(y, x));
-      if (w > 0 && f > h(y, x)) h(y, x) += w * (f - h(y, x));
+      const float w = std::min(1.f, 2.f * raised(y, x));
+      if (w <= 0) continue;
+      const float f = shoreface_m(sd(y, x));
+      if (f > h(y, x)) h(y, x) += w * (f - h(y, x));
     }
 }
 

@@ -5,8 +5,9 @@
 // surroundings. Coral keeps up with subsidence (that is what a living reef
 // is), so inside the painted reef ring the reef top is grown back to the
 // generator's crest and reef flat, and small painted islets on the ring are
-// raised as motu. It lifts, except land the model left on the reef band
-// away from motu and painted shores, which goes awash (the generator's
+// raised as motu. It lifts, except land the model left on the reef band,
+// just off it and on the painted open sea, eased off painted shores and
+// motu, which goes awash (the generator's
 // crest is awash; the network's, a chain of land beads); a painted gap (a
 // pass) or the lagoon is never touched. LibTorch-free.
 #include <cstdint>
@@ -38,7 +39,7 @@ struct PaintedReefParams {
 cv::Mat1f reef_position(const cv::Mat1b& label, const PaintedReefParams& p, double world_size_m, cv::Mat1b& motu);
 
 // Lifts h (any side, square) to the painted reef's top and motu, and lowers
-// the reef band's land to that top away from motu and painted land. label:
+// the land on and off the reef band to that top, eased off painted land. label:
 // the regions at the model's side (amplify_heights' label_s).
 void finish_painted_reef(cv::Mat1f& h, const cv::Mat1b& label, double world_size_m, uint64_t seed,
                          const PaintedReefParams& p = {});
