@@ -11,6 +11,7 @@
 #include "reefgen/infer/reef_finish.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/spec.hpp"
+#include "reefgen/terrain/pits.hpp"
 
 using namespace reefgen;
 using namespace reefgen::infer;
@@ -161,6 +162,58 @@ TEST(PaintedReef, SameSeedSameBytesOtherSeedOtherRelief) {
   const cv::Mat1f x = finished(a, 256, 7), y = finished(a, 256, 7), z = finished(a, 256, 8);
   EXPECT_EQ(cv::norm(x, y, cv::NORM_INF), 0.0);
   EXPECT_GT(cv::norm(x, z, cv::NORM_INF), 0.01);
+}
+
+// A wide motu is a low islet, not a dome: a painted islet ~470 × 210 m on a
+// reef ring, which the network answered as an 8 m hill, finished and graded
+// as amplify_heights does, then settled — at most the berm (2.5 m ± 20 %)
+// everywhere, its inside a flat of ~2 m (real motu 1–4 m, docs/REEF.md),
+// with no hollow the pit draining would breach (≤ kPitDepthM). Graded
+// without settle_motu it stands as a dome over 4 m.
+TEST(PaintedReef, AWideMotuIsALowIsletNotADome) {
+  const PaintedReefParams p;
+  cv::Mat1b label(kSide, kSide, uint8_t(kAbyss));
+  cv::circle(label, {64, 64}, 52, cv::Scalar(kReef), -1);
+  cv::circle(label, {64, 64}, 30, cv::Scalar(kLagoon), -1);
+  const cv::Point islet(64, 23);
+  cv::ellipse(label, islet, {10, 4}, 0, 0, 360, cv::Scalar(kBeach), -1);
+  cv::Mat1f model_m(kSide, kSide, -60.f);
+  for (int y = 0; y < kSide; ++y)
+    for (int x = 0; x < kSide; ++x) {
+      if (label(y, x) == kLagoon) model_m(y, x) = -25.f;
+      if (label(y, x) == kReef) model_m(y, x) = -1.f;
+      const double e = std::hypot((x - islet.x) / 10.0, (y - islet.y) / 4.0);
+      if (e < 1.2) model_m(y, x) = float(8 * (1 - e * e / 1.44));
+    }
+  const int N = 4 * kSide;
+  const double cell_m = kWorldM / N;
+  cv::Mat1f graded;
+  cv::resize(model_m, graded, cv::Size(N, N), 0, 0, cv::INTER_CUBIC);
+  finish_painted_reef(graded, label, kWorldM, 5, p);
+  terrain::grade_land(graded, cell_m);
+  cv::Mat1f settled = graded.clone();
+  settle_motu(settled, label, kWorldM, 5, p);
+  cv::Mat1b inside(N, N, uint8_t(0)), middle(N, N, uint8_t(0));
+  cv::ellipse(inside, islet * 4, {40, 16}, 0, 0, 360, cv::Scalar(255), -1);
+  cv::ellipse(middle, islet * 4, {20, 6}, 0, 0, 360, cv::Scalar(255), -1);
+  double graded_top = 0, top = 0, low = 0;
+  cv::minMaxLoc(graded, nullptr, &graded_top, nullptr, nullptr, inside);
+  cv::minMaxLoc(settled, &low, &top, nullptr, nullptr, inside);
+  EXPECT_GT(graded_top, 4.0);
+  EXPECT_LE(top, 1.2 * p.motu_height_m + 0.01);
+  EXPECT_GT(top, 1.0);
+  double mid_low = 0;
+  cv::minMaxLoc(settled, &mid_low, nullptr, nullptr, nullptr, middle);
+  EXPECT_GT(mid_low, 1.5);
+  EXPECT_LT(cv::mean(settled, middle)[0], 3.0);
+  // Only lowered; nothing off the islet moved.
+  EXPECT_LE(cv::norm(settled, graded, cv::NORM_INF, settled > graded), 0.0);
+  cv::Mat1b near;
+  cv::dilate(inside, near, cv::Mat1b::ones(41, 41));
+  EXPECT_EQ(cv::norm(settled, graded, cv::NORM_INF, ~near), 0.0);
+  // No hollow deep enough for the pit draining to fill or breach.
+  cv::Mat1f drained = settled.clone();
+  EXPECT_EQ(terrain::drain_pits(drained, terrain::kPitDepthM, 5.f, cell_m), 0);
 }
 
 // The painted reef's top is the generator's (procgen CoralParams).

@@ -357,6 +357,7 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
     drain_pits(land, kPitDepthM, float(p.pit_breach_m), world_size_m / N);
     if (p.enabled && lowland_relief) add_lowland_relief(land, 0, seed);
     grade_land(land, world_size_m / N);
+    if (p.enabled) settle_motu(land, label_s, world_size_m, seed);
     return land;
   }
   auto detail = [&](int L, const cv::Mat1f& up) {
@@ -375,6 +376,7 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
   drain_pits(out, kPitDepthM, float(p.pit_breach_m), world_size_m / N);
   if (lowland_relief) add_lowland_relief(out, 0, seed);
   grade_land(out, world_size_m / N);
+  settle_motu(out, label_s, world_size_m, seed);
   return out;
 }
 

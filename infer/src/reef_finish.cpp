@@ -53,6 +53,26 @@ constexpr float kMotuApronSlope = 0.5f;
 // Beyond this distance from a painted islet nothing is motu, metres: the
 // apron has reached -48 m by then, below any lagoon floor around it.
 constexpr float kMotuReachM = 150.f;
+// A motu's inside (docs/REEF.md "Motu"): behind the berm a flat at its
+// height with swales and low beach ridges of ±kMotuSwaleM over features
+// kMotuSwaleFeatureM apart, eased in over kMotuInteriorM. Sand drains into
+// the ground, not in streams, so nothing grades it towards the sea, and no
+// hollow is deeper than kPitDepthM (0.5 m), from which the pit draining would
+// breach it. (A storm ridge higher than the flat behind it makes a level
+// crest line along the whole shore: the straight flat strip the realism
+// report counts as a channel.)
+constexpr float kMotuInteriorM = 30.f;
+constexpr float kMotuSwaleM = 0.2f;
+constexpr float kMotuSwaleFeatureM = 25.f;
+
+// Height of a motu sd_m metres inside its wandered edge (sd_m ≥ 0): the
+// beach's top at the edge, the berm kMotuBermM in, then the interior.
+// n: the shore noise (the berm's height varies with it), swale: noise in [-1, 1].
+float motu_inside_m(float sd_m, float n, float swale, const PaintedReefParams& p) {
+  const float berm = float(p.motu_height_m) * (1 + 0.2f * n);
+  if (sd_m < kMotuBermM) return kMotuShoreM + (berm - kMotuShoreM) * ramp(0, kMotuBermM, sd_m);
+  return berm + kMotuSwaleM * swale * ramp(kMotuBermM, kMotuBermM + kMotuInteriorM, sd_m);
+}
 
 // The painted islets small enough to be motu and ringed by reef.
 cv::Mat1b motu_mask(const cv::Mat1b& label, double cell_m, const PaintedReefParams& p) {
@@ -108,6 +128,21 @@ cv::Mat1f resized(const cv::Mat1f& m, int side) {
   return out;
 }
 
+// The motu's signed distance (label cells) at side N, blurred a little: the
+// painted edge is a staircase of model cells.
+cv::Mat1f motu_distance_at(const cv::Mat1b& motu_s, float reach_px, int N) {
+  cv::Mat1f sd = motu_signed_distance(motu_s, reach_px);
+  cv::GaussianBlur(sd, sd, cv::Size(0, 0), 0.7, 0.7, cv::BORDER_REPLICATE);
+  return resized(sd, N);
+}
+
+// Irregular islets, not the painted disc: the shore (sd_raw metres from the
+// painted edge, n the shore noise) wanders with the noise; the apron below
+// it does not (it would be as rough as the wander).
+float wandered_m(float sd_raw, float n) {
+  return sd_raw + kMotuOutlineWanderM * n * ramp(-3 * kMotuBeachM, -kMotuBeachM, sd_raw);
+}
+
 }  // namespace
 
 cv::Mat1f reef_position(const cv::Mat1b& label, const PaintedReefParams& p, double world_size_m, cv::Mat1b& motu) {
@@ -147,15 +182,14 @@ void finish_painted_reef(cv::Mat1f& h, const cv::Mat1b& label, double world_size
   const bool any_motu = cv::countNonZero(motu_s) > 0;
   const float label_cell_m = float(world_size_m / label.cols);
   const float reach_px = std::max(2.f, kMotuReachM / label_cell_m);
-  cv::Mat1f sd_s = any_motu ? motu_signed_distance(motu_s, reach_px) : cv::Mat1f(label.size(), -reach_px);
   // Blurred over a model cell: the painted edges are pixel staircases, and a
   // distance ratio over a staircase kinks wherever the staircase steps.
   cv::Mat1f t_smooth;
   cv::GaussianBlur(t_s, t_smooth, cv::Size(0, 0), kZoneBlurPx, kZoneBlurPx, cv::BORDER_REPLICATE);
   cv::GaussianBlur(reef_s, reef_s, cv::Size(0, 0), kZoneBlurPx, kZoneBlurPx, cv::BORDER_REPLICATE);
-  if (any_motu) cv::GaussianBlur(sd_s, sd_s, cv::Size(0, 0), 0.7, 0.7, cv::BORDER_REPLICATE);
   const int N = h.cols;
-  const cv::Mat1f t = resized(t_smooth, N), reef = resized(reef_s, N), sd = resized(sd_s, N);
+  const cv::Mat1f t = resized(t_smooth, N), reef = resized(reef_s, N);
+  const cv::Mat1f sd = any_motu ? motu_distance_at(motu_s, reach_px, N) : cv::Mat1f(N, N, -reach_px);
   // The painted reef band itself (not eased): land on it is lowered fully,
   // easing out next to painted land (kShoreEase*), where a fringing reef
   // meets its shore.
@@ -180,10 +214,8 @@ void finish_painted_reef(cv::Mat1f& h, const cv::Mat1b& label, double world_size
                            (reef_band(y, x) || open_sea(y, x) ? 1.f : std::min(1.f, reef(y, x) / kBandEdgeReef));
       if (w <= 0 && w_down <= 0 && !near_motu) continue;
       const float n = noise.fbm(float(x) * per_feature, float(y) * per_feature, 3);
-      // Irregular islets, not the painted disc: the shore wanders with the
-      // noise; the apron below it does not (it would be as rough as the wander).
       const float sd_raw = sd(y, x) * label_cell_m;
-      const float sd_m = sd_raw + kMotuOutlineWanderM * n * ramp(-3 * kMotuBeachM, -kMotuBeachM, sd_raw);
+      const float sd_m = wandered_m(sd_raw, n);
       // Faded in from the edge of its reach, so the apron ends without a step.
       // Seaward of the crest the apron gives way to the fore reef.
       const float apron_w = sd_m >= 0 ? 1.f : ramp(p.crest_begin - 0.1, p.crest_begin, tt);
@@ -203,12 +235,39 @@ void finish_painted_reef(cv::Mat1f& h, const cv::Mat1b& label, double world_size
         if (z > top) z += w_down * (top - z);
       }
       if (on_motu) {
-        const float berm = float(p.motu_height_m) * (1 + 0.2f * n);
         const float lv = sd_m < -kMotuBeachM ? flat - kMotuApronSlope * (-kMotuBeachM - sd_m)
                          : sd_m < 0 ? flat + (kMotuShoreM - flat) * ramp(-kMotuBeachM, 0, sd_m)
-                                    : kMotuShoreM + (berm - kMotuShoreM) * ramp(0, kMotuBermM, sd_m);
+                                    : motu_inside_m(std::min(sd_m, kMotuBermM), n, 0, p);
         z += reach_w * std::max(0.f, lv - z);
       }
+    }
+}
+
+void settle_motu(cv::Mat1f& h, const cv::Mat1b& label, double world_size_m, uint64_t seed,
+                 const PaintedReefParams& p) {
+  if (h.empty() || h.rows != h.cols || label.empty() || label.rows != label.cols)
+    throw Error("painted motu: the height field and the label map must be square");
+  const float label_cell_m = float(world_size_m / label.cols);
+  const cv::Mat1b motu_s = motu_mask(label, label_cell_m, p);
+  if (cv::countNonZero(motu_s) == 0) return;
+  const float reach_px = std::max(2.f, kMotuReachM / label_cell_m);
+  const int N = h.cols;
+  const cv::Mat1f sd = motu_distance_at(motu_s, reach_px, N);
+  // The shore noise of finish_painted_reef (the same outline and berm).
+  const terrain::GradientNoise2 noise(derive_seed(seed, 0, "painted-reef-top"));
+  const terrain::GradientNoise2 swales(derive_seed(seed, 0, "motu-swales"));
+  const float cell_m = float(world_size_m / N);
+  const float per_feature = cell_m / kTopFeatureM, per_swale = cell_m / kMotuSwaleFeatureM;
+  for (int y = 0; y < N; ++y)
+    for (int x = 0; x < N; ++x) {
+      const float sd_raw = sd(y, x) * label_cell_m;
+      // The wander moves the edge by at most its amplitude.
+      if (sd_raw <= -kMotuOutlineWanderM) continue;
+      const float n = noise.fbm(float(x) * per_feature, float(y) * per_feature, 3);
+      const float sd_m = wandered_m(sd_raw, n);
+      if (sd_m <= 0) continue;
+      const float swale = std::clamp(swales.fbm(float(x) * per_swale, float(y) * per_swale, 2), -1.f, 1.f);
+      h(y, x) = std::min(h(y, x), motu_inside_m(sd_m, n, swale, p));
     }
 }
 

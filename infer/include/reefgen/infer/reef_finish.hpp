@@ -44,6 +44,16 @@ cv::Mat1f reef_position(const cv::Mat1b& label, const PaintedReefParams& p, doub
 void finish_painted_reef(cv::Mat1f& h, const cv::Mat1b& label, double world_size_m, uint64_t seed,
                          const PaintedReefParams& p = {});
 
+// The painted motu's inside, after the land is graded (docs/REEF.md "Motu"):
+// no higher than a berm of motu_height_m along its shore and a flat at that
+// height behind it with swales (real motu 1–4 m). The graded fall towards the sea
+// (terrain::grade_land) raised a wide motu into a 5–7 m dome, and the
+// network's answer to a painted dot can stand higher; sand drains into the
+// ground, so a motu needs no fall. Only lowers, only inside the islets
+// finish_painted_reef raised. label: the regions at the model's side.
+void settle_motu(cv::Mat1f& h, const cv::Mat1b& label, double world_size_m, uint64_t seed,
+                 const PaintedReefParams& p = {});
+
 // Patch reefs on the painted lagoon's floor (docs/REEF.md "Painted
 // lagoons"). The training targets' lagoons hold patch reefs at random places
 // the sketch does not show, so an L1-trained network answers their average:
