@@ -2,6 +2,7 @@
 // blurred model answer of an atoll (a rim at -6 m, a lagoon at -25 m, a
 // pass, five islets) gets its crest at sea level, its motu above it, and
 // nothing else moves.
+#include <algorithm>
 #include <cmath>
 
 #include <gtest/gtest.h>
@@ -214,6 +215,79 @@ TEST(PaintedReef, AWideMotuIsALowIsletNotADome) {
   // No hollow deep enough for the pit draining to fill or breach.
   cv::Mat1f drained = settled.clone();
   EXPECT_EQ(terrain::drain_pits(drained, terrain::kPitDepthM, 5.f, cell_m), 0);
+}
+
+// No model grid in the finished top at 1:1: the zones are eased in from the
+// label's cells, and bilinear weights kink at every cell edge — on the dark
+// atoll's world at 4097² the reef top's curvature peaked 1.13–1.22× its
+// median at the grid's phase. Measured here the same way, on the painted
+// atoll finished at 8 pixels a label cell: the mean |∂²h| on the reef top
+// (−2…+0.2 m) by x mod 8 (and y mod 8), peak over median, ≤ 1.1.
+TEST(PaintedReef, NoModelGridInTheFinishedTop) {
+  constexpr int kScale = 8;
+  const PaintedAtoll a = painted_atoll();
+  const cv::Mat1f h = finished(a, kScale * kSide);
+  for (const bool along_x : {true, false}) {
+    std::vector<double> sum(kScale, 0.0);
+    std::vector<int64_t> n(kScale, 0);
+    for (int y = 1; y + 1 < h.rows; ++y)
+      for (int x = 1; x + 1 < h.cols; ++x) {
+        if (!(h(y, x) > -2.f && h(y, x) < 0.2f)) continue;
+        const float d2 = along_x ? h(y, x - 1) - 2 * h(y, x) + h(y, x + 1) : h(y - 1, x) - 2 * h(y, x) + h(y + 1, x);
+        const int phase = (along_x ? x : y) % kScale;
+        sum[size_t(phase)] += std::abs(d2), ++n[size_t(phase)];
+      }
+    std::vector<double> mean(kScale);
+    for (int k = 0; k < kScale; ++k) {
+      ASSERT_GT(n[size_t(k)], 1000);
+      mean[size_t(k)] = sum[size_t(k)] / double(n[size_t(k)]);
+    }
+    std::vector<double> sorted = mean;
+    std::sort(sorted.begin(), sorted.end());
+    const double median = 0.5 * (sorted[kScale / 2 - 1] + sorted[kScale / 2]);
+    EXPECT_LE(sorted.back() / median, 1.1) << (along_x ? "columns" : "rows");
+  }
+}
+
+// No shelf seaward of the crest: a model answer that keeps a wide painted
+// reef (a ring 700 m across, 30 label cells) at −5 m out to its seaward
+// edge, then drops (what the network draws round a wide painted reef, seen
+// from above as a ring), gets a fore reef that descends from the crest to
+// the edge: going outwards along a ray it never rises by more than the top's
+// relief, and a cell in from the edge it lies deeper than −8 m
+// (fore_edge_m −15 at the edge itself; −5 m without it).
+TEST(PaintedReef, TheForeReefDescendsFromTheCrestWithoutAShelf) {
+  constexpr double kIn = 20, kOut = 50;
+  cv::Mat1b label(kSide, kSide, uint8_t(kAbyss));
+  cv::Mat1f model_m(kSide, kSide, -80.f);
+  for (int y = 0; y < kSide; ++y)
+    for (int x = 0; x < kSide; ++x) {
+      const double r = radius_px(x, y);
+      if (r < kIn) label(y, x) = kLagoon, model_m(y, x) = -25.f;
+      else if (r < kOut) label(y, x) = kReef, model_m(y, x) = -5.f;
+    }
+  const int N = 4 * kSide;
+  cv::Mat1f h;
+  cv::resize(model_m, h, cv::Size(N, N), 0, 0, cv::INTER_NEAREST);
+  finish_painted_reef(h, label, kWorldM, 1);
+  const double c = (N - 1) / 2.0, scale = double(N) / kSide;
+  for (int k = 0; k < 16; ++k) {
+    const double th = 2 * M_PI * k / 16;
+    auto at = [&](double r_label) {
+      return h(int(std::lround(c + r_label * scale * std::sin(th))), int(std::lround(c + r_label * scale * std::cos(th))));
+    };
+    // The crest: the highest cell across the band; then outwards to the edge.
+    double r_crest = kIn;
+    for (double r = kIn; r < kOut; r += 0.25)
+      if (at(r) > at(r_crest)) r_crest = r;
+    EXPECT_GT(r_crest, kIn + 0.6 * (kOut - kIn)) << "ray " << k;
+    float lowest = at(r_crest);
+    for (double r = r_crest; r < kOut - 0.5; r += 0.25) {
+      ASSERT_LE(at(r), lowest + 0.3f) << "ray " << k << " rises at r " << r;
+      lowest = std::min(lowest, at(r));
+    }
+    EXPECT_LT(at(kOut - 1), -8.f) << "ray " << k;
+  }
 }
 
 // The painted reef's top is the generator's (procgen CoralParams).

@@ -40,6 +40,8 @@ constexpr float kShoreEaseFromM = 25.f, kShoreEaseToM = 70.f;
 constexpr float kBandEdgeReef = 0.2f;
 // Blur of the painted zones (t, the reef mask), model cells.
 constexpr double kZoneBlurPx = 1.0;
+// Blur of a zone field after its upsampling, source cells.
+constexpr double kZoneUpsampleBlur = 0.5;
 // A motu's shore: its outline wanders by this much with the noise, its beach
 // rises from the reef flat to +0.3 m over kMotuBeachM seaward of the painted
 // edge, then the berm over kMotuBermM inland (beaches a few tens of metres wide).
@@ -121,10 +123,18 @@ cv::Mat1f motu_signed_distance(const cv::Mat1b& motu, float reach_px) {
   return sd;
 }
 
+// A zone field at the output side: upsampled bilinear, then blurred over
+// half a source cell. Bilinear weights kink at every source cell's edge, and
+// a reef top or a knoll eased by them showed the model's 23.4 m grid as
+// facets at 1:1 (bicubic kinks there too: its curvature is discontinuous).
 cv::Mat1f resized(const cv::Mat1f& m, int side) {
   if (m.cols == side) return m.clone();
   cv::Mat1f out;
   cv::resize(m, out, cv::Size(side, side), 0, 0, side > m.cols ? cv::INTER_LINEAR : cv::INTER_AREA);
+  if (side > 2 * m.cols) {
+    const double sigma = kZoneUpsampleBlur * side / m.cols;
+    cv::GaussianBlur(out, out, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
+  }
   return out;
 }
 
@@ -212,7 +222,8 @@ void finish_painted_reef(cv::Mat1f& h, const cv::Mat1b& label, double world_size
       // beside a pass, which is painted lagoon.
       const float w_down = ramp(kShoreEaseFromM, kShoreEaseToM, from_land(y, x) * label_cell_m) *
                            (reef_band(y, x) || open_sea(y, x) ? 1.f : std::min(1.f, reef(y, x) / kBandEdgeReef));
-      if (w <= 0 && w_down <= 0 && !near_motu) continue;
+      const bool fore_reef = tt < p.crest_begin && reef(y, x) > 0;
+      if (w <= 0 && w_down <= 0 && !near_motu && !fore_reef) continue;
       const float n = noise.fbm(float(x) * per_feature, float(y) * per_feature, 3);
       const float sd_raw = sd(y, x) * label_cell_m;
       const float sd_m = wandered_m(sd_raw, n);
@@ -222,6 +233,13 @@ void finish_painted_reef(cv::Mat1f& h, const cv::Mat1b& label, double world_size
       const float reach_w = apron_w * ramp(-reach_px * label_cell_m, -reach_px * label_cell_m + kMotuBermM, sd_raw);
       const bool on_motu = near_motu;
       float& z = h(y, x);
+      // The fore reef: from the crest down to fore_edge_m at the band's
+      // seaward edge (t 0), steepening outwards; only lowering.
+      if (fore_reef) {
+        const float out = 1.f - tt / float(p.crest_begin);
+        const float fore = crest + (float(p.fore_edge_m) - crest) * out;
+        if (z > fore) z += reef(y, x) * (fore - z);
+      }
       if (w > 0 || w_down > 0) {
         const float top = std::min(crest + (flat - crest) * ramp(0.3, 0.36, tt) + float(p.top_relief_m) * n, -0.05f);
         z += w * std::max(0.f, top - z);

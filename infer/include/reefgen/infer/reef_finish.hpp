@@ -27,6 +27,11 @@ struct PaintedReefParams {
   double crest_begin = 0.22;      // t where the crest reaches its height, [0, 1]
   double flat_end = 0.5;          // t where the flat starts to give way to the back reef, [0, 1]
   double top_relief_m = 0.25;     // irregularity of the crest and flat, metres, [0, 1]
+  // Seaward of the crest the fore reef descends from it to this depth at the
+  // painted band's seaward edge (the generator's reef label ends at −3…−20 m),
+  // steepening outwards, where the network left a shelf (−3…−7 m, ~100 m
+  // wide, then a 60 m drop: a ring round every wide painted reef).
+  double fore_edge_m = -15;       // fore reef depth at the band's seaward edge, metres, [-60, 0]
   // Motu: islets of painted beach or island wholly on the ring.
   double motu_height_m = 2.5;     // berm height, metres, [0.5, 5] (real motu 1-4 m, docs/REEF.md)
   double motu_max_width_m = 500;  // a wider painted islet is an island, left to the model, m (real 263 ± 210), > 0
