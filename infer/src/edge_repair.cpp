@@ -107,9 +107,28 @@ void repair_canvas_edges(cv::Mat1f& h, const EdgeRepairParams& p) {
 }
 
 
+namespace {
+// The floor at the fore reef's foot blurred over the floor alone, where the
+// open sea's smoothing did not reach (its weight `done` below 1; see
+// smooth_open_sea).
+void smooth_fore_reef_foot(cv::Mat1f& h, const cv::Mat1f& done, const OpenSeaSmoothing& p) {
+  const cv::Mat1b floor = h < float(p.foot_from_m);
+  if (cv::countNonZero(floor) == 0) return;
+  const MaskedBlur deep = masked_blur(h, floor, p.sigma_px);
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x) {
+      if (!floor(y, x) || deep.weight(y, x) < 1e-6f || done(y, x) >= 1.f) continue;
+      const double t = std::clamp((p.foot_from_m - h(y, x)) / (p.foot_from_m - p.foot_full_m), 0.0, 1.0);
+      const double w = t * t * (3 - 2 * t) * (1.0 - done(y, x));
+      const float mean = std::min(deep.sum(y, x) / deep.weight(y, x), float(p.foot_from_m));
+      h(y, x) = float(h(y, x) + w * (mean - h(y, x)));
+    }
+}
+}  // namespace
+
 void smooth_open_sea(cv::Mat1f& h, const OpenSeaSmoothing& p) {
   if (p.sigma_px <= 0) return;
-  cv::Mat1f smooth, highest;
+  cv::Mat1f smooth, highest, done(h.size());
   cv::GaussianBlur(h, smooth, cv::Size(0, 0), p.sigma_px, p.sigma_px, cv::BORDER_REPLICATE);
   const int k = 2 * int(std::ceil(2 * p.sigma_px)) + 1;
   cv::dilate(h, highest, cv::Mat1b::ones(k, k), cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
@@ -118,7 +137,9 @@ void smooth_open_sea(cv::Mat1f& h, const OpenSeaSmoothing& p) {
       const double t = std::clamp((p.from_m - highest(y, x)) / (p.from_m - p.full_m), 0.0, 1.0);
       const double w = t * t * (3 - 2 * t);
       h(y, x) = float(h(y, x) + w * (smooth(y, x) - h(y, x)));
+      done(y, x) = float(w);
     }
+  smooth_fore_reef_foot(h, done, p);
 }
 
 void smooth_lagoon_floor(cv::Mat1f& h, const cv::Mat1b& label, const LagoonSmoothing& p) {

@@ -30,6 +30,8 @@ struct OpenSeaSmoothing {
   double sigma_px = 4;    // Gaussian σ, model cells (94 m), [0, 16] (0 = off)
   double from_m = -20;    // a cell whose neighbourhood (±2σ) reaches above this is not moved, metres
   double full_m = -40;    // fully smoothed where the whole neighbourhood lies below this, metres
+  double foot_from_m = -60;  // the fore reef's foot: cells below this are also blurred over the floor alone, metres
+  double foot_full_m = -70;  // fully from this depth, metres
 };
 
 // The ghost contours of the open sea: an L1-trained network answers the
@@ -40,6 +42,12 @@ struct OpenSeaSmoothing {
 // the deep sea, weighted by how deep the cell's whole neighbourhood (±2σ)
 // lies: the reef, its fore-reef slope and any land are never moved; the
 // floor's broad relief (~1.5 km features) keeps most of its amplitude.
+// Within ±2σ of the rim that smoothing stops, and the ripples the network
+// draws parallel to the rim on the floor at the fore reef's foot (±0.5–1 m,
+// 2–4 cells apart; from above, rings round every painted reef) stayed: the
+// floor below foot_from_m is blurred over itself alone (normalised
+// convolution over the cells that deep), so the drop above it is neither
+// pulled down nor smeared.
 void smooth_open_sea(cv::Mat1f& h, const OpenSeaSmoothing& p = {});
 
 struct LagoonSmoothing {
