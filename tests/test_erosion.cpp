@@ -75,6 +75,35 @@ int cells_in_pits(const cv::Mat1f& h) {
 // depression with relief of its own. Filling it leaves a dead-flat floor;
 // breaching cuts the rim and keeps the relief. A deep pit is filled to
 // breach_m below its spill, then breached.
+// Upsampling without overshoot: a shoreface at −1 m beside the network's
+// moat at −20 m (a step of 19 m between two model cells), ×16. The bicubic
+// rises above the shoreface by more than a metre next to the step — a lip of
+// land at 1:1 once above the sea; upsampled_within_cells stays within the
+// two cells around each sample, and on a smooth field (a paraboloid) it is
+// the bicubic itself.
+TEST(Upsample, WithinCellsHasNoOvershootAndIsBicubicWhereSmooth) {
+  constexpr int kS = 16, kScale = 16, kN = kS * kScale;
+  cv::Mat1f step(kS, kS), smooth(kS, kS);
+  for (int y = 0; y < kS; ++y)
+    for (int x = 0; x < kS; ++x) {
+      step(y, x) = x < kS / 2 ? -20.f : -1.f;
+      smooth(y, x) = float(0.1 * ((x - 7.3) * (x - 7.3) + (y - 8.1) * (y - 8.1)));
+    }
+  const cv::Mat1f cubic = terrain::resampled(step, kN, cv::INTER_CUBIC);
+  const cv::Mat1f clamped = terrain::upsampled_within_cells(step, kN);
+  double cubic_top = 0, top = 0, low = 0;
+  cv::minMaxLoc(cubic, nullptr, &cubic_top);
+  cv::minMaxLoc(clamped, &low, &top);
+  EXPECT_GT(cubic_top, 0.0);
+  EXPECT_LE(top, -1.0);
+  EXPECT_GE(low, -20.0);
+  // Monotone across the step, as its source is.
+  for (int x = 1; x < kN; ++x) ASSERT_GE(clamped(kN / 2, x), clamped(kN / 2, x - 1)) << x;
+  const cv::Mat1f a = terrain::resampled(smooth, kN, cv::INTER_CUBIC), b = terrain::upsampled_within_cells(smooth, kN);
+  const cv::Rect inner(2 * kScale, 2 * kScale, kN - 4 * kScale, kN - 4 * kScale);
+  EXPECT_LT(cv::norm(a(inner), b(inner), cv::NORM_INF), 0.05);
+}
+
 TEST(Flood, DrainPitsBreachesShallowDepressionsAndFillsDeepOnes) {
   const int W = 24;
   cv::Mat1f plain(W, W, -10.f);

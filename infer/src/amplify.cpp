@@ -349,7 +349,7 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
                 a.steps,
                 p.duration_yr * a.duration_scale, p);
   }
-  cv::Mat1f land = resampled(coarse, N, cv::INTER_CUBIC);
+  cv::Mat1f land = upsampled_within_cells(coarse, N);
   if (N <= S || !p.enabled) {
     if (N < S) cv::resize(coarse, land, cv::Size(N, N), 0, 0, cv::INTER_AREA);
     if (p.enabled) finish_painted_reef(land, label_s, world_size_m, seed);

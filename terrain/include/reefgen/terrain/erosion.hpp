@@ -134,6 +134,14 @@ constexpr float kLandFloorM = 0.1f;
 // side×side by `interpolation`; a copy when the size is already right.
 cv::Mat1f resampled(const cv::Mat1f& m, int side, int interpolation);
 
+// Upsampled bicubic to side×side, each value clamped to the lowest and
+// highest of the 2×2 source cells around it (those a bilinear sample reads):
+// no overshoot. Next to a step of the model's answer (an 18 m drop from a
+// shoreface into the network's moat, a fore reef's drop) the bicubic
+// overshoots by a tenth of the step, which stood at 1:1 as a lip of land
+// along the coast or a crest above the sea.
+cv::Mat1f upsampled_within_cells(const cv::Mat1f& m, int side);
+
 // Detail a refinement level adds on land at side L (`up`: the level's
 // upsampled heights): an fBm tile at 4 cells per feature (3 octaves),
 // ± 0.4 cell sizes in metres (relief that grows with the scale, as in
