@@ -75,33 +75,38 @@ int cells_in_pits(const cv::Mat1f& h) {
 // depression with relief of its own. Filling it leaves a dead-flat floor;
 // breaching cuts the rim and keeps the relief. A deep pit is filled to
 // breach_m below its spill, then breached.
-// Upsampling without overshoot: a shoreface at −1 m beside the network's
-// moat at −20 m (a step of 19 m between two model cells), ×16. The bicubic
-// rises above the shoreface by more than a metre next to the step — a lip of
-// land at 1:1 once above the sea; upsampled_within_cells stays within the
-// two cells around each sample, and on a smooth field (a paraboloid) it is
-// the bicubic itself.
+// Upsampling without overshoot: a shoreface at −0.5 m beside the network's
+// moat at −20 m (a step between two model cells), ×16: the bicubic rises
+// above the sea next to the step — a lip of land at 1:1 — and dips below the
+// moat; upsampled_within_cells stays within [−20, −0.5] and rises
+// monotonically across the step, as its source does. The same on land (a
+// plain at +0.5 m beside a 20 m scarp: the bicubic dips under the sea). On
+// a smooth field (a paraboloid of land) it is the bicubic within 3 cm.
 TEST(Upsample, WithinCellsHasNoOvershootAndIsBicubicWhereSmooth) {
   constexpr int kS = 16, kScale = 16, kN = kS * kScale;
-  cv::Mat1f step(kS, kS), smooth(kS, kS);
+  cv::Mat1f water(kS, kS), land(kS, kS), smooth(kS, kS);
   for (int y = 0; y < kS; ++y)
     for (int x = 0; x < kS; ++x) {
-      step(y, x) = x < kS / 2 ? -20.f : -1.f;
-      smooth(y, x) = float(0.1 * ((x - 7.3) * (x - 7.3) + (y - 8.1) * (y - 8.1)));
+      water(y, x) = x < kS / 2 ? -20.f : -0.5f;
+      land(y, x) = x < kS / 2 ? 20.f : 0.5f;
+      smooth(y, x) = float(1 + 0.1 * ((x - 7.3) * (x - 7.3) + (y - 8.1) * (y - 8.1)));
     }
-  const cv::Mat1f cubic = terrain::resampled(step, kN, cv::INTER_CUBIC);
-  const cv::Mat1f clamped = terrain::upsampled_within_cells(step, kN);
-  double cubic_top = 0, top = 0, low = 0;
-  cv::minMaxLoc(cubic, nullptr, &cubic_top);
-  cv::minMaxLoc(clamped, &low, &top);
+  double cubic_top = 0, top = 0, low = 0, cubic_low = 0;
+  cv::minMaxLoc(terrain::resampled(water, kN, cv::INTER_CUBIC), nullptr, &cubic_top);
+  const cv::Mat1f w = terrain::upsampled_within_cells(water, kN);
+  cv::minMaxLoc(w, &low, &top);
   EXPECT_GT(cubic_top, 0.0);
-  EXPECT_LE(top, -1.0);
-  EXPECT_GE(low, -20.0);
-  // Monotone across the step, as its source is.
-  for (int x = 1; x < kN; ++x) ASSERT_GE(clamped(kN / 2, x), clamped(kN / 2, x - 1)) << x;
+  EXPECT_LE(top, -0.5 + 1e-5);
+  EXPECT_GE(low, -20.0 - 1e-5);
+  for (int x = 1; x < kN; ++x) ASSERT_GE(w(kN / 2, x), w(kN / 2, x - 1)) << x;
+  cv::minMaxLoc(terrain::resampled(land, kN, cv::INTER_CUBIC), &cubic_low);
+  cv::minMaxLoc(terrain::upsampled_within_cells(land, kN), &low);
+  EXPECT_LE(cubic_low, 0.0);
+  EXPECT_GE(low, 0.5 - 1e-5);
   const cv::Mat1f a = terrain::resampled(smooth, kN, cv::INTER_CUBIC), b = terrain::upsampled_within_cells(smooth, kN);
-  const cv::Rect inner(2 * kScale, 2 * kScale, kN - 4 * kScale, kN - 4 * kScale);
-  EXPECT_LT(cv::norm(a(inner), b(inner), cv::NORM_INF), 0.05);
+  // (Off the canvas edge's outer half-cell, where the bicubic extrapolates.)
+  const cv::Rect inner(kScale, kScale, kN - 2 * kScale, kN - 2 * kScale);
+  EXPECT_LT(cv::norm(a(inner), b(inner), cv::NORM_INF), 0.03);
 }
 
 TEST(Flood, DrainPitsBreachesShallowDepressionsAndFillsDeepOnes) {
@@ -283,6 +288,41 @@ TEST(Flood, GradeLandLeavesNoFlatOnLand) {
 // with a binary heap on the same (height, index) order: the same pop order,
 // receivers and filled surface on rough fields with many depressions (the
 // drainage sums, and so every eroded island, depend on that order).
+// A graded plain has no scarps: a round coastal plain 500 m across at
+// 0.1–0.5 m (a speckle of lows and highs, one every cell, as a low plain's
+// noise leaves it) graded at 3 m cells rises to its middle with no step
+// between two neighbours larger than the fall of a diagonal at the steepest
+// grade plus the input's own step there, and every land cell keeps a
+// neighbour lower by its fall. Graded in the order of the input's own
+// flood, low spots reached along long winding paths stood 0.2–0.3 m above
+// neighbours reached along short ones.
+TEST(Flood, AGradedPlainHasNoScarps) {
+  constexpr int kSide = 201;
+  constexpr double kCellM = 3;
+  cv::Mat1f h(kSide, kSide, -5.f);
+  uint64_t state = 7;
+  auto uniform = [&] { state = state * 6364136223846793005ull + 1442695040888963407ull; return double(state >> 11) / double(1ull << 53); };
+  for (int y = 0; y < kSide; ++y)
+    for (int x = 0; x < kSide; ++x)
+      if (std::hypot(x - 100, y - 100) < 85) h(y, x) = float(0.1 + 0.4 * uniform());
+  cv::Mat1f g = h.clone();
+  ASSERT_GT(grade_land(g, kCellM), 1000);
+  const float diag_fall = float(1.85 * kLandMinSlope * kCellM * M_SQRT2) + 1e-4f;
+  for (int y = 1; y < kSide - 1; ++y)
+    for (int x = 1; x < kSide - 1; ++x) {
+      if (!(g(y, x) > 0)) continue;
+      ASSERT_GE(g(y, x), h(y, x));
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          if (!(g(y + dy, x + dx) > 0)) continue;
+          const float own = std::abs(h(y + dy, x + dx) - h(y, x));
+          ASSERT_LE(std::abs(g(y + dy, x + dx) - g(y, x)), std::max(diag_fall, own) + 1e-4f)
+              << "a step between (" << x << ", " << y << ") and its neighbour (" << dx << ", " << dy << ")";
+        }
+      EXPECT_GE(steepest_fall(g, y, x, kCellM), 0.99 * kLandMinSlope) << "flat at (" << x << ", " << y << ")";
+    }
+}
+
 TEST(Flood, RouteEqualsABinaryHeapPriorityFlood) {
   for (uint64_t seed : {1u, 2u, 3u}) {
     const int W = 64;

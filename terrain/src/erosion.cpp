@@ -149,27 +149,15 @@ void erode_level(cv::Mat1f& h, const cv::Mat1f& K, double dx, int steps, double 
 
 cv::Mat1f upsampled_within_cells(const cv::Mat1f& m, int side) {
   cv::Mat1f up = resampled(m, side, cv::INTER_CUBIC);
-  if (side <= m.cols || m.rows != m.cols) return up;
-  const int S = m.cols;
-  const double scale = double(S) / side;
-  // The source cell at or left of each output coordinate (OpenCV's
-  // pixel-centre mapping), and the next one.
-  std::vector<int> lo(static_cast<size_t>(side)), hi(static_cast<size_t>(side));
-  for (int i = 0; i < side; ++i) {
-    const double s = (i + 0.5) * scale - 0.5;
-    lo[size_t(i)] = std::clamp(int(std::floor(s)), 0, S - 1);
-    hi[size_t(i)] = std::min(lo[size_t(i)] + 1, S - 1);
-  }
-  for (int y = 0; y < side; ++y) {
-    const float *r0 = m.ptr<float>(lo[size_t(y)]), *r1 = m.ptr<float>(hi[size_t(y)]);
-    float* out = up.ptr<float>(y);
-    for (int x = 0; x < side; ++x) {
-      const int a = lo[size_t(x)], b = hi[size_t(x)];
-      const float least = std::min(std::min(r0[a], r0[b]), std::min(r1[a], r1[b]));
-      const float most = std::max(std::max(r0[a], r0[b]), std::max(r1[a], r1[b]));
-      out[x] = std::clamp(out[x], least, most);
-    }
-  }
+  if (side <= m.cols) return up;
+  // The bounds: the highest and lowest of each cell's 3×3 neighbourhood,
+  // upsampled bilinearly (continuous, so the clamp adds no edge of its own).
+  cv::Mat1f most, least;
+  cv::dilate(m, most, cv::Mat1b::ones(3, 3), cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+  cv::erode(m, least, cv::Mat1b::ones(3, 3), cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+  most = resampled(most, side, cv::INTER_LINEAR);
+  least = resampled(least, side, cv::INTER_LINEAR);
+  cv::min(cv::max(up, least), most, up);
   return up;
 }
 

@@ -143,41 +143,71 @@ void cut_banks(cv::Mat1f& h, const std::vector<int>& cut, const std::vector<floa
   }
 }
 
-// grade_land's sweep over h (the land's box of the field, its top-left
-// cell at `origin` of the field), counting the cells it raises. A cell is
-// held to its lowest neighbour already final (every receiver is, by the
-// flood's order), not to its receiver alone: in a flat of equal heights the
-// flood routes cells through one another in queue order, and a cell with a
-// lower neighbour beside it would be raised along that chain.
+// grade_land over h (the land's box of the field, its top-left cell at
+// `origin` of the field), counting the cells it raises: the least surface
+// z ≥ h on which every land cell has a neighbour lower by its fall, found as
+// Dijkstra's shortest paths from the sea with the keys the output heights
+// (Barnes, Lehman & Mulla 2014's Priority-Flood+ε: the queue holds the
+// raised values, not the input's). A sweep in the order of the input's own
+// flood raised a low spot reached early along a long winding path and left
+// the neighbours reached later along a short one lower: steps of 0.2–0.3 m
+// along the borders between the two, a network of scarps over a graded
+// coastal plain at 1:1.
 int64_t grade_box(cv::Mat1f& h, cv::Point origin, double cell_m, double slope) {
   check_interrupt();
   const cv::Mat1b role = sea_and_edge_roles(h);
-  const FloodRoute fr = flood_route(h, role);
+  if (!h.isContinuous()) h = h.clone();
   float* z = h.ptr<float>();
+  const uint8_t* rl = role.ptr<uint8_t>();
   const int W = h.cols, H = h.rows;
-  std::vector<uint8_t> final_(h.total());
-  for (size_t i = 0; i < final_.size(); ++i) final_[i] = role.ptr<uint8_t>()[i] != kActive;
   // The fall varies over the ground, `slope` to (1 + kGradeVariation) times
   // it, one feature every kGradeFeaturePx cells (of the field, wherever the
   // box lies): one fall everywhere made a graded plain a perfect cone, every
   // row of it one step apart.
   const NoiseTile& tile = NoiseTile::get(2);
   const float texels_per_px = float(NoiseTile::kBaseCell) / kGradeFeaturePx;
-  int64_t raised = 0;
-  for (const int i : fr.order) {
-    const int x = i % W, y = i / W;
+  const auto rise_at = [&](int x, int y) {
     const float n = std::clamp(
         tile.sample_cubic(float(origin.x + x) * texels_per_px, float(origin.y + y) * texels_per_px), -1.f, 1.f);
-    const float rise = float(slope * cell_m) * (1.f + kGradeVariation * 0.5f * (1.f + n));
-    float least = std::numeric_limits<float>::max();
+    return float(slope * cell_m) * (1.f + kGradeVariation * 0.5f * (1.f + n));
+  };
+  using Item = std::pair<float, int>;  // (height, flat index): ties by index, so the result is a pure function
+  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> open;
+  std::vector<float> best(h.total(), std::numeric_limits<float>::infinity());
+  std::vector<uint8_t> final_(h.total(), 0);
+  // Land next to the sea (or the canvas edge) is at least the land's floor,
+  // or its fall above edge land.
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const int i = y * W + x;
+      if (rl[i] != kActive) continue;
+      const float rise = rise_at(x, y);
+      float least = std::numeric_limits<float>::infinity();
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int j = (y + dy) * W + x + dx;
+          if ((dx == 0 && dy == 0) || rl[j] != kOutlet) continue;
+          least = std::min(least, z[j] > 0 ? z[j] + rise * (dx != 0 && dy != 0 ? float(M_SQRT2) : 1.f) : kLandFloorM);
+        }
+      if (least == std::numeric_limits<float>::infinity()) continue;
+      best[size_t(i)] = std::max(z[i], least);
+      open.emplace(best[size_t(i)], i);
+    }
+  int64_t raised = 0;
+  while (!open.empty()) {
+    const auto [v, i] = open.top();
+    open.pop();
+    if (final_[size_t(i)]) continue;
+    final_[size_t(i)] = 1;
+    if (z[i] < v) z[i] = v, ++raised;
+    const int x = i % W, y = i / W;
     for (int dy = -1; dy <= 1; ++dy)
       for (int dx = -1; dx <= 1; ++dx) {
         const int nx = x + dx, ny = y + dy, j = ny * W + nx;
-        if ((dx == 0 && dy == 0) || nx < 0 || ny < 0 || nx >= W || ny >= H || !final_[size_t(j)]) continue;
-        least = std::min(least, z[j] > 0 ? z[j] + rise * (dx != 0 && dy != 0 ? float(M_SQRT2) : 1.f) : kLandFloorM);
+        if ((dx == 0 && dy == 0) || rl[j] != kActive || final_[size_t(j)]) continue;
+        const float c = std::max(z[j], v + rise_at(nx, ny) * (dx != 0 && dy != 0 ? float(M_SQRT2) : 1.f));
+        if (c < best[size_t(j)]) best[size_t(j)] = c, open.emplace(c, j);
       }
-    if (z[i] < least) z[i] = least, ++raised;
-    final_[size_t(i)] = 1;
   }
   return raised;
 }

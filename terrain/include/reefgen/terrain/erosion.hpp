@@ -134,12 +134,15 @@ constexpr float kLandFloorM = 0.1f;
 // side×side by `interpolation`; a copy when the size is already right.
 cv::Mat1f resampled(const cv::Mat1f& m, int side, int interpolation);
 
-// Upsampled bicubic to side×side, each value clamped to the lowest and
-// highest of the 2×2 source cells around it (those a bilinear sample reads):
-// no overshoot. Next to a step of the model's answer (an 18 m drop from a
-// shoreface into the network's moat, a fore reef's drop) the bicubic
-// overshoots by a tenth of the step, which stood at 1:1 as a lip of land
-// along the coast or a crest above the sea.
+// Upsampled bicubic to side×side without overshoot: each value stays within
+// the bilinear upsampling of the highest and lowest of each source cell's
+// 3×3 neighbourhood (continuous bounds: a clamp to the 2×2 cells a sample
+// lies between jumps where those cells change, and clamping only where the
+// sea level was crossed drew the clamp's outline as a step). Next to a step
+// of the model's answer (an 18 m drop from a shoreface into the network's
+// moat, a fore reef's drop) the bicubic overshoots by a tenth of the step,
+// which stood at 1:1 as a lip of land along the coast or a crest above the
+// sea. Where the field is smooth (no overshoot) it is the bicubic itself.
 cv::Mat1f upsampled_within_cells(const cv::Mat1f& m, int side);
 
 // Detail a refinement level adds on land at side L (`up`: the level's
