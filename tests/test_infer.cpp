@@ -725,6 +725,30 @@ TEST(World, PaintedLandStaysLand) {
   EXPECT_THROW(infer::keep_painted_land(h, half_label), reefgen::Error);
 }
 
+// Round a painted island the network left under water, the raised coast's
+// shoreface descends without a trench: along rows out of the island, for
+// ten cells from the coast, no cell is lower than the next one out. Shares
+// of the blurred coast mask in 0.001–0.0056 (3–3.7 cells out) were read as
+// distances of up to −1e12 cells, and a trench a cell wide ran where the
+// shoreface should have.
+TEST(World, KeptShorefaceDescendsWithoutATrench) {
+  // Painted islands of many shapes (ellipses of several sizes and tilts), so
+  // the blurred mask takes every share along their shores.
+  for (int k = 0; k < 24; ++k) {
+    cv::Mat1b label(64, 64, uint8_t(kLagoon));
+    cv::ellipse(label, {32, 32}, {8 + k % 7, 6 + k % 5}, 15.0 * k, 0, 360, cv::Scalar(kBeach), -1);
+    cv::Mat1f h(64, 64, -20.f);
+    infer::keep_painted_land(h, label);
+    for (int y = 18; y < 46; ++y) {
+      if (label(y, 32) != kBeach) continue;  // rows through the island's middle: outwards is to the right
+      int x = 32;
+      while (x < 63 && label(y, x) == kBeach) ++x;
+      for (const int end = std::min(63, x + 10); x < end; ++x)
+        ASSERT_GE(h(y, x), h(y, x + 1) - 1e-4f) << "island " << k << ": a trench at (" << x << ", " << y << ")";
+    }
+  }
+}
+
 // A painted coast is a staircase of model cells; kept land by land cell, it
 // came back as one at 1:1. Through the shoreface the upsampled coast of a
 // stepped diagonal is a straight line; a coast the network drew itself is

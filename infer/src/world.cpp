@@ -8,6 +8,7 @@
 
 #include "reefgen/constants.hpp"
 #include "reefgen/error.hpp"
+#include "reefgen/normal.hpp"
 #include "reefgen/infer/edge_repair.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/rng.hpp"
@@ -148,35 +149,39 @@ constexpr double kShorefaceMPerCell = 0.5;  // its rise through the coast, m a m
 constexpr double kShorefaceCells = 2.5;     // how far it runs out to sea at that slope, cells
 constexpr double kForeslopeMPerCell = 4;    // then down at this until it meets the sea floor, m a cell (17 %)
 constexpr double kKeptZoneCells = 4;        // how far round a raised coast the shoreface reaches, cells
-// The blurred mask is read as a distance between these shares (±3.1σ).
-constexpr double kMaskEps = 1e-3;
-
-// Φ⁻¹(m), the standard normal quantile: Newton on Φ from a logistic start.
-double normal_quantile(double m) {
-  double x = std::log(m / (1 - m)) / 1.702;
-  for (int i = 0; i < 5; ++i) {
-    const double cdf = 0.5 * std::erfc(-x / std::sqrt(2.0)), pdf = std::exp(-0.5 * x * x) / std::sqrt(2 * M_PI);
-    x -= (cdf - m) / std::max(pdf, 1e-12);
-  }
-  return x;
-}
+// The blurred mask is read as a distance between these shares (±5.2σ, past
+// the foreslope's foot: nearer, the exact distance's staircase showed in the
+// foreslope), handing over to the exact distance between the first and the
+// second (a switch at one share stepped the shoreface there). The blur's
+// kernel reaches ±6σ so the tails hold those shares.
+constexpr double kMaskEps = 1e-7, kMaskBlendEps = 1e-6;
 
 // Signed distance to the smoothed painted coast, cells (> 0 on land), the
 // outset included: a blurred straight edge is Φ(x/σ), so σ·Φ⁻¹(m) is the
 // distance where the blurred mask m is between kMaskEps and 1 − kMaskEps;
-// beyond, the exact distance (far from the coast its staircase is harmless).
+// beyond, the exact distance (far from the coast its staircase is
+// harmless), blended in between kMaskBlendEps and kMaskEps.
 // in: each land cell's distance to the painted water (0 on water).
 cv::Mat1f coast_distance(const cv::Mat1b& land, const cv::Mat1f& in) {
   cv::Mat1f m, out;
   land.convertTo(m, CV_32F, 1.0 / 255);
-  cv::GaussianBlur(m, m, cv::Size(0, 0), kCoastSmoothCells, kCoastSmoothCells, cv::BORDER_REPLICATE);
+  const int k = 2 * int(std::ceil(6 * kCoastSmoothCells)) + 1;
+  cv::Mat1d md;
+  m.convertTo(md, CV_64F);
+  cv::GaussianBlur(md, md, cv::Size(k, k), kCoastSmoothCells, kCoastSmoothCells, cv::BORDER_REPLICATE);
   cv::distanceTransform(cv::Mat1b(land == 0), out, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  const double log_eps = std::log(kMaskEps), log_blend = std::log(kMaskBlendEps);
   cv::Mat1f sd(land.size());
   for (int y = 0; y < land.rows; ++y)
     for (int x = 0; x < land.cols; ++x) {
-      const double v = m(y, x);
-      sd(y, x) = float(kCoastOutsetCells + (v > kMaskEps && v < 1 - kMaskEps ? kCoastSmoothCells * normal_quantile(v)
-                                                                              : double(in(y, x) - out(y, x))));
+      const double v = md(y, x), tail = std::min(v, 1 - v);
+      const double exact = double(in(y, x) - out(y, x));
+      double d = exact;
+      if (tail > kMaskEps) {
+        const double b = std::clamp((std::log(tail) - log_eps) / (log_blend - log_eps), 0.0, 1.0);
+        d = exact + b * (kCoastSmoothCells * normal_quantile(v) - exact);
+      }
+      sd(y, x) = float(kCoastOutsetCells + d);
     }
   return sd;
 }
