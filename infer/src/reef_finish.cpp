@@ -234,7 +234,7 @@ void finish_painted_reef(cv::Mat1f& h, const cv::Mat1b& label, double world_size
       const bool on_motu = near_motu;
       float& z = h(y, x);
       // The fore reef: from the crest down to fore_edge_m at the band's
-      // seaward edge (t 0), steepening outwards; only lowering.
+      // seaward edge (t 0), linearly across it; only lowering.
       if (fore_reef) {
         const float out = 1.f - tt / float(p.crest_begin);
         const float fore = crest + (float(p.fore_edge_m) - crest) * out;

@@ -29,7 +29,7 @@ struct PaintedReefParams {
   double top_relief_m = 0.25;     // irregularity of the crest and flat, metres, [0, 1]
   // Seaward of the crest the fore reef descends from it to this depth at the
   // painted band's seaward edge (the generator's reef label ends at −3…−20 m),
-  // steepening outwards, where the network left a shelf (−3…−7 m, ~100 m
+  // linearly across the band, where the network left a shelf (−3…−7 m, ~100 m
   // wide, then a 60 m drop: a ring round every wide painted reef).
   double fore_edge_m = -15;       // fore reef depth at the band's seaward edge, metres, [-60, 0]
   // Motu: islets of painted beach or island wholly on the ring.
