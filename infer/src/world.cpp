@@ -163,11 +163,10 @@ constexpr double kMaskEps = 1e-7, kMaskBlendEps = 1e-6;
 // harmless), blended in between kMaskBlendEps and kMaskEps.
 // in: each land cell's distance to the painted water (0 on water).
 cv::Mat1f coast_distance(const cv::Mat1b& land, const cv::Mat1f& in) {
-  cv::Mat1f m, out;
-  land.convertTo(m, CV_32F, 1.0 / 255);
+  cv::Mat1f out;
   const int k = 2 * int(std::ceil(6 * kCoastSmoothCells)) + 1;
   cv::Mat1d md;
-  m.convertTo(md, CV_64F);
+  land.convertTo(md, CV_64F, 1.0 / 255);
   cv::GaussianBlur(md, md, cv::Size(k, k), kCoastSmoothCells, kCoastSmoothCells, cv::BORDER_REPLICATE);
   cv::distanceTransform(cv::Mat1b(land == 0), out, cv::DIST_L2, cv::DIST_MASK_PRECISE);
   const double log_eps = std::log(kMaskEps), log_blend = std::log(kMaskBlendEps);

@@ -166,11 +166,16 @@ int64_t grade_box(cv::Mat1f& h, cv::Point origin, double cell_m, double slope) {
   // row of it one step apart.
   const NoiseTile& tile = NoiseTile::get(2);
   const float texels_per_px = float(NoiseTile::kBaseCell) / kGradeFeaturePx;
-  const auto rise_at = [&](int x, int y) {
-    const float n = std::clamp(
-        tile.sample_cubic(float(origin.x + x) * texels_per_px, float(origin.y + y) * texels_per_px), -1.f, 1.f);
-    return float(slope * cell_m) * (1.f + kGradeVariation * 0.5f * (1.f + n));
-  };
+  // Each land cell's fall over one step, sampled once (the search relaxes a
+  // cell from up to eight neighbours).
+  std::vector<float> rise(h.total(), 0.f);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      if (rl[y * W + x] != kActive) continue;
+      const float n = std::clamp(
+          tile.sample_cubic(float(origin.x + x) * texels_per_px, float(origin.y + y) * texels_per_px), -1.f, 1.f);
+      rise[size_t(y * W + x)] = float(slope * cell_m) * (1.f + kGradeVariation * 0.5f * (1.f + n));
+    }
   using Item = std::pair<float, int>;  // (height, flat index): ties by index, so the result is a pure function
   std::priority_queue<Item, std::vector<Item>, std::greater<Item>> open;
   std::vector<float> best(h.total(), std::numeric_limits<float>::infinity());
@@ -181,13 +186,13 @@ int64_t grade_box(cv::Mat1f& h, cv::Point origin, double cell_m, double slope) {
     for (int x = 0; x < W; ++x) {
       const int i = y * W + x;
       if (rl[i] != kActive) continue;
-      const float rise = rise_at(x, y);
+      const float fall = rise[size_t(i)];
       float least = std::numeric_limits<float>::infinity();
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
           const int j = (y + dy) * W + x + dx;
           if ((dx == 0 && dy == 0) || rl[j] != kOutlet) continue;
-          least = std::min(least, z[j] > 0 ? z[j] + rise * (dx != 0 && dy != 0 ? float(M_SQRT2) : 1.f) : kLandFloorM);
+          least = std::min(least, z[j] > 0 ? z[j] + fall * (dx != 0 && dy != 0 ? float(M_SQRT2) : 1.f) : kLandFloorM);
         }
       if (least == std::numeric_limits<float>::infinity()) continue;
       best[size_t(i)] = std::max(z[i], least);
@@ -205,7 +210,7 @@ int64_t grade_box(cv::Mat1f& h, cv::Point origin, double cell_m, double slope) {
       for (int dx = -1; dx <= 1; ++dx) {
         const int nx = x + dx, ny = y + dy, j = ny * W + nx;
         if ((dx == 0 && dy == 0) || rl[j] != kActive || final_[size_t(j)]) continue;
-        const float c = std::max(z[j], v + rise_at(nx, ny) * (dx != 0 && dy != 0 ? float(M_SQRT2) : 1.f));
+        const float c = std::max(z[j], v + rise[size_t(j)] * (dx != 0 && dy != 0 ? float(M_SQRT2) : 1.f));
         if (c < best[size_t(j)]) best[size_t(j)] = c, open.emplace(c, j);
       }
   }
