@@ -12,6 +12,45 @@
 
 namespace reefgen::infer {
 
+namespace {
+// (a⁻ᵖ + b⁻ᵖ)^(−1/p), p = 4: below both, within 16 % of the smaller, and
+// smooth where they cross (a hard min turns there); of two 1-Lipschitz
+// fields it is 1-Lipschitz (its gradient's weights sum to ≤ 1).
+constexpr double kSoftMinPower = 8;
+float soft_minimum(float a, float b) {
+  if (!(a > 0.f) || !(b > 0.f)) return std::max(0.f, std::min(a, b));
+  const double m = std::min(a, b), ra = m / a, rb = m / b;
+  return float(m * std::pow(std::pow(ra, kSoftMinPower) + std::pow(rb, kSoftMinPower), -1.0 / kSoftMinPower));
+}
+}  // namespace
+
+cv::Mat1f creaseless_distance(const cv::Mat1f& dist_px) {
+  cv::Mat1f out = dist_px.clone();
+  cv::Mat1i comp, stats;
+  cv::Mat1d centroids;
+  const int n = cv::connectedComponentsWithStats(dist_px > 0.f, comp, stats, centroids, 8, CV_32S);
+  for (int c = 1; c < n; ++c) {
+    const cv::Rect box(stats(c, cv::CC_STAT_LEFT), stats(c, cv::CC_STAT_TOP), stats(c, cv::CC_STAT_WIDTH),
+                       stats(c, cv::CC_STAT_HEIGHT));
+    double widest = 0;
+    cv::minMaxLoc(dist_px(box), nullptr, &widest, nullptr, nullptr, comp(box) == c);
+    // Land without sea on the canvas reads an unbounded distance: the
+    // blur is held to the canvas's own size.
+    const double sigma = kRerollCreaseShare * std::min(widest, double(std::max(dist_px.rows, dist_px.cols)));
+    if (sigma < 0.5) continue;
+    // The blur's reach around the island: 3σ.
+    const int m = int(std::ceil(3 * sigma));
+    const cv::Rect roi = cv::Rect(box.x - m, box.y - m, box.width + 2 * m, box.height + 2 * m) &
+                         cv::Rect(0, 0, dist_px.cols, dist_px.rows);
+    cv::Mat1f smooth;
+    cv::GaussianBlur(dist_px(roi), smooth, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
+    for (int y = box.y; y < box.y + box.height; ++y)
+      for (int x = box.x; x < box.x + box.width; ++x)
+        if (comp(y, x) == c) out(y, x) = soft_minimum(out(y, x), smooth(y - roi.y, x - roi.x));
+  }
+  return out;
+}
+
 cv::Mat1f reroll_land(const cv::Mat1f& height_m, double metres_per_px, uint64_t seed, double variation) {
   if (!(variation >= 0 && variation <= 1)) throw Error("reroll: variation must be in [0, 1]");
   if (!(metres_per_px > 0)) throw Error("reroll: the cell size must be positive");
@@ -20,6 +59,7 @@ cv::Mat1f reroll_land(const cv::Mat1f& height_m, double metres_per_px, uint64_t 
   const cv::Mat1b land = height_m > 0.f;
   cv::Mat1f dist;
   cv::distanceTransform(land, dist, cv::DIST_L2, cv::DIST_MASK_PRECISE);
+  dist = creaseless_distance(dist);
   const terrain::GradientNoise2 nx(derive_seed(seed, 0, "reroll-x")), ny(derive_seed(seed, 0, "reroll-y"));
   const float features_per_px = float(metres_per_px / kRerollFeatureM);
   const float k = float(variation * kRerollShiftShare);

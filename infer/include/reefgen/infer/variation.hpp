@@ -27,6 +27,18 @@ inline constexpr double kRerollLean = 0.7;
 inline constexpr double kRerollBend = 0.8;
 inline constexpr double kGoldenRatioConjugate = 0.6180339887498949;
 
+// The distance to the coast has creases along each island's medial axis
+// (its gradient turns there); a warp ∝ that distance folds the answer's
+// flanks into a V along each crease and, where creases meet, into a closed
+// basin (12 m deep, 1.4 × 3.5 km on a 20 km island) that the erosion
+// deepens and the pit draining then cuts a straight gorge out of. Each
+// island's D is replaced by min(D, G_σ ∗ D), σ = this share of the island's
+// widest D: still ≤ D and 1-Lipschitz (no fold, the coast unmoved), smooth
+// across the creases.
+inline constexpr double kRerollCreaseShare = 0.2;
+// dist_px: the distance to the nearest sea cell (0 at sea), px.
+cv::Mat1f creaseless_distance(const cv::Mat1f& dist_px);
+
 // h'(x) = h(x + v·k·D(x)·n(x)) on land (h > 0), k = kRerollShiftShare, v =
 // variation in [0, 1], D the distance to the nearest sea cell (px), n the
 // seed's lean plus a seeded noise, held to |n| ≤ 1. The sea is unchanged; land stays land.
