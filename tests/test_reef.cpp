@@ -171,6 +171,30 @@ TEST(ReefStats, RefusesEmptyAndBadCellSize) {
   EXPECT_THROW(terrain::reef_stats(cv::Mat1f(8, 8, 0.f), 0), Error);
 }
 
+// A fringing reef: a cone island (200 m) whose beach meets a −0.8 m reef
+// flat 100 m wide, its crest at −0.3 m, the fore reef down to −100 m. The
+// island's land lies within the crest's search band; the crest is the
+// reef's, not the land's (it read the land, +15 m, on a painted fringing
+// reef before).
+TEST(ReefStats, AFringingReefsCrestIsNotTheIslandsBeach) {
+  constexpr double kCellM = 10;
+  cv::Mat1f h(301, 301);
+  for (int y = 0; y < 301; ++y)
+    for (int x = 0; x < 301; ++x) {
+      const double r_m = kCellM * std::hypot(x - 150.0, y - 150.0);
+      double z;
+      if (r_m < 800) z = 2 + 198 * (1 - r_m / 800);            // the island, 2 m at its beach
+      else if (r_m < 900) z = -0.8;                            // reef flat
+      else if (r_m < 930) z = -0.3;                            // crest
+      else z = std::max(-100.0, -0.3 - 0.5 * (r_m - 930));     // fore reef
+      h(y, x) = float(z);
+    }
+  const auto st = terrain::reef_stats(h, kCellM);
+  ASSERT_GT(st.rays_with_reef, 300);
+  EXPECT_NEAR(st.crest_median_m, -0.3, 0.1);
+  EXPECT_GT(st.crest_at_sea, 0.95);
+}
+
 // The grid measure finds a planted 8-px waffle of 5 cm on an underwater slope
 // and reports ~0 without it.
 TEST(ReefStats, GridAmplitudeFindsAPlantedWaffle) {

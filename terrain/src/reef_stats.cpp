@@ -54,9 +54,14 @@ Ray cast_ray(const cv::Mat1f& h, cv::Point2d c, double angle, double mpp) {
   if (edge < 0) return r;
   r.reef = true;
   const int band = std::max(1, int(kReefBandM / mpp));
+  // Inward no further than the first land (above the sea, 0 m): on a
+  // fringing reef the island's beach lies within the band, and it is not
+  // the reef's crest, which is awash (a ray whose edge is land keeps it).
   int ci = edge;
-  for (int i = edge; i >= std::max(0, edge - band); --i)
+  for (int i = edge; i >= std::max(0, edge - band); --i) {
+    if (prof[size_t(i)] > 0 && i != edge) break;
     if (prof[size_t(i)] > prof[size_t(ci)]) ci = i;
+  }
   r.crest_m = prof[size_t(ci)];
   int a = ci, b = ci;
   auto flat = [&](int i) { return prof[size_t(i)] >= -2.0 && prof[size_t(i)] <= 1.0; };

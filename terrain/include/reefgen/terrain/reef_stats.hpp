@@ -12,7 +12,7 @@ namespace reefgen::terrain {
 // Rays cast from the island's centre for the crest and lagoon figures.
 inline constexpr int kReefRays = 360;
 // A ray's reef is the shallowest ground within kReefBandM inward of its last
-// cell above kReefEdgeM (the fore reef's top): the crest.
+// cell above kReefEdgeM (the fore reef's top), up to the first land: the crest.
 inline constexpr double kReefEdgeM = -30;
 inline constexpr double kReefBandM = 900;
 // Crest at or above this counts as "at sea level" (the bars' −1 m).
