@@ -35,7 +35,7 @@ inline constexpr double kGoldenRatioConjugate = 0.6180339887498949;
 // island's D is replaced by min(D, G_σ ∗ D), σ = this share of the island's
 // widest D: still ≤ D and 1-Lipschitz (no fold, the coast unmoved), smooth
 // across the creases.
-inline constexpr double kRerollCreaseShare = 0.2;
+inline constexpr double kRerollCreaseShare = 0.3;
 // dist_px: the distance to the nearest sea cell (0 at sea), px.
 cv::Mat1f creaseless_distance(const cv::Mat1f& dist_px);
 
