@@ -13,14 +13,15 @@
 namespace reefgen::infer {
 
 namespace {
-// (a⁻ᵖ + b⁻ᵖ)^(−1/p), p = 4: below both, within 16 % of the smaller, and
-// smooth where they cross (a hard min turns there); of two 1-Lipschitz
-// fields it is 1-Lipschitz (its gradient's weights sum to ≤ 1).
-constexpr double kSoftMinPower = 8;
+// (a⁻⁸ + b⁻⁸)^(−1/8): below both, within 9 % of the smaller, and smooth
+// where they cross (a hard min turns there); of two 1-Lipschitz fields it
+// is 1-Lipschitz (its gradient's weights sum to ≤ 1). Powers by squaring:
+// one call per land cell.
 float soft_minimum(float a, float b) {
   if (!(a > 0.f) || !(b > 0.f)) return std::max(0.f, std::min(a, b));
   const double m = std::min(a, b), ra = m / a, rb = m / b;
-  return float(m * std::pow(std::pow(ra, kSoftMinPower) + std::pow(rb, kSoftMinPower), -1.0 / kSoftMinPower));
+  const double ra2 = ra * ra, rb2 = rb * rb, ra4 = ra2 * ra2, rb4 = rb2 * rb2;
+  return float(m / std::sqrt(std::sqrt(std::sqrt(ra4 * ra4 + rb4 * rb4))));
 }
 }  // namespace
 
