@@ -146,6 +146,43 @@ TEST(Reef, DrawnPassesAndMotuAreWhereTheSpecPutsThem) {
   EXPECT_LT(west_crest, -5.0f);
 }
 
+// A motu on the west of the rim, where the angle from the centre jumps by
+// 2π: its top leans from the storm ridge to the lagoon (a dead-flat top
+// read as a filled, straight flat channel) and has no seam along that line
+// (noises of the angle drew one: a 0.26 m step across the top at 1025²,
+// against second differences of 0.02 m elsewhere on it).
+TEST(Reef, AMotuLeansToItsLagoonAndHasNoSeamWestOfTheCentre) {
+  IslandSpec s = preset("atoll");
+  s.reef.random_passes = 0;
+  s.reef.random_motu = 0;
+  Motu m;
+  m.angle_deg = 180;
+  m.length_m = 900;
+  s.reef.motu = {m};
+  constexpr int kSide = 1025;
+  const IslandFields f = generate(s, side(kSide));
+  const double cell_m = s.world_size_m / kSide;
+  int top = 0, flat = 0;
+  double worst_seam = 0, worst_elsewhere = 0;
+  for (int y = 2; y < kSide - 2; ++y)
+    for (int x = 2; x < kSide / 2; ++x) {
+      bool inside = true;
+      for (int j = -2; j <= 2; ++j)
+        for (int i = -2; i <= 2; ++i) inside &= f.height_m(y + j, x + i) > 0.5f;
+      if (!inside) continue;
+      ++top;
+      const double gx = (f.height_m(y, x + 1) - f.height_m(y, x - 1)) / (2 * cell_m);
+      const double gy = (f.height_m(y + 1, x) - f.height_m(y - 1, x)) / (2 * cell_m);
+      flat += std::hypot(gx, gy) < 0.005;
+      const double d2 = std::abs(f.height_m(y + 1, x) - 2 * f.height_m(y, x) + f.height_m(y - 1, x));
+      (std::abs(y - kSide / 2) <= 1 ? worst_seam : worst_elsewhere) =
+          std::max(std::abs(y - kSide / 2) <= 1 ? worst_seam : worst_elsewhere, d2);
+    }
+  ASSERT_GT(top, 100);
+  EXPECT_LT(double(flat) / top, 0.2) << flat << " of " << top << " top cells under a 0.5 % slope";
+  EXPECT_LT(worst_seam, 2 * worst_elsewhere + 0.02) << "across the row through the centre";
+}
+
 TEST(Reef, SameSpecSameBytesAndJsonRoundTrip) {
   IslandSpec s = preset("barrier-reef");
   s.reef.motu.push_back(Motu{});

@@ -109,6 +109,12 @@ double pass_angle(const ReefPlan::Pass& p) {
   return std::atan2(0.5 * (s[1] + s[3]), 0.5 * (s[0] + s[2]));
 }
 
+// A motu's top falls from its height at the ocean edge (the coral-rubble
+// storm ridge) by this share of it per half-width towards the lagoon (the
+// sand slopes down to it; Stoddart & Steers 1977; motu 1–4 m high): ~0.6 %
+// across the crown of a 1.5 m, 200 m wide islet, more on higher ones.
+constexpr double kMotuLean = 0.4;
+
 // Random motu: sand islets on the reef flat, 150–1200 m long and 150–400 m
 // wide (Johnson & Ortiz, 154 atolls: motu 263 ± 210 m wide), 1.5–3.5 m high,
 // kept away from the passes; fewer on young fringing reefs.
@@ -314,8 +320,16 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
           const double u = wrap_angle(th - m.theta) * rc / m.half_len, v = (r - rc) / m.half_wid;
           double d = std::hypot(u, v);
           if (d >= 1.3) continue;
-          d *= 1.0 + 0.15 * noise.perlin(float(th * rc * to_m / 120), float(m.theta * 7));
-          const double top = -0.6 + (m.height_m + 0.6) * ease((1.0 - d) / 0.45);
+          // Noise read at the cell's position, not its angle: the angle
+          // jumps by 2π west of the centre and drew a seam across a motu there.
+          d *= 1.0 + 0.15 * noise.perlin(float(sx * to_m / 120 + m.theta * 7), float(sy * to_m / 120));
+          // The top leans from a storm ridge on the ocean side (v > 0) down to
+          // the lagoon: a dead-flat top read as a filled, straight flat channel.
+          // Along the islet the ridge rises and falls (±15 % over ~150 m): its
+          // crest line is not level either.
+          const double crown_m = m.height_m * (1.0 - kMotuLean * (1.0 - std::clamp(v, -1.0, 1.0))) *
+                                 (1.0 + 0.15 * noise.perlin(float(sx * to_m / 150), float(sy * to_m / 150 + m.theta * 3 + 1.7)));
+          const double top = -0.6 + (crown_m + 0.6) * ease((1.0 - d) / 0.45);
           if (top > g) g = top;
           if (lab && top > 0.5) lab[x] = kBeach;  // above the crest: the islet, not the reef
         }
@@ -329,8 +343,12 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
         // Irregular as real grooves: the phase wanders over a few periods and
         // the relief varies from spur to spur.
         const double along = th * grooves_round;
-        const double phase = along / (2.0 * M_PI) + 0.8 * noise.perlin(float(along / 12), 3.5f);
-        const double relief = 0.6 + 0.4 * noise.perlin(float(along / 5), 7.25f);
+        // The noises are read round a circle (the angle jumps by 2π west of
+        // the centre, and a noise of it drew a seam in the grooves there).
+        const double rho12 = grooves_round / 12.0, rho5 = grooves_round / 5.0;
+        const double phase = along / (2.0 * M_PI) +
+                             0.8 * noise.perlin(float(rho12 * std::cos(th)), float(rho12 * std::sin(th) + 3.5));
+        const double relief = 0.6 + 0.4 * noise.perlin(float(rho5 * std::cos(th)), float(rho5 * std::sin(th) + 7.25));
         g += groove_amp * relief * ww * wd * std::cos(2.0 * M_PI * phase);
       }
       // 6. Beyond the reef the flank keeps descending towards the floor,
