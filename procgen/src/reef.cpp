@@ -327,8 +327,8 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
           // the lagoon: a dead-flat top read as a filled, straight flat channel.
           // Along the islet the ridge rises and falls (±15 % over ~150 m): its
           // crest line is not level either.
-          const double crown_m = m.height_m * (1.0 - kMotuLean * (1.0 - std::clamp(v, -1.0, 1.0))) *
-                                 (1.0 + 0.15 * noise.perlin(float(sx * to_m / 150), float(sy * to_m / 150 + m.theta * 3 + 1.7)));
+          const double along_ridge = 1.0 + 0.15 * noise.perlin(float(sx * to_m / 150), float(sy * to_m / 150 + m.theta * 3 + 1.7));
+          const double crown_m = m.height_m * (1.0 - kMotuLean * (1.0 - std::clamp(v, -1.0, 1.0))) * along_ridge;
           const double top = -0.6 + (crown_m + 0.6) * ease((1.0 - d) / 0.45);
           if (top > g) g = top;
           if (lab && top > 0.5) lab[x] = kBeach;  // above the crest: the islet, not the reef

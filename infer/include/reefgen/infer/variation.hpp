@@ -32,9 +32,9 @@ inline constexpr double kGoldenRatioConjugate = 0.6180339887498949;
 // flanks into a V along each crease and, where creases meet, into a closed
 // basin (12 m deep, 1.4 × 3.5 km on a 20 km island) that the erosion
 // deepens and the pit draining then cuts a straight gorge out of. Each
-// island's D is replaced by min(D, G_σ ∗ D), σ = this share of the island's
-// widest D: still ≤ D and 1-Lipschitz (no fold, the coast unmoved), smooth
-// across the creases.
+// island's D is replaced by a soft minimum of D and G_σ ∗ D, σ = this share
+// of the island's widest D: still ≤ D and 1-Lipschitz (no fold, the coast
+// unmoved), smooth across the creases.
 inline constexpr double kRerollCreaseShare = 0.3;
 // dist_px: the distance to the nearest sea cell (0 at sea), px.
 cv::Mat1f creaseless_distance(const cv::Mat1f& dist_px);
