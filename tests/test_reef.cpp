@@ -29,6 +29,17 @@ RenderOptions side(int px) {
   return o;
 }
 
+// The atoll preset with no random passes or motu and one drawn motu.
+IslandSpec atoll_with_one_motu(double angle_deg, double length_m) {
+  IslandSpec s = preset("atoll");
+  s.reef.random_passes = 0;
+  s.reef.random_motu = 0;
+  Motu m;
+  m.angle_deg = angle_deg;
+  m.length_m = length_m;
+  s.reef.motu = {m};
+  return s;
+}
 }  // namespace
 
 TEST(Reef, LagoonDepthGrowsWithAreaAndAge) {
@@ -121,13 +132,7 @@ TEST(Reef, SeaFloorIsNeverAFlatPlane) {
 }
 
 TEST(Reef, DrawnPassesAndMotuAreWhereTheSpecPutsThem) {
-  IslandSpec s = preset("atoll");
-  s.reef.random_passes = 0;
-  s.reef.random_motu = 0;
-  Motu m;
-  m.angle_deg = 90;
-  m.length_m = 700;
-  s.reef.motu = {m};
+  IslandSpec s = atoll_with_one_motu(90, 700);
   PassStroke p;
   p.points = {{-0.4, 0.0}, {-0.9, 0.0}};  // across the western rim
   s.reef.passes = {p};
@@ -152,13 +157,7 @@ TEST(Reef, DrawnPassesAndMotuAreWhereTheSpecPutsThem) {
 // (noises of the angle drew one: a 0.26 m step across the top at 1025²,
 // against second differences of 0.02 m elsewhere on it).
 TEST(Reef, AMotuLeansToItsLagoonAndHasNoSeamWestOfTheCentre) {
-  IslandSpec s = preset("atoll");
-  s.reef.random_passes = 0;
-  s.reef.random_motu = 0;
-  Motu m;
-  m.angle_deg = 180;
-  m.length_m = 900;
-  s.reef.motu = {m};
+  const IslandSpec s = atoll_with_one_motu(180, 900);
   constexpr int kSide = 1025;
   const IslandFields f = generate(s, side(kSide));
   const double cell_m = s.world_size_m / kSide;
@@ -175,8 +174,8 @@ TEST(Reef, AMotuLeansToItsLagoonAndHasNoSeamWestOfTheCentre) {
       const double gy = (f.height_m(y + 1, x) - f.height_m(y - 1, x)) / (2 * cell_m);
       flat += std::hypot(gx, gy) < 0.005;
       const double d2 = std::abs(f.height_m(y + 1, x) - 2 * f.height_m(y, x) + f.height_m(y - 1, x));
-      (std::abs(y - kSide / 2) <= 1 ? worst_seam : worst_elsewhere) =
-          std::max(std::abs(y - kSide / 2) <= 1 ? worst_seam : worst_elsewhere, d2);
+      double& worst = std::abs(y - kSide / 2) <= 1 ? worst_seam : worst_elsewhere;
+      worst = std::max(worst, d2);
     }
   ASSERT_GT(top, 100);
   EXPECT_LT(double(flat) / top, 0.2) << flat << " of " << top << " top cells under a 0.5 % slope";
