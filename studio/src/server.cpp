@@ -21,6 +21,7 @@
 
 #include "reefgen/constants.hpp"
 #include "reefgen/heightfile.hpp"
+#include "reefgen/image_io.hpp"
 #include "reefgen/parallel.hpp"
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/io.hpp"
@@ -288,6 +289,24 @@ struct StudioServer::Impl {
     return {0, ""};
   }
 
+  // Refuses a sketch from what its request declares (an empty body, a side
+  // read from the image header, raw dimensions), before anything is decoded
+  // and before the request takes a ticket: a request that can only fail
+  // neither supersedes the painter's last good one nor is answered
+  // "superseded" instead of its own error (a 409 for a 30000² PNG when eight
+  // arrived at once).
+  void refuse_by_header(const httplib::Request& req, bool raw) const {
+    if (raw) {
+      raw_dims(req);
+      return;
+    }
+    if (req.body.empty()) throw BadRequest("empty body: send the sketch as a PNG or JPEG image");
+    const cv::Size d = declared_image_size(req.body);
+    if (d.width > o.max_side || d.height > o.max_side)
+      throw BadRequest("the sketch: " + std::to_string(d.width) + "×" + std::to_string(d.height) + " pixels; at most " +
+                       std::to_string(o.max_side) + " a side here (scale the image down first)");
+  }
+
   // Decodes a sketch image from request bytes, bounded in size.
   DecodedSketch sketch_of(const std::string& bytes) {
     if (bytes.empty()) throw BadRequest("empty body: send the sketch as a PNG or JPEG image");
@@ -309,10 +328,8 @@ struct StudioServer::Impl {
     }
   }
 
-  // A sketch sent as the canvas's raw pixels (RGBA, row 0 on top, w·h·4
-  // bytes): the page skips PNG encoding, which cost it up to a second per
-  // stroke on the main thread (docs/STUDIO.md).
-  DecodedSketch sketch_of_rgba(const httplib::Request& req) {
+  // A raw RGBA sketch's ?w= and ?h=, checked against the body's size.
+  cv::Size raw_dims(const httplib::Request& req) const {
     auto dim = [&](const char* k) {
       const std::string v = req.get_param_value(k);
       if (v.empty() || v.size() > 5 || v.find_first_not_of("0123456789") != std::string::npos)
@@ -327,7 +344,14 @@ struct StudioServer::Impl {
     if (req.body.size() != size_t(w) * size_t(h) * 4)
       throw BadRequest("raw RGBA sketch: " + std::to_string(req.body.size()) + " bytes for " + std::to_string(w) + "×" +
                        std::to_string(h) + " pixels; send w·h·4 bytes");
-    const cv::Mat rgba(h, w, CV_8UC4, const_cast<char*>(req.body.data()));
+    return {w, h};
+  }
+  // A sketch sent as the canvas's raw pixels (RGBA, row 0 on top, w·h·4
+  // bytes): the page skips PNG encoding, which cost it up to a second per
+  // stroke on the main thread (docs/STUDIO.md).
+  DecodedSketch sketch_of_rgba(const httplib::Request& req) {
+    const cv::Size d = raw_dims(req);
+    const cv::Mat rgba(d.height, d.width, CV_8UC4, const_cast<char*>(req.body.data()));
     // Alpha kept: a transparent pixel is open ocean, as in a PNG sketch and
     // the CLI (decode_sketch), whatever colour it carries.
     cv::Mat bgra;
@@ -642,6 +666,7 @@ struct StudioServer::Impl {
 
   void answer_infer(const httplib::Request& req, httplib::Response& res) {
     const bool raw = lower(req.get_header_value("Content-Type")).rfind("application/x-reefgen-rgba", 0) == 0;
+    refuse_by_header(req, raw);
     const uint64_t ticket = ++latest;
     // The slot is held until the answer is sent: a decoded sketch waiting for
     // the compute lock holds its label maps (~70 MB at 4096²), and 32
@@ -663,6 +688,7 @@ struct StudioServer::Impl {
   // each as a hill-shaded picture with its seed, for the artist to pick one.
   void answer_variations(const httplib::Request& req, httplib::Response& res) {
     const bool raw = lower(req.get_header_value("Content-Type")).rfind("application/x-reefgen-rgba", 0) == 0;
+    refuse_by_header(req, raw);
     const uint64_t ticket = ++latest;
     const infer::InferOptions options = island_options(req);
     const uint64_t seed = options.seed;
