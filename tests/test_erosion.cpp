@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <numeric>
 #include <set>
 #include <queue>
@@ -1017,6 +1018,47 @@ TEST(Age, OlderIslandsAreMoreDissected) {
   EXPECT_LT(old.land_above_half_peak, young.land_above_half_peak * 0.8);
   const DissectionStats a025 = measure({{"age_myr", 0.25}}), a5 = measure({{"age_myr", 5.0}});
   EXPECT_LT(a5.land_above_half_peak, a025.land_above_half_peak * 0.8);
+}
+
+// The erosion is read for the canvas's width: the identity on the 6 km
+// reference canvas; on a wider one the base grid keeps its 23.4 m cells and K
+// follows m = 1/2's scale invariance; a younger island also refines for less
+// time.
+TEST(Erosion, ParamsAreScaledToTheCanvasAndTheAge) {
+  const ErosionParams p;
+  const ErosionParams same = scaled_to_canvas(p, kReferenceCanvasM, 1025);
+  EXPECT_EQ(same.base_px, p.base_px);
+  EXPECT_EQ(same.k_fluvial, p.k_fluvial);
+  const ErosionParams wide = scaled_to_canvas(p, 4 * kReferenceCanvasM, 2049);
+  EXPECT_EQ(wide.base_px, 4 * p.base_px);
+  EXPECT_NEAR(wide.k_fluvial, p.k_fluvial * std::pow(4.0, 1 - 2 * p.m_area), 1e-18);
+  // Never finer than the output nor coarser than 16 cells.
+  EXPECT_EQ(scaled_to_canvas(p, 4 * kReferenceCanvasM, 513).base_px, 513);
+  EXPECT_EQ(scaled_to_canvas(p, kReferenceCanvasM / 100, 1025).base_px, 16);
+  EXPECT_EQ(matured(p, 0.25).refine_duration_yr, 0.25 * p.refine_duration_yr);
+  EXPECT_EQ(matured(p, 4).refine_duration_yr, p.refine_duration_yr);
+}
+
+// A Moorea-sized canvas (24 km, the young-volcano preset's 66 km² island) at
+// Kauaʻi's age keeps a dissected mountain: with the 6 km canvas's base cells
+// (94 m here) every cell incised and the flanks were planed to a 67 m plain
+// (land above half the peak 1 %); and its hypsometry falls with age as on
+// the reference canvas.
+TEST(Age, AWideIslandKeepsItsMountainAtKauaisAge) {
+  std::ifstream f(std::string(REEFGEN_SOURCE_DIR) + "/configs/presets/young-volcano.json");
+  nlohmann::json j = nlohmann::json::parse(f);
+  j["world_size_m"] = 4 * kReferenceCanvasM;
+  const auto measure = [&](double age_myr) {
+    j["age_myr"] = age_myr;
+    RenderOptions opt;
+    opt.size_px = 1025;
+    const IslandSpec s = spec_from_json(j, "t");
+    return dissection_stats(generate(s, opt).height_m, s.world_size_m / opt.size_px);
+  };
+  const DissectionStats young = measure(0.25), old = measure(5.0);
+  EXPECT_GT(old.land_above_half_peak, 0.08);
+  EXPECT_LT(old.land_above_half_peak, young.land_above_half_peak * 0.8);
+  EXPECT_GT(old.drainage_density_per_km, 1.5);
 }
 
 // The seam statistic (docs/REALISM.md) against a reference computed by hand

@@ -26,6 +26,16 @@ ErosionParams matured(const ErosionParams& p, double maturity) {
   e.duration_yr *= maturity;
   e.steps = std::max(e.steps, int(std::lround(e.steps * std::sqrt(maturity))));
   e.channel_head_m2 = std::max(e.channel_head_m2, kMaturedChannelHeadM2);
+  e.refine_duration_yr *= std::min(1.0, maturity);
+  return e;
+}
+
+ErosionParams scaled_to_canvas(const ErosionParams& p, double world_size_m, int out_px) {
+  ErosionParams e = p;
+  const double s = world_size_m / kReferenceCanvasM;
+  if (s == 1) return e;
+  e.base_px = std::clamp(int(std::lround(p.base_px * s)), std::min(16, out_px), std::max(out_px, 1));
+  e.k_fluvial = p.k_fluvial * std::pow(s, 1 - 2 * p.m_area);
   return e;
 }
 
@@ -225,10 +235,11 @@ cv::Mat1f refine_heights(const cv::Mat1f& coarse_m, const cv::Mat1f& land_m, con
 }
 
 cv::Mat1f erode_island(const cv::Mat1f& h_N, const cv::Mat1f& rho_N, double world_size_m, uint64_t seed,
-                       const ErosionParams& p) {
-  if (!p.enabled) return h_N.clone();
+                       const ErosionParams& asked) {
+  if (!asked.enabled) return h_N.clone();
   if (h_N.empty() || h_N.size() != rho_N.size() || h_N.rows != h_N.cols)
     throw Error("erode: height and resistance must be square and of the same size");
+  const ErosionParams p = scaled_to_canvas(asked, world_size_m, h_N.cols);
   const int N = h_N.cols, B = std::min(N, p.base_px);
   cv::Mat1f base = resampled(h_N, B, cv::INTER_AREA);
   erode_level(base, erodibility_map(resampled(rho_N, B, cv::INTER_AREA), seed, p), world_size_m / B, p.steps,

@@ -40,7 +40,7 @@ struct ErosionParams {
   double diffusivity = 0.005;         // hillslope diffusion D, m²/yr, [0, 100]
   double duration_yr = 1.5e5;         // time eroded on the base grid, yr, [0, 1e8]
   int steps = 8;                      // implicit steps on the base grid, [0, 1000]
-  int base_px = 256;                  // cells across the canvas of the base grid, [16, 8192]
+  int base_px = 256;                  // cells of the base grid across the 6 km reference canvas (a wider canvas has more: 23.4 m cells), [16, 8192]
   int refine_steps = 3;               // implicit steps at each finer level, [0, 100]
   double refine_duration_yr = 1.5e4;  // time at the first finer level (halved at each next one), yr, [0, 1e8]
   double refine_diffusivity_scale = 0.3;  // hillslope diffusivity at the finer levels, multiple of diffusivity, [0, 1]
@@ -73,6 +73,24 @@ void fields(ErosionParams& p, F&& f) {
   f("pit_breach_m", p.pit_breach_m, Range{0, 100});
   f("channel_head_m2", p.channel_head_m2, Range{0, 1e8});
 }
+// The canvas the erosion's constants are tuned on, m: the presets' and the
+// training set's 6 km. erode_island holds an island's erosion the same on a
+// canvas of any other width (scaled_to_canvas).
+inline constexpr double kReferenceCanvasM = 6000;
+// Erosion params for a canvas world_size_m wide that erode an island as they
+// do the same island on the 6 km reference canvas, scaled up or down:
+//  - the base grid keeps its cell size in metres (base_px × W / 6 km cells,
+//    in [16, out_px]): channel heads (m²) and hillslope diffusion (m²/yr) act
+//    on the same cells, where 94 m base cells on a 24 km canvas let every
+//    cell incise and planed a 5 My island's flanks to a 67 m plain;
+//  - K × (6 km / W)^(2m − 1): stream power ∂h/∂t = −K A^m S with n = 1 is
+//    unchanged by x → s·x only when m = 1/2 (A → s²A, S → S/s); the law
+//    keeps the preset's concavity (m = 0.8) within a canvas and m = 1/2's
+//    scale invariance across canvases (a wider island otherwise eroded
+//    faster: its time to respond to base level falls as L^(1 − 2m)).
+// The identity on the reference canvas (docs/EROSION.md "Island size").
+ErosionParams scaled_to_canvas(const ErosionParams& p, double world_size_m, int out_px);
+
 // Channels begin at this contributing area in matured params: above it
 // hillslopes only diffuse, so long erosion deepens valleys between ridges
 // that stand instead of lowering the whole flank to a plain.
@@ -81,7 +99,10 @@ inline constexpr double kMaturedChannelHeadM2 = 5e3;
 // time (duration_yr, which the generator and the amplification both scale)
 // × maturity, more implicit steps for a longer time (stable at any length,
 // but a few coarse strokes cut blunt valley walls) and channels beginning at
-// kMaturedChannelHeadM2 (infer::matured ages the amplification's own).
+// kMaturedChannelHeadM2 (infer::matured ages the amplification's own). A
+// younger island (maturity < 1) also had less time at the finer levels
+// (refine_duration_yr × maturity): the refinement's own incision no longer
+// cuts a young shield's flanks into gullies the base grid never began.
 ErosionParams matured(const ErosionParams& p, double maturity);
 
 void to_json(nlohmann::json& j, const ErosionParams& p);
@@ -123,7 +144,8 @@ cv::Mat1f refine_heights(const cv::Mat1f& coarse_m, const cv::Mat1f& land_m, con
 // (Priority-Flood routing) and refined back level by level with the field's
 // own finer detail plus fractal detail, then its pits drained. height_m
 // square; resistance ρ ∈ [0, 1] per cell, same size (hard rock erodes at
-// hard_erodibility of soft).
+// hard_erodibility of soft). p is read for the canvas's width
+// (scaled_to_canvas): the same island at any world_size_m.
 cv::Mat1f erode_island(const cv::Mat1f& height_m, const cv::Mat1f& resistance, double world_size_m, uint64_t seed,
                        const ErosionParams& p);
 
