@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <opencv2/imgproc.hpp>
+
 #include "reefgen/constants.hpp"
 #include "reefgen/files.hpp"
 #include "reefgen/labels.hpp"
@@ -421,6 +423,36 @@ class NoiseLookup {
   int orient_ = 0;
 };
 
+// The first outline R₁ draws a ring round every young or uneroded island:
+// x̃ (Eq. 1) is linear in r within each band, so dx̃/dr jumps where the wide
+// core meets the narrower flank band (about 4× on the young-volcano preset)
+// and the profile's slope jumps with it (a second difference of 4.6 m across
+// R₁ at 1025² on 6 km, against ≤ 2.3 m anywhere else on the flank). Near
+// x̃ = 1 the noise-free heights are blended with their own Gaussian blur,
+// σ = kCoreRingSigma of the canvas width (23 m on 6 km), fully within
+// kCoreRingInner of x̃ = 1 and fading out by kCoreRingOuter: the slope turns
+// over ~100 m instead of one pixel. Labels and x̃ are untouched (the coast
+// and every region stay where the outlines put them).
+constexpr double kCoreRingSigma = 0.004;
+constexpr float kCoreRingInner = 0.2f, kCoreRingOuter = 0.5f;
+void soften_core_ring(cv::Mat1f& h, const cv::Mat1f& xt) {
+  const double sigma = std::max(0.5, kCoreRingSigma * h.cols);
+  cv::Mat1f blurred;
+  cv::GaussianBlur(h, blurred, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
+  for (int y = 0; y < h.rows; ++y) {
+    float* hr = h.ptr<float>(y);
+    const float* br = blurred.ptr<float>(y);
+    const float* xr = xt.ptr<float>(y);
+    for (int x = 0; x < h.cols; ++x) {
+      const float d = std::fabs(xr[x] - 1.f);
+      if (d >= kCoreRingOuter) continue;
+      const float t = std::min(1.f, (kCoreRingOuter - d) / (kCoreRingOuter - kCoreRingInner));
+      const float w = t * t * (3.f - 2.f * t);  // smoothstep: no kink where the blend begins
+      hr[x] += w * (br[x] - hr[x]);
+    }
+  }
+}
+
 // With erosion, coral grows on the eroded volcano: the smooth maximum of
 // each pixel and its coral height (also on the uneroded copy, if kept).
 void grow_coral(IslandFields& out, const cv::Mat1f& coral_m, const SmoothMaxTable& smax_table) {
@@ -467,8 +499,12 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
   if (eroded) rho_px.create(W, W);
   if (reef) source_px.create(W, W);
   // Per row: the source points, then x̃ for the whole row on the CPU's
-  // vector path, then heights and labels.
+  // vector path, then the noise-free heights and labels; the heights get
+  // their detail noise (and, without erosion or reef, their coral) once the
+  // core's ring is softened.
   std::vector<float> src_x(W), src_y(W), xt_row(W);
+  cv::Mat1f detail;  // 1 + a·n per pixel
+  if (noisy) detail.create(W, W);
   for (int y = 0; y < W; ++y) {
     source.row(y, src_x.data(), src_y.data());
     outlines.xt_row(src_x.data(), src_y.data(), W, xt_row.data());
@@ -485,11 +521,9 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
         h = merged[j] + f * (merged[j + 1] - merged[j]);
       } else {
         h = hsub[j] + f * (hsub[j + 1] - hsub[j]);
-        if (noisy) h *= 1.f + amp * noise.at(src_x[x], src_y[x]);
-        const float c = coral[j] + f * (coral[j + 1] - coral[j]);
-        if (split) coral_m(y, x) = c;
+        if (noisy) detail(y, x) = 1.f + amp * noise.at(src_x[x], src_y[x]);
+        if (split) coral_m(y, x) = coral[j] + f * (coral[j + 1] - coral[j]);
         if (eroded) rho_px(y, x) = rho[j] + f * (rho[j + 1] - rho[j]);
-        if (!split && spec.coral.enabled) h = smax_table(h, c);
       }
       if (reef) source_px(y, x) = cv::Vec2f(src_x[x], src_y[x]);
       hrow[x] = h;
@@ -497,6 +531,16 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
       lrow[x] = static_cast<uint8_t>(std::min(static_cast<int>(xt), 4));
     }
   }
+  soften_core_ring(out.height_m, out.xt);
+  if (noisy) out.height_m = out.height_m.mul(detail);
+  if (!split && noisy && spec.coral.enabled)
+    for (int y = 0; y < W; ++y)
+      for (int x = 0; x < W; ++x) {
+        const float g = out.xt(y, x) * lut_scale;
+        const int j = std::min(static_cast<int>(g), kLast);
+        const float c = coral[j] + (g - j) * (coral[j + 1] - coral[j]);
+        out.height_m(y, x) = smax_table(out.height_m(y, x), c);
+      }
   if (eroded) {
     if (opt.keep_uneroded) out.uneroded_m = out.height_m.clone();
     out.height_m = terrain::erode_island(out.height_m, rho_px, spec.world_size_m, spec.noise.seed, spec.erosion);

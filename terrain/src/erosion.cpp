@@ -26,7 +26,6 @@ ErosionParams matured(const ErosionParams& p, double maturity) {
   e.duration_yr *= maturity;
   e.steps = std::max(e.steps, int(std::lround(e.steps * std::sqrt(maturity))));
   e.channel_head_m2 = std::max(e.channel_head_m2, kMaturedChannelHeadM2);
-  e.refine_duration_yr *= std::min(1.0, maturity);
   return e;
 }
 

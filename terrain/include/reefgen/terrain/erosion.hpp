@@ -99,10 +99,10 @@ inline constexpr double kMaturedChannelHeadM2 = 5e3;
 // time (duration_yr, which the generator and the amplification both scale)
 // × maturity, more implicit steps for a longer time (stable at any length,
 // but a few coarse strokes cut blunt valley walls) and channels beginning at
-// kMaturedChannelHeadM2 (infer::matured ages the amplification's own). A
-// younger island (maturity < 1) also had less time at the finer levels
-// (refine_duration_yr × maturity): the refinement's own incision no longer
-// cuts a young shield's flanks into gullies the base grid never began.
+// kMaturedChannelHeadM2 (infer::matured ages the amplification's own). The
+// finer levels keep their time: it is what re-incises the upsampled surface
+// at each cell size, and without it a young island's flanks showed the
+// coarser levels' cells as a 2 and 4 px waffle at 1025² (docs/EROSION.md).
 ErosionParams matured(const ErosionParams& p, double maturity);
 
 void to_json(nlohmann::json& j, const ErosionParams& p);
