@@ -794,6 +794,33 @@ TEST(Erosion, AmplifyRaisesTheModelsPondsButNotAClosedLagoon) {
   EXPECT_EQ(enclosed_sea_cells(amplify_heights(ring, paint, kCanvasWorldSizeM, 1, p)), 0);
 }
 
+// OpenCV's bicubic (a = −0.75) does not reproduce a quadratic: on a dome of
+// constant curvature its curvature oscillates with the coarse cells, the
+// waffle a hill-shade showed on the generator's flanks at 1025² (the base
+// grid's 4 px). Upsampled ×4 as the finer levels are, the second
+// differences of a paraboloid stay within 2× their true value's spread;
+// plain bicubic spreads them over 15×.
+TEST(Erosion, AnUpsampledLevelKeepsADomeSmooth) {
+  const int n = 64, k = 4;
+  cv::Mat1f dome(n, n);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) dome(y, x) = 0.5f * (float((x - n / 2) * (x - n / 2)) + float((y - n / 2) * (y - n / 2)));
+  const auto spread = [&](double sigma_cells) {
+    const cv::Mat1f up = upsampled_level(dome, n * k, sigma_cells);
+    double sum = 0, sum2 = 0;
+    int count = 0;
+    for (int y = 32; y < n * k - 32; ++y)
+      for (int x = 32; x < n * k - 32; ++x) {
+        const double d2 = double(up(y, x - 1)) - 2.0 * up(y, x) + double(up(y, x + 1));
+        sum += d2, sum2 += d2 * d2, ++count;
+      }
+    const double mean = sum / count;
+    return std::sqrt(std::max(0.0, sum2 / count - mean * mean)) / mean;
+  };
+  EXPECT_GT(spread(0), 10.0);
+  EXPECT_LT(spread(ErosionParams{}.refine_upsample_sigma), 2.0);
+}
+
 TEST(Erosion, RefinementLevels) {
   EXPECT_EQ(refinement_levels(256, 256), (std::vector<int>{256}));
   EXPECT_EQ(refinement_levels(256, 1025), (std::vector<int>{256, 512, 1025}));

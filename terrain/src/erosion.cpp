@@ -186,6 +186,14 @@ cv::Mat1f resampled(const cv::Mat1f& m, int size, int interpolation) {
   return out;
 }
 
+cv::Mat1f upsampled_level(const cv::Mat1f& m, int side, double sigma_cells) {
+  cv::Mat1f up = resampled(m, side, cv::INTER_CUBIC);
+  if (side <= m.cols || sigma_cells <= 0) return up;
+  const double sigma_px = sigma_cells * side / m.cols;
+  cv::GaussianBlur(up, up, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REPLICATE);
+  return up;
+}
+
 cv::Mat1f fractal_detail(int L, const cv::Mat1f& up, double world_size_m, uint64_t seed, cv::Point origin) {
   const NoiseTile& tile = NoiseTile::get(3);
   Rng rng(seed, static_cast<uint64_t>(L), "refine-detail");
@@ -213,7 +221,7 @@ cv::Mat1f refine_heights(const cv::Mat1f& coarse_m, const cv::Mat1f& land_m, con
   const float detail_scale = float(p.refine_detail_scale);
   for (size_t li = 1; li < levels.size(); ++li) {
     const int L = levels[li];
-    cv::Mat1f up = resampled(cur, L, cv::INTER_CUBIC);
+    cv::Mat1f up = upsampled_level(cur, L, p.refine_upsample_sigma);
     const cv::Mat1f land_L = resampled(land_m, L, cv::INTER_AREA);
     const cv::Mat1f d = detail ? detail(L, up) : cv::Mat1f();
     cv::Mat1f next = land_L.clone();
@@ -247,7 +255,9 @@ cv::Mat1f erode_island(const cv::Mat1f& h_N, const cv::Mat1f& rho_N, double worl
   cv::Mat1f prev_down = resampled(h_N, B, cv::INTER_AREA);
   auto detail = [&](int L, const cv::Mat1f& up) {
     cv::Mat1f down = resampled(h_N, L, cv::INTER_AREA);
-    cv::Mat1f d = down - resampled(prev_down, L, cv::INTER_CUBIC);
+    // Upsampled as the eroded level is, so their difference (the erosion's
+    // own change) is all that is upsampled and the render's detail stays.
+    cv::Mat1f d = down - upsampled_level(prev_down, L, p.refine_upsample_sigma);
     prev_down = std::move(down);
     return cv::Mat1f(d + fractal_detail(L, up, world_size_m, seed));
   };
