@@ -14,9 +14,6 @@ using namespace reefgen::terrain;
 namespace {
 constexpr float kBandDiffusion = 0.15f;
 
-// Rows [y0, y1) of `fine` (side N): `level` (side M) sampled bicubically at
-// each cell's centre, as cv::resize maps half-pixel centres, plus the level's
-// fractal detail on land.
 // The bicubic sample of `level` on rows [y0, y1) of the side-N grid, blurred
 // as upsampled_level blurs a whole level (terrain/erosion.hpp): the rows
 // the blur reads beyond the band are sampled too, and the canvas's own edges
@@ -39,6 +36,9 @@ cv::Mat1f bicubic_rows(const cv::Mat1f& level, int N, int y0, int y1, double sig
   return up.rowRange(y0 - a, y1 - a).clone();
 }
 
+// Rows [y0, y1) of `fine` (side N): `level` (side M) sampled bicubically (bicubic_rows) at
+// each cell's centre, as cv::resize maps half-pixel centres, plus the level's
+// fractal detail on land.
 cv::Mat1f band_of(const cv::Mat1f& level, int N, int y0, int y1, double world_size_m, uint64_t seed,
                   const ErosionParams& p, const cv::Mat1f& rugged_m) {
   const int M = level.cols, rows = y1 - y0;
