@@ -186,6 +186,9 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                                                  {"longest_px", r.channels->longest_px}};
                 if (r.dissection)
                   j["dissection"] = {{"drainage_density_per_km", r.dissection->drainage_density_per_km},
+                                     {"channel_threshold_m2", r.dissection->channel_threshold_m2},
+                                     {"channel_exponent", r.dissection->channel_exponent},
+                                     {"valley_density_per_km", r.dissection->valley_density_per_km},
                                      {"land_above_half_peak", r.dissection->land_above_half_peak},
                                      {"hypsometric_integral", r.dissection->hypsometric_integral},
                                      {"land_km2", r.dissection->land_km2}};
@@ -216,9 +219,11 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                               "", (long long)r.channels->channels, r.channels->per_1000_km2, r.channels->land_km2,
                               r.channels->longest_px, (long long)r.channels->coastal);
                 if (r.dissection)
-                  std::printf("%-40s dissection: drainage density %.2f km/km2, land above half the peak %.1f%%, "
+                  std::printf("%-40s dissection: drainage density %.2f km/km2 (channels from %.0f m2, the slope-area "
+                              "break; valleys from 0.1 km2 %.2f km/km2), land above half the peak %.1f%%, "
                               "hypsometric integral %.3f (%.1f km2 land)\n",
-                              "", r.dissection->drainage_density_per_km, 100 * r.dissection->land_above_half_peak,
+                              "", r.dissection->drainage_density_per_km, r.dissection->channel_threshold_m2,
+                              r.dissection->valley_density_per_km, 100 * r.dissection->land_above_half_peak,
                               r.dissection->hypsometric_integral, r.dissection->land_km2);
                 if (agree)
                   std::printf("%-40s painted land above sea %.2f%% (%lld cells), bright abyss below -20 m %.2f%% (%lld cells)\n",
