@@ -3,8 +3,9 @@
 # young-volcano preset through `generate --size 1025`, top row with
 # --age-myr 0.1 / 1 / 3.5 / 5 (subsidence and erosion together), bottom row
 # with --maturity 0.1 / 1 / 3.5 / 5 (erosion alone). Each tile is the
-# canvas's central 4.8 km, hill-shaded, titled with its peak and its land
-# above half the peak (`realism --dissection`). Prints the statistics.
+# canvas's central 4.8 km, hill-shaded, titled with its peak, its land
+# above half the peak and its drainage density (`realism --dissection`).
+# Prints the statistics.
 # Needs python3-numpy and python3-opencv.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -36,8 +37,10 @@ def tile(name, flag):
     a = n // 10
     img = cv2.resize(np.clip(img, 0, 255).astype(np.uint8)[a:n - a, a:n - a], (T, T), interpolation=cv2.INTER_AREA)
     d = json.load(open(f"{w}/{name}.stats.json"))["dissection"]
-    text = f"{flag}, peak {h.max():.0f} m, {100 * d['land_above_half_peak']:.0f} % above half"
-    cv2.putText(img, text, (6, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.38, (0, 0, 160), 1, cv2.LINE_AA)
+    lines = [f"{flag}, peak {h.max():.0f} m",
+             f"{100 * d['land_above_half_peak']:.0f} % above half, {d['drainage_density_per_km']:.1f} km/km2"]
+    for k, text in enumerate(lines):
+        cv2.putText(img, text, (6, 16 + 14 * k), cv2.FONT_HERSHEY_SIMPLEX, 0.38, (0, 0, 160), 1, cv2.LINE_AA)
     return img
 
 values = ("0.1", "1", "3.5", "5")
