@@ -17,7 +17,6 @@ namespace {
 // Steepest descent on the filled surface and the drainage area of each cell.
 struct Drainage {
   cv::Mat1f height_m;
-  double metres_per_px = 0;
   cv::Mat1b role;
   FlowGraph graph;
   std::vector<float> area_m2;
@@ -26,7 +25,6 @@ struct Drainage {
 Drainage drain(const cv::Mat1f& height_m, double metres_per_px) {
   Drainage d;
   d.height_m = height_m;
-  d.metres_per_px = metres_per_px;
   d.role = sea_and_edge_roles(height_m);
   route_flood(height_m, d.role, metres_per_px, d.graph);
   accumulate_single(d.graph, d.role, float(metres_per_px * metres_per_px), d.area_m2);
