@@ -14,23 +14,30 @@ using namespace reefgen::terrain;
 namespace {
 constexpr float kBandDiffusion = 0.15f;
 
+// Where the centres of rows [y0, y1) of a side-N grid fall on a side-M
+// level's cells, as cv::resize maps half-pixel centres: cv::remap's maps.
+void centre_maps(int M, int N, int y0, int y1, cv::Mat1f& mx, cv::Mat1f& my) {
+  const float scale = float(M) / float(N);
+  mx.create(y1 - y0, N);
+  my.create(y1 - y0, N);
+  for (int y = 0; y < y1 - y0; ++y)
+    for (int x = 0; x < N; ++x) {
+      mx(y, x) = (float(x) + 0.5f) * scale - 0.5f;
+      my(y, x) = (float(y0 + y) + 0.5f) * scale - 0.5f;
+    }
+}
+
 // The bicubic sample of `level` on rows [y0, y1) of the side-N grid, blurred
 // as upsampled_level blurs a whole level (terrain/erosion.hpp): the rows
 // the blur reads beyond the band are sampled too, and the canvas's own edges
 // replicated as the whole level's blur replicates them.
 cv::Mat1f bicubic_rows(const cv::Mat1f& level, int N, int y0, int y1, double sigma_cells) {
   const int M = level.cols;
-  const float scale = float(M) / float(N);
   const double sigma_px = N > M ? sigma_cells * N / M : 0.0;
   const int reach = sigma_px > 0 ? int(std::ceil(4 * sigma_px)) : 0;
   const int a = std::max(0, y0 - reach), b = std::min(N, y1 + reach);
-  cv::Mat1f mx(b - a, N), my(b - a, N);
-  for (int y = 0; y < b - a; ++y)
-    for (int x = 0; x < N; ++x) {
-      mx(y, x) = (float(x) + 0.5f) * scale - 0.5f;
-      my(y, x) = (float(a + y) + 0.5f) * scale - 0.5f;
-    }
-  cv::Mat1f up;
+  cv::Mat1f mx, my, up;
+  centre_maps(M, N, a, b, mx, my);
   cv::remap(level, up, mx, my, cv::INTER_CUBIC, cv::BORDER_REPLICATE);
   if (sigma_px > 0) cv::GaussianBlur(up, up, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REPLICATE);
   return up.rowRange(y0 - a, y1 - a).clone();
@@ -41,14 +48,9 @@ cv::Mat1f bicubic_rows(const cv::Mat1f& level, int N, int y0, int y1, double sig
 // fractal detail on land.
 cv::Mat1f band_of(const cv::Mat1f& level, int N, int y0, int y1, double world_size_m, uint64_t seed,
                   const ErosionParams& p, const cv::Mat1f& rugged_m) {
-  const int M = level.cols, rows = y1 - y0;
-  const float scale = float(M) / float(N);
-  cv::Mat1f mx(rows, N), my(rows, N);
-  for (int y = 0; y < rows; ++y)
-    for (int x = 0; x < N; ++x) {
-      mx(y, x) = (float(x) + 0.5f) * scale - 0.5f;
-      my(y, x) = (float(y0 + y) + 0.5f) * scale - 0.5f;
-    }
+  const int rows = y1 - y0;
+  cv::Mat1f mx, my;
+  centre_maps(level.cols, N, y0, y1, mx, my);
   cv::Mat1f up = bicubic_rows(level, N, y0, y1, p.refine_upsample_sigma), lin;
   // The coast is where the bilinear sample crosses 0 m, not the bicubic one:
   // next to the fore reef's drop the bicubic overshoots a crest at −0.1 m
