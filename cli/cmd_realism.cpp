@@ -13,6 +13,7 @@
 #include "reefgen/labels.hpp"
 #include "reefgen/stats.hpp"
 #include "reefgen/terrain/dissection.hpp"
+#include "reefgen/terrain/landform.hpp"
 #include "reefgen/terrain/flat_channels.hpp"
 #include "reefgen/terrain/realism.hpp"
 #include "reefgen/terrain/reef_stats.hpp"
@@ -33,6 +34,7 @@ struct RealismArgs {
   bool reef = false;
   bool channels = false;
   bool dissection = false;
+  bool drainage = false;
   double grid_period_px = 0;
   std::string sketch;
 };
@@ -59,6 +61,7 @@ struct FileStats {
   bool has_reef = false;
   std::optional<terrain::FlatChannelStats> channels;
   std::optional<terrain::DissectionStats> dissection;
+  std::optional<terrain::LandformStats> drainage;
 };
 
 // The statistics (and the sketch's agreement) of `file`: whole, or a band of rows at a time.
@@ -69,8 +72,8 @@ FileStats stats_of(const std::string& file, const RealismArgs& a, const std::opt
   r.metres_per_px = cell_size(a, reader.attributes(), r.size.width, file);
   if (sketch) r.agree = terrain::SketchAgreement{};
   if (a.stream || int64_t(r.size.area()) > kRealismWholeMaxCells) {
-    if (a.reef || a.channels || a.dissection)
-      throw Error(file + ": --reef, --channels and --dissection read the whole file; they cannot run with --stream or past 16385²");
+    if (a.reef || a.channels || a.dissection || a.drainage)
+      throw Error(file + ": --reef, --channels, --dissection and --drainage read the whole file; they cannot run with --stream or past 16385²");
     const terrain::StreamBands bands;
     for (int y0 = 0; y0 < r.size.height && sketch; y0 += bands.band_rows) {
       const int n = std::min(bands.band_rows, r.size.height - y0);
@@ -84,6 +87,7 @@ FileStats stats_of(const std::string& file, const RealismArgs& a, const std::opt
   if (a.reef) r.reef = terrain::reef_stats(h, r.metres_per_px, a.grid_period_px), r.has_reef = true;
   if (a.channels) r.channels = terrain::flat_channel_stats(h, r.metres_per_px);
   if (a.dissection) r.dissection = terrain::dissection_stats(h, r.metres_per_px);
+  if (a.drainage) r.drainage = terrain::landform_stats(h, r.metres_per_px);
   if (sketch) r.agree = terrain::sketch_agreement(h, sketch->label, sketch->subsidence);
   r.st = realism_stats(h, r.metres_per_px);
   return r;
@@ -105,7 +109,8 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                                  "  reefgen realism out/atoll.height.exr --reef            # crest, reef flat, lagoon, passes, motu, floor\n"
                                  "  reefgen realism w/world.height.exr --reef --grid-period 8   # and the model grid at 1:1\n"
                                  "  reefgen realism w/world.height.exr --channels             # straight flat channels on land\n"
-                                 "  reefgen realism out/old.height.exr --dissection            # drainage density, hypsometry (age)");
+                                 "  reefgen realism out/old.height.exr --dissection            # drainage density, hypsometry (age)\n"
+                                 "  reefgen realism out/yv.height.exr --drainage               # valley spacing, comb, wind, Hack");
   sub->add_option("files", a->files, "Height files (OpenEXR, metres, sea level 0)")->required();
   sub->add_option("--metres-per-px", a->metres_per_px, "Cell size in metres (default: the file's own)")
       ->check(finite_in(1e-6, 1e6));
@@ -130,6 +135,11 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                 "Also how far the island is dissected (its age, docs/REALISM.md \"Age and dissection\"): drainage "
                 "density (km of valley channel per km2 of land) and hypsometry (land above half the peak, mean "
                 "height / peak)");
+  sub->add_flag("--drainage", a->drainage,
+                "Also how the valleys are organised (docs/REALISM.md \"Drainage organisation\"): the spacing of "
+                "valleys on circles round the summit (coefficient of variation), the angular spectrum's peak over "
+                "its median (a comb), the dissection's variation between sectors (the wind), Hack's exponent and "
+                "valleys per coastal basin");
   sub->add_option("--sketch", a->sketch,
                   "The sketch the heights were drawn from: also the painted land above the sea and the painted "
                   "bright abyss below -20 m (any resolution over the same ground)");
@@ -192,6 +202,14 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                                      {"land_above_half_peak", r.dissection->land_above_half_peak},
                                      {"hypsometric_integral", r.dissection->hypsometric_integral},
                                      {"land_km2", r.dissection->land_km2}};
+                if (r.drainage)
+                  j["drainage"] = {{"spacing_cv", r.drainage->spacing_cv},
+                                   {"spectrum_peak_ratio", r.drainage->spectrum_peak_ratio},
+                                   {"sector_cv", r.drainage->sector_cv},
+                                   {"hack_exponent", r.drainage->hack_exponent},
+                                   {"valleys_per_basin", r.drainage->valleys_per_basin},
+                                   {"valleys_on_circles", r.drainage->valleys_on_circles},
+                                   {"grid_cell_m", r.drainage->cell_m}};
                 if (agree) {
                   j["painted_land_above_sea"] = agree->land_above_sea;
                   j["painted_abyss_below_20m"] = agree->abyss_below_bar;
@@ -225,6 +243,13 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                               "", r.dissection->drainage_density_per_km, r.dissection->channel_threshold_m2,
                               r.dissection->valley_density_per_km, 100 * r.dissection->land_above_half_peak,
                               r.dissection->hypsometric_integral, r.dissection->land_km2);
+                if (r.drainage)
+                  std::printf("%-40s drainage: valley spacing CV %.2f (%d valleys on 3 circles), angular spectrum peak "
+                              "%.1fx its median, sector dissection CV %.2f, Hack's exponent %.2f, %.2f valleys per "
+                              "coastal basin (read on %.0f m cells)\n",
+                              "", r.drainage->spacing_cv, r.drainage->valleys_on_circles, r.drainage->spectrum_peak_ratio,
+                              r.drainage->sector_cv, r.drainage->hack_exponent, r.drainage->valleys_per_basin,
+                              r.drainage->cell_m);
                 if (agree)
                   std::printf("%-40s painted land above sea %.2f%% (%lld cells), bright abyss below -20 m %.2f%% (%lld cells)\n",
                               "", 100 * agree->land_above_sea, (long long)agree->land_cells, 100 * agree->abyss_below_bar,
