@@ -876,7 +876,7 @@ TEST(Erosion, GoldenValues) {
     for (auto [y, x] : {std::pair{32, 32}, {20, 30}, {40, 40}, {36, 20}, {28, 44}, {5, 5}})
       std::printf("{%d, %d, %.4ff}, ", y, x, f.height_m(y, x));
   const struct { int y, x; float h; } golden[] = {
-      {32, 32, 237.8028f}, {20, 30, 4.4481f}, {40, 40, 244.5223f}, {36, 20, 22.5773f}, {28, 44, 12.9113f}, {5, 5, -99.1364f}};
+      {32, 32, 175.5764f}, {20, 30, 3.8208f}, {40, 40, 103.2989f}, {36, 20, 26.1419f}, {28, 44, 12.0390f}, {5, 5, -99.1364f}};
   for (const auto& g : golden) EXPECT_NEAR(f.height_m(g.y, g.x), g.h, 1e-3) << "pixel " << g.y << "," << g.x;
 }
 

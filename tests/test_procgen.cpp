@@ -239,6 +239,7 @@ TEST(Warp, FullResistanceMeansNoDeformation) {
   IslandSpec calm;
   use_paper_reef(calm);  // random passes face the wind's lee: the warp alone here
   calm.resistance.assign(30, 1.0);
+  calm.rain.enabled = false;  // the warp alone: the wind's rain is Rain.* and Shield.*
   IslandSpec windy = calm;
   windy.wind.push_back({{{-0.8, -0.5}, {0.0, 0.1}, {0.7, 0.4}}, 0.8, 0.3});
   RenderOptions o;

@@ -467,7 +467,85 @@ void grow_coral(IslandFields& out, const cv::Mat1f& coral_m, const SmoothMaxTabl
   }
 }
 
+// The shield before erosion (docs/EROSION.md "The shield"): a volcano is not a
+// turned cone. Its lava builds broad ridges along two or three rift zones
+// from the summit (Kīlauea's east and south-west rifts, Kohala's two) and
+// lobes of flows between them; drainage divides follow the ridges and the
+// largest basins form between them, where a radial cone drew equal valleys
+// all round. The land's heights × (1 + a·F): F the rift ridges (von Mises
+// bumps in azimuth round the canvas centre, κ = kRiftConcentration, growing
+// from the summit outwards so no crease meets there) plus a 3-octave lobe
+// noise, all drawn from the noise seed: a seed re-rolls the basins' layout,
+// not only the grain. Smooth everywhere (sums, no max: no straight crease),
+// multiplicative, so the 0 m coast stays where the outlines drew it.
+constexpr double kRiftConcentration = 6;
+constexpr int kMaxRifts = 3;
+void shape_shield(cv::Mat1f& h, const DetailNoise& p) {
+  Rng rng(p.seed, 0, "shield-rifts");
+  const int rifts = 2 + int(rng.uniform_int(0, kMaxRifts - 2));
+  // The first rift anywhere, the second roughly opposite (120–240° on), a third between.
+  double azimuth[kMaxRifts];
+  azimuth[0] = rng.uniform(0, 2 * CV_PI);
+  azimuth[1] = azimuth[0] + rng.uniform(2 * CV_PI / 3, 4 * CV_PI / 3);
+  azimuth[2] = azimuth[0] + rng.uniform(-CV_PI / 2, CV_PI / 2) + CV_PI / 2;
+  const double strength[kMaxRifts] = {1.0, rng.uniform(0.6, 1.0), rng.uniform(0.3, 0.7)};
+  const terrain::GradientNoise2 lobes(mix64(p.seed ^ 0x5417e1dull));
+  const float off_x = float(rng.uniform(0, 64)), off_y = float(rng.uniform(0, 64));
+  const int W = h.cols;
+  const float a = float(p.shield), scale = float(2.0 / W / p.shield_feature);
+  const double norm = std::exp(kRiftConcentration);
+  for (int y = 0; y < W; ++y)
+    for (int x = 0; x < W; ++x) {
+      if (h(y, x) <= 0) continue;
+      const double cx = 2.0 * (x + 0.5) / W - 1, cy = 1 - 2.0 * (y + 0.5) / W;
+      const double r = std::hypot(cx, cy), theta = std::atan2(cy, cx);
+      double ridge = 0;
+      for (int k = 0; k < rifts; ++k) ridge += strength[k] * std::exp(kRiftConcentration * std::cos(theta - azimuth[k])) / norm;
+      // From nothing at the summit to whole ridges a quarter-canvas out.
+      const double grow = std::min(1.0, r / 0.25);
+      const float f = float(grow * grow * (ridge - 0.35)) + lobes.fbm(float(x) * scale + off_x, float(y) * scale + off_y, 3);
+      h(y, x) = std::max(h(y, x) * (1.f + a * f), std::min(h(y, x), terrain::kLandFloorM));
+    }
+}
+
+// The prevailing wind, image axes (x right, y down): the strokes' unit
+// tangents at their control points, each weighted by its stroke's strength
+// (Eq. 2's S). A zero vector when there is no wind (or the strokes cancel).
+cv::Vec2d prevailing_wind(const IslandSpec& spec) {
+  cv::Vec2d w(0, 0);
+  for (const auto& stroke : spec.wind)
+    for (size_t i = 1; i < stroke.points.size(); ++i) {
+      const double dx = stroke.points[i].x - stroke.points[i - 1].x, dy = stroke.points[i].y - stroke.points[i - 1].y;
+      const double len = std::hypot(dx, dy);
+      if (len > 0) w += stroke.strength * cv::Vec2d(dx / len, -dy / len);  // +y up on the canvas, down in the image
+    }
+  return w;
+}
+
+// The rain's grid: the orographic field is smooth over U·τ (10 km at the
+// defaults), so 256 cells across the canvas hold it; upsampled after.
+constexpr int kRainGridPx = 256;
+
+// Each pixel's rain over the land's mean (terrain/rain.hpp), from the
+// volcano's heights and the prevailing wind; empty without wind or rain.
+cv::Mat1f rain_of(const IslandSpec& spec, const cv::Mat1f& volcano_m) {
+  const cv::Vec2d wind = prevailing_wind(spec);
+  if (!spec.rain.enabled || !(std::hypot(wind[0], wind[1]) > 1e-9)) return {};
+  const int n = std::min(kRainGridPx, volcano_m.cols);
+  const cv::Mat1f h = terrain::resampled(volcano_m, n, cv::INTER_AREA);
+  const cv::Mat1f rain = terrain::orographic_rain_mm_yr(h, spec.world_size_m / n, wind, spec.rain);
+  const cv::Mat1f rel = terrain::rain_relative_to_land_mean(rain, h);
+  return terrain::resampled(rel, volcano_m.cols, cv::INTER_LINEAR);
+}
+
 }  // namespace
+
+cv::Mat1f rain_mm_yr(const IslandSpec& spec, const cv::Mat1f& height_m) {
+  const cv::Vec2d wind = prevailing_wind(spec);
+  if (!spec.rain.enabled || !(std::hypot(wind[0], wind[1]) > 1e-9))
+    return cv::Mat1f(height_m.size(), float(spec.rain.background_mm_yr));
+  return terrain::orographic_rain_mm_yr(height_m, spec.world_size_m / height_m.cols, wind, spec.rain);
+}
 
 // The island in one pass over the pixels: each pixel's source point (the
 // wind's warp), its parametric distance x̃ to the outlines, then height and
@@ -542,8 +620,10 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
         out.height_m(y, x) = smax_table(out.height_m(y, x), c);
       }
   if (eroded) {
+    if (spec.noise.shield > 0) shape_shield(out.height_m, spec.noise);
     if (opt.keep_uneroded) out.uneroded_m = out.height_m.clone();
-    out.height_m = terrain::erode_island(out.height_m, rho_px, spec.world_size_m, spec.noise.seed, spec.erosion);
+    out.height_m = terrain::erode_island(out.height_m, rho_px, spec.world_size_m, spec.noise.seed, spec.erosion,
+                                         rain_of(spec, out.height_m));
     if (spec.coral.enabled && !reef) grow_coral(out, coral_m, smax_table);
   }
   if (reef) {

@@ -13,10 +13,11 @@ void size_for(const FlowGraph& g, std::vector<float>& area) {
 }
 }  // namespace
 
-void accumulate_single(const FlowGraph& g, const cv::Mat1b& role, float cell_area_m2, std::vector<float>& area) {
+void accumulate_single(const FlowGraph& g, const cv::Mat1b& role, float cell_area_m2, std::vector<float>& area,
+                       const float* rain) {
   size_for(g, area);
   const uint8_t* rl = role.ptr<uint8_t>();
-  for (const int i : g.stack) area[i] = cell_area_m2;
+  for (const int i : g.stack) area[i] = rain ? cell_area_m2 * rain[i] : cell_area_m2;
   for (size_t k = g.stack.size(); k-- > 0;) {
     const int i = g.stack[k], r = g.receiver[i];
     if (rl[r] == kActive) area[r] += area[i];
@@ -24,7 +25,7 @@ void accumulate_single(const FlowGraph& g, const cv::Mat1b& role, float cell_are
 }
 
 void accumulate_multiple(const FlowGraph& g, const cv::Mat1b& role, float cell_area_m2, double metres_per_px,
-                         float exponent, std::vector<float>& area) {
+                         float exponent, std::vector<float>& area, const float* rain) {
   size_for(g, area);
   const uint8_t* rl = role.ptr<uint8_t>();
   const float* fz = g.surface.ptr<float>();
@@ -32,7 +33,7 @@ void accumulate_multiple(const FlowGraph& g, const cv::Mat1b& role, float cell_a
   const StepLengths len(metres_per_px);
   int offset[8];
   for (int d = 0; d < 8; ++d) offset[d] = kDy[d] * W + kDx[d];
-  for (const int i : g.stack) area[i] = cell_area_m2;
+  for (const int i : g.stack) area[i] = rain ? cell_area_m2 * rain[i] : cell_area_m2;
   // Stack cells are active, and active cells are never on the canvas edge
   // (sea_and_edge_roles makes it an outlet): every neighbour is at a flat
   // offset. The exponent's test is taken out of the cell loop (p = 1, the

@@ -110,7 +110,7 @@ uint64_t receiver_salt(const ErosionParams& p, int W, int H, int s) {
 }  // namespace
 
 void erode_level(cv::Mat1f& h, const cv::Mat1f& K, double dx, int steps, double duration_yr, const ErosionParams& p,
-                 Routing routing, double creep_px) {
+                 Routing routing, double creep_px, const cv::Mat1f& rain_rel) {
   check_erosion_inputs(h, K, dx);
   if (steps <= 0 || !(duration_yr > 0)) return;
   // Islands cover a minority of the canvas: work on the land's box.
@@ -118,7 +118,8 @@ void erode_level(cv::Mat1f& h, const cv::Mat1f& K, double dx, int steps, double 
   if (box.empty()) return;
   if (box.width < h.cols || box.height < h.rows) {
     cv::Mat1f sub = h(box).clone();
-    erode_level(sub, K(box).clone(), dx, steps, duration_yr, p, routing, creep_px);
+    erode_level(sub, K(box).clone(), dx, steps, duration_yr, p, routing, creep_px,
+                rain_rel.empty() ? cv::Mat1f() : cv::Mat1f(rain_rel(box).clone()));
     sub.copyTo(h(box));
     return;
   }
@@ -136,16 +137,19 @@ void erode_level(cv::Mat1f& h, const cv::Mat1f& K, double dx, int steps, double 
     return cv::Rect(land.x - m, land.y - m, land.width + 2 * m, land.height + 2 * m) & cv::Rect(0, 0, h.cols, h.rows);
   };
   const cv::Rect roi = blur_roi(sigma_px);
+  if (!rain_rel.empty() && (rain_rel.size() != h.size() || !rain_rel.isContinuous()))
+    throw Error("erode: the rain must be a continuous field of the heights' size");
+  const float* rain = rain_rel.empty() ? nullptr : rain_rel.ptr<float>();
   FlowGraph graph;
   std::vector<float> area_m2;
   for (int s = 0; s < steps; ++s) {
     check_interrupt();  // a step at 8192² takes seconds: Python's Ctrl-C is read here
     if (routing == Routing::kStack) {
       route_stack(z, role, dx, receiver_salt(p, h.cols, h.rows, s), graph);
-      accumulate_single(graph, role, cell_area_m2, area_m2);
+      accumulate_single(graph, role, cell_area_m2, area_m2, rain);
     } else {
       route_flood(z, role, dx, graph);
-      accumulate_multiple(graph, role, cell_area_m2, dx, static_cast<float>(p.flow_exponent), area_m2);
+      accumulate_multiple(graph, role, cell_area_m2, dx, static_cast<float>(p.flow_exponent), area_m2, rain);
     }
     erode_stream_power(z, K, graph, area_m2, dt, p.m_area, p.channel_head_m2);
     diffuse_hillslope(z, role, roi, sigma_px);
@@ -211,7 +215,7 @@ cv::Mat1f fractal_detail(int L, const cv::Mat1f& up, double world_size_m, uint64
 
 cv::Mat1f refine_heights(const cv::Mat1f& coarse_m, const cv::Mat1f& land_m, const cv::Mat1f& resistance,
                          double world_size_m, uint64_t seed, const ErosionParams& p,
-                         const std::function<cv::Mat1f(int, const cv::Mat1f&)>& detail) {
+                         const std::function<cv::Mat1f(int, const cv::Mat1f&)>& detail, const cv::Mat1f& rain_rel) {
   const int N = land_m.cols;
   const auto levels = refinement_levels(coarse_m.cols, N);
   cv::Mat1f cur = coarse_m.clone();
@@ -229,7 +233,8 @@ cv::Mat1f refine_heights(const cv::Mat1f& coarse_m, const cv::Mat1f& land_m, con
       for (int x = 0; x < L; ++x)
         if (land_L(y, x) > 0) next(y, x) = std::max(up(y, x) + (d.empty() ? 0.f : detail_scale * d(y, x)), 0.f);
     erode_level(next, erodibility_map(resampled(resistance, L, cv::INTER_AREA), seed, p), world_size_m / L,
-                p.refine_steps, duration, fine, Routing::kStack, kCreepPx);
+                p.refine_steps, duration, fine, Routing::kStack, kCreepPx,
+                rain_rel.empty() ? cv::Mat1f() : resampled(rain_rel, L, cv::INTER_AREA));
     duration *= 0.5;
     cur = std::move(next);
   }
@@ -242,15 +247,17 @@ cv::Mat1f refine_heights(const cv::Mat1f& coarse_m, const cv::Mat1f& land_m, con
 }
 
 cv::Mat1f erode_island(const cv::Mat1f& h_N, const cv::Mat1f& rho_N, double world_size_m, uint64_t seed,
-                       const ErosionParams& asked) {
+                       const ErosionParams& asked, const cv::Mat1f& rain_N) {
   if (!asked.enabled) return h_N.clone();
   if (h_N.empty() || h_N.size() != rho_N.size() || h_N.rows != h_N.cols)
     throw Error("erode: height and resistance must be square and of the same size");
   const ErosionParams p = scaled_to_canvas(asked, world_size_m, h_N.cols);
   const int N = h_N.cols, B = std::min(N, p.base_px);
   cv::Mat1f base = resampled(h_N, B, cv::INTER_AREA);
+  if (!rain_N.empty() && rain_N.size() != h_N.size()) throw Error("erode: the rain must be of the heights' size");
   erode_level(base, erodibility_map(resampled(rho_N, B, cv::INTER_AREA), seed, p), world_size_m / B, p.steps,
-              p.duration_yr, p);
+              p.duration_yr, p, Routing::kFlood, 0,
+              rain_N.empty() ? cv::Mat1f() : resampled(rain_N, B, cv::INTER_AREA));
   // Detail of level L = what the render holds at L beyond the level before it.
   cv::Mat1f prev_down = resampled(h_N, B, cv::INTER_AREA);
   auto detail = [&](int L, const cv::Mat1f& up) {
@@ -261,7 +268,7 @@ cv::Mat1f erode_island(const cv::Mat1f& h_N, const cv::Mat1f& rho_N, double worl
     prev_down = std::move(down);
     return cv::Mat1f(d + fractal_detail(L, up, world_size_m, seed));
   };
-  cv::Mat1f out = refine_heights(base, h_N, rho_N, world_size_m, seed, p, detail);
+  cv::Mat1f out = refine_heights(base, h_N, rho_N, world_size_m, seed, p, detail, rain_N);
   drain_pits(out, kPitDepthM, float(p.pit_breach_m), world_size_m / N);
   grade_land(out, world_size_m / N);
   return out;

@@ -14,7 +14,6 @@
 namespace reefgen::terrain {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 
 double coefficient_of_variation(const std::vector<double>& v) {
   if (v.size() < 2) return 0;
@@ -41,7 +40,7 @@ struct Grid {
 Grid landform_grid(const cv::Mat1f& height_m, double metres_per_px) {
   const int land = cv::countNonZero(height_m > 0);
   if (land < 100) throw Error("landform: fewer than 100 land cells: no island to read");
-  const double diameter_m = 2 * std::sqrt(land * metres_per_px * metres_per_px / kPi);
+  const double diameter_m = 2 * std::sqrt(land * metres_per_px * metres_per_px / CV_PI);
   Grid g;
   const double target_m = diameter_m / kLandformCells;
   if (target_m <= metres_per_px) {
@@ -84,7 +83,7 @@ Rays coast_rays(const Grid& g, int n) {
   Rays r{cv::Point2d(at.x, at.y), std::vector<double>(size_t(n), 0.0)};
   const double far = std::hypot(g.h.cols, g.h.rows);
   for (int k = 0; k < n; ++k) {
-    const double a = 2 * kPi * k / n, c = std::cos(a), s = std::sin(a);
+    const double a = 2 * CV_PI * k / n, c = std::cos(a), s = std::sin(a);
     double d = 0;
     while (d < far && sample(g.h, r.summit.x + d * c, r.summit.y + d * s) > 0) d += 0.5;
     r.coast_cells[size_t(k)] = d;
@@ -118,7 +117,7 @@ std::vector<double> angular_power(const std::vector<double>& v, int first, int l
   for (int k = first; k <= last && k < n / 2; ++k) {
     double re = 0, im = 0;
     for (int i = 0; i < n; ++i) {
-      const double a = 2 * kPi * k * i / n;
+      const double a = 2 * CV_PI * k * i / n;
       re += v[size_t(i)] * std::cos(a), im -= v[size_t(i)] * std::sin(a);
     }
     p.push_back(re * re + im * im);
@@ -156,15 +155,15 @@ void circle_figures(const Grid& g, const Rays& rays, const cv::Mat1f& detrended,
   for (const double share : kCircleShares) {
     const double mean_r = share * std::accumulate(rays.coast_cells.begin(), rays.coast_cells.end(), 0.0) / n_rays;
     // About one sample per cell along the circle, and at least 360.
-    const int n = std::max(360, int(std::ceil(2 * kPi * mean_r)));
+    const int n = std::max(360, int(std::ceil(2 * CV_PI * mean_r)));
     std::vector<double> prof(static_cast<size_t>(n)), raw(static_cast<size_t>(n)), arc(static_cast<size_t>(n));
     for (int i = 0; i < n; ++i) {
-      const double a = 2 * kPi * i / n;
+      const double a = 2 * CV_PI * i / n;
       const double rr = share * rays.coast_cells[size_t(std::lround(double(i) * n_rays / n)) % size_t(n_rays)];
       const double x = rays.summit.x + rr * std::cos(a), y = rays.summit.y + rr * std::sin(a);
       prof[size_t(i)] = sample(detrended, x, y);
       raw[size_t(i)] = sample(g.h, x, y);
-      arc[size_t(i)] = rr * 2 * kPi / n;
+      arc[size_t(i)] = rr * 2 * CV_PI / n;
     }
     const auto minima = valley_minima(prof, window, kValleyProminenceShareOfPeak * g.peak_m);
     s.valleys_on_circles += int(minima.size());
@@ -195,11 +194,11 @@ double sector_dissection_cv(const Grid& g, const Rays& rays, const cv::Mat1f& de
       if (g.h(y, x) <= 0) continue;
       const double dx = x - rays.summit.x, dy = y - rays.summit.y;
       double a = std::atan2(dy, dx);
-      if (a < 0) a += 2 * kPi;
-      const double coast = rays.coast_cells[size_t(std::lround(a / (2 * kPi) * n_rays)) % size_t(n_rays)];
+      if (a < 0) a += 2 * CV_PI;
+      const double coast = rays.coast_cells[size_t(std::lround(a / (2 * CV_PI) * n_rays)) % size_t(n_rays)];
       const double t = std::hypot(dx, dy) / std::max(coast, 1.0);
       if (t < 0.2 || t > 0.9) continue;
-      const int k = std::min(kSectors - 1, int(a / (2 * kPi) * kSectors));
+      const int k = std::min(kSectors - 1, int(a / (2 * CV_PI) * kSectors));
       ss[size_t(k)] += double(detrended(y, x)) * detrended(y, x), count[size_t(k)] += 1;
     }
   std::vector<double> rms;

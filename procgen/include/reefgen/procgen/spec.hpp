@@ -13,6 +13,7 @@
 #include "reefgen/procgen/curves.hpp"
 #include "reefgen/params_json.hpp"
 #include "reefgen/terrain/erosion.hpp"
+#include "reefgen/terrain/rain.hpp"
 
 namespace reefgen::procgen {
 
@@ -165,6 +166,8 @@ struct DetailNoise {
   double feature = 0.04;    // canvas units per noise feature (0.04 = W/50 px), [0.005, 1]
   int octaves = 3;          // fBm octaves, [1, 4]
   uint64_t seed = 0;        // noise seed (random islands derive it from the global seed)
+  double shield = 0.5;          // relative relief of the shield's rift ridges and lava lobes before erosion (docs/EROSION.md "The shield"), [0, 1]; 0 off
+  double shield_feature = 0.2;  // canvas units per lava lobe of the shield, [0.02, 2]
 };
 template <class F>
 void fields(DetailNoise& p, F&& f) {
@@ -172,6 +175,8 @@ void fields(DetailNoise& p, F&& f) {
   f("feature", p.feature, Range{0.005, 1});
   f("octaves", p.octaves, Range{1, 4});
   f("seed", p.seed);
+  f("shield", p.shield, Range{0, 1});
+  f("shield_feature", p.shield_feature, Range{0.02, 2});
 }
 
 // Control radii of R_1..R_5 (outer borders of regions 0..4), canvas units,
@@ -202,6 +207,7 @@ struct IslandSpec {
   double smax_k = 0.5;                             // 1/m, smooth-max sharpness (overshoot ≤ 1/(2k) m), [0.01, 100]
   DetailNoise noise;
   terrain::ErosionParams erosion;                           // fluvial erosion of the land before coral growth (docs/EROSION.md)
+  terrain::RainParams rain;                        // rain from the wind strokes' mean direction, read by the erosion as discharge (docs/EROSION.md)
   double world_size_m = kCanvasWorldSizeM;        // m, width of the [-1,1] canvas, [10, 1e6]
 };
 // The one field list (common/params_json.hpp); the rules between fields
@@ -224,6 +230,7 @@ void fields(IslandSpec& s, F&& f) {
   f("smax_k", s.smax_k, Range{0.01, 100});
   f("noise", s.noise);
   f("erosion", s.erosion);
+  f("rain", s.rain);
   f("world_size_m", s.world_size_m, Range{10, 1e6});
 }
 

@@ -15,7 +15,11 @@ namespace reefgen::terrain {
 // Single flow direction: each cell passes its own cell_area_m2 plus all its
 // donors' area whole to its receiver (D8 or the stack router's draw).
 //   A_i = a + Σ_{j : r(j) = i} A_j
-void accumulate_single(const FlowGraph& graph, const cv::Mat1b& role, float cell_area_m2, std::vector<float>& area_m2);
+// rain (optional, one per cell of the grid): each cell contributes
+// cell_area_m2 × rain[i] instead (discharge in units of the mean rain's
+// area, rain.hpp): Q_i = a·P_i + Σ_{j : r(j) = i} Q_j.
+void accumulate_single(const FlowGraph& graph, const cv::Mat1b& role, float cell_area_m2, std::vector<float>& area_m2,
+                       const float* rain = nullptr);
 
 // Multiple flow directions (Quinn et al. 1991): each cell's area is shared
 // over its lower neighbours on graph.surface in proportion to slope^exponent
@@ -26,6 +30,6 @@ void accumulate_single(const FlowGraph& graph, const cv::Mat1b& role, float cell
 // slopes; shared flow does not.
 //   A_i = a + Σ_j A_j · S_ji^p / Σ_k S_jk^p
 void accumulate_multiple(const FlowGraph& graph, const cv::Mat1b& role, float cell_area_m2, double metres_per_px,
-                         float exponent, std::vector<float>& area_m2);
+                         float exponent, std::vector<float>& area_m2, const float* rain = nullptr);
 
 }  // namespace reefgen::terrain

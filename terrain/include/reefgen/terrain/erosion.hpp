@@ -121,8 +121,11 @@ ErosionParams erosion_params_from_json(const nlohmann::json& j, const std::strin
 enum class Routing { kFlood, kStack };
 // creep_px > 0: after the steps, creep_between_channels with that σ (cells)
 // and kChannelAreaM2 (a finer level's hillslopes, docs/EROSION.md "Creep between channels").
+// rain_rel (optional, same size): each cell's rain over the land's mean
+// (rain.hpp), so the law's A is the discharge Q = Σ P·a / P̄.
 void erode_level(cv::Mat1f& height_m, const cv::Mat1f& erodibility, double metres_per_px, int steps,
-                 double duration_yr, const ErosionParams& p, Routing routing = Routing::kFlood, double creep_px = 0);
+                 double duration_yr, const ErosionParams& p, Routing routing = Routing::kFlood, double creep_px = 0,
+                 const cv::Mat1f& rain_rel = cv::Mat1f());
 
 // K per cell from a resistance map ρ ∈ [0, 1] modulated by low-frequency
 // noise drawn from `seed` (about four features across the canvas, so hard
@@ -147,9 +150,11 @@ std::vector<int> refinement_levels(int from, int to);
 // there (refine_steps steps). resistance is at the final size (resampled to
 // each level). Cells that are not land in `land_m` (final size) keep land_m's
 // heights; land cells never go below sea level.
+// rain_rel (optional, final size): as erode_level's, resampled to each level.
 cv::Mat1f refine_heights(const cv::Mat1f& coarse_m, const cv::Mat1f& land_m, const cv::Mat1f& resistance,
                          double world_size_m, uint64_t seed, const ErosionParams& p,
-                         const std::function<cv::Mat1f(int, const cv::Mat1f&)>& detail);
+                         const std::function<cv::Mat1f(int, const cv::Mat1f&)>& detail,
+                         const cv::Mat1f& rain_rel = cv::Mat1f());
 
 // A whole height field eroded at its own size (the generator's islands,
 // `reefgen erode` on a user's heightmap): eroded on the base grid
@@ -158,8 +163,10 @@ cv::Mat1f refine_heights(const cv::Mat1f& coarse_m, const cv::Mat1f& land_m, con
 // square; resistance ρ ∈ [0, 1] per cell, same size (hard rock erodes at
 // hard_erodibility of soft). p is read for the canvas's width
 // (scaled_to_canvas): the same island at any world_size_m.
+// rain_rel (optional, same size): each cell's rain over the land's mean
+// (rain.hpp: the wind's windward wet, leeward dry), read as discharge.
 cv::Mat1f erode_island(const cv::Mat1f& height_m, const cv::Mat1f& resistance, double world_size_m, uint64_t seed,
-                       const ErosionParams& p);
+                       const ErosionParams& p, const cv::Mat1f& rain_rel = cv::Mat1f());
 
 // Land never goes below this once it is land (m): smoothing, lobes and
 // erosion keep it land (h > 0) so the coastline stays where it was drawn.
