@@ -31,7 +31,7 @@ for c in "${classes[@]}"; do
   fi
   echo "cpu-matrix: $isa (DNNL_MAX_CPU_ISA=$isa REEFGEN_CPU_PATH=$path)"
   if (cd build && DNNL_MAX_CPU_ISA=$isa REEFGEN_CPU_PATH=$path ctest -R "$pattern" -j "$(nproc)" --output-on-failure >"/tmp/cpu-matrix-$isa.log" 2>&1); then
-    echo "cpu-matrix: $isa passed ($(grep -o '[0-9]* tests passed\|tests passed.*' "/tmp/cpu-matrix-$isa.log" | tail -1))"
+    echo "cpu-matrix: $isa passed ($(grep -m1 'tests passed' "/tmp/cpu-matrix-$isa.log"))"
   else
     echo "cpu-matrix: $isa FAILED: /tmp/cpu-matrix-$isa.log" >&2
     failed=1
