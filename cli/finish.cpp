@@ -1,5 +1,7 @@
 #include "finish.hpp"
 
+#include "app.hpp"
+
 #include <cstdio>
 
 #include "reefgen/error.hpp"
@@ -48,7 +50,7 @@ void add_finish_flags(CLI::App* sub, FinishFlags& f) {
                   "Continue the submarine flank down to this depth, e.g. -2000 (metres, [-11000, -1]): the open "
                   "ocean below -60 m is stretched so that its lowest cell lies there; lagoons are kept "
                   "(docs/REEF.md \"Deeper than the abyss\")")
-      ->check(CLI::Range(-11000.0, -1.0))
+      ->check(finite_in(-11000.0, -1.0))
       ->type_name("M");
 }
 

@@ -150,6 +150,8 @@ assert np.array_equal(ha[ha > -60], hb[ha > -60])  # above the knee nothing move
 assert json.load(open(d + "/d.json"))["provenance"]["ocean_floor_m"] == -2000
 PYEOF
 expect_error "ocean-floor-m" generate --preset atoll --ocean-floor-m -20000 -o "$T/e/x"
+expect_error "finite" generate --preset atoll --ocean-floor-m nan -o "$T/e/x"
+expect_error "finite" world "$(dirname "$0")/data/painted/01-young-volcano.png" --ocean-floor-m nan -o "$T/e/x"
 # A subsided (dark) sketch through world keeps its abyss deep: the pass is
 # padded with the sketch's own subsidence, not a bright frame (which made the
 # network answer -47 m for the dark abyss where infer answers -88 m).

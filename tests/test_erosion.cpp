@@ -1206,6 +1206,18 @@ TEST(Realism, StreamedBandsAgreeWithTheWholeField) {
       [&](int y0, int n) { return reader.rows(y0, n); }, reader.size(), mpp, StreamBands{50, 400});
   EXPECT_EQ(from_file.valleys, whole.valleys);
   EXPECT_EQ(from_file.pits, whole.pits);
+  // One row or one column (a 1×4096 ramp from −50 to +50 m): the streamed
+  // report answers as the whole field's does (it crashed on an empty list
+  // of row pairs).
+  for (const cv::Size shape : {cv::Size(4096, 1), cv::Size(1, 4096)}) {
+    cv::Mat1f ramp(shape);
+    for (int i = 0; i < int(ramp.total()); ++i) ramp(i) = -50.f + 100.f * float(i) / float(ramp.total() - 1);
+    const RealismStats w = realism_stats(ramp, 10);
+    const RealismStats st = realism_stats_streamed(
+        [&](int y0, int n) { return cv::Mat1f(ramp.rowRange(y0, y0 + n).clone()); }, ramp.size(), 10);
+    EXPECT_EQ(st.land_cells, w.land_cells) << shape;
+    EXPECT_EQ(st.pits, w.pits) << shape;
+  }
   cv::Mat1f nan = h.clone();
   nan(150, 150) = NAN;
   EXPECT_THROW(realism_stats_streamed([&](int y0, int n) { return cv::Mat1f(nan.rowRange(y0, y0 + n).clone()); },

@@ -206,7 +206,7 @@ RealismStats realism_stats_streamed(const RowSource& read, cv::Size size, double
   const double sigma_px = 60.0 / mpp;
   // OpenCV's Gaussian kernel for float images reaches 4σ; one more row for the curvature.
   const int halo = std::max(sb.halo_rows, int(std::ceil(4 * sigma_px)) + 3);
-  const int busiest_row = *std::max_element(t.row_pairs.begin(), t.row_pairs.end());
+  const int busiest_row = t.row_pairs.empty() ? 0 : *std::max_element(t.row_pairs.begin(), t.row_pairs.end());
   const int busiest_col = t.col_pairs.empty() ? 0 : *std::max_element(t.col_pairs.begin(), t.col_pairs.end());
   std::vector<double> row_p(t.row_pairs.size(), -1.0);
   std::vector<uint32_t> col_hist(t.col_pairs.size() * kStreamStepBins, 0);
