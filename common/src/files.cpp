@@ -15,6 +15,7 @@
 #include <cstring>
 #include <fstream>
 #include <sstream>
+#include <unordered_set>
 #include <vector>
 
 namespace reefgen {
@@ -493,12 +494,41 @@ std::string read_text(const fs::path& path, size_t max_bytes) {
   return out;
 }
 
+nlohmann::json parse_json_checked(const std::string& text, const std::string& origin) {
+  using nlohmann::json;
+  // The keys seen in each open object (an array's entry stays empty).
+  std::vector<std::unordered_set<std::string>> open;
+  const json::parser_callback_t guard = [&](int depth, json::parse_event_t event, json& parsed) {
+    if (depth > kMaxJsonDepth)
+      throw Error(origin + ": JSON nested deeper than " + std::to_string(kMaxJsonDepth) +
+                  " levels; reefgen's files nest a few levels (see docs/SPEC.md)");
+    switch (event) {
+      case json::parse_event_t::object_start:
+      case json::parse_event_t::array_start: open.emplace_back(); break;
+      case json::parse_event_t::object_end:
+      case json::parse_event_t::array_end:
+        if (!open.empty()) open.pop_back();
+        break;
+      case json::parse_event_t::key: {
+        const std::string key = parsed.get<std::string>();
+        auto& seen = open.back();
+        if (!seen.insert(key).second)
+          throw Error(origin + ": key \"" + key + "\" appears twice in one object; keep one (the parser would silently keep the later)");
+        break;
+      }
+      default: break;
+    }
+    return true;
+  };
+  return json::parse(text, guard);
+}
+
 nlohmann::json read_json(const fs::path& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw Error("cannot read " + path.string() + ": no such file");
   const std::string text = read_text(path, kMaxJsonBytes);
   try {
-    return nlohmann::json::parse(text);
+    return parse_json_checked(text, path.string());
   } catch (const nlohmann::json::parse_error& e) {
     throw Error(path.string() + ": invalid JSON at byte " + std::to_string(e.byte) +
                 " (fix the syntax; see docs/SPEC.md)");

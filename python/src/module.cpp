@@ -47,7 +47,7 @@ cv::Mat3b rgb_of(const cv::Mat3b& bgr) {
 
 augment::DatasetParams dataset_params(const std::string& config_json) {
   if (config_json.empty()) return {};
-  return augment::dataset_params_from_json(nlohmann::json::parse(config_json), "dataset config");
+  return augment::dataset_params_from_json(parse_json_checked(config_json, "dataset config"), "dataset config");
 }
 
 // A pair does not depend on the dataset's count: index i is the pair any
@@ -143,7 +143,7 @@ std::string pair_splits(const std::string& config_json, uint64_t seed, int64_t s
 // written into it before it is read, as the CLI's flags.
 procgen::IslandSpec spec_of(const std::string& preset, const std::string& spec_json, double age_myr = NAN,
                             double maturity = NAN) {
-  nlohmann::json j = nlohmann::json::parse(spec_json.empty() ? preset_text(builtin_presets(), preset) : spec_json);
+  nlohmann::json j = parse_json_checked(spec_json.empty() ? preset_text(builtin_presets(), preset) : spec_json, "spec");
   if (!std::isnan(age_myr)) j["age_myr"] = age_myr;
   if (!std::isnan(maturity)) j["maturity"] = maturity;
   return procgen::spec_from_json(j, spec_json.empty() ? "preset " + preset : "spec");

@@ -20,6 +20,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "reefgen/constants.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/heightfile.hpp"
 #include "reefgen/image_io.hpp"
 #include "reefgen/parallel.hpp"
@@ -97,6 +98,20 @@ constexpr int kMinStudioSidePx = 32;
 struct BadRequest : Error {
   using Error::Error;
 };
+
+
+// A request body as JSON: discarded when it is not JSON, a 400 naming the
+// guard when it nests too deep or repeats a key (files.hpp's checked parse).
+nlohmann::json body_json(const std::string& body) {
+  try {
+    return parse_json_checked(body, "request body");
+  } catch (const nlohmann::json::exception&) {
+    return nlohmann::json(nlohmann::json::value_t::discarded);
+  } catch (const Error& e) {
+    throw BadRequest(e.what());
+  }
+}
+
 
 // Text from a request, fit for a one-line message: control bytes (a NUL
 // would cut the message short) and non-ASCII shown as \xNN, at most 80 bytes.
@@ -716,7 +731,7 @@ struct StudioServer::Impl {
   }
 
   void answer_generate(const httplib::Request& req, httplib::Response& res) {
-    const json spec = json::parse(req.body, nullptr, false);
+    const json spec = body_json(req.body);
     if (spec.is_discarded()) throw BadRequest("the body is not valid JSON: send an island spec (docs/SPEC.md)");
     const int size = req.has_param("size") ? size_param(req.get_param_value("size")) : 256;
     latest_wins(res, [&] {
@@ -738,7 +753,7 @@ struct StudioServer::Impl {
   void answer_layers(const httplib::Request& req, httplib::Response& res) {
     const std::string view = req.get_param_value("view");
     if (view != "materials" && view != "flow") throw BadRequest("view '" + view + "': use materials or flow");
-    const Source src = source_of(json::parse(req.body, nullptr, false), true);
+    const Source src = source_of(body_json(req.body), true);
     const terrain::Layers L = terrain::compute_layers(src.height_m, src.before_m, src.region, src.metres_per_px);
     const cv::Mat3b picture = view == "materials" ? terrain::material_colour_map(L)
                                                   : terrain::flow_colour_map(L, src.height_m, src.metres_per_px);
@@ -763,7 +778,7 @@ struct StudioServer::Impl {
     if (!export_suffixes().count(format) && !bundle)
       throw BadRequest("format '" + format + "': use exr, png16, r16, glb, obj, sketch, spec, or a bundle: " +
                        engines::engine_names());
-    const json body = json::parse(req.body, nullptr, false);
+    const json body = body_json(req.body);
     if (format == "spec" && body.is_object() && !body.contains("spec"))
       throw BadRequest("format spec needs a spec (curves mode)");
     // The source again (deterministic), then the CLI's writer for the format.

@@ -29,6 +29,16 @@ std::string read_text(const fs::path& path, size_t max_bytes = size_t(1) << 30);
 // (missing, a folder, too large, the byte of a syntax error).
 constexpr size_t kMaxJsonBytes = size_t(16) << 20;
 nlohmann::json read_json(const fs::path& path);
+// Nesting deeper than this is refused before it is built (a spec of 100,000
+// nested arrays overflowed the stack): no config, spec or sidecar of
+// reefgen's nests past a dozen levels.
+constexpr int kMaxJsonDepth = 256;
+// JSON text parsed with two guards nlohmann's parser lacks: nesting deeper
+// than kMaxJsonDepth and a key repeated within one object (the parser keeps
+// the later value without a word) throw reefgen::Error naming `origin`
+// (a file name, "request body", ...) and the fix. Syntax errors propagate
+// as nlohmann::json::parse_error (read_json names their byte).
+nlohmann::json parse_json_checked(const std::string& text, const std::string& origin);
 void write_json_atomic(const fs::path& path, const nlohmann::json& j);
 
 // A text file written as a stream (memory stays flat however long it gets)
