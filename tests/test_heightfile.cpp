@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "reefgen/error.hpp"
 #include "reefgen/files.hpp"
 #include "reefgen/heightfile.hpp"
 #include "reefgen/image_io.hpp"
@@ -377,4 +378,28 @@ TEST(Normal, QuantileRoundTripsIntoTheTails) {
       ASSERT_NEAR(reefgen::normal_cdf(x) / v, 1.0, 1e-6) << v;
     }
   }
+}
+
+// JSON guards nlohmann's parser lacks: a nesting past kMaxJsonDepth (100,000
+// nested arrays overflowed the stack) and a key repeated in one object are
+// refused in one line naming the file; a nesting at the limit and the same
+// key in two objects are fine.
+TEST(Json, DeepNestingAndRepeatedKeysAreRefusedNamingTheFile) {
+  const fs::path d = temp_dir("json-guards");
+  auto nested = [](int depth) { return "{\"a\": " + std::string(size_t(depth), '[') + std::string(size_t(depth), ']') + "}"; };
+  { std::ofstream(d / "deep.json") << nested(100000); }
+  { std::ofstream(d / "dup.json") << "{\"subsidence\": 0.2, \"heights\": {\"peak_m\": 1}, \"subsidence\": 0.5}"; }
+  { std::ofstream(d / "ok.json") << "{\"a\": {\"x\": 1}, \"b\": {\"x\": 2}}"; }
+  for (const char* name : {"deep.json", "dup.json"}) {
+    try {
+      reefgen::read_json(d / name);
+      ADD_FAILURE() << name << " was accepted";
+    } catch (const reefgen::Error& e) {
+      EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_EQ(reefgen::read_json(d / "ok.json")["b"]["x"], 2);
+  EXPECT_NO_THROW(reefgen::parse_json_checked(nested(reefgen::kMaxJsonDepth - 1), "limit"));
+  EXPECT_THROW(reefgen::parse_json_checked(nested(reefgen::kMaxJsonDepth + 1), "past"), reefgen::Error);
+  fs::remove_all(d);
 }
