@@ -540,13 +540,6 @@ cv::Mat1f rain_of(const IslandSpec& spec, const cv::Mat1f& volcano_m) {
 
 }  // namespace
 
-cv::Mat1f rain_mm_yr(const IslandSpec& spec, const cv::Mat1f& height_m) {
-  const cv::Vec2d wind = prevailing_wind(spec);
-  if (!spec.rain.enabled || !(std::hypot(wind[0], wind[1]) > 1e-9))
-    return cv::Mat1f(height_m.size(), float(spec.rain.background_mm_yr));
-  return terrain::orographic_rain_mm_yr(height_m, spec.world_size_m / height_m.cols, wind, spec.rain);
-}
-
 // The island in one pass over the pixels: each pixel's source point (the
 // wind's warp), its parametric distance x̃ to the outlines, then height and
 // label from the profile tables and the detail noise. With erosion, the

@@ -67,17 +67,14 @@ float sample(const cv::Mat1f& m, double x, double y) {
   return (1 - fy) * ((1 - fx) * m(y0, x0) + fx * m(y0, x0 + 1)) + fy * ((1 - fx) * m(y0 + 1, x0) + fx * m(y0 + 1, x0 + 1));
 }
 
-// The summit (highest point of the heights smoothed at the detrend scale)
+// The summit (highest point of `smooth`, the heights blurred at the detrend scale)
 // and the distance to the first sea cell along each of n rays from it.
 struct Rays {
   cv::Point2d summit;
   std::vector<double> coast_cells;
 };
 
-Rays coast_rays(const Grid& g, int n) {
-  cv::Mat1f smooth;
-  const double sigma = std::max(1.0, kDetrendShareOfDiameter * g.diameter_cells);
-  cv::GaussianBlur(g.h, smooth, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
+Rays coast_rays(const Grid& g, const cv::Mat1f& smooth, int n) {
   cv::Point at;
   cv::minMaxLoc(smooth, nullptr, nullptr, nullptr, &at);
   Rays r{cv::Point2d(at.x, at.y), std::vector<double>(size_t(n), 0.0)};
@@ -260,7 +257,7 @@ LandformStats landform_stats(const cv::Mat1f& height_m, double metres_per_px) {
   const double sigma = std::max(1.0, kDetrendShareOfDiameter * g.diameter_cells);
   cv::GaussianBlur(g.h, smooth, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
   const cv::Mat1f detrended = g.h - smooth;
-  const Rays rays = coast_rays(g, 720);
+  const Rays rays = coast_rays(g, smooth, 720);
   circle_figures(g, rays, detrended, s);
   s.sector_cv = sector_dissection_cv(g, rays, detrended);
   drainage_figures(g, s);

@@ -31,11 +31,6 @@ struct IslandFields {
 
 IslandFields generate(const IslandSpec& spec, const RenderOptions& opt = {});
 
-// The rain the erosion of `spec`'s island reads (mm/yr per cell of height_m,
-// terrain/rain.hpp), from its wind strokes' prevailing direction; the
-// background everywhere without wind or with spec.rain off.
-cv::Mat1f rain_mm_yr(const IslandSpec& spec, const cv::Mat1f& height_m);
-
 // ---- Pure pieces (exposed for tests and for other stages) ----
 
 // The authors' smooth maximum (Eq. 9): max(a,b) + δ/(e^{2kδ} − 1), δ = |a−b|;
