@@ -523,8 +523,9 @@ cv::Vec2d prevailing_wind(const IslandSpec& spec) {
 }
 
 // The rain's grid: the orographic field is smooth over U·τ (10 km at the
-// defaults), so 256 cells across the canvas hold it; upsampled after.
-constexpr int kRainGridPx = 256;
+// defaults), so 128 cells across the canvas (47 m at the default 6 km) hold
+// it; upsampled after.
+constexpr int kRainGridPx = 128;
 
 // Each pixel's rain over the land's mean (terrain/rain.hpp), from the
 // volcano's heights and the prevailing wind; empty without wind or rain.

@@ -1,7 +1,9 @@
 #include "reefgen/procgen/reef.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
 
 #include "reefgen/error.hpp"
 #include "reefgen/labels.hpp"
@@ -218,31 +220,37 @@ float pass_distance(const ReefPlan::Pass& p, float x, float y) {
   return best >= 1e30f ? 1e30f : std::sqrt(best);
 }
 
-// A low-frequency noise tabulated once on a (kTableSide + 1)² grid over
+// A low-frequency noise tabulated on a (kTableSide + 1)² grid over
 // ±kTableExtent canvas units (cells of ~23 m at the default 6 km canvas) and
 // read bilinearly: the sea floor's relief has features of 1500 m, so this
 // replaces three octaves of gradient noise per abyss cell at no visible cost.
+// A node is evaluated the first time a look-up reads it (NaN until then): at
+// 256² an island's abyss touches a tenth of the 513² nodes, and building them
+// all cost more than the rest of the reef (docs/BENCHMARKS.md). The values
+// are the full table's, whatever the order of the look-ups.
+template <class F>
 class NoiseTable {
  public:
   static constexpr int kTableSide = 512;
   static constexpr float kTableExtent = 2.f;
-  template <class F>
-  explicit NoiseTable(F&& f) : t_(kTableSide + 1, kTableSide + 1) {
-    for (int r = 0; r <= kTableSide; ++r)
-      for (int c = 0; c <= kTableSide; ++c)
-        t_(r, c) = f(-kTableExtent + 2.f * kTableExtent * c / kTableSide, -kTableExtent + 2.f * kTableExtent * r / kTableSide);
-  }
-  float at(float x, float y) const {
+  explicit NoiseTable(F f) : f_(std::move(f)), t_(kTableSide + 1, kTableSide + 1, std::numeric_limits<float>::quiet_NaN()) {}
+  float at(float x, float y) {
     const float gx = std::clamp((x + kTableExtent) / (2.f * kTableExtent) * kTableSide, 0.f, float(kTableSide) - 1e-3f);
     const float gy = std::clamp((y + kTableExtent) / (2.f * kTableExtent) * kTableSide, 0.f, float(kTableSide) - 1e-3f);
     const int ix = int(gx), iy = int(gy);
     const float fx = gx - ix, fy = gy - iy;
-    const float a = t_(iy, ix) + fx * (t_(iy, ix + 1) - t_(iy, ix));
-    const float b = t_(iy + 1, ix) + fx * (t_(iy + 1, ix + 1) - t_(iy + 1, ix));
+    const float a = node(iy, ix) + fx * (node(iy, ix + 1) - node(iy, ix));
+    const float b = node(iy + 1, ix) + fx * (node(iy + 1, ix + 1) - node(iy + 1, ix));
     return a + fy * (b - a);
   }
 
  private:
+  float node(int r, int c) {
+    float& v = t_(r, c);
+    if (std::isnan(v)) v = f_(-kTableExtent + 2.f * kTableExtent * c / kTableSide, -kTableExtent + 2.f * kTableExtent * r / kTableSide);
+    return v;
+  }
+  F f_;
   cv::Mat1f t_;
 };
 
@@ -269,7 +277,7 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
   const double groove_fade = std::clamp((rp.groove_spacing_m / mpp - 3.0) / 3.0, 0.0, 1.0);
   const double groove_amp = rp.groove_amplitude_m * groove_fade;
   const double floor_m = spec.heights.floor_m;
-  const NoiseTable abyss_relief([&](float x, float y) {
+  NoiseTable abyss_relief([&](float x, float y) {
     return noise.fbm(float(x * to_m / kAbyssReliefFeatureM), float(y * to_m / kAbyssReliefFeatureM), 3);
   });
 
@@ -281,12 +289,21 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
     uint8_t* lab = label ? label->ptr<uint8_t>(y) : nullptr;
     for (int x = 0; x < W; ++x) {
       const double sx = src[x][0], sy = src[x][1], xt = xtr[x], xr = xt - 3.0;
-      const double r = std::hypot(sx, sy), th = std::atan2(sy, sx);
-      const auto R = outlines.radii(th);
+      // The cell's polar position and the outline radii at its angle, worked
+      // out only where a step reads them (most land and lagoon cells read none).
+      double r = 0, th = 0;
+      std::array<double, 5> R{};
+      bool polar = false;
+      const auto need_polar = [&] {
+        if (polar) return;
+        r = std::hypot(sx, sy), th = std::atan2(sy, sx), R = outlines.radii(th), polar = true;
+      };
       double g = h[x];
       // 1. Lagoon floor: a basin deepest in the middle (q = 0) and 0.75 D at
-      // the back reef, with low relief and patch reefs.
-      if (xr < c.flat_begin) {
+      // the back reef, with low relief and patch reefs. It only ever raises
+      // ground below −0.3 m, so land and shallows skip its noise.
+      if (xr < c.flat_begin && g < -0.3) {
+        need_polar();
         const double q = std::min(1.0, r / R[2]);
         double F = -D * (kBackReefShare + (1.0 - kBackReefShare) * (1.0 - q * q)) + 0.08 * D * noise.fbm(float(sx * to_m / 600), float(sy * to_m / 600), 2);
         if (rp.patch_reefs > 0 && D > 1) F = std::max(F, double(terrain::patch_reef_m(patch_noise, sx * to_m, sy * to_m, D, rp.patch_reefs)));
@@ -316,6 +333,7 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
       // 4. Motu on the reef flat, their edges roughened along the rim.
       if (xr > c.back_end - 0.2 && xr < 1.0 && !in_pass)
         for (const auto& m : plan.motu) {
+          need_polar();
           const double rc = R[2] + 0.5 * (c.flat_begin + c.crest_end) * (R[3] - R[2]);
           const double u = wrap_angle(th - m.theta) * rc / m.half_len, v = (r - rc) / m.half_wid;
           double d = std::hypot(u, v);
@@ -336,6 +354,7 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
       // 5. Spur-and-groove: grooves perpendicular to the crest, 0.5 m to
       // groove_depth_m deep, on the windward side.
       if (groove_amp > 0 && xr > c.crest_end - 0.1 && g < -0.5 && g > -rp.groove_depth_m) {
+        need_polar();
         const double facing = std::cos(th) * plan.windward[0] + std::sin(th) * plan.windward[1];
         const double ww = ease(2.0 * facing + 0.5);
         const double dg = -g;
@@ -354,6 +373,7 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
       // 6. Beyond the reef the flank keeps descending towards the floor,
       // e-folding over abyss_decay_m, with relief: never a flat plane.
       if (xt >= 4.0) {
+        need_polar();
         const double d = std::max(0.0, r - R[3]) * to_m;
         const double n = abyss_relief.at(float(sx), float(sy));
         g = std::max(g, flank_height_m(d, floor_m, c.abyss_m, rp.abyss_decay_m, rp.abyss_relief_m, n));

@@ -19,6 +19,10 @@ double wavenumber(int i, int n, double dx) { return 2 * CV_PI * double(i <= n / 
 //   P̂/ĥ = C_w i σ / ((1 − i m H_w)(1 + i σ τ_c)(1 + i σ τ_f)),  σ = U k + V l,
 //   m² = (N_m² − σ²)/σ² · (k² + l²); m real with σ's sign where σ² < N_m²
 //   (waves that carry the lift aloft), i·√(−m²) where not (evanescent).
+// The quotient as numerator × conj(denominator) / |denominator|²: one real
+// division per bin (libgcc's guarded complex division was a tenth of the
+// generator's time, docs/BENCHMARKS.md), exact to double rounding here since
+// every factor is within a few orders of magnitude of 1.
 std::complex<double> transfer(double k, double l, double u, double v, const RainParams& p) {
   const double sigma = u * k + v * l;
   if (sigma == 0) return {0, 0};
@@ -27,8 +31,11 @@ std::complex<double> transfer(double k, double l, double u, double v, const Rain
   const std::complex<double> i(0, 1);
   const std::complex<double> m = m2 >= 0 ? std::complex<double>(std::copysign(std::sqrt(m2), sigma), 0)
                                          : std::complex<double>(0, std::sqrt(-m2));
-  return p.uplift_sensitivity * i * sigma /
-         ((1.0 - i * m * p.vapour_height_m) * (1.0 + i * sigma * p.condensation_s) * (1.0 + i * sigma * p.fallout_s));
+  const std::complex<double> den =
+      (1.0 - i * m * p.vapour_height_m) * std::complex<double>(1.0, sigma * p.condensation_s) *
+      std::complex<double>(1.0, sigma * p.fallout_s);
+  const std::complex<double> num(0, p.uplift_sensitivity * sigma);
+  return num * std::conj(den) / std::norm(den);
 }
 }  // namespace
 
@@ -44,28 +51,30 @@ cv::Mat1f orographic_rain_mm_yr(const cv::Mat1f& height_m, double dx, cv::Vec2d 
   const double speed = std::hypot(wind_to[0], wind_to[1]);
   if (!(speed > 0)) throw Error("rain: the wind's direction is a zero vector");
   const double u = p.wind_speed_m_s * wind_to[0] / speed, v = p.wind_speed_m_s * wind_to[1] / speed;
-  // Terrain on a field twice the size (the sea lifts nothing), in double.
+  // Terrain on a field twice the size (the sea lifts nothing). The DFT in
+  // float: the rain's rounding is ~1e-6 of the terrain's largest term, far
+  // below a mm/yr.
   const int H = cv::getOptimalDFTSize(2 * height_m.rows), W = cv::getOptimalDFTSize(2 * height_m.cols);
-  cv::Mat1d terrain(H, W, 0.0);
+  cv::Mat1f terrain(H, W, 0.f);
   for (int y = 0; y < height_m.rows; ++y)
     for (int x = 0; x < height_m.cols; ++x) terrain(y, x) = std::max(0.f, height_m(y, x));
   cv::Mat spectrum;
   cv::dft(terrain, spectrum, cv::DFT_COMPLEX_OUTPUT);
   for (int r = 0; r < H; ++r) {
     const double l = wavenumber(r, H, dx);
-    auto* row = spectrum.ptr<cv::Vec2d>(r);
+    auto* row = spectrum.ptr<cv::Vec2f>(r);
     for (int c = 0; c < W; ++c) {
       const std::complex<double> z = transfer(wavenumber(c, W, dx), l, u, v, p) * std::complex<double>(row[c][0], row[c][1]);
-      row[c] = cv::Vec2d(z.real(), z.imag());
+      row[c] = cv::Vec2f(float(z.real()), float(z.imag()));
     }
   }
-  cv::Mat1d rain;  // kg m⁻² s⁻¹ = mm/s
+  cv::Mat1f rain;  // kg m⁻² s⁻¹ = mm/s
   cv::idft(spectrum, rain, cv::DFT_SCALE | cv::DFT_REAL_OUTPUT);
   cv::Mat1f out(height_m.size());
   const double floor = p.floor_share * p.background_mm_yr;
   for (int y = 0; y < out.rows; ++y)
     for (int x = 0; x < out.cols; ++x)
-      out(y, x) = float(std::max(floor, p.background_mm_yr + rain(y, x) * kSecondsPerYear));
+      out(y, x) = float(std::max(floor, p.background_mm_yr + double(rain(y, x)) * kSecondsPerYear));
   return out;
 }
 

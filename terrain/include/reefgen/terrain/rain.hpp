@@ -7,7 +7,7 @@
 // lee, where the air descends, is left dry — Kohala's > 4000 mm/yr windward
 // and < 250 mm leeward. The erosion reads it as discharge: Q = Σ P·a over
 // the upstream cells instead of the area alone (stream power K Q^m S).
-// LibTorch-free, deterministic (OpenCV's DFT in double precision).
+// LibTorch-free, deterministic (OpenCV's DFT in float, the transfer in double).
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
