@@ -1,4 +1,4 @@
-# Shared by the end-to-end scripts (cli_test.sh, cli_infer_test.sh,
+# Shared by the end-to-end scripts (cli_test.sh, cli_infer_test.sh, cli_infer_models_test.sh,
 # cli_world_test.sh, cli_world_tiles_test.sh), which ctest runs side by side: BIN, a temporary
 # folder T removed on exit, the python with cv2, the pass/fail counters, the
 # one-line-error check and the CPU class. Sourced, with the binary as "$1".
@@ -33,4 +33,17 @@ HAS_BF16=$(echo "$CPU_JSON" | "$PY" -c 'import json,sys; print(int(json.load(sys
 finish() {
   echo "$pass passed, $fail failed, $skipped skipped"
   [ "$fail" = 0 ]
+}
+
+# The tiny model and its dataset into $T (d1/, t1/, ds.json, tr.json): from
+# ctest's tiny_model fixture (REEFGEN_TINY_MODEL, cli_tiny_model.sh), or
+# trained here when a script runs on its own. Copies: the checks may not
+# touch the fixture another part reads.
+tiny_model() {
+  local dir="${REEFGEN_TINY_MODEL:-}"
+  if [ -z "$dir" ] || [ ! -s "$dir/t1/generator.pt" ]; then
+    dir="$T/tiny"
+    bash "$(dirname "${BASH_SOURCE[0]}")/cli_tiny_model.sh" "$BIN" "$dir" || { echo "FAIL: the tiny model"; exit 1; }
+  fi
+  cp -r "$dir/d1" "$dir/t1" "$dir/ds.json" "$dir/tr.json" "$T/"
 }
