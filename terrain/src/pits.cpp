@@ -143,6 +143,16 @@ void cut_banks(cv::Mat1f& h, const std::vector<int>& cut, const std::vector<floa
   }
 }
 
+// A float's bits as an unsigned key in the float's own order (negatives
+// flipped whole, positives with the sign bit set): −0 sorts just below +0,
+// where the float compare calls them equal — grade_land's keys are heights
+// of land, > 0, so its order is the pair's exactly.
+inline uint32_t float_order_key(float v) {
+  uint32_t bits;
+  std::memcpy(&bits, &v, sizeof bits);
+  return (bits & 0x80000000u) ? ~bits : bits | 0x80000000u;
+}
+
 // grade_land over h (the land's box of the field, its top-left cell at
 // `origin` of the field), counting the cells it raises: the least surface
 // z ≥ h on which every land cell has a neighbour lower by its fall, found as
@@ -176,8 +186,11 @@ int64_t grade_box(cv::Mat1f& h, cv::Point origin, double cell_m, double slope) {
           tile.sample_cubic(float(origin.x + x) * texels_per_px, float(origin.y + y) * texels_per_px), -1.f, 1.f);
       rise[size_t(y * W + x)] = float(slope * cell_m) * (1.f + kGradeVariation * 0.5f * (1.f + n));
     }
-  using Item = std::pair<float, int>;  // (height, flat index): ties by index, so the result is a pure function
-  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> open;
+  // Items (height, flat index) packed in 64 bits, ordered as the pair is:
+  // ties by index, so the result is a pure function; one integer compare
+  // per heap step instead of two float ones (a fifth of grade_land's time).
+  const auto item = [](float v, int i) { return uint64_t(float_order_key(v)) << 32 | uint32_t(i); };
+  std::priority_queue<uint64_t, std::vector<uint64_t>, std::greater<uint64_t>> open;
   std::vector<float> best(h.total(), std::numeric_limits<float>::infinity());
   std::vector<uint8_t> final_(h.total(), 0);
   // Land next to the sea (or the canvas edge) is at least the land's floor,
@@ -196,12 +209,13 @@ int64_t grade_box(cv::Mat1f& h, cv::Point origin, double cell_m, double slope) {
         }
       if (least == std::numeric_limits<float>::infinity()) continue;
       best[size_t(i)] = std::max(z[i], least);
-      open.emplace(best[size_t(i)], i);
+      open.push(item(best[size_t(i)], i));
     }
   int64_t raised = 0;
   while (!open.empty()) {
-    const auto [v, i] = open.top();
+    const int i = int(uint32_t(open.top()));
     open.pop();
+    const float v = best[size_t(i)];
     if (final_[size_t(i)]) continue;
     final_[size_t(i)] = 1;
     if (z[i] < v) z[i] = v, ++raised;
@@ -211,7 +225,7 @@ int64_t grade_box(cv::Mat1f& h, cv::Point origin, double cell_m, double slope) {
         const int nx = x + dx, ny = y + dy, j = ny * W + nx;
         if ((dx == 0 && dy == 0) || rl[j] != kActive || final_[size_t(j)]) continue;
         const float c = std::max(z[j], v + rise[size_t(j)] * (dx != 0 && dy != 0 ? float(M_SQRT2) : 1.f));
-        if (c < best[size_t(j)]) best[size_t(j)] = c, open.emplace(c, j);
+        if (c < best[size_t(j)]) best[size_t(j)] = c, open.push(item(c, j));
       }
   }
   return raised;
