@@ -11,6 +11,14 @@ T=$(mktemp -d); trap 'rm -rf "$T"' EXIT
   { echo "FAIL: $PY -m venv: $(tail -1 "$T/err") (bash scripts/install-deps.sh installs python3-venv)"; exit 1; }
 REEFGEN_BUILD_DIR="$BUILD" "$T/venv/bin/pip" install -q --no-build-isolation --no-index "$SRC" >"$T/err" 2>&1 ||
   { echo "FAIL: pip install: $(tail -3 "$T/err")"; exit 1; }
+# The wheel as docs/PYTHON.md makes it, into a fresh folder: --no-deps, since
+# numpy is Debian's and --no-index has no index to fetch it from.
+mkdir -p "$T/wheels"
+(cd "$SRC" && REEFGEN_BUILD_DIR="$BUILD" "$T/venv/bin/pip" wheel -q --no-build-isolation --no-index --no-deps \
+  -w "$T/wheels" .) >"$T/err" 2>&1 || { echo "FAIL: pip wheel: $(tail -3 "$T/err")"; exit 1; }
+ls "$T/wheels"/reefgen-*.whl >/dev/null 2>&1 || { echo "FAIL: pip wheel wrote no reefgen-*.whl: $(ls "$T/wheels")"; exit 1; }
+"$PY" -c "import sys, zipfile; n = zipfile.ZipFile(sys.argv[1]).namelist(); assert 'reefgen/models/reef-256.pt' in n, n[:20]" \
+  "$(ls "$T/wheels"/reefgen-*.whl | head -1)" || { echo "FAIL: the wheel lacks the packaged model"; exit 1; }
 cd / && "$T/venv/bin/python" - "$T/venv" <<'PY' || exit 1
 import os, sys
 import reefgen

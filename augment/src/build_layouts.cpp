@@ -105,7 +105,7 @@ json layout_description(DatasetLayout layout, int size_px) {
     case DatasetLayout::Pix2pix:
       return {{"files", "SPLIT/INDEX.png: A|B, " + std::to_string(2 * size_px) + "x" + std::to_string(size_px) +
                             " RGB 16-bit; A the label map, B the heights in grey"},
-              {"heights", "metres = floor_m + B / 65535 * (peak_m - floor_m); 8-bit readers (PIL truncates): B = 257 * B8 + 128"},
+              {"heights", "metres = floor_m + B / 65535 * (peak_m - floor_m); 8-bit readers (PIL keeps the high byte): B = 256 * B8 + 127.5, within 1.29 m"},
               {"range", range}};
     case DatasetLayout::ImageFolder:
       return {{"files", "SPLIT/INDEX.png (label map, RGB 8-bit) + SPLIT/INDEX.height.npy (float32 metres) + "

@@ -84,11 +84,21 @@ class PairStream(IterableDataset):
         self.with_conditioning = bool(with_conditioning)
         self.split, self.shuffle = split, bool(shuffle)
         self.batch_size, self.shuffle_window = int(batch_size), int(shuffle_window)
-        self.epoch = 0
+        # The epoch in shared memory: a DataLoader with persistent_workers
+        # keeps the workers' copies of this object across epochs, so a plain
+        # attribute set in the main process never reached them (every epoch
+        # repeated epoch 0's order). Forked or spawned, a worker's copy reads
+        # the same storage.
+        self._epoch = torch.zeros(1, dtype=torch.int64).share_memory_()
+
+    @property
+    def epoch(self):
+        return int(self._epoch[0])
 
     def set_epoch(self, epoch):
-        """The epoch whose order the next iteration takes (as DistributedSampler.set_epoch)."""
-        self.epoch = int(epoch)
+        """The epoch whose order the next iteration takes (as DistributedSampler.set_epoch),
+        in every DataLoader worker too, persistent ones included."""
+        self._epoch.fill_(int(epoch))
 
     def _kept(self):
         """The indices of the split, in index order."""

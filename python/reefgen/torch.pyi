@@ -22,8 +22,9 @@ class PairStream(IterableDataset):
     shuffle: bool
     batch_size: int
     shuffle_window: int
-    epoch: int
     with_conditioning: bool
+    @property
+    def epoch(self) -> int: ...
     def __init__(self, config: Config = None, seed: int = 0, count: Optional[int] = None, start: int = 0,
                  rank: Optional[int] = None, world_size: Optional[int] = None,
                  height_range_m: Optional[Tuple[float, float]] = None, with_index: bool = False,

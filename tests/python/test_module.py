@@ -103,7 +103,8 @@ class Module(unittest.TestCase):
                 tree = ast.parse(f.read())
 
             def check(node, obj, where):
-                real = inspect.signature(obj).parameters
+                # A property's stub is its getter's: (self).
+                real = inspect.signature(obj.fget if isinstance(obj, property) else obj).parameters
                 args = node.args.args
                 defaults = [None] * (len(args) - len(node.args.defaults)) + list(node.args.defaults)
                 self.assertEqual([a.arg for a in args], list(real), where)
@@ -345,6 +346,16 @@ class Module(unittest.TestCase):
         order1 = list(ds.order())
         self.assertEqual(sorted(order1), train)
         self.assertNotEqual(order1, order0)  # another epoch, another order
+        # Persistent workers keep their copy of the stream across epochs: set_epoch reaches them.
+        ds = rtorch.PairStream(self.config, seed=SEED, count=CONFIG["count"], split="train", shuffle=True,
+                               with_index=True, batch_size=2)
+        loader = DataLoader(ds, batch_size=2, num_workers=2, persistent_workers=True)
+        by_epoch = []
+        for e in range(2):
+            ds.set_epoch(e)
+            by_epoch.append([i for b in loader for i in b[2].tolist()])
+        self.assertEqual(by_epoch[0], order0)
+        self.assertEqual(by_epoch[1], order1)
         other = rtorch.PairStream(self.config, seed=SEED + 1, count=CONFIG["count"], split="val")
         val = sorted(i for i, r in self.rows.items() if r["split"] == "val")
         self.assertNotEqual(list(other.order()), val)  # the split follows the seed, as dataset build's
