@@ -642,3 +642,27 @@ TEST(Dataset, ParamsRoundTripEveryField) {
   test::expect_params_round_trip<DatasetParams>(
       [](const nlohmann::json& j) { return dataset_params_from_json(j, "round-trip.json"); });
 }
+
+// A manifest line nested 100,000 deep (it overflowed the stack in the
+// recursive parse) or with a key twice is refused naming the manifest's
+// line, as every JSON reefgen reads (files.hpp parse_json_checked).
+TEST(DatasetBuild, ManifestLinesAreParsedWithTheDepthLimit) {
+  const fs::path d = test::temp_dir("deep-manifest");
+  DatasetParams p;
+  p.count = 2;
+  p.size_px = 32;
+  BuildOptions o;
+  o.seed = 3;
+  o.quiet = true;
+  o.out = d / "set";
+  build_dataset(p, o);
+  const fs::path manifest = o.out / "manifest.jsonl";
+  const std::string good = read_text(manifest);
+  const std::string rest = good.substr(good.find('\n') + 1);
+  write_text_atomic(manifest, "{\"index\": " + std::string(100000, '[') + std::string(100000, ']') + "}\n" + rest);
+  test::expect_error_naming([&] { read_manifest(o.out, {}); }, manifest.string() + ":1: JSON nested deeper than");
+  write_text_atomic(manifest, "{\"index\": 0, \"index\": 1}\n" + rest);
+  test::expect_error_naming([&] { read_manifest(o.out, {}); }, "key \"index\" appears twice");
+  write_text_atomic(manifest, good);
+  EXPECT_EQ(read_manifest(o.out, {}).size(), 2u);
+}

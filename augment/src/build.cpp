@@ -3,6 +3,7 @@
 // sharded over machines and merged with checksums verified; and its stats.
 // Every pair is a pure function of (seed, index), so a build can be resumed,
 // sharded and verified by rebuilding.
+#include "reefgen/files.hpp"
 #include "reefgen/augment/build.hpp"
 #include "reefgen/augment/manifest.hpp"
 #include "build_layouts.hpp"
@@ -293,7 +294,7 @@ MergeResult merge_dataset(const fs::path& dir) {
       throw Error(s.string() + ": ends before pair " + std::to_string(i) + "; rebuild that shard");
     json r;
     try {
-      r = json::parse(line);
+      r = parse_json_checked(line, s.string());
     } catch (const json::exception&) {
       throw Error(s.string() + ": corrupt line; rebuild that shard");
     }

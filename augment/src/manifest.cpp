@@ -32,7 +32,13 @@ ManifestPair parse_line(const fs::path& manifest, const std::string& line, int64
   const std::string where = manifest.string() + ":" + std::to_string(no);
   // nlohmann's own errors would put "[json.exception...]" before the user:
   // every field is checked here instead.
-  json r = json::parse(line, nullptr, false);
+  // The depth limit and repeated keys as every reefgen JSON (parse_json_checked).
+  json r;
+  try {
+    r = parse_json_checked(line, where);
+  } catch (const json::exception&) {
+    r = json(json::value_t::discarded);
+  }
   if (r.is_discarded() || !r.is_object() || !r.contains("index") || !r["index"].is_number_integer() ||
       !is_string(r, "label") || !is_string(r, "height") || !is_string(r, "split"))
     throw Error(where + ": not a pair record (truncated or edited manifest); " + kRebuild);

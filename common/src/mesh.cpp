@@ -255,7 +255,7 @@ Mesh read_glb(const fs::path& path) {
   if (u32_at(b, 16) != 0x4E4F534A || 20 + size_t(json_len) + 8 > b.size()) throw Error(name + ": bad JSON chunk");
   nlohmann::json j;
   try {
-    j = nlohmann::json::parse(b.substr(20, json_len));
+    j = parse_json_checked(b.substr(20, json_len), name + " (its JSON chunk)");
   } catch (const std::exception& e) {
     throw Error(name + ": JSON chunk does not parse (" + e.what() + ")");
   }

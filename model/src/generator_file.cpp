@@ -1,3 +1,4 @@
+#include "reefgen/files.hpp"
 #include "reefgen/model/generator_file.hpp"
 
 #include <nlohmann/json.hpp>
@@ -76,7 +77,7 @@ GeneratorFile load_generator(const std::filesystem::path& path) {
   GeneratorFile f;
   UNetOptions o;
   try {
-    const auto j = nlohmann::json::parse(read_string(a, "options"));
+    const auto j = parse_json_checked(read_string(a, "options"), path.string() + " (its options)");
     o.in_channels = j.at("in_channels");
     o.out_channels = j.at("out_channels");
     o.ngf = j.at("ngf");

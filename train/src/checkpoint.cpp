@@ -1,3 +1,4 @@
+#include "reefgen/files.hpp"
 #include "reefgen/train/checkpoint.hpp"
 
 #include <fstream>
@@ -167,8 +168,12 @@ static TrainParams open_checkpoint(torch::serialize::InputArchive& a, const fs::
   } catch (const std::runtime_error& e) {
     throw Error(e.what());
   }
-  const json stored = json::parse(model::read_string(a, "config"), nullptr, false);
-  if (stored.is_discarded()) throw Error(path.string() + ": unreadable config; " + fix);
+  json stored;
+  try {
+    stored = parse_json_checked(model::read_string(a, "config"), path.string() + " (its config)");
+  } catch (const json::exception&) {
+    throw Error(path.string() + ": unreadable config; " + fix);
+  }
   return train_params_from_json(stored, path.string());
 }
 
