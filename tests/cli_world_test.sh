@@ -108,6 +108,21 @@ if [ -f "$T/w/r3/x.partial/files/x.height.exr" ] && [ -f "$T/w/r3/x.partial/mode
     && cmp -s "$T/w/r2.sha" "$T/w/r3.sha" && [ ! -L "$T/w/r3/x.json" ] && ok \
     || bad "a world resumed over a truncated, corrupt or linked staged file: $(cat "$T/err")"
 else bad "the interrupted world left no staged height file or model field"; fi
+# Stopped after the Unity bundle was staged, before the GIS bundle's first
+# file (folders where its files go): the rerun resumes with the Unity tiles'
+# splat maps found staged, not made again (converting the map it skipped
+# stopped every such rerun with an OpenCV assertion), and its Unity bundle is
+# the bytes of the uninterrupted --for unity run (r2).
+mkdir -p "$T/w/r6/x.gis"
+for f in x.height.tif x.slope.tif x.flow.tif x.wear.tif x.deposit.tif README.txt; do mkdir -p "$T/w/r6/x.gis/$f"; done
+"$BIN" -q world "$T/w/big.png" --size 1025 --layers --for unity,gis -o "$T/w/r6/x" >/dev/null 2>"$T/err" \
+  && bad "world over GIS folders succeeded" || grep -q "x.partial: the same command resumes it" "$T/err" || bad "no resume named: $(cat "$T/err")"
+rm -rf "$T/w/r6/x.gis"
+if "$BIN" -q world "$T/w/big.png" --size 1025 --layers --for unity,gis -o "$T/w/r6/x" >/dev/null 2>"$T/err"; then
+  (cd "$T/w/r6/x.unity" && sha256sum ./*) > "$T/w/r6.sha" && (cd "$T/w/r2/x.unity" && sha256sum ./*) > "$T/w/r2u.sha" \
+    && cmp -s "$T/w/r6.sha" "$T/w/r2u.sha" && [ -s "$T/w/r6/x.gis/x.height.tif" ] && [ ! -e "$T/w/r6/x.partial" ] && ok \
+    || bad "a world resumed after its Unity bundle differs from an uninterrupted one"
+else bad "a world stopped after its Unity bundle does not resume: $(cat "$T/err")"; fi
 # A checkpoint another build of reefgen left is not resumed: its heights are
 # another program's work (the same binary with one byte appended stands for
 # it: reefgen-torch, the program `reefgen world` runs).

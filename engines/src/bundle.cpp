@@ -95,10 +95,16 @@ nlohmann::json stage_unity_tiles(StagedOutputs& staged, const fs::path& dir, con
       if (!staged.resumed(splat_files[0]) || !staged.resumed(splat_files[1])) splat = splat_of(rect, alpha);
       for (int s = 0; s < 2; ++s) {
         // The splat maps are RGBA (materials 4s … 4s+3); the PNG writer takes
-        // OpenCV's BGRA: swapped, red and blue would trade materials.
-        cv::Mat4b cut;
-        cv::cvtColor(splat[size_t(s)], cut, cv::COLOR_RGBA2BGRA);
-        staged.write(splat_files[s], [cut](const fs::path& p) { write_png(p, cut); });
+        // OpenCV's BGRA: swapped, red and blue would trade materials. Converted
+        // in the writer, which a resumed file never runs: its map was not made
+        // (converting the empty map stopped every resume of a world whose
+        // Unity bundle had been staged).
+        const cv::Mat4b rgba = splat[size_t(s)];
+        staged.write(splat_files[s], [rgba](const fs::path& p) {
+          cv::Mat4b cut;
+          cv::cvtColor(rgba, cut, cv::COLOR_RGBA2BGRA);
+          write_png(p, cut);
+        });
       }
       files.push_back({{"raw", stem + ".raw"}, {"splat", {stem + ".splat0.png", stem + ".splat1.png"}}, {"x", tx}, {"z", tz}});
     }
