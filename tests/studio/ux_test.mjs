@@ -1,7 +1,9 @@
 // Browser test of the studio's controls: one check per point a new
 // user tripped over — each one failed on the page before the fix. Debian's
 // chromium driven by playwright-core, as browser_test.mjs.
-//   node ux_test.mjs URL [--only NAME] [--screenshots DIR]
+//   node ux_test.mjs URL [--only NAME] [--part K/N] [--screenshots DIR]
+// --part K/N runs checks K, K+N, K+2N, … (1-based): ctest runs the checks as
+// two entries so that neither passes a minute (tests/CMakeLists.txt).
 // Prints one line per check and a JSON summary (with the stroke-to-update
 // lags it saw) on stdout; exit 1 if any check fails.
 import { createRequire } from 'node:module';
@@ -12,6 +14,9 @@ const url = process.argv[2];
 const arg = (name, dflt) => { const i = process.argv.indexOf(name); return i > 0 ? process.argv[i + 1] : dflt; };
 const only = arg('--only', '');
 const shots = arg('--screenshots', '');
+const [partK, partN] = arg('--part', '1/1').split('/').map(Number);
+if (!(partN >= 1 && partK >= 1 && partK <= partN)) throw new Error(`--part ${arg('--part')}: expected K/N with 1 <= K <= N`);
+let checkNo = 0;
 const failures = [];
 const summary = {};
 
@@ -62,6 +67,7 @@ async function stroke(page, fx, fy, { dx = 40, dy = 25, steps = 6 } = {}) {
 
 async function check(name, body) {
   if (only && only !== name) return;
+  if (checkNo++ % partN !== partK - 1) return;
   let page;
   try {
     page = await body();
