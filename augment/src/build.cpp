@@ -3,7 +3,6 @@
 // sharded over machines and merged with checksums verified; and its stats.
 // Every pair is a pure function of (seed, index), so a build can be resumed,
 // sharded and verified by rebuilding.
-#include "reefgen/files.hpp"
 #include "reefgen/augment/build.hpp"
 #include "reefgen/augment/manifest.hpp"
 #include "build_layouts.hpp"
@@ -22,6 +21,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "reefgen/constants.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/parallel.hpp"

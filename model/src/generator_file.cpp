@@ -1,8 +1,8 @@
-#include "reefgen/files.hpp"
 #include "reefgen/model/generator_file.hpp"
 
 #include <nlohmann/json.hpp>
 
+#include "reefgen/files.hpp"
 #include "reefgen/sha256.hpp"
 #include "reefgen/version.hpp"
 #include "reefgen/model/archive.hpp"

@@ -18,6 +18,28 @@ namespace reefgen::terrain {
 
 namespace {
 
+// Min-heap items of the least-cost searches below: (key, cell) packed in 64
+// bits, the key's float bits made an unsigned number in the float's own
+// order (negatives flipped whole, positives with the sign bit set), ties by
+// cell index — one integer compare per heap step, and a pure function. −0
+// sorts just below +0 (the searches' keys are costs ≥ 0 and land heights > 0).
+using HeapItem = uint64_t;
+using MinHeap = std::priority_queue<HeapItem, std::vector<HeapItem>, std::greater<HeapItem>>;
+inline HeapItem heap_item(float key, int cell) {
+  uint32_t bits;
+  std::memcpy(&bits, &key, sizeof bits);
+  bits = (bits & 0x80000000u) ? ~bits : bits | 0x80000000u;
+  return HeapItem(bits) << 32 | uint32_t(cell);
+}
+inline int heap_cell(HeapItem item) { return int(uint32_t(item)); }
+inline float heap_key(HeapItem item) {
+  uint32_t bits = uint32_t(item >> 32);
+  bits = (bits & 0x80000000u) ? bits & 0x7FFFFFFFu : ~bits;
+  float key;
+  std::memcpy(&key, &bits, sizeof key);
+  return key;
+}
+
 // grade_land's fall: kLandMinSlope to 1.85 times it (0.7–1.3 %), over
 // features ~32 cells apart.
 constexpr float kGradeVariation = 0.85f;
@@ -79,24 +101,16 @@ LowRoutes low_routes(const SpillPaths& sp, const float* z, const float* spill, f
       if (std::isnan(low[size_t(s)])) seeds.push_back(s);
       low[size_t(s)] = std::isnan(low[size_t(s)]) ? z[i] : std::min(low[size_t(s)], z[i]);
     }
-  // Costs in cell lengths (the same routes as in metres). A queue item packs
-  // (cost, cell) in 64 bits: a non-negative float's bits order as the float
-  // does, and ties go by cell index, so the routes are deterministic.
+  // Costs in cell lengths (the same routes as in metres), ties by cell index
+  // (heap_item), so the routes are deterministic.
   std::vector<float> cost(n, std::numeric_limits<float>::infinity());
-  const auto item = [](float c, int i) {
-    uint32_t bits;
-    std::memcpy(&bits, &c, sizeof bits);
-    return uint64_t(bits) << 32 | uint32_t(i);
-  };
-  std::priority_queue<uint64_t, std::vector<uint64_t>, std::greater<uint64_t>> queue;
-  for (const int s : seeds) cost[size_t(s)] = 0, queue.push(item(0.f, s));
+  MinHeap queue;
+  for (const int s : seeds) cost[size_t(s)] = 0, queue.push(heap_item(0.f, s));
   while (!queue.empty()) {
-    const uint64_t top = queue.top();
+    const HeapItem top = queue.top();
     queue.pop();
-    const int u = int(uint32_t(top));
-    const uint32_t bits = uint32_t(top >> 32);
-    float c;
-    std::memcpy(&c, &bits, sizeof c);
+    const int u = heap_cell(top);
+    const float c = heap_key(top);
     if (c > cost[size_t(u)]) continue;
     // The spill cell is its depression's label; it lies outside the depression.
     const int label = sp.spill_cell[size_t(u)] >= 0 ? sp.spill_cell[size_t(u)] : u;
@@ -114,7 +128,7 @@ LowRoutes low_routes(const SpillPaths& sp, const float* z, const float* spill, f
           cost[size_t(v)] = next;
           r.receiver[size_t(v)] = u;
           r.dist_m[size_t(v)] = r.dist_m[size_t(u)] + float(cell_m) * step;
-          queue.push(item(next, v));
+          queue.push(heap_item(next, v));
         }
       }
   }
@@ -141,16 +155,6 @@ void cut_banks(cv::Mat1f& h, const std::vector<int>& cut, const std::vector<floa
         if (zc + rise_per_px * d < h(y, x)) h(y, x) = zc + rise_per_px * d, moved[size_t(y * W + x)] = 1;
       }
   }
-}
-
-// A float's bits as an unsigned key in the float's own order (negatives
-// flipped whole, positives with the sign bit set): −0 sorts just below +0,
-// where the float compare calls them equal — grade_land's keys are heights
-// of land, > 0, so its order is the pair's exactly.
-inline uint32_t float_order_key(float v) {
-  uint32_t bits;
-  std::memcpy(&bits, &v, sizeof bits);
-  return (bits & 0x80000000u) ? ~bits : bits | 0x80000000u;
 }
 
 // grade_land over h (the land's box of the field, its top-left cell at
@@ -186,11 +190,9 @@ int64_t grade_box(cv::Mat1f& h, cv::Point origin, double cell_m, double slope) {
           tile.sample_cubic(float(origin.x + x) * texels_per_px, float(origin.y + y) * texels_per_px), -1.f, 1.f);
       rise[size_t(y * W + x)] = float(slope * cell_m) * (1.f + kGradeVariation * 0.5f * (1.f + n));
     }
-  // Items (height, flat index) packed in 64 bits, ordered as the pair is:
-  // ties by index, so the result is a pure function; one integer compare
-  // per heap step instead of two float ones (a fifth of grade_land's time).
-  const auto item = [](float v, int i) { return uint64_t(float_order_key(v)) << 32 | uint32_t(i); };
-  std::priority_queue<uint64_t, std::vector<uint64_t>, std::greater<uint64_t>> open;
+  // Items (height, flat index), ties by index (heap_item): the result is a
+  // pure function.
+  MinHeap open;
   std::vector<float> best(h.total(), std::numeric_limits<float>::infinity());
   std::vector<uint8_t> final_(h.total(), 0);
   // Land next to the sea (or the canvas edge) is at least the land's floor,
@@ -209,11 +211,11 @@ int64_t grade_box(cv::Mat1f& h, cv::Point origin, double cell_m, double slope) {
         }
       if (least == std::numeric_limits<float>::infinity()) continue;
       best[size_t(i)] = std::max(z[i], least);
-      open.push(item(best[size_t(i)], i));
+      open.push(heap_item(best[size_t(i)], i));
     }
   int64_t raised = 0;
   while (!open.empty()) {
-    const int i = int(uint32_t(open.top()));
+    const int i = heap_cell(open.top());
     open.pop();
     const float v = best[size_t(i)];
     if (final_[size_t(i)]) continue;
@@ -225,7 +227,7 @@ int64_t grade_box(cv::Mat1f& h, cv::Point origin, double cell_m, double slope) {
         const int nx = x + dx, ny = y + dy, j = ny * W + nx;
         if ((dx == 0 && dy == 0) || rl[j] != kActive || final_[size_t(j)]) continue;
         const float c = std::max(z[j], v + rise[size_t(j)] * (dx != 0 && dy != 0 ? float(M_SQRT2) : 1.f));
-        if (c < best[size_t(j)]) best[size_t(j)] = c, open.push(item(c, j));
+        if (c < best[size_t(j)]) best[size_t(j)] = c, open.push(heap_item(c, j));
       }
   }
   return raised;

@@ -21,8 +21,8 @@ double wavenumber(int i, int n, double dx) { return 2 * CV_PI * double(i <= n / 
 //   (waves that carry the lift aloft), i·√(−m²) where not (evanescent).
 // The quotient as numerator × conj(denominator) / |denominator|²: one real
 // division per bin (libgcc's guarded complex division was a tenth of the
-// generator's time, docs/BENCHMARKS.md), exact to double rounding here since
-// every factor is within a few orders of magnitude of 1.
+// generator's time, docs/BENCHMARKS.md), accurate to double rounding here
+// since every factor is within a few orders of magnitude of 1.
 std::complex<double> transfer(double k, double l, double u, double v, const RainParams& p) {
   const double sigma = u * k + v * l;
   if (sigma == 0) return {0, 0};

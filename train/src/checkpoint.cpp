@@ -1,10 +1,10 @@
-#include "reefgen/files.hpp"
 #include "reefgen/train/checkpoint.hpp"
 
 #include <fstream>
 #include <sstream>
 
 #include "reefgen/error.hpp"
+#include "reefgen/files.hpp"
 #include "reefgen/model/archive.hpp"
 #include "reefgen/model/generator_file.hpp"
 #include "reefgen/rng.hpp"
