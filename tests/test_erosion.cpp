@@ -876,7 +876,7 @@ TEST(Erosion, GoldenValues) {
     for (auto [y, x] : {std::pair{32, 32}, {20, 30}, {40, 40}, {36, 20}, {28, 44}, {5, 5}})
       std::printf("{%d, %d, %.4ff}, ", y, x, f.height_m(y, x));
   const struct { int y, x; float h; } golden[] = {
-      {32, 32, 175.5764f}, {20, 30, 3.8208f}, {40, 40, 103.2989f}, {36, 20, 26.1419f}, {28, 44, 12.0390f}, {5, 5, -99.1364f}};
+      {32, 32, 40.4398f}, {20, 30, 3.1014f}, {40, 40, 258.9908f}, {36, 20, 39.5674f}, {28, 44, 12.4488f}, {5, 5, -99.1364f}};
   for (const auto& g : golden) EXPECT_NEAR(f.height_m(g.y, g.x), g.h, 1e-3) << "pixel " << g.y << "," << g.x;
 }
 
@@ -1107,6 +1107,12 @@ TEST(Erosion, ParamsAreScaledToTheCanvasAndTheAge) {
   // coarser levels' cells).
   EXPECT_EQ(matured(p, 0.1).refine_duration_yr, p.refine_duration_yr);
   EXPECT_EQ(matured(p, 4).refine_duration_yr, p.refine_duration_yr);
+  // The trunk grid keeps its cells in metres as the base grid does, and an
+  // older island's extra time goes to the base grid, not the trunk.
+  EXPECT_EQ(wide.trunk_px, 4 * p.trunk_px);
+  EXPECT_EQ(scaled_to_canvas([] { ErosionParams q; q.trunk_px = 0; return q; }(), 4 * kReferenceCanvasM, 2049).trunk_px, 0);
+  EXPECT_EQ(matured(p, 0.5).trunk_share, p.trunk_share);
+  EXPECT_NEAR(matured(p, 4).trunk_share * matured(p, 4).duration_yr, p.trunk_share * p.duration_yr, 1e-6);
 }
 
 // A Moorea-sized canvas (24 km, the young-volcano preset's 66 km² island) at

@@ -26,6 +26,10 @@ ErosionParams matured(const ErosionParams& p, double maturity) {
   e.duration_yr *= maturity;
   e.steps = std::max(e.steps, int(std::lround(e.steps * std::sqrt(maturity))));
   e.channel_head_m2 = std::max(e.channel_head_m2, kMaturedChannelHeadM2);
+  // The trunk basins take their time while the island is young; an older
+  // island's extra time goes to the base grid, which deepens valleys into
+  // them (the trunk's whole time × 5 planed a Kauaʻi-aged flank to a plain).
+  if (maturity > 1) e.trunk_share = p.trunk_share / maturity;
   return e;
 }
 
@@ -34,6 +38,7 @@ ErosionParams scaled_to_canvas(const ErosionParams& p, double world_size_m, int 
   const double s = world_size_m / kReferenceCanvasM;
   if (s == 1) return e;
   e.base_px = std::clamp(int(std::lround(p.base_px * s)), std::min(16, out_px), std::max(out_px, 1));
+  if (p.trunk_px > 0) e.trunk_px = std::clamp(int(std::lround(p.trunk_px * s)), std::min(16, out_px), std::max(out_px, 1));
   e.k_fluvial = p.k_fluvial * std::pow(s, 1 - 2 * p.m_area);
   return e;
 }
@@ -246,6 +251,64 @@ cv::Mat1f refine_heights(const cv::Mat1f& coarse_m, const cv::Mat1f& land_m, con
   return out;
 }
 
+namespace {
+
+// Cells outside `known` take the mean of their known 8 neighbours, ring by
+// ring, `rings` times: the share the trunk kept, carried a few cells over
+// the sea so that the bicubic upsampling of the coast's cells does not lean
+// on the sea's 1 (a lip of unlowered land along the coast).
+void extend_over_unknown(cv::Mat1f& v, cv::Mat1b known, int rings) {
+  const int H = v.rows, W = v.cols;
+  for (int r = 0; r < rings; ++r) {
+    cv::Mat1b next = known.clone();
+    cv::Mat1f out = v.clone();
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        if (known(y, x)) continue;
+        float sum = 0;
+        int n = 0;
+        for (int yy = std::max(y - 1, 0); yy <= std::min(y + 1, H - 1); ++yy)
+          for (int xx = std::max(x - 1, 0); xx <= std::min(x + 1, W - 1); ++xx)
+            if (known(yy, xx)) sum += v(yy, xx), ++n;
+        if (n > 0) out(y, x) = sum / float(n), next(y, x) = 1;
+      }
+    v = std::move(out);
+    known = std::move(next);
+  }
+}
+
+// The trunk lowers a cell to no less than this share of its rendered height:
+// it places the basins and the base grid cuts them. Lowered to the sea, a
+// trunk cell of 94 m left the base grid a flat floor at 0.1 m reaching
+// 600 m inland on the young volcano (25 % of its land below 3 m, against
+// 11 % without the trunk; 12 % with this floor).
+constexpr float kTrunkMinKeptShare = 0.35f;
+
+// Rings of sea cells the trunk's kept share is carried over: the base grid's
+// bicubic reaches 2 trunk cells, and one more covers the blur.
+constexpr int kTrunkSeaRings = 3;
+
+}  // namespace
+
+cv::Mat1f trunk_kept_share(const cv::Mat1f& render_m, const cv::Mat1f& rho, double world_size_m, uint64_t seed,
+                           const ErosionParams& p, int T, double duration_yr, const cv::Mat1f& rain_rel) {
+  if (render_m.empty() || render_m.size() != rho.size() || T < 2)
+    throw Error("erode: the trunk grid needs heights and resistance of one size and at least 2 cells");
+  const cv::Mat1f before = resampled(render_m, T, cv::INTER_AREA);
+  cv::Mat1f after = before.clone();
+  erode_level(after, erodibility_map(resampled(rho, T, cv::INTER_AREA), seed, p), world_size_m / T, p.steps,
+              duration_yr, p, Routing::kFlood, 0, rain_rel.empty() ? cv::Mat1f() : resampled(rain_rel, T, cv::INTER_AREA));
+  cv::Mat1f kept(T, T, 1.f);
+  cv::Mat1b land(T, T);
+  for (int y = 0; y < T; ++y)
+    for (int x = 0; x < T; ++x) {
+      land(y, x) = before(y, x) > 0;
+      if (land(y, x)) kept(y, x) = std::clamp(after(y, x) / before(y, x), kTrunkMinKeptShare, 1.f);
+    }
+  extend_over_unknown(kept, land, kTrunkSeaRings);
+  return kept;
+}
+
 cv::Mat1f erode_island(const cv::Mat1f& h_N, const cv::Mat1f& rho_N, double world_size_m, uint64_t seed,
                        const ErosionParams& asked, const cv::Mat1f& rain_N) {
   if (!asked.enabled) return h_N.clone();
@@ -255,8 +318,18 @@ cv::Mat1f erode_island(const cv::Mat1f& h_N, const cv::Mat1f& rho_N, double worl
   const int N = h_N.cols, B = std::min(N, p.base_px);
   cv::Mat1f base = resampled(h_N, B, cv::INTER_AREA);
   if (!rain_N.empty() && rain_N.size() != h_N.size()) throw Error("erode: the rain must be of the heights' size");
+  double base_duration_yr = p.duration_yr;
+  if (p.trunk_px > 0 && p.trunk_px < B && p.trunk_share > 0) {
+    const double trunk_yr = p.duration_yr * p.trunk_share;
+    const cv::Mat1f kept = upsampled_level(trunk_kept_share(h_N, rho_N, world_size_m, seed, p, p.trunk_px, trunk_yr, rain_N),
+                                           B, p.refine_upsample_sigma);
+    for (int y = 0; y < B; ++y)
+      for (int x = 0; x < B; ++x)
+        if (base(y, x) > 0) base(y, x) = std::max(base(y, x) * kept(y, x), kLandFloorM);
+    base_duration_yr -= trunk_yr;
+  }
   erode_level(base, erodibility_map(resampled(rho_N, B, cv::INTER_AREA), seed, p), world_size_m / B, p.steps,
-              p.duration_yr, p, Routing::kFlood, 0,
+              base_duration_yr, p, Routing::kFlood, 0,
               rain_N.empty() ? cv::Mat1f() : resampled(rain_N, B, cv::INTER_AREA));
   // Detail of level L = what the render holds at L beyond the level before it.
   cv::Mat1f prev_down = resampled(h_N, B, cv::INTER_AREA);
@@ -264,7 +337,14 @@ cv::Mat1f erode_island(const cv::Mat1f& h_N, const cv::Mat1f& rho_N, double worl
     cv::Mat1f down = resampled(h_N, L, cv::INTER_AREA);
     // Upsampled as the eroded level is, so their difference (the erosion's
     // own change) is all that is upsampled and the render's detail stays.
-    cv::Mat1f d = down - upsampled_level(prev_down, L, p.refine_upsample_sigma);
+    const cv::Mat1f render_up = upsampled_level(prev_down, L, p.refine_upsample_sigma);
+    cv::Mat1f d = down - render_up;
+    // The render's detail survives as far as the erosion kept the surface:
+    // where a basin was lowered to a third, a third of the render's knees
+    // (the beach's break of slope) stays, not a ridge standing in the basin.
+    for (int y = 0; y < L; ++y)
+      for (int x = 0; x < L; ++x)
+        if (render_up(y, x) > 0) d(y, x) *= std::clamp(up(y, x) / render_up(y, x), 0.f, 1.f);
     prev_down = std::move(down);
     return cv::Mat1f(d + fractal_detail(L, up, world_size_m, seed));
   };

@@ -166,8 +166,8 @@ struct DetailNoise {
   double feature = 0.04;    // canvas units per noise feature (0.04 = W/50 px), [0.005, 1]
   int octaves = 3;          // fBm octaves, [1, 4]
   uint64_t seed = 0;        // noise seed (random islands derive it from the global seed)
-  double shield = 0.5;          // relative relief of the shield's rift ridges and lava lobes before erosion (docs/EROSION.md "The shield"), [0, 1]; 0 off
-  double shield_feature = 0.2;  // canvas units per lava lobe of the shield, [0.02, 2]
+  double shield = 1.0;          // relative relief of the shield's rift ridges and lava lobes before erosion (docs/EROSION.md "The shield"), [0, 2]; 0 off
+  double shield_feature = 0.35; // canvas units per lava lobe of the shield, [0.02, 2]
 };
 template <class F>
 void fields(DetailNoise& p, F&& f) {
@@ -175,7 +175,7 @@ void fields(DetailNoise& p, F&& f) {
   f("feature", p.feature, Range{0.005, 1});
   f("octaves", p.octaves, Range{1, 4});
   f("seed", p.seed);
-  f("shield", p.shield, Range{0, 1});
+  f("shield", p.shield, Range{0, 2});
   f("shield_feature", p.shield_feature, Range{0.02, 2});
 }
 

@@ -41,6 +41,8 @@ struct ErosionParams {
   double duration_yr = 1.5e5;         // time eroded on the base grid, yr, [0, 1e8]
   int steps = 8;                      // implicit steps on the base grid, [0, 1000]
   int base_px = 256;                  // cells of the base grid across the 6 km reference canvas (a wider canvas has more: 23.4 m cells), [16, 8192]
+  int trunk_px = 64;                  // cells of the trunk grid across the 6 km canvas, eroded first so that a few large basins capture the base grid's valleys (94 m cells; 0 or ≥ base_px: none), [0, 8192]
+  double trunk_share = 0.55;          // share of duration_yr eroded on the trunk grid (the base grid erodes the rest), [0, 1]
   int refine_steps = 3;               // implicit steps at each finer level, [0, 100]
   double refine_duration_yr = 1.5e4;  // time at the first finer level (halved at each next one), yr, [0, 1e8]
   double refine_diffusivity_scale = 0.3;  // hillslope diffusivity at the finer levels, multiple of diffusivity, [0, 1]
@@ -64,6 +66,8 @@ void fields(ErosionParams& p, F&& f) {
   f("duration_yr", p.duration_yr, Range{0, 1e8});
   f("steps", p.steps, Range{0, 1000});
   f("base_px", p.base_px, Range{16, 8192});
+  f("trunk_px", p.trunk_px, Range{0, 8192});
+  f("trunk_share", p.trunk_share, Range{0, 1});
   f("refine_steps", p.refine_steps, Range{0, 100});
   f("refine_duration_yr", p.refine_duration_yr, Range{0, 1e8});
   f("refine_diffusivity_scale", p.refine_diffusivity_scale, Range{0, 1});
@@ -156,10 +160,20 @@ cv::Mat1f refine_heights(const cv::Mat1f& coarse_m, const cv::Mat1f& land_m, con
                          const std::function<cv::Mat1f(int, const cv::Mat1f&)>& detail,
                          const cv::Mat1f& rain_rel = cv::Mat1f());
 
+// The trunk grid (docs/EROSION.md "Trunk basins"): `render_m` (the field
+// at its own size) averaged to T×T and eroded there for `duration_yr`
+// (Priority-Flood routing), returned as the share of each cell's height the
+// erosion kept, in [0, 1], carried over the sea by kept_share_over_sea so
+// that an upsampling reaches the coast with the land's value.
+cv::Mat1f trunk_kept_share(const cv::Mat1f& render_m, const cv::Mat1f& resistance, double world_size_m, uint64_t seed,
+                           const ErosionParams& p, int T, double duration_yr, const cv::Mat1f& rain_rel = cv::Mat1f());
+
 // A whole height field eroded at its own size (the generator's islands,
 // `reefgen erode` on a user's heightmap): eroded on the base grid
 // (Priority-Flood routing) and refined back level by level with the field's
-// own finer detail plus fractal detail, then its pits drained. height_m
+// own finer detail plus fractal detail, then its pits drained. With a
+// trunk grid (trunk_px), trunk_share of the time is eroded there first and
+// the base grid starts from the render lowered by the share it kept. height_m
 // square; resistance ρ ∈ [0, 1] per cell, same size (hard rock erodes at
 // hard_erodibility of soft). p is read for the canvas's width
 // (scaled_to_canvas): the same island at any world_size_m.
