@@ -26,6 +26,7 @@
 #include "reefgen/preview.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/spec.hpp"
+#include "reefgen/studio/front_door.hpp"
 #include "reefgen/studio/server.hpp"
 #include "reefgen/studio/zip.hpp"
 #include "reefgen/terrain/ocean_floor.hpp"
@@ -155,6 +156,71 @@ class Studio : public ::testing::Test {
 };
 
 }  // namespace
+
+// A backend that answers every connection `delay_ms` after its head
+// (never, when delay_ms < 0): the studio's library computing an infer.
+struct SlowBackend {
+  int listen_fd = -1, port = -1;
+  std::thread t;
+  explicit SlowBackend(int delay_ms) {
+    listen_fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ::bind(listen_fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
+    ::listen(listen_fd, 8);
+    socklen_t len = sizeof a;
+    ::getsockname(listen_fd, reinterpret_cast<sockaddr*>(&a), &len);
+    port = ntohs(a.sin_port);
+    t = std::thread([this, delay_ms] {
+      const int fd = ::accept(listen_fd, nullptr, nullptr);
+      if (fd < 0) return;
+      char buf[4096];
+      [[maybe_unused]] const ssize_t got = ::recv(fd, buf, sizeof buf, 0);
+      if (delay_ms >= 0) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
+        const std::string ok = "HTTP/1.1 200 OK\r\nContent-Length: 4\r\nConnection: close\r\n\r\ndone";
+        [[maybe_unused]] const ssize_t sent = ::send(fd, ok.data(), ok.size(), MSG_NOSIGNAL);
+      } else {
+        read_for(fd, 3000);  // holds the connection, answers nothing
+      }
+      ::close(fd);
+    });
+  }
+  ~SlowBackend() {
+    ::shutdown(listen_fd, SHUT_RDWR);
+    t.join();
+    ::close(listen_fd);
+  }
+};
+
+// The front door relays a slow answer whole: the idle limit applies once
+// the answer has begun, not from the request (a 30 s limit from the request
+// came back as an empty reply to every 4096² infer); past answer_wait the
+// client hears 504 with a JSON line naming the wait.
+TEST(FrontDoor, WaitsForASlowAnswerThenTimesOutWithA504) {
+  for (const bool answers : {true, false}) {
+    SlowBackend backend(answers ? 800 : -1);
+    studio::FrontDoorLimits limits;
+    limits.relay_idle = std::chrono::milliseconds(200);
+    limits.answer_wait = std::chrono::milliseconds(answers ? 10000 : 600);
+    studio::FrontDoor door("127.0.0.1", 0, limits);
+    std::thread loop([&] { door.run(backend.port); });
+    const int fd = open_partial(door.port(), "GET /api/info HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n");
+    ASSERT_GE(fd, 0);
+    const std::string got = read_for(fd, 5000);
+    ::close(fd);
+    door.stop();
+    loop.join();
+    if (answers) {
+      EXPECT_NE(got.find("200 OK"), std::string::npos) << got;
+      EXPECT_NE(got.find("done"), std::string::npos) << got;
+    } else {
+      EXPECT_NE(got.find("504"), std::string::npos) << got;
+      EXPECT_NE(got.find("no answer within"), std::string::npos) << got;
+    }
+  }
+}
 
 TEST(Base64, RoundTripAndRefusal) {
   for (const std::string& s : std::vector<std::string>{"", "a", "ab", "abc", "abcd", std::string("\0\xff\x10 z", 5)})

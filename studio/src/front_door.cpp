@@ -1,4 +1,4 @@
-#include "front_door.hpp"
+#include "reefgen/studio/front_door.hpp"
 
 #include <fcntl.h>
 #include <netdb.h>
@@ -25,9 +25,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// A relayed connection idle this long in both directions is closed: the
-// library's own read timeout (10 s) has answered or dropped it by then.
-constexpr int kRelayIdleMs = 30000;
 // Out of file descriptors with no reserve left to answer with: the listening
 // socket stays readable, so it is left out of the poll this long rather than
 // spinning on accept's EMFILE.
@@ -69,18 +66,33 @@ bool send_all(int fd, const char* p, size_t n) {
 
 // Copies bytes both ways until the backend has answered and closed (it
 // serves one request per connection), either side fails, or both idle.
-void relay(int client, int backend) {
+// Until the answer's first byte the backend may be computing (an infer of
+// minutes): the relay waits `answer_wait` for it, then answers 504 itself;
+// the idle limit applies once the answer has begun (a 30 s limit from the
+// start dropped every answer slower than that, its files written anyway).
+void relay(int client, int backend, const FrontDoorLimits& limits) {
   pollfd fds[2] = {{client, POLLIN, 0}, {backend, POLLIN, 0}};
   char buf[65536];
-  bool client_open = true;
+  bool client_open = true, answering = false;
+  const Clock::time_point answer_deadline = Clock::now() + limits.answer_wait;
   for (;;) {
     fds[0].events = client_open ? POLLIN : 0;
-    const int r = ::poll(fds, 2, kRelayIdleMs);
+    const auto wait = answering ? limits.relay_idle
+                                : std::chrono::duration_cast<std::chrono::milliseconds>(answer_deadline - Clock::now());
+    const int r = ::poll(fds, 2, int(std::clamp<int64_t>(wait.count(), 0, INT32_MAX)));
     if (r < 0 && errno == EINTR) continue;
+    if (r == 0 && !answering) {
+      answer_and_close(client, 504, "Gateway Timeout",
+                       "no answer within " + std::to_string(limits.answer_wait.count() / 1000) +
+                           " s; ask for a smaller size (--max-side) or run the command line");
+      ::close(backend);
+      return;
+    }
     if (r <= 0) break;
     if (fds[1].revents) {
       const ssize_t n = ::recv(backend, buf, sizeof buf, 0);
       if (n <= 0 || !send_all(client, buf, size_t(n))) break;
+      answering = true;
     }
     if (client_open && fds[0].revents) {
       const ssize_t n = ::recv(client, buf, sizeof buf, 0);
@@ -186,8 +198,8 @@ void FrontDoor::run(int backend_port) {
     ::setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &send_timeout, sizeof send_timeout);
     ++*relays_;
     try {
-      std::thread([fd, backend, count = relays_] {
-        relay(fd, backend);
+      std::thread([fd, backend, count = relays_, limits = limits_] {
+        relay(fd, backend, limits);
         --*count;
       }).detach();
     } catch (const std::system_error&) {

@@ -3,6 +3,7 @@
 #include <arpa/inet.h>
 #include <httplib.h>
 #include <sys/socket.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cerrno>
@@ -32,7 +33,7 @@
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/spec.hpp"
 #include "reefgen/version.hpp"
-#include "front_door.hpp"
+#include "reefgen/studio/front_door.hpp"
 #include "reefgen/engines/bundle.hpp"
 #include "reefgen/studio/zip.hpp"
 #include "reefgen/terrain/layers.hpp"
@@ -188,6 +189,9 @@ std::string content_type_of(const fs::path& p) {
 // before decoding, and are answered 409 without decoding when superseded.
 // (Layer and export requests decode under the compute lock, one at a time.)
 constexpr int kStudioDecodeSlots = 2;
+// The loopback listener's backlog: the front door's relays at once (256,
+// FrontDoorLimits::max_relays) and room to spare, as its own listener has.
+constexpr int kBackendBacklog = 1024;
 // Islands one Variations request draws by default, and at most (each is an
 // inference at the model's side: ~0.3 s on 2 cores).
 constexpr int kStudioVariations = 4, kStudioMaxVariations = 8;
@@ -233,6 +237,7 @@ struct StudioServer::Impl {
   model::GeneratorFile gen;
   infer::InferOptions io;
   httplib::Server svr;
+  std::atomic<int> backend_fd{-1};  // the library's listening socket (set_socket_options)
   std::mutex compute;          // one inference / generation at a time
   DecodeSlots decodes{kStudioDecodeSlots};  // sketches decoded at once (outside `compute`)
   std::atomic<uint64_t> latest{0};
@@ -861,9 +866,10 @@ struct StudioServer::Impl {
     svr.set_payload_max_length(o.max_body_bytes);
     // One listener per port: the library's default SO_REUSEPORT let a second
     // studio bind the same port and the kernel shared the requests.
-    svr.set_socket_options([](int sock) {
+    svr.set_socket_options([this](int sock) {
       int yes = 1;
       ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+      backend_fd = sock;
     });
     // Slow or stalled clients each hold a worker until their read times out:
     // enough workers that a few of them never starve the page.
@@ -940,6 +946,11 @@ int StudioServer::bind() {
   m.front = std::make_unique<FrontDoor>(m.o.host, m.o.port, limits);
   m.backend_port = m.svr.bind_to_any_port("127.0.0.1");
   if (m.backend_port < 0) throw Error("studio: cannot listen on 127.0.0.1 (loopback) for the HTTP library");
+  // Debian's libcpp-httplib is compiled with a listen backlog of 5: the front
+  // door's relays overflowed it (200 concurrent requests, TCP retries of 1–15 s).
+  // A second listen() on the bound socket sets the backlog (Linux listen(2)).
+  if (m.backend_fd < 0 || ::listen(m.backend_fd, kBackendBacklog) != 0)
+    throw Error("studio: cannot set the loopback listener's backlog: " + std::string(std::strerror(errno)));
   m.port = m.front->port();
   return m.port;
 }

@@ -18,6 +18,8 @@ struct FrontDoorLimits {
   int max_waiting = 1024;                          // connections whose head is incomplete; oldest closed first
   int max_relays = 256;                            // connections being relayed; beyond, 503
   size_t max_head_bytes = 16384;                   // larger heads are relayed as they are (the library answers 431)
+  std::chrono::milliseconds answer_wait{900000};   // from the request to the answer's first byte (a 4096² infer computes for minutes); beyond, 504
+  std::chrono::milliseconds relay_idle{30000};     // once the answer has begun, both directions idle this long: closed
 };
 
 class FrontDoor {
@@ -39,7 +41,7 @@ class FrontDoor {
   FrontDoorLimits limits_;
   std::atomic<bool> stopping_{false};
   // Relays in flight; shared with their detached threads, which may outlive
-  // this object by up to the relay idle time.
+  // this object by up to answer_wait.
   std::shared_ptr<std::atomic<int>> relays_ = std::make_shared<std::atomic<int>>(0);
 };
 
