@@ -6,6 +6,7 @@
 
 #include "reefgen/error.hpp"
 #include "reefgen/files.hpp"
+#include "reefgen/terrain/ocean_floor.hpp"
 
 namespace reefgen {
 
@@ -47,10 +48,10 @@ void add_finish_flags(CLI::App* sub, FinishFlags& f) {
                   engines::engine_names() + " (comma-separated or repeated; docs/ENGINES.md)")
       ->type_name("ENGINE");
   sub->add_option("--ocean-floor-m", f.ocean_floor_m,
-                  "Continue the submarine flank down to this depth, e.g. -2000 (metres, [-11000, -1]): the open "
+                  "Continue the submarine flank down to this depth, e.g. -2000 (metres, [-11000, -60]): the open "
                   "ocean below -60 m is stretched so that its lowest cell lies there; lagoons are kept "
                   "(docs/REEF.md \"Deeper than the abyss\")")
-      ->check(finite_in(-11000.0, -1.0))
+      ->check(finite_in(terrain::kDeepestOceanFloorM, terrain::kShallowestOceanFloorM))
       ->type_name("M");
 }
 

@@ -75,7 +75,7 @@ size_t levenshtein(const std::string& w, const std::string& n) {
 }
 
 // The first word that is not a global option must be a command: an unknown
-// one is named with the nearest of `names` (exit 109). In the torch-free
+// one is named with the nearest of `names` (exit 1, as every error). In the torch-free
 // binary a network command is handed to reefgen-torch. -1 = go on parsing.
 int check_command_word(int argc, char** argv, const std::vector<std::string>& names) {
   for (int i = 1; i < argc; ++i) {
@@ -97,7 +97,7 @@ int check_command_word(int argc, char** argv, const std::vector<std::string>& na
     }
     std::fprintf(stderr, "reefgen: error: unknown command '%s'%s (see reefgen --help)\n", w.c_str(),
                  best_d <= 3 ? ("; did you mean '" + best + "'?").c_str() : "");
-    return 109;
+    return 1;
   }
   return -1;
 }
@@ -170,7 +170,9 @@ int parse_command_line(CLI::App& app, const char* argv0, const std::vector<std::
     for (auto& ch : what)
       if (ch == '\n') ch = ' ';
     std::fprintf(stderr, "reefgen: error: %s (see reefgen --help)\n", what.c_str());
-    return e.get_exit_code();
+    // Every error exits 1 (README), CLI11's own codes (105 for a value out
+    // of its check, 106, 109) included.
+    return 1;
   }
   return -1;
 }

@@ -127,6 +127,19 @@ refuses "0 steps" train --data d20 --out r3 --epochs 0 --epochs-decay 1e-300 --n
 refuses "seed" generate --preset atoll --seed -1 -o s1
 refuses "seed" generate --preset atoll --seed 18446744073709551616 -o s1
 refuses "epochs" train --data d20 --out r4 --epochs nan
+# A spec's seed of 2^64 (a JSON double that rounds to uint64's max + 1) was seed 0.
+echo '{"noise": {"seed": 18446744073709551616}}' > s64.json
+refuses "noise.seed" generate --spec s64.json --size 64 -o s2
+# Variations whose seeds pass 2^64 - 1 wrapped to PREFIX.seed0.*.
+refuses "seeds pass" infer "$ROOT/tests/data/painted/01-young-volcano.png" --variations 3 --seed 18446744073709551614 -o v1
+ls v1.seed0.* >/dev/null 2>&1 && bad "13: a wrapped variation was written" || ok
+# An ocean floor above the flank's knee stretched nothing and was recorded.
+refuses "-60" generate --preset atoll --size 64 --ocean-floor-m -59 -o of1
+# Every error exits 1, CLI11's own validation errors (105) included.
+"$R" -q generate --preset atoll --size 0 -o z1 >/dev/null 2>&1; rc=$?
+[ $rc = 1 ] && ok || bad "13: a validation error exited $rc, not 1"
+"$R" -q generat -o z1 >/dev/null 2>&1; rc=$?
+[ $rc = 1 ] && ok || bad "13: an unknown command exited $rc, not 1"
 
 # 14. A truncated image is refused (JPEG and PNG).
 "$PY" -c "import cv2; cv2.imwrite('$T/p.jpg', cv2.imread('$ROOT/tests/data/painted/01-young-volcano.png'))"

@@ -511,6 +511,19 @@ TEST(Io, JsonTypeErrorsNameTheField) {
                             "train.json: lr = \"fast\" must be a number");
   test::expect_error_naming([&] { read_json_value(nlohmann::json(1), b, "x: flip"); }, "x: flip = 1 must be true or false");
   test::expect_error_naming([&] { read_json_value(nlohmann::json(2.5), s, "x: norm"); }, "x: norm = 2.5 must be a string");
+  // Whole numbers at the edges of their type: 2^64 (parsed as a double,
+  // which rounds uint64's max up to it) became seed 0; 2^64 - 1 is a seed.
+  uint64_t seed = 7;
+  test::expect_error_naming(
+      [&] { read_json_value(nlohmann::json::parse("18446744073709551616"), seed, "spec.json: noise.seed"); },
+      "spec.json: noise.seed = 1.8446744073709552e+19 is out of range");
+  EXPECT_EQ(seed, 7u);
+  read_json_value(nlohmann::json::parse("18446744073709551615"), seed, "s");
+  EXPECT_EQ(seed, UINT64_MAX);
+  int64_t i = 0;
+  test::expect_error_naming([&] { read_json_value(nlohmann::json(9223372036854775808.0), i, "x: n"); }, "out of range");
+  read_json_value(nlohmann::json(-9223372036854775808.0), i, "x: n");
+  EXPECT_EQ(i, INT64_MIN);
 }
 
 // SIGTERM (or SIGHUP, an unhandled SIGINT) while an output is

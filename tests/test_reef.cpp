@@ -270,10 +270,19 @@ TEST(OceanFloor, StretchesTheOpenOceanAndKeepsLagoons) {
   cv::minMaxLoc(d, &lo, &hi);
   EXPECT_FLOAT_EQ(float(lo), -2000.f);
   cv::Mat1f same = h.clone();
-  terrain::deepen_flank(same, -50);  // shallower than the ocean already is: nothing
+  terrain::deepen_flank(same, -90);  // shallower than the ocean already is: nothing
   EXPECT_EQ(cv::norm(same, h, cv::NORM_INF), 0);
   EXPECT_THROW(terrain::deepen_flank(same, std::nan("")), Error);
   EXPECT_THROW(terrain::deepen_flank(same, -20000), Error);
+  // Above the knee nothing could be stretched: refused, not ignored.
+  EXPECT_THROW(terrain::deepen_flank(same, -59), Error);
+  EXPECT_THROW(terrain::deepen_flank(same, -1), Error);
+  // An ocean a hair below the knee is stretched as if it reached -100 m,
+  // not one cell to the floor asked (an 11 km needle).
+  cv::Mat1f shallow(64, 64, -20.f);
+  shallow(0, 0) = -60.00001f;
+  terrain::deepen_flank(shallow, -11000);
+  EXPECT_GT(shallow(0, 0), -61.f);
 }
 
 // Drawn passes are bounded (each reef cell looks at the passes near it): too

@@ -215,9 +215,16 @@ std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<
   return heights;
 }
 
+void check_variation_seeds(uint64_t first, int count) {
+  if (count > 1 && first > UINT64_MAX - uint64_t(count - 1))
+    throw Error("--seed " + std::to_string(first) + " with " + std::to_string(count) + " variations: the seeds pass " +
+                std::to_string(UINT64_MAX) + "; use a seed ≤ " + std::to_string(UINT64_MAX - uint64_t(count - 1)));
+}
+
 std::vector<cv::Mat1f> infer_variations(model::GeneratorFile& g, const DecodedSketch& sketch, const InferOptions& o,
                                         int count, int threads, std::vector<cv::Mat1f>* before) {
   if (count < 1) throw Error("internal: infer_variations needs at least one");
+  check_variation_seeds(o.seed, count);
   // One network pass (its answer does not depend on the seed but in
   // stochastic mode, where each seed needs its own masks).
   std::vector<cv::Mat1f> answers;

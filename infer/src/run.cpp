@@ -119,6 +119,7 @@ void check_job(const model::GeneratorFile& gen, const InferJob& job, bool many) 
                 "), so outputs cannot vary; drop --stochastic");
   if (job.variations < 1 || job.variations > kMaxVariations)
     throw Error("--variations " + std::to_string(job.variations) + ": expected 1 to " + std::to_string(kMaxVariations));
+  check_variation_seeds(io.seed, job.variations);
   if (job.variations > 1 && many)
     throw Error("--variations takes one sketch (" + std::to_string(job.inputs.files.size()) +
                 " given, or a folder); infer each sketch with its own -o");

@@ -518,8 +518,9 @@ struct StudioServer::Impl {
   static void deepen_if_asked(const json& body, Source& src) {
     if (!body.contains("ocean_floor_m") || body["ocean_floor_m"].is_null()) return;
     const json& d = body["ocean_floor_m"];
-    if (!d.is_number() || !(d.get<double>() >= -11000 && d.get<double>() <= -1))
-      throw BadRequest("ocean_floor_m must be a depth in metres in [-11000, -1], e.g. -2000 (or left out)");
+    if (!d.is_number() ||
+        !(d.get<double>() >= terrain::kDeepestOceanFloorM && d.get<double>() <= terrain::kShallowestOceanFloorM))
+      throw BadRequest("ocean_floor_m must be a depth in metres in [-11000, -60], e.g. -2000 (or left out)");
     terrain::deepen_flank(src.height_m, d.get<double>());
     if (!src.before_m.empty()) terrain::deepen_flank(src.before_m, d.get<double>());
   }

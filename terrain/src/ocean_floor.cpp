@@ -1,5 +1,6 @@
 #include "reefgen/terrain/ocean_floor.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -33,14 +34,15 @@ cv::Mat1b open_ocean(const cv::Mat1f& h) {
 }  // namespace
 
 void deepen_flank(cv::Mat1f& h, double ocean_floor_m) {
-  if (!std::isfinite(ocean_floor_m) || ocean_floor_m < -11000 || ocean_floor_m > -1)
-    throw Error("ocean floor " + std::to_string(ocean_floor_m) + " m is out of range; expected [-11000, -1] m");
+  if (!std::isfinite(ocean_floor_m) || ocean_floor_m < kDeepestOceanFloorM || ocean_floor_m > kShallowestOceanFloorM)
+    throw Error("ocean floor " + std::to_string(ocean_floor_m) + " m is out of range; expected [-11000, -60] m (above -60 m the flank is not stretched)");
   if (h.empty()) return;
   const cv::Mat1b ocean = open_ocean(h);
   if (cv::countNonZero(ocean) == 0) return;
   double lowest = 0;
   cv::minMaxLoc(h, &lowest, nullptr, nullptr, nullptr, ocean);
   if (ocean_floor_m >= lowest) return;
+  lowest = std::min(lowest, double(kFlankKneeM - kMinFlankSpanM));
   const double scale = (ocean_floor_m - kFlankKneeM) / (lowest - kFlankKneeM);
   for (int y = 0; y < h.rows; ++y) {
     float* r = h.ptr<float>(y);

@@ -29,7 +29,9 @@ void read_json_value(const nlohmann::json& v, T& out, const std::string& where) 
     if (v.is_number_float()) {
       const double d = v.get<double>();
       if (!std::isfinite(d) || d != std::floor(d)) refuse("must be a whole number");
-      if (d < double(L::min()) || d > double(L::max()))
+      // 2^digits is the first value past the type (double(L::max()) rounds
+      // up to it for 64-bit types: a seed of 2^64 passed and became 0).
+      if (d < double(L::min()) || d >= std::ldexp(1.0, L::digits))
         refuse("is out of range; expected " + std::to_string(L::min()) + ".." + std::to_string(L::max()));
       out = T(d);
     } else if (v.is_number_unsigned()) {

@@ -93,6 +93,10 @@ torch::Tensor forward_generator(model::GeneratorFile& g, const torch::Tensor& x,
 std::vector<cv::Mat1f> infer_heights(model::GeneratorFile& g, const std::vector<DecodedSketch>& sketches,
                                      const InferOptions& o, std::vector<cv::Mat1f>* before = nullptr);
 
+// Throws reefgen::Error when seeds first … first + count − 1 pass 2^64 − 1
+// (they wrapped to seed 0 and wrote PREFIX.seed0.*).
+void check_variation_seeds(uint64_t first, int count);
+
 // `count` islands of one sketch, seeds o.seed, o.seed + 1, …: each as
 // infer_heights gives it with that seed (same bytes), the network run once
 // (once per seed when stochastic) and the re-rolls and amplifications on
