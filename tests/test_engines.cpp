@@ -279,17 +279,26 @@ TEST(Engines, GodotBundleIsRegionAlignedAndItsControlMapDecodes) {
   EXPECT_EQ(cv::norm(height(cv::Rect(pad, pad, n, n)), h, cv::NORM_INF), 0);
   EXPECT_EQ(height(0, 0), h(0, 0));
   EXPECT_EQ(height(side - 1, side - 1), h(n - 1, n - 1));
-  // Terrain3D 1.0's importer puts the map's top-left sample at the Import
-  // Position (a Vector2i in samples): sample (x, z) lands at (x + px, z + pz)
-  // · spacing, so the island's centre sample must land on (0, 0).
-  const int px = j["godot"]["import_position_px"][0], pz = j["godot"]["import_position_px"][1];
-  EXPECT_EQ(height(-pz, -px), h((n - 1) / 2, (n - 1) / 2));
+  // Terrain3D puts the map's top-left sample on the region corner its Import
+  // Position floors to (1.0.x: metres / spacing; main: samples), so sample
+  // (x, z) lands at (x + corner, z + corner) · spacing; the island's centre
+  // sample within one region of (0, 0).
+  const int region = j["godot"]["region_side_px"], corner_at = j["godot"]["corner_px"][0];
+  const double spacing = j["godot"]["vertex_spacing_m"];
+  const long p10 = j["godot"]["import_position_m_terrain3d_1_0"][0];
+  const int pmain = j["godot"]["import_position_px_terrain3d_main"][0];
+  EXPECT_EQ(int(std::floor(float(p10) / float(spacing) / float(region))) * region, corner_at);
+  EXPECT_EQ(int(std::floor(double(pmain) / region)) * region, corner_at);
+  const int centre = pad + (n - 1) / 2;
+  EXPECT_LE(std::abs(corner_at + centre), region / 2);
+  EXPECT_DOUBLE_EQ(j["godot"]["island_centre_m"][0].get<double>(), (corner_at + centre) * spacing);
   // The README tells the user the same numbers.
   std::smatch m;
   const std::string readme = read_text(b / "README.txt");
-  ASSERT_TRUE(std::regex_search(readme, m, std::regex(R"(Import Position \((-?\d+), (-?\d+)\))"))) << readme;
-  EXPECT_EQ(std::stoi(m[1]), px);
-  EXPECT_EQ(std::stoi(m[2]), pz);
+  ASSERT_TRUE(std::regex_search(readme, m, std::regex(R"(1\.0\.x \(released; it reads metres\) \((-?\d+), (-?\d+)\))"))) << readme;
+  EXPECT_EQ(std::stol(m[1]), p10);
+  ASSERT_TRUE(std::regex_search(readme, m, std::regex(R"(samples x Vertex Spacing\) \((-?\d+), (-?\d+)\))"))) << readme;
+  EXPECT_EQ(std::stoi(m[1]), pmain);
   for (int r = 0; r < n; r += 7)
     for (int c = 0; c < n; c += 5) {
       uint32_t bits;
@@ -570,13 +579,38 @@ TEST(WorldBundles, GodotTilesAreWholeRegionsImportedAtTheirCorners) {
         ASSERT_LT(d.base, terrain::kNumMaterials);
         ASSERT_LT(d.overlay, terrain::kNumMaterials);
       }
-    // Terrain3D's importer places the map's top-left corner at the Import
-    // Position (samples): the tiles meet edge to edge round (0, 0).
-    EXPECT_EQ(tile["import_position_px"][0].get<int>(), i * 64 - 64);
-    EXPECT_EQ(tile["import_position_px"][1].get<int>(), y * 64 - 64);
+    // Each tile's top-left sample on its region corner: the tiles meet edge
+    // to edge round (0, 0) in either importer.
+    EXPECT_EQ(tile["corner_px"][0].get<int>(), i * 64 - 64);
+    EXPECT_EQ(tile["corner_px"][1].get<int>(), y * 64 - 64);
+    EXPECT_EQ(int(std::floor(tile["import_position_m_terrain3d_1_0"][0].get<long>() / spacing / 64)), i - 1);
+    EXPECT_EQ(int(std::floor(tile["import_position_px_terrain3d_main"][1].get<int>() / 64.0)), y - 1);
     EXPECT_DOUBLE_EQ(tile["centre_m"][0].get<double>(), (i * 64 + 32 - 64) * spacing);
     EXPECT_DOUBLE_EQ(tile["centre_m"][2].get<double>(), (y * 64 + 32 - 64) * spacing);
     EXPECT_TRUE(fs::exists(dir / "w.godot" / tile["color_map"].get<std::string>()));
   }
   fs::remove_all(dir);
+}
+
+// Terrain3D's importers, as their code reads the Import Position (1.0.0–1.0.2
+// importer.gd passes it as metres; main after 2fdda09 multiplies samples by
+// the spacing; Terrain3DData::import_images descales by the spacing in
+// float and floors each slice to its region): the map's corner lands on the
+// region we planned, for spacings from 0.5 m to 94 m and any centre.
+TEST(Engines, Terrain3DPositionsLandOnThePlannedRegion) {
+  for (const int region : {256, 512, 1024})
+    for (const double spacing : {0.5, 1.0, 2.9296875, 5.859375, 23.4375, 93.75})
+      for (const int centre : {0, 127, 128, 1024, 4095, 8191}) {
+        const Terrain3DPlacement at = terrain3d_placement(centre, region, spacing);
+        EXPECT_EQ(at.corner_px % region, 0);
+        EXPECT_LE(std::abs(at.corner_px + centre), region / 2) << centre;
+        const float v = float(spacing);
+        EXPECT_EQ(int(std::floor(float(at.position_1_0_m) / v / float(region))) * region, at.corner_px)
+            << region << " " << spacing << " " << centre;
+        EXPECT_EQ(int(std::floor(float(at.position_main_px) * v / v / float(region))) * region, at.corner_px);
+        EXPECT_DOUBLE_EQ(at.centre_m, (at.corner_px + centre) * spacing);
+        EXPECT_EQ(at.within_clamp, std::labs(at.position_1_0_m) <= 8192);
+      }
+  EXPECT_THROW(terrain3d_placement(0, 256, 1.0, 100), Error);
+  EXPECT_THROW(terrain3d_placement(0, 0, 1.0), Error);
 }

@@ -134,9 +134,11 @@ nlohmann::json stage_unity_tiles(StagedOutputs& staged, const fs::path& dir, con
       "3. Position: X = " + format_num("%.3f", width_m) + " * X_index - " + format_num("%.3f", half_m) + ", Y " + format_num("%.3f", r.lo_m) +
       " (sea level at world Y = 0), Z = " + format_num("%.3f", width_m) + " * Z_index - " + format_num("%.3f", half_m) +
       "\n   (the " + kind + "'s centre at the world's origin, as the Unreal and Godot bundles place it).\n"
-      "4. Materials: add 8 Terrain Layers in this order, then copy NAME.splat0.png (layers 1-4 in R,G,B,A) and\n"
-      "   NAME.splat1.png (layers 5-8) into TerrainData.alphamapTextures (import each PNG as Read/Write, sRGB off,\n"
-      "   no compression; top row = north). Weights sum to 255 at every pixel.\n"
+      "4. Materials: add 8 Terrain Layers (Paint Texture > Edit Terrain Layers) in this order. Their weights are\n"
+      "   NAME.splat0.png (layers 1-4 in R,G,B,A) and NAME.splat1.png (layers 5-8), top row = north, summing to 255\n"
+      "   at every pixel. Unity's editor has no command that loads a splat map: ReefgenImporter.cs (above) reads the\n"
+      "   two PNGs and calls TerrainData.SetAlphamaps; from your own editor script do the same (weights / 255, rows\n"
+      "   flipped: the alphamap's row 0 is south).\n"
       "   Layers: ";
   for (int m = 0; m < terrain::kNumMaterials; ++m) readme += std::string(m ? ", " : "") + terrain::material_name(m);
   readme += "\n";

@@ -54,6 +54,29 @@ constexpr int kTerrain3DMaxRegions = 32;
 // The smallest region size whose 32 regions span `side` samples.
 int terrain3d_region_side(int side);
 
+// Where Terrain3D's importer puts a map, per axis (docs/ENGINES.md
+// "Terrain3D versions"). Every release slices the map into regions and
+// floors each slice's position to the region grid (Terrain3DData::
+// import_images, get_region_location), so a map's top-left sample lands on a
+// region corner. The importer's Import Position is read in metres by the
+// released 1.0.0, 1.0.1 and 1.0.2 (importer.gd: Vector3(import_position.x,
+// 0, import_position.y)) and in samples × vertex spacing by main after
+// 2fdda09 (unreleased); both are whole numbers, clamped to ±8192.
+struct Terrain3DPlacement {
+  int corner_px;         // the map's top-left sample lands at this sample of the world (a multiple of the region)
+  long position_1_0_m;   // Import Position for Terrain3D 1.0.x (metres, inside the corner's region)
+  int position_main_px;  // Import Position for Terrain3D main after 2fdda09 (samples)
+  double centre_m;       // where sample `centre_px` of the map lands, metres
+  bool within_clamp;     // |position_1_0_m| ≤ 8192 (the importer clamps beyond it)
+};
+// A map whose sample `centre_px` should land nearest 0, placed on regions
+// of `region_px` samples at `spacing_m` metres; `corner_px` given
+// (kTerrain3DAutoCorner: the region corner nearest −centre_px).
+inline constexpr int kTerrain3DAutoCorner = INT32_MIN;
+Terrain3DPlacement terrain3d_placement(int centre_px, int region_px, double spacing_m, int corner_px = kTerrain3DAutoCorner);
+// Whole numbers Terrain3D's importer takes for its Import Position.
+inline constexpr long kTerrain3DImportClamp = 8192;
+
 // One control-map pixel in Terrain3D's documented uint32 bit layout
 // (docs/ENGINES.md): base texture id in bits 31–27, overlay id 26–22, blend
 // (overlay's share, 0 = base only) 21–14; the UV angle/scale, hole,
