@@ -219,6 +219,10 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                 std::printf("%-40s %4dx%-4d %8.1f%% %9.1f %8.2f%% %8.2f%% %8.3f %10.2f %10.2f\n", f.c_str(), size.width, size.height,
                             100 * land, st.max_height_m, 100 * st.pits, 100 * st.terraces, st.valleys, st.seams_rows,
                             st.seams_cols);
+                if (st.land_cells > 0 && st.flank_cells == 0)
+                  std::printf("%-40s no flank: the highest land is %.1f m (< %.0f m: motu, sand cays), so terraces, valleys and "
+                              "seams are not judged (0; docs/REALISM.md)\n",
+                              "", st.max_height_m, double(terrain::kFlankMinPeakM));
                 if (r.has_reef) {
                   const auto& e = r.reef;
                   std::printf("%-40s reef: crest median %.2f m, at sea level (>= -1 m) on %.1f%% of %d rays; reef flat %.0f m; "

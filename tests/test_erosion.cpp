@@ -1169,6 +1169,14 @@ TEST(Realism, SeamScoreFindsOneSteppedColumn) {
   EXPECT_DOUBLE_EQ(terrain::seam_score(rows, true), 5.0);
   EXPECT_DOUBLE_EQ(terrain::seam_score(rows, false), 0.0) << "no step along columns: nothing to compare";
   EXPECT_DOUBLE_EQ(terrain::seam_score(cv::Mat1f(6, 8, -5.f), true), 0.0) << "no land";
+  // The same stepped cone scaled to a 4 m sand cay has no flank: its seams
+  // are not judged (0), as its terraces and valleys are not.
+  const cv::Mat1f cay = stepped * 0.1f;
+  const RealismStats c = realism_stats(cay, 15);
+  EXPECT_GT(c.land_cells, 0);
+  EXPECT_EQ(c.flank_cells, 0);
+  EXPECT_EQ(c.seams_rows, 0.0);
+  EXPECT_EQ(c.seams_cols, 0.0);
 }
 
 // The streamed statistics (a field larger than memory, read in bands of

@@ -85,8 +85,13 @@ RealismStats realism_stats(const cv::Mat1f& h, double metres_per_px) {
     st.terraces = double(flats) / double(st.flank_cells);
     st.valleys = double(valleys) / double(st.flank_cells);
   }
-  st.seams_rows = seam_score(hc, true);
-  st.seams_cols = seam_score(hc, false);
+  // A canvas of motu and cays (no flank) has no relief a border could step:
+  // the medians of centimetre steps along a sand islet's edge scored 8.5 on
+  // the border-free atoll. Left at 0, as a field with no qualifying row.
+  if (has_flank) {
+    st.seams_rows = seam_score(hc, true);
+    st.seams_cols = seam_score(hc, false);
+  }
   return st;
 }
 
@@ -264,8 +269,10 @@ RealismStats realism_stats_streamed(const RowSource& read, cv::Size size, double
         break;
       }
   }
-  st.seams_rows = score_of_profile(row_p);
-  st.seams_cols = score_of_profile(col_p);
+  if (has_flank) {  // as realism_stats: no flank, no seam to judge
+    st.seams_rows = score_of_profile(row_p);
+    st.seams_cols = score_of_profile(col_p);
+  }
   return st;
 }
 
