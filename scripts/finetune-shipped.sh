@@ -2,13 +2,11 @@
 # Fine-tunes the shipped model (models/reef-256.pt) on the generator's
 # current targets (docs/MODEL.md "Fine-tuned on the trunk basins"): the
 # dataset of configs/dataset/shipped.json rebuilt with today's generator,
-# then two stages: configs/train/shipped-land.json (GAN + 500·L1, lr 5e-5
-# decaying to 0 over 0.8 epoch) started from the shipped G (D fresh), and
-# configs/train/shipped-land2.json (the shipped reef stage's losses: 2000·L1
-# with the shore weight, 3200·rise, 250·logit bound; lr 3e-5 decaying over
-# 0.6 epoch) from the first; then the float16 pack and the measurements of
-# docs/MODEL.md. ~1 h on 2 cores with avx512_bf16; Ctrl-C and run again to
-# resume. Work folders go to
+# then one stage of configs/train/shipped-land.json (GAN + 500·L1, lr 5e-5
+# decaying to 0 over 0.8 epoch) started from the shipped G (D fresh), then
+# the float16 pack and the measurements of docs/MODEL.md "Fine-tuned on the
+# trunk basins". ~30 min on 2 cores
+# with avx512_bf16; Ctrl-C and run again to resume. Work folders go to
 # $WORK (default ../reefgen-finetune), outside the repository.
 #   bash scripts/finetune-shipped.sh
 #   PRECISION=fp32 bash scripts/finetune-shipped.sh   # CPUs without avx512_bf16/AMX (docs/TRAINING.md)
@@ -26,13 +24,7 @@ else
   $BIN train --config configs/train/shipped-land.json --data "$WORK/data" --out "$WORK/land" --precision "$P" \
     --init models/reef-256.pt >/dev/null
 fi
-if [ -f "$WORK/land2/checkpoint.pt" ]; then
-  $BIN train --data "$WORK/data" --out "$WORK/land2" --resume >/dev/null
-else
-  $BIN train --config configs/train/shipped-land2.json --data "$WORK/data" --out "$WORK/land2" --precision "$P" \
-    --init "$WORK/land/checkpoint.pt" >/dev/null
-fi
-$BIN model pack "$WORK/land2/generator.pt" -o "$WORK/reef-256.pt" --storage float16 >/dev/null
+$BIN model pack "$WORK/land/generator.pt" -o "$WORK/reef-256.pt" --storage float16 >/dev/null
 $BIN -q eval -m "$WORK/reef-256.pt" --data "$WORK/data" --split test --out "$WORK/eval" > /dev/null
 $BIN -q eval-sketches tests/data/painted -m "$WORK/reef-256.pt" --out "$WORK/eval-painted" > /dev/null
 echo "model: $WORK/reef-256.pt (copy it to models/ to ship it)"
