@@ -28,6 +28,7 @@ PKGS=(
   python3-pil                          # tests: the pix2pix dataset opens as pix2pix opens it (PIL)
   python3-opencv         # tests/cli_test.sh compares EXRs (bf16 vs fp32); scripts/paint_sketches.py
   python3-pip python3-venv python3-setuptools  # pip install . (pyproject.toml, setup.py; docs/PYTHON.md)
+  slurm-wlm munge                      # tests: a real single-host SLURM cluster runs the dataset array and the training job (tests/slurm_test.sh)
   mono-mcs                             # tests: the Unity bundle's importer script compiles (tests/unity_importer_test.sh)
 )
 

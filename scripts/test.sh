@@ -12,8 +12,19 @@ source scripts/cpu-line.sh
 cpu_line build/cli/reefgen
 generator=()
 command -v ninja >/dev/null && generator=(-G Ninja)
+# The tests' temporary files go in one folder of the suite's own, removed at
+# the end whatever happens; whatever a half leaves in it is named and fails
+# the run (a suite cleans up what it made, also when a test fails).
+suite_tmp=$(mktemp -d "${TMPDIR:-/tmp}/reefgen-suite.XXXXXX")
+trap 'rm -rf "$suite_tmp"' EXIT
+nothing_left() {  # nothing_left WHICH-HALF
+  local left
+  left=$(ls -A "$suite_tmp")
+  [ -z "$left" ] || { echo "test.sh: the $1 tests left these in the temporary folder: $(echo $left)" >&2; exit 1; }
+}
 cd build
-ctest --output-on-failure -j "$(nproc)"
+TMPDIR="$suite_tmp" ctest --output-on-failure -j "$(nproc)"
+nothing_left LibTorch
 # The torch-free half (generator, erosion, layers, GIS) builds and passes its
 # tests without LibTorch (-DREEFGEN_WITH_TORCH=OFF: nothing of it is found or
 # linked), as on a machine that has no libtorch-dev. It is compiled file by
@@ -23,4 +34,5 @@ cd ..
 cmake -S . -B build-notorch "${generator[@]}" -DCMAKE_BUILD_TYPE=Release -DREEFGEN_WITH_TORCH=OFF -DREEFGEN_UNITY_BUILD=OFF \
   -DREEFGEN_WERROR="${REEFGEN_WERROR:-OFF}" >/dev/null
 cmake --build build-notorch -j "$(nproc)"
-(cd build-notorch && ctest --output-on-failure -j "$(nproc)")
+(cd build-notorch && TMPDIR="$suite_tmp" ctest --output-on-failure -j "$(nproc)")
+nothing_left LibTorch-free

@@ -19,7 +19,9 @@ for _ in $(seq 1 100); do [ -s "$T/url" ] && break; sleep 0.1; done
 url=$(head -1 "$T/url")
 [ -n "$url" ] || { echo "FAIL: studio did not start: $(cat "$T/err")"; exit 1; }
 SCRIPT=${REEFGEN_BROWSER_SCRIPT:-browser_test.mjs}
-REEFGEN_NODE_MODULES="$MODULES" node "$(dirname "$0")/studio/$SCRIPT" "$url" "$@"
+# The browser's own temporary files (.org.chromium.Chromium.*) go in T too,
+# so none is left in the system's temporary folder.
+TMPDIR="$T" REEFGEN_NODE_MODULES="$MODULES" node "$(dirname "$0")/studio/$SCRIPT" "$url" "$@"
 rc=$?
 if [ "$SCRIPT" = browser_test.mjs ]; then
   ls "$T/out"/*.glb >/dev/null 2>&1 || { echo "FAIL: the export did not land in the studio's --out folder"; rc=1; }

@@ -11,6 +11,7 @@
 #include <functional>
 #include <type_traits>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
@@ -32,11 +33,32 @@ struct ScopedEnv {
   ~ScopedEnv() { old ? ::setenv(name.c_str(), old->c_str(), 1) : ::unsetenv(name.c_str()); }
 };
 
+// The folders temp_dir made in this process, removed when it exits (also
+// after a failed test: GoogleTest returns from main). REEFGEN_KEEP_TEST_DIRS=1
+// keeps them to look at.
+// Only the process that made them removes them: a forked child (a death
+// test, a signal test) that exits must not delete its parent's folders.
+struct TempDirs {
+  std::vector<fs::path> made;
+  pid_t owner = ::getpid();
+  ~TempDirs() {
+    if (::getpid() != owner) return;
+    if (const char* keep = std::getenv("REEFGEN_KEEP_TEST_DIRS"); keep && std::string(keep) == "1") return;
+    std::error_code ec;
+    for (const auto& d : made) fs::remove_all(d, ec);
+  }
+};
+inline TempDirs& temp_dirs() {
+  static TempDirs dirs;
+  return dirs;
+}
+
 // A fresh, empty folder under the system temp dir, unique per process.
 inline fs::path temp_dir(const std::string& name) {
   const fs::path d = fs::temp_directory_path() / ("reefgen_test_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(d);
   fs::create_directories(d);
+  temp_dirs().made.push_back(d);
   return d;
 }
 
