@@ -9,6 +9,7 @@
 #include "reefgen/model/dnnl_conv.hpp"
 #include "reefgen/model/fast_unet.hpp"
 #include "reefgen/model/generator_file.hpp"
+#include "reefgen/model/onnx_export.hpp"
 #include "reefgen/model/shipped.hpp"
 
 namespace reefgen {
@@ -23,10 +24,13 @@ Command add_model_command(CLI::App& app, const GlobalOptions&) {
       "  reefgen model info                                  # the shipped model: verified, described\n"
       "  reefgen model info runs/try/generator.pt\n"
       "  reefgen model pack runs/try/generator.pt -o models/reef-256.pt --storage float16\n"
-      "  reefgen model cpu                                   # what this CPU runs: class, flags, auto's choice\n");
+      "  reefgen model cpu                                   # what this CPU runs: class, flags, auto's choice\n"
+      "  reefgen model export --onnx out/reef-256.onnx       # the shipped model for ONNX runtimes (Sentis, NNE, ORT)\n");
   sub->require_subcommand(1);
   struct Args {
-    std::string in, out, storage = "float16";
+    std::string in, out, storage = "float16", onnx;
+    int size_px = 0;
+    bool running_stats = false;
   };
   auto a = std::make_shared<Args>();
   auto* info = sub->add_subcommand("info", "Load (and so verify) a generator file; print its options, size and checksum");
@@ -36,9 +40,17 @@ Command add_model_command(CLI::App& app, const GlobalOptions&) {
   pack->add_option("-o,--out,--output", a->out, "Output file (not the input)")->required();
   pack->add_option("--storage", a->storage, "float16 (half the size; computes in float32) or float32")
       ->capture_default_str();
+  auto* exp = sub->add_subcommand(
+      "export", "Write a generator as an ONNX graph (opset 13) that answers metres (docs/ENGINES.md)");
+  exp->add_option("generator", a->in, "Generator file (default: the shipped model)");
+  exp->add_option("--onnx", a->onnx, "The ONNX file to write")->required();
+  exp->add_option("--size", a->size_px, "Input side in pixels (default: the side it was trained at)")
+      ->check(CLI::Range(32, 4096));
+  exp->add_flag("--running-stats", a->running_stats,
+                "BatchNorm from its running averages, as infer --running-stats (default: each sample's own statistics)");
   auto* cpu = sub->add_subcommand(
       "cpu", "Print this CPU's class and flags, and what --precision auto and the vector loops choose here (JSON)");
-  return {sub, [a, info, pack, cpu]() -> int {
+  return {sub, [a, info, pack, exp, cpu]() -> int {
             if (cpu->parsed()) {
               const CpuFeatures& c = cpu_features();
               const json j = {{"cpu", c.model},
@@ -78,6 +90,19 @@ Command add_model_command(CLI::App& app, const GlobalOptions&) {
                               {"train_step", f.train_step},
                               {"reefgen_version", f.reefgen_version}};
               std::printf("%s\n", j.dump(1, ' ', false, nlohmann::json::error_handler_t::replace).c_str());
+              return 0;
+            }
+            if (exp->parsed()) {
+              std::error_code ec;
+              if (fs::exists(a->onnx) && fs::equivalent(in, a->onnx, ec))
+                throw Error(a->onnx + ": is the input; write the ONNX file elsewhere");
+              model::OnnxExportOptions eo;
+              eo.size_px = a->size_px > 0 ? a->size_px : f.size_px;
+              eo.running_stats = a->running_stats;
+              const fs::path parent = fs::path(a->onnx).parent_path();
+              ensure_writable_dir(parent.empty() ? fs::path(".") : parent);
+              model::write_generator_onnx(a->onnx, *f.g, f.range, eo);
+              std::printf("%s\n", a->onnx.c_str());
               return 0;
             }
             if (a->storage != "float16" && a->storage != "float32")

@@ -26,6 +26,7 @@ PKGS=(
   python3 python3-torch python3-numpy  # reference comparisons (scripts/reference); reefgen.torch's datasets
   python3-dev pybind11-dev             # the Python module `import reefgen` (python/)
   python3-pil                          # tests: the pix2pix dataset opens as pix2pix opens it (PIL)
+  python3-onnx           # tests: the ONNX export passes onnx's checker (tests/cli_infer_models_test.sh)
   python3-opencv         # tests/cli_test.sh compares EXRs (bf16 vs fp32); scripts/paint_sketches.py
   python3-pip python3-venv python3-setuptools  # pip install . (pyproject.toml, setup.py; docs/PYTHON.md)
   slurm-wlm munge                      # tests: a real single-host SLURM cluster runs the dataset array and the training job (tests/slurm_test.sh)

@@ -27,6 +27,25 @@ assert o["young_abyss_below_minus20"] >= 0.97, o
 # themselves score 1.09 m mean (docs/MODEL.md §4), so the bar is that level.
 assert o["checkerboard_m_mean"] <= 1.0, o
 PY
+  # The ONNX export (docs/ENGINES.md): passes onnx's own checker, and run in a
+  # second runtime (OpenCV's dnn from Python) on a label map as reefgen draws
+  # it, answers what `infer --raw` answers, within 5 cm.
+  "$BIN" -q model export --onnx "$T/x/reef.onnx" >/dev/null && [ -s "$T/x/reef.onnx" ] && ok || bad "model export --onnx"
+  "$PY" -c 'import onnx, sys; m = onnx.load(sys.argv[1]); onnx.checker.check_model(m, full_check=True); assert m.opset_import[0].version == 13' \
+    "$T/x/reef.onnx" 2>"$T/err" && ok || bad "onnx checker: $(tail -n 3 "$T/err")"
+  "$BIN" -q sketch random --seed 3 --size 256 -o "$T/x/s.png" >/dev/null &&
+    "$BIN" -q infer "$T/x/s.png" -o "$T/x/raw" --raw --precision fp32 >/dev/null || bad "infer --raw for the ONNX check"
+  OPENCV_IO_ENABLE_OPENEXR=1 "$PY" - "$T/x/reef.onnx" "$T/x/s.png" "$T/x/raw.height.exr" <<'PY' && ok || bad "ONNX in OpenCV dnn differs from infer --raw"
+import sys, cv2, numpy as np
+net = cv2.dnn.readNetFromONNX(sys.argv[1])
+rgb = cv2.cvtColor(cv2.imread(sys.argv[2]), cv2.COLOR_BGR2RGB).astype(np.float32) / 127.5 - 1
+net.setInput(rgb.transpose(2, 0, 1)[None].copy(), "label")
+y = net.forward("height_m")[0, 0]
+h = cv2.imread(sys.argv[3], cv2.IMREAD_UNCHANGED)
+assert y.shape == h.shape and np.abs(y - h).max() < 0.05, (y.shape, h.shape, np.abs(y - h).max())
+PY
+  expect_error "multiple of 256" model export --onnx "$T/e/x.onnx" --size 300
+  expect_error "is the input" model export "$SHIPPED" --onnx "$SHIPPED"
   # bf16 inference of the shipped model stays within 1 m of fp32 (99th percentile; mean ≤ 0.25 m).
   [ "$HAS_BF16" = 1 ] || skip "bf16 vs fp32 on the shipped model: no bf16 convolutions on this CPU (needs AVX-512)"
   [ "$HAS_BF16" = 1 ] && for s in 01-young-volcano 06-long-arc 12-atoll-dark; do

@@ -14,6 +14,7 @@
 #include "reefgen/labels.hpp"
 #include "reefgen/model/codec.hpp"
 #include "test_util.hpp"
+#include "shipped_inputs.hpp"
 
 using namespace reefgen;
 using model::FastPrecision;
@@ -23,6 +24,9 @@ using model::Norm;
 using model::UNetGenerator;
 using model::UNetOptions;
 using model::Upsample;
+using test::painted_inputs_256;
+using test::PaintedInput;
+using test::shipped_generator;
 
 static const int kCores = int(std::max(1u, std::thread::hardware_concurrency()));
 static const bool kThreadsSet = [] {
@@ -140,37 +144,6 @@ TEST(FastUNet, SameBytesWhateverTheThreadCount) {
     }
   }
 }
-
-namespace {
-
-// The shipped generator as users run it (pix2pix's test-time mode, no
-// dropout), and the painted test sketches at the model's 256²: each one's
-// file name, decoded labels and network input {1,3,256,256}.
-model::GeneratorFile shipped_generator() {
-  model::GeneratorFile gf =
-      model::load_generator(std::filesystem::path(REEFGEN_SOURCE_DIR) / "models" / "reef-256.pt");
-  gf.g->train(true);
-  gf.g->set_dropout_enabled(false);
-  return gf;
-}
-struct PaintedInput {
-  std::string name;
-  DecodedSketch sketch;
-  torch::Tensor x;
-};
-std::vector<PaintedInput> painted_inputs_256() {
-  std::vector<PaintedInput> out;
-  const auto dir = std::filesystem::path(REEFGEN_SOURCE_DIR) / "tests" / "data" / "painted";
-  for (const auto& e : std::filesystem::directory_iterator(dir)) {
-    DecodedSketch s = read_sketch(e.path());
-    if (s.label.rows != 256 || s.label.cols != 256) continue;
-    torch::Tensor x = model::label_to_tensor(encode_labels(s.label, s.subsidence)).unsqueeze(0);
-    out.push_back({e.path().filename().string(), std::move(s), std::move(x)});
-  }
-  return out;
-}
-
-}  // namespace
 
 TEST(FastUNet, ShippedModelFp32AndBf16WithinTheHeightBars) {
   // The model users run, on the painted test sketches: fp32 equals LibTorch
