@@ -29,9 +29,19 @@ void expect_clean(F&& f) {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  const auto j = nlohmann::json::parse(data, data + size, nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded()) return 0;  // read_json reports invalid JSON with its line and column
   using namespace reefgen;
+  // Through the reader every config goes through (read_json): its depth
+  // limit and repeated-key check are part of what is fuzzed. Too deep a
+  // nesting or a key twice is a reefgen::Error naming the origin; invalid
+  // JSON the library's parse error, which read_json words with its byte.
+  nlohmann::json j;
+  try {
+    j = parse_json_checked(std::string(reinterpret_cast<const char*>(data), size), "fuzz.json");
+  } catch (const Error&) {
+    return 0;
+  } catch (const nlohmann::json::exception&) {
+    return 0;
+  }
   expect_clean([&] {
     const procgen::IslandSpec s = procgen::spec_from_json(j, "fuzz.json");
     nlohmann::json back;
