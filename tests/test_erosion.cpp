@@ -467,6 +467,28 @@ TEST(Erosion, CarvesValleysKeepsTheSeaAndDrains) {
   EXPECT_EQ(cv::norm(erode_island(h, rho, kCanvasWorldSizeM, 7, p), h, cv::NORM_INF), 0.0);
 }
 
+// The style's blend at a large side is computed on a coarse grid and read
+// back: it stays within 1.5 % of the style's range of the full-size
+// Gaussian (a hard-edged random brush, the worst case), keeps a rugged-
+// everywhere sketch "no style", and is the whole field at every side.
+TEST(Erosion, StyleBlendOnACoarseGridMatchesTheFullSizeBlur) {
+  cv::Mat1b brush(256, 256);
+  cv::randu(brush, 0, 255);
+  cv::GaussianBlur(brush, brush, cv::Size(0, 0), 3);
+  cv::threshold(brush, brush, 127, 255, cv::THRESH_BINARY);
+  for (const int side : {256, 1025}) {
+    cv::Mat1f full;
+    brush.convertTo(full, CV_32F, 1.0 / 255);
+    cv::resize(full, full, cv::Size(side, side), 0, 0, side < 256 ? cv::INTER_AREA : cv::INTER_LINEAR);
+    const double sigma = kStyleBlendM * side / kCanvasWorldSizeM;
+    cv::GaussianBlur(full, full, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
+    const cv::Mat1f fast = ruggedness_at(brush, side, kCanvasWorldSizeM);
+    ASSERT_EQ(fast.size(), full.size());
+    EXPECT_LT(cv::norm(fast, full, cv::NORM_INF), 0.015) << side;
+  }
+  EXPECT_TRUE(ruggedness_at(cv::Mat1b(64, 64, uint8_t(255)), 8192, kCanvasWorldSizeM).empty());
+}
+
 // Per-region style (DecodedSketch::ruggedness): a sketch painted rugged
 // everywhere gives the same bytes as one without a style; a cone painted
 // smooth on its west half comes back with that half's relief (heights less
