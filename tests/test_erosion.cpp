@@ -22,6 +22,7 @@
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
 #include "reefgen/infer/amplify.hpp"
+#include "reefgen/wide_blur.hpp"
 #include "reefgen/infer/amplify_params.hpp"
 #include "reefgen/terrain/flow.hpp"
 #include "reefgen/terrain/pits.hpp"
@@ -467,26 +468,33 @@ TEST(Erosion, CarvesValleysKeepsTheSeaAndDrains) {
   EXPECT_EQ(cv::norm(erode_island(h, rho, kCanvasWorldSizeM, 7, p), h, cv::NORM_INF), 0.0);
 }
 
-// The style's blend at a large side is computed on a coarse grid and read
-// back: it stays within 1.5 % of the style's range of the full-size
-// Gaussian (a hard-edged random brush, the worst case), keeps a rugged-
-// everywhere sketch "no style", and is the whole field at every side.
-TEST(Erosion, StyleBlendOnACoarseGridMatchesTheFullSizeBlur) {
+// Blurs whose σ grows with the canvas (the style's 400 m blend, the regions'
+// 1 % blend) are computed on a coarse grid past kWideBlurWorkSigmaPx: within
+// 1.5 % of the field's range of the full-size Gaussian on a hard-edged random
+// brush (the worst case) for σ up to 7 % of the side (the style at 8192² is
+// 6.7 %), the same bytes at or below it, and the style of a
+// sketch rugged everywhere is still "no style".
+TEST(Erosion, WideBlursOnACoarseGridMatchTheFullSizeBlur) {
   cv::Mat1b brush(256, 256);
   cv::randu(brush, 0, 255);
   cv::GaussianBlur(brush, brush, cv::Size(0, 0), 3);
   cv::threshold(brush, brush, 127, 255, cv::THRESH_BINARY);
-  for (const int side : {256, 1025}) {
-    cv::Mat1f full;
-    brush.convertTo(full, CV_32F, 1.0 / 255);
-    cv::resize(full, full, cv::Size(side, side), 0, 0, side < 256 ? cv::INTER_AREA : cv::INTER_LINEAR);
-    const double sigma = kStyleBlendM * side / kCanvasWorldSizeM;
-    cv::GaussianBlur(full, full, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
-    const cv::Mat1f fast = ruggedness_at(brush, side, kCanvasWorldSizeM);
-    ASSERT_EQ(fast.size(), full.size());
-    EXPECT_LT(cv::norm(fast, full, cv::NORM_INF), 0.015) << side;
+  for (const int side : {300, 1025}) {
+    cv::Mat1f field;
+    brush.convertTo(field, CV_32F, 1.0 / 255);
+    cv::resize(field, field, cv::Size(side, side), 0, 0, cv::INTER_LINEAR);
+    for (const double sigma : {4.0, kWideBlurWorkSigmaPx, 20.0, 0.07 * side}) {
+      cv::Mat1f full;
+      cv::GaussianBlur(field, full, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
+      const cv::Mat1f wide = wide_gaussian_blur(field, sigma);
+      ASSERT_EQ(wide.size(), full.size());
+      const double err = cv::norm(wide, full, cv::NORM_INF);
+      if (sigma <= kWideBlurWorkSigmaPx) EXPECT_EQ(err, 0.0) << side << " σ " << sigma;
+      else EXPECT_LT(err, 0.015) << side << " σ " << sigma;
+    }
   }
   EXPECT_TRUE(ruggedness_at(cv::Mat1b(64, 64, uint8_t(255)), 8192, kCanvasWorldSizeM).empty());
+  EXPECT_EQ(ruggedness_at(brush, 2049, kCanvasWorldSizeM).size(), cv::Size(2049, 2049));
 }
 
 // Per-region style (DecodedSketch::ruggedness): a sketch painted rugged

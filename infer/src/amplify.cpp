@@ -12,6 +12,7 @@
 #include "reefgen/rng.hpp"
 #include "reefgen/terrain/noise.hpp"
 #include "reefgen/terrain/pits.hpp"
+#include "reefgen/wide_blur.hpp"
 
 #include "masked_blur.hpp"
 
@@ -320,21 +321,10 @@ cv::Mat1f ruggedness_at(const cv::Mat1b& ruggedness, int side, double world_size
   if (lo >= 255) return {};
   cv::Mat1f r;
   ruggedness.convertTo(r, CV_32F, 1.0 / 255);
+  cv::resize(r, r, cv::Size(side, side), 0, 0, side < r.cols ? cv::INTER_AREA : cv::INTER_LINEAR);
   const double sigma = kStyleBlendM * side / world_size_m;
-  if (sigma < 0.5) {
-    cv::resize(r, r, cv::Size(side, side), 0, 0, side < r.cols ? cv::INTER_AREA : cv::INTER_LINEAR);
-    return r;
-  }
-  // The blur is computed where its σ spans kBlurWorkSigmaPx cells and read
-  // back bilinearly: at 8192² σ is 546 px, a 3,300-tap kernel per pixel
-  // (minutes on one core); the blurred field is smooth over σ, so the read
-  // back is within 1.2 % of the style's range of the full-size blur
-  // (a hard-edged random brush at 256–4097²), 180× faster at 4097².
-  const int work = sigma > kBlurWorkSigmaPx ? std::max(16, int(std::ceil(side * kBlurWorkSigmaPx / sigma))) : side;
-  cv::resize(r, r, cv::Size(work, work), 0, 0, work < r.cols ? cv::INTER_AREA : cv::INTER_LINEAR);
-  const double work_sigma = sigma * work / side;
-  cv::GaussianBlur(r, r, cv::Size(0, 0), work_sigma, work_sigma, cv::BORDER_REPLICATE);
-  if (work != side) cv::resize(r, r, cv::Size(side, side), 0, 0, cv::INTER_LINEAR);
+  // At 8192² σ is 546 px: the blur on a coarse grid (wide_blur.hpp).
+  if (sigma >= 0.5) r = wide_gaussian_blur(r, sigma);
   return r;
 }
 

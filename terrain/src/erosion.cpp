@@ -14,6 +14,7 @@
 #include "reefgen/terrain/flow.hpp"
 #include "reefgen/terrain/noise.hpp"
 #include "reefgen/terrain/pits.hpp"
+#include "reefgen/wide_blur.hpp"
 
 namespace reefgen::terrain {
 
@@ -361,9 +362,8 @@ cv::Mat1f resistance_of_labels(const cv::Mat1b& label) {
   for (int y = 0; y < label.rows; ++y)
     for (int x = 0; x < label.cols; ++x) rho(y, x) = kRho[std::min<int>(label(y, x), 4)];
   // Regions blend over ~1 % of the canvas instead of switching at a pixel.
-  const double s = std::max(1.0, 0.01 * label.cols);
-  cv::GaussianBlur(rho, rho, cv::Size(0, 0), s, s, cv::BORDER_REPLICATE);
-  return rho;
+  // At 8192² that is an 82-px σ: past 1600 px computed on a coarse grid (wide_blur.hpp).
+  return wide_gaussian_blur(rho, std::max(1.0, 0.01 * label.cols));
 }
 
 }  // namespace reefgen::terrain

@@ -52,9 +52,6 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
 // The style blends over this distance (Gaussian σ, m): a brush's edge, JPEG
 // and anti-aliasing do not print as steps in the relief.
 inline constexpr double kStyleBlendM = 400;
-// The style blend is computed on a grid where its σ is this many cells (px),
-// then read back bilinearly to the side asked for.
-inline constexpr double kBlurWorkSigmaPx = 16;
 // What a smooth shield keeps of the finer levels' detail (lava surfaces,
 // scoria: not a polished dome).
 inline constexpr float kSmoothDetailShare = 0.35f;
