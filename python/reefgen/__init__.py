@@ -12,6 +12,7 @@ docs/PYTHON.md has the details and reefgen.torch the PyTorch datasets.
 """
 import json as _json
 import math as _math
+import numbers as _numbers
 import operator as _operator
 import os as _os
 
@@ -24,12 +25,44 @@ __all__ = ["generate", "pair", "pair_info", "infer", "default_model", "decode_la
 REGIONS = ("island", "beach", "lagoon", "reef", "abyss")
 
 
+def _dict_json(d, what):
+    """A dict as strict JSON: NaN and infinities are refused naming them (JSON has neither)."""
+    try:
+        return _json.dumps(d, allow_nan=False)
+    except ValueError:
+        raise Error(f"{what}: a NaN or an infinite number in the dict; JSON has neither, give a finite value") from None
+    except TypeError as e:
+        raise Error(f"{what}: {e}; give numbers, strings, lists and dicts") from None
+
+
+# The command line's ranges for the numbers every function shares (--age-myr, --maturity).
+_AGE_RANGE_MYR = (0.0, 60.0)
+_MATURITY_RANGE = (0.05, 20.0)
+
+
+def _whole(v, name):
+    """A whole number as the command line takes it (numpy integers too); 256.5, "256" or True is refused."""
+    try:
+        return None if isinstance(v, bool) else _operator.index(v)
+    except TypeError:
+        pass
+    raise Error(f"{name} {v!r} must be a whole number")
+
+
+def _number(v, name):
+    """A real number (numpy floats and integers too); a string or a bool is refused. Its
+    range, NaN included, is checked where the command line checks it (the C++ half)."""
+    if isinstance(v, bool) or not isinstance(v, _numbers.Real):
+        raise Error(f"{name} {v!r} must be a number")
+    return float(v)
+
+
 def _config_json(config):
     """A dataset config as JSON text: None (the built-in defaults), a dict or a path."""
     if config is None:
         return ""
     if isinstance(config, dict):
-        return _json.dumps(config)
+        return _dict_json(config, "config")
     path = _os.fspath(config)
     try:
         with open(path, encoding="utf-8") as f:
@@ -55,14 +88,14 @@ def pair(config=None, seed=0, index=0):
     heights: (S, S) float32 metres, sea level 0, the values of INDEX.height.exr;
     labels: (S, S, 3) uint8 RGB, the pixels of INDEX.label.png.
     """
-    return _reefgen.pair(_config_json(config), _seed(seed), int(index))
+    return _reefgen.pair(_config_json(config), _seed(seed), _whole(index, "index"))
 
 
 def pair_info(config=None, seed=0, index=0):
     """What the manifest says of pair `index`: split, configuration, level, subsidence, seed
     (a decimal string), age_myr (NaN when the config draws none), maturity, ruggedness,
     augmentation (docs/DATASET.md "Ages")."""
-    info = _reefgen.pair_info(_config_json(config), _seed(seed), int(index))
+    info = _reefgen.pair_info(_config_json(config), _seed(seed), _whole(index, "index"))
     info["augmentation"] = _json.loads(info["augmentation"])
     return info
 
@@ -74,7 +107,7 @@ def generate(spec="young-volcano", size=256, seed=None, subsidence=None, age_myr
     "Age"), maturity: the erosion's alone; subsidence: λ, over the age's."""
     preset, spec_json = "", ""
     if isinstance(spec, dict):
-        spec_json = _json.dumps(spec)
+        spec_json = _dict_json(spec, "spec")
     elif isinstance(spec, str) and spec in _reefgen.presets():
         preset = spec
     elif isinstance(spec, (str, _os.PathLike)) and _os.path.isfile(spec):
@@ -82,22 +115,21 @@ def generate(spec="young-volcano", size=256, seed=None, subsidence=None, age_myr
             spec_json = f.read()
     else:
         preset = str(spec)  # unknown: the C++ error lists the presets
-    if subsidence is not None:
-        subsidence = float(subsidence)
-        if not (0.0 <= subsidence <= 1.0):  # NaN too: it meant "not given" here
-            raise Error(f"generate: subsidence {subsidence} must be a finite number in [0, 1] (None: the spec's own)")
-    return _reefgen.generate(preset, spec_json, int(size), None if seed is None else _seed(seed),
-                             _math.nan if subsidence is None else subsidence,
-                             _optional_number(age_myr, "age_myr"), _optional_number(maturity, "maturity"))
+    return _reefgen.generate(preset, spec_json, _whole(size, "size"), None if seed is None else _seed(seed),
+                             _optional_number(subsidence, "subsidence", (0.0, 1.0)),
+                             _optional_number(age_myr, "age_myr", _AGE_RANGE_MYR),
+                             _optional_number(maturity, "maturity", _MATURITY_RANGE))
 
 
-def _optional_number(v, name):
-    """None -> NaN ("not given" to the C++ half); else a finite float (the C++ half checks its range)."""
+def _optional_number(v, name, bounds):
+    """None -> NaN ("not given" to the C++ half); else a finite number inside bounds, as the
+    command line's flag takes it (generate and infer alike)."""
     if v is None:
         return _math.nan
-    v = float(v)
-    if not _math.isfinite(v):
-        raise Error(f"{name} {v} must be a finite number (None: not set)")
+    v = _number(v, name)
+    lo, hi = bounds
+    if not lo <= v <= hi:  # NaN too
+        raise Error(f"{name} {v} must be a finite number in [{lo:g}, {hi:g}] (None: not set)")
     return v
 
 
@@ -147,12 +179,13 @@ def infer(sketch, size=0, model=None, seed=0, raw=False, precision="fp32", engin
                     f"bash scripts/install-deps.sh, then rebuild): {e}") from None
     if model is None:
         model = default_model() or ""  # "": the build's source tree (the C++ look-up names the fix)
-    return _reefgen_infer.infer(sketch, int(size), _os.fspath(model), _seed(seed),
+    return _reefgen_infer.infer(sketch, _whole(size, "size"), _os.fspath(model), _seed(seed),
                                 bool(raw), str(precision), str(engine), bool(stochastic),
-                                None if threads is None else int(threads),
-                                None if world_size_m is None else float(world_size_m),
-                                float(variation), _optional_number(age_myr, "age_myr"),
-                                _optional_number(maturity, "maturity"), int(variations))
+                                None if threads is None else _whole(threads, "threads"),
+                                None if world_size_m is None else _number(world_size_m, "world_size_m"),
+                                _number(variation, "variation"),
+                                _optional_number(age_myr, "age_myr", _AGE_RANGE_MYR),
+                                _optional_number(maturity, "maturity", _MATURITY_RANGE), _whole(variations, "variations"))
 
 
 def decode_labels(image, ruggedness=False):
@@ -167,7 +200,7 @@ def decode_labels(image, ruggedness=False):
 
 def realism(heights, metres_per_px):
     """The realism statistics of `reefgen realism` for a (H, W) array of metres."""
-    return _reefgen.realism(heights, float(metres_per_px))
+    return _reefgen.realism(heights, _number(metres_per_px, "metres_per_px"))
 
 
 def presets():

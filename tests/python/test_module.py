@@ -170,6 +170,30 @@ class Module(unittest.TestCase):
             self.assertIn(needle, str(e.exception))
             self.assertNotIn("\n", str(e.exception))
         self.assertEqual(reefgen.pair_info(None, np.uint64(3), 0)["index"], 0)  # numpy integers are seeds too
+        # Numbers strict and alike across functions: a fractional or text size, index, thread or
+        # variation count is refused (it was truncated or parsed); an age outside the flag's
+        # [0, 60] is refused by generate as by infer (generate took -1 as "not set"); a NaN in a
+        # spec or config dict is one line naming it (it was the JSON parser's raw text).
+        for call, needle in ((lambda: reefgen.generate("atoll", size=32.5), "size 32.5 must be a whole number"),
+                             (lambda: reefgen.generate("atoll", size="32"), "size '32' must be a whole number"),
+                             (lambda: reefgen.pair(index=1.5), "index 1.5 must be a whole number"),
+                             (lambda: reefgen.generate("atoll", size=32, age_myr=-1), "age_myr -1.0 must be a finite number in [0, 60]"),
+                             (lambda: reefgen.generate("atoll", size=32, maturity="2"), "maturity '2' must be a number"),
+                             (lambda: reefgen.generate({"noise": {"seed": float("nan")}}, size=32), "spec: a NaN"),
+                             (lambda: reefgen.pair({"count": float("inf")}), "config: a NaN or an infinite")):
+            with self.assertRaises(reefgen.Error) as e:
+                call()
+            self.assertIn(needle, str(e.exception))
+            self.assertNotIn("\n", str(e.exception))
+        if TORCH_BIN:
+            _, labels = reefgen.generate("atoll", size=64)
+            for kwargs, needle in (({"size": 64.5}, "size 64.5 must be a whole number"),
+                                   ({"threads": 1.5}, "threads 1.5 must be a whole number"),
+                                   ({"variations": 2.5}, "variations 2.5 must be a whole number"),
+                                   ({"age_myr": -1}, "age_myr -1.0 must be a finite number in [0, 60]")):
+                with self.assertRaises(reefgen.Error) as e:
+                    reefgen.infer(labels, **kwargs)
+                self.assertIn(needle, str(e.exception))
 
     def test_infer_equals_the_cli(self):
         if not TORCH_BIN:
