@@ -8,13 +8,7 @@ set -euo pipefail
 BIN="$1" DIR="$2"
 source "$(dirname "$0")/cli_tiny_args.sh"
 rm -rf "$DIR.partial" && mkdir -p "$DIR.partial"
-cat > "$DIR.partial/ds.json" <<'JSON'
-{"count": 12, "size_px": 32, "levels": 3, "val_fraction": 0.2, "test_fraction": 0.2,
- "p_affine": 0.5, "p_translate": 0.5, "p_paste": 0.5, "paste_scale": 0.5}
-JSON
-cat > "$DIR.partial/tr.json" <<'JSON'
-{"log_every": 5, "val_every": 20, "checkpoint_every": 1000, "val_samples": 2}
-JSON
+tiny_configs "$DIR.partial"
 "$BIN" -q dataset build --config "$DIR.partial/ds.json" --seed 4 --out "$DIR.partial/d1" --threads 1 >/dev/null
 # shellcheck disable=SC2086  # TINY_TRAIN is a list of flags
 "$BIN" -q train --config "$DIR.partial/tr.json" --data "$DIR.partial/d1" $TINY_TRAIN --out "$DIR.partial/t1" >/dev/null

@@ -29,13 +29,7 @@ wait_job() {  # wait_job JOBID WHAT
 # Exit code of a finished job from slurmctld's record ("0:0" when it ran clean).
 job_exit() { scontrol show job "$1" 2>/dev/null | sed -n 's/.*ExitCode=\([0-9:]*\).*/\1/p' | head -n1; }
 
-cat > "$T/ds.json" <<'JSON'
-{"count": 12, "size_px": 32, "levels": 3, "val_fraction": 0.2, "test_fraction": 0.2,
- "p_affine": 0.5, "p_translate": 0.5, "p_paste": 0.5, "paste_scale": 0.5}
-JSON
-cat > "$T/tr.json" <<'JSON'
-{"log_every": 5, "val_every": 20, "checkpoint_every": 1000, "val_samples": 2}
-JSON
+tiny_configs "$T"
 
 # 1. The dataset: three shards as an array, the merge after them.
 "$BIN" -q dataset build --config "$T/ds.json" --seed 4 --out "$T/one" --threads 1 >/dev/null || bad "one-machine dataset"
