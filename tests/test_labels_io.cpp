@@ -526,13 +526,15 @@ TEST(Io, JsonTypeErrorsNameTheField) {
   EXPECT_EQ(i, INT64_MIN);
 }
 
-// SIGTERM (or SIGHUP, an unhandled SIGINT) while an output is
-// staged leaves no *.tmp.* file once remove_temps_on_fatal_signals is
+// SIGTERM, SIGHUP or SIGINT (Ctrl-C) while an output is staged, or while a
+// streamed file (AtomicTextWriter: a dataset's manifest; it was left behind
+// by a Ctrl-C'd dataset build) is open, leaves no *.tmp.* file once
+// remove_temps_on_fatal_signals is
 // installed (reefgen's main does); without it the temporary file stays,
 // which is what the test would see if the handler did nothing.
 TEST(Io, FatalSignalsRemoveStagedTemporaryFiles) {
   for (bool handled : {true, false}) {
-    for (int sig : {SIGTERM, SIGHUP}) {
+    for (int sig : {SIGTERM, SIGHUP, SIGINT}) {
       const fs::path dir = fs::temp_directory_path() / ("reefgen_sigtmp_" + std::to_string(::getpid()) + "_" +
                                                         std::to_string(sig) + (handled ? "h" : "u"));
       fs::remove_all(dir);
@@ -541,6 +543,12 @@ TEST(Io, FatalSignalsRemoveStagedTemporaryFiles) {
       ASSERT_GE(child, 0);
       if (child == 0) {
         if (handled) remove_temps_on_fatal_signals();
+        // A streamed file open for the whole run (a dataset's manifest) and a staged one.
+        AtomicTextWriter manifest(dir / "manifest.jsonl");
+        manifest.write("{\"index\": 0}\n");
+        // More short-lived files than the handler's table has slots (256),
+        // as a dataset writes pairs: the manifest must keep its slot.
+        for (int i = 0; i < 300; ++i) write_text_atomic(dir / ("pair" + std::to_string(i) + ".txt"), "pair");
         StagedOutputs out;
         out.write(dir / "island.height.exr", [&](const fs::path& tmp) {
           write_text_atomic(dir / "done.txt", "staged");  // committed: must stay
@@ -558,7 +566,7 @@ TEST(Io, FatalSignalsRemoveStagedTemporaryFiles) {
       int temps = 0;
       for (const auto& e : fs::directory_iterator(dir)) temps += e.path().string().find(".tmp.") != std::string::npos;
       EXPECT_TRUE(fs::exists(dir / "done.txt"));
-      EXPECT_EQ(temps, handled ? 0 : 1) << "signal " << sig << (handled ? " with" : " without") << " the handler";
+      EXPECT_EQ(temps, handled ? 0 : 2) << "signal " << sig << (handled ? " with" : " without") << " the handler";
       fs::remove_all(dir);
     }
   }

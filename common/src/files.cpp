@@ -25,8 +25,9 @@ namespace {
 // Temporary files being written, for a fatal signal's handler to unlink
 // (SIGTERM, SIGHUP, an unhandled SIGINT): a fixed table of C strings, each
 // published by its flag, so the handler only calls unlink (async-signal-safe).
-// A slot is freed when its file is committed; when all are taken the oldest
-// is reused (a stale entry only names a file that no longer exists).
+// A slot is freed when its file is committed; a new file takes the next free
+// slot (publish_free), so a file open for the whole run (a dataset's
+// manifest) keeps its slot; only when all are taken is one reused.
 constexpr size_t kLiveTemps = 256;
 constexpr size_t kLiveTempPath = 4096;
 struct LiveTemp {
@@ -36,19 +37,33 @@ struct LiveTemp {
 LiveTemp g_live[kLiveTemps];
 std::atomic<uint64_t> g_live_next{0};
 
-// Publishes `path` in the next slot of a signal handler's table (the oldest
-// is reused when all are taken).
-template <size_t N>
-void publish(LiveTemp (&table)[N], std::atomic<uint64_t>& next, const fs::path& path) {
-  const std::string& s = path.native();
-  if (s.size() >= kLiveTempPath) return;
-  LiveTemp& t = table[next.fetch_add(1) % N];
+void publish_in(LiveTemp& t, const std::string& s) {
   t.ready = false;
   std::memcpy(t.path, s.c_str(), s.size() + 1);
   t.ready = true;
 }
 
-void track_temp(const fs::path& tmp) { publish(g_live, g_live_next, tmp); }
+// Publishes `path` in the next slot of a signal handler's table, in order
+// (the oldest is reused when all are taken).
+template <size_t N>
+void publish(LiveTemp (&table)[N], std::atomic<uint64_t>& next, const fs::path& path) {
+  if (path.native().size() >= kLiveTempPath) return;
+  publish_in(table[next.fetch_add(1) % N], path.native());
+}
+
+// Publishes `path` in the next free slot: a file open for the whole run
+// keeps its slot however many short ones come and go. Each fetch_add hands
+// out its own index, so two threads never probe the same slot in one pass.
+template <size_t N>
+void publish_free(LiveTemp (&table)[N], std::atomic<uint64_t>& next, const fs::path& path) {
+  if (path.native().size() >= kLiveTempPath) return;
+  for (size_t tries = 0; tries < N; ++tries) {
+    LiveTemp& t = table[next.fetch_add(1) % N];
+    if (!t.ready || tries + 1 == N) return publish_in(t, path.native());
+  }
+}
+
+void track_temp(const fs::path& tmp) { publish_free(g_live, g_live_next, tmp); }
 
 void untrack_temp(const fs::path& tmp) {
   for (LiveTemp& t : g_live)
@@ -417,11 +432,15 @@ AtomicTextWriter::AtomicTextWriter(const fs::path& path) : path_(path), tmp_(tem
   if (!f_)
     throw Error("cannot write " + path.string() + ": " + std::strerror(errno) +
                 " (check that the folder exists and is writable)");
+  // A streamed file (a dataset's manifest) lives for the whole run: Ctrl-C,
+  // SIGTERM or SIGHUP while it is open must unlink it too.
+  track_temp(tmp_);
 }
 
 AtomicTextWriter::~AtomicTextWriter() {
   if (f_) {
     std::fclose(f_);
+    untrack_temp(tmp_);
     std::error_code ec;
     fs::remove(tmp_, ec);
   }
@@ -437,6 +456,7 @@ void AtomicTextWriter::commit() {
   FILE* f = f_;
   f_ = nullptr;
   if (std::fclose(f) != 0) {
+    untrack_temp(tmp_);
     std::error_code ec;
     fs::remove(tmp_, ec);
     throw Error("cannot write " + path_.string() + ": " + std::strerror(errno) + " (disk full?)");
