@@ -58,8 +58,8 @@ constexpr int kEntryKey = 1, kEntryValue = 2;
 constexpr int kOpsetDomain = 1, kOpsetVersion = 2;
 constexpr int kGraphNode = 1, kGraphName = 2, kGraphInitializer = 5, kGraphInput = 11, kGraphOutput = 12;
 constexpr int kNodeInput = 1, kNodeOutput = 2, kNodeName = 3, kNodeOpType = 4, kNodeAttribute = 5;
-constexpr int kAttrName = 1, kAttrF = 2, kAttrI = 3, kAttrS = 4, kAttrInts = 8, kAttrFloats = 7, kAttrType = 20;
-constexpr int kAttrTypeFloat = 1, kAttrTypeInt = 2, kAttrTypeString = 3, kAttrTypeFloats = 6, kAttrTypeInts = 7;
+constexpr int kAttrName = 1, kAttrF = 2, kAttrI = 3, kAttrS = 4, kAttrInts = 8, kAttrType = 20;
+constexpr int kAttrTypeFloat = 1, kAttrTypeInt = 2, kAttrTypeString = 3, kAttrTypeInts = 7;
 constexpr int kTensorDims = 1, kTensorDataType = 2, kTensorName = 8, kTensorRawData = 9;
 constexpr int kTensorFloat = 1;
 constexpr int kValueName = 1, kValueType = 2, kTypeTensor = 1, kTensorTypeElem = 1, kTensorTypeShape = 2;
@@ -68,17 +68,16 @@ constexpr int kShapeDim = 1, kDimValue = 1;
 
 struct Attr {
   std::string name;
-  enum Kind { Int, Float, String, Ints, Floats } kind;
+  enum Kind { Int, Float, String, Ints } kind;
   int64_t i = 0;
   float f = 0;
   std::string s;
   std::vector<int64_t> ints;
-  std::vector<float> floats;
 };
-Attr attr_i(std::string n, int64_t v) { return {std::move(n), Attr::Int, v, 0, {}, {}, {}}; }
-Attr attr_f(std::string n, float v) { return {std::move(n), Attr::Float, 0, v, {}, {}, {}}; }
-Attr attr_s(std::string n, std::string v) { return {std::move(n), Attr::String, 0, 0, std::move(v), {}, {}}; }
-Attr attr_ints(std::string n, std::vector<int64_t> v) { return {std::move(n), Attr::Ints, 0, 0, {}, std::move(v), {}}; }
+Attr attr_i(std::string n, int64_t v) { return {std::move(n), Attr::Int, v, 0, {}, {}}; }
+Attr attr_f(std::string n, float v) { return {std::move(n), Attr::Float, 0, v, {}, {}}; }
+Attr attr_s(std::string n, std::string v) { return {std::move(n), Attr::String, 0, 0, std::move(v), {}}; }
+Attr attr_ints(std::string n, std::vector<int64_t> v) { return {std::move(n), Attr::Ints, 0, 0, {}, std::move(v)}; }
 
 Message attribute(const Attr& a) {
   Message m;
@@ -90,10 +89,6 @@ Message attribute(const Attr& a) {
     case Attr::Ints:
       for (int64_t v : a.ints) m.varint(pb::kAttrInts, uint64_t(v));
       m.varint(pb::kAttrType, pb::kAttrTypeInts);
-      break;
-    case Attr::Floats:
-      for (float v : a.floats) m.f32(pb::kAttrFloats, v);
-      m.varint(pb::kAttrType, pb::kAttrTypeFloats);
       break;
   }
   return m;
