@@ -129,8 +129,10 @@ class Graph {
  public:
   explicit Graph(std::map<std::string, torch::Tensor> weights) : weights_(std::move(weights)) {}
 
-  std::string node(const std::string& op, const std::vector<std::string>& inputs, const std::vector<Attr>& attrs = {}) {
-    const std::string out = op + "_" + std::to_string(++count_);
+  // The node's output is a fresh name, or `out` when given (the graph's own output).
+  std::string node(const std::string& op, const std::vector<std::string>& inputs, const std::vector<Attr>& attrs = {},
+                   std::string out = "") {
+    if (out.empty()) out = op + "_" + std::to_string(++count_);
     Message n;
     for (const auto& i : inputs) n.bytes(pb::kNodeInput, i);
     n.bytes(pb::kNodeOutput, out);
@@ -243,14 +245,7 @@ std::string generator_onnx(UNetGeneratorImpl& net, const HeightRange& range, con
   // Metres: lo + (y + 1)/2 · (hi − lo) = y · half + mid (codec.hpp's map).
   const float half = float((range.hi_m - range.lo_m) / 2), mid = float((range.hi_m + range.lo_m) / 2);
   const std::string scaled = g.node("Mul", {y, g.constant("height_half_span_m", torch::tensor({half}))});
-  const std::string metres = g.node("Add", {scaled, g.constant("height_middle_m", torch::tensor({mid}))});
-  // The graph's output has a fixed name; Identity gives it one.
-  Message out_node;
-  out_node.bytes(pb::kNodeInput, metres);
-  out_node.bytes(pb::kNodeOutput, "height_m");
-  out_node.bytes(pb::kNodeName, "height_m");
-  out_node.bytes(pb::kNodeOpType, "Identity");
-  g.proto().message(pb::kGraphNode, out_node);
+  g.node("Add", {scaled, g.constant("height_middle_m", torch::tensor({mid}))}, {}, "height_m");
 
   const int64_t S = opt.size_px;
   g.proto().bytes(pb::kGraphName, "reefgen_generator");
