@@ -46,7 +46,8 @@ assert y.shape == h.shape and np.abs(y - h).max() < 0.05, (y.shape, h.shape, np.
 PY
   expect_error "multiple of 256" model export --onnx "$T/e/x.onnx" --size 300
   expect_error "is the input" model export "$SHIPPED" --onnx "$SHIPPED"
-  # bf16 inference of the shipped model stays within 1 m of fp32 (99th percentile; mean ≤ 0.25 m).
+  # bf16 inference of the shipped model stays within 1 m of fp32 at the 99th percentile, the
+  # product's bar (the mean's mantissa-derived bound is FastUNet.ShippedModelFp32AndBf16WithinTheHeightBars').
   [ "$HAS_BF16" = 1 ] || skip "bf16 vs fp32 on the shipped model: no bf16 convolutions on this CPU (needs AVX-512)"
   [ "$HAS_BF16" = 1 ] && for s in 01-young-volcano 06-long-arc 12-atoll-dark; do
     "$BIN" -q infer "$(dirname "$0")/data/painted/$s.png" -o "$T/i/p32-$s" --precision fp32 --raw >/dev/null || bad "infer fp32"
@@ -55,7 +56,7 @@ PY
 import sys, cv2, numpy as np
 a, b = (cv2.imread(f, cv2.IMREAD_UNCHANGED) for f in sys.argv[1:3])
 d = np.abs(a - b)
-assert d.mean() <= 0.25 and np.percentile(d, 99) <= 1.0 and d.max() > 0, (d.mean(), np.percentile(d, 99), d.max())
+assert np.percentile(d, 99) <= 1.0 and d.max() > 0, (d.mean(), np.percentile(d, 99), d.max())
 PY
   done
   cp "$SHIPPED" "$T/corrupt.pt"; printf '\x55' | dd of="$T/corrupt.pt" bs=1 seek=9000000 conv=notrunc 2>/dev/null

@@ -15,6 +15,7 @@
 #include "reefgen/model/codec.hpp"
 #include "test_util.hpp"
 #include "shipped_inputs.hpp"
+#include "bf16_bounds.hpp"
 
 using namespace reefgen;
 using model::FastPrecision;
@@ -27,6 +28,7 @@ using model::Upsample;
 using test::painted_inputs_256;
 using test::PaintedInput;
 using test::shipped_generator;
+using test::bf16_mean_bound_m;
 
 static const int kCores = int(std::max(1u, std::thread::hardware_concurrency()));
 static const bool kThreadsSet = [] {
@@ -147,8 +149,9 @@ TEST(FastUNet, SameBytesWhateverTheThreadCount) {
 
 TEST(FastUNet, ShippedModelFp32AndBf16WithinTheHeightBars) {
   // The model users run, on the painted test sketches: fp32 equals LibTorch
-  // to a centimetre; bf16 stays within 1 m (99th percentile, 0.25 m mean) of
-  // float32 on each sketch, the bar of the LibTorch bf16 path.
+  // to a centimetre; bf16 stays within 1 m of float32 at the 99th percentile
+  // on each sketch (the product's bar) and within its mantissa's bound on
+  // average (bf16_bounds.hpp: a CPU's kernels may round in another order).
   model::GeneratorFile gf = shipped_generator();
   c10::InferenceMode im;
   const double half_span_m = (gf.range.hi_m - gf.range.lo_m) / 2;
@@ -160,6 +163,7 @@ TEST(FastUNet, ShippedModelFp32AndBf16WithinTheHeightBars) {
     if (model::bf16_convolution_available()) throw;
     std::cerr << "no bf16 convolutions on this CPU, bf16 not checked: " << e.what() << "\n";
   }
+  const double mean_bound_m = bf16_mean_bound_m(gf.g, gf.range.lo_m, gf.range.hi_m);
   const std::vector<PaintedInput> painted = painted_inputs_256();
   for (const PaintedInput& p : painted) {
     const torch::Tensor ref = gf.g->forward(p.x);
@@ -168,7 +172,7 @@ TEST(FastUNet, ShippedModelFp32AndBf16WithinTheHeightBars) {
     const torch::Tensor err_m = (b16->forward(p.x) - ref).abs().flatten() * half_span_m;
     const double p99 = std::get<0>(err_m.sort()).index({int64_t(0.99 * double(err_m.numel()))}).item<double>();
     EXPECT_LT(p99, 1.0) << p.name << ": bf16 p99 error, metres";
-    EXPECT_LT(err_m.mean().item<double>(), 0.25) << p.name << ": bf16 mean error, metres";
+    EXPECT_LT(err_m.mean().item<double>(), mean_bound_m) << p.name << ": bf16 mean error, metres";
     EXPECT_GT(err_m.max().item<double>(), 0.0) << "bf16 must actually run in bf16";
   }
   EXPECT_GE(painted.size(), 10u) << "painted sketches at 256²";

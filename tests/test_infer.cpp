@@ -25,6 +25,7 @@
 #include "reefgen/model/dnnl_conv.hpp"
 #include "reefgen/procgen/sketch.hpp"
 #include "test_util.hpp"
+#include "bf16_bounds.hpp"
 
 using namespace reefgen;
 using namespace reefgen::infer;
@@ -33,6 +34,7 @@ using terrain::RealismStats;
 using test::expect_error_naming;
 using test::bumpy;
 using test::temp_dir;
+using test::bf16_mean_bound_m;
 
 namespace {
 
@@ -399,21 +401,6 @@ TEST(GeneratorFile, Float16StorageAndChecksum) {
   EXPECT_EQ(refused, 3);
 }
 
-namespace {
-// The bf16 format has 8 significant bits: a value in [1/2, 1) is rounded
-// within ±2^-9 (its spacing is 2^-8), uniformly spread, a mean |error| of
-// 2^-10. Normalised layers keep activations of order one, so one rounding
-// moves the network's output t = tanh(·) by about that, and heights
-// lo + (t + 1)/2·(hi − lo) by (hi − lo)/2 · 2^-10 (0.32 m at 660 m).
-double bf16_full_scale_rounding_m(double lo_m, double hi_m) { return 0.5 * (hi_m - lo_m) * std::ldexp(1.0, -10); }
-
-// Convolutions of a generator (4-d weights): each rounds its operands to bf16.
-int convolution_count(model::UNetGenerator& g) {
-  int n = 0;
-  for (const auto& p : g->parameters()) n += p.dim() == 4;
-  return n;
-}
-}  // namespace
 
 // bf16 inference against fp32 on the shipped architecture (bilinear
 // resize-convolution, InstanceNorm), bounded by bf16's mantissa: each of the
@@ -432,7 +419,6 @@ TEST(Infer, Bf16WithinItsMantissaOfFp32) {
   const double lo_m = -100, hi_m = 560;
   model::save_generator(dir / "g.pt", g, {lo_m, hi_m}, 64, 1);
   auto f = model::load_generator(dir / "g.pt");
-  const double roundings = std::sqrt(double(convolution_count(g) + 1));
   for (Engine engine : {Engine::OneDnn, Engine::Torch})
   for (uint64_t seed : {1, 2, 3}) {
     InferOptions fp32, bf16;
@@ -447,7 +433,7 @@ TEST(Infer, Bf16WithinItsMantissaOfFp32) {
     double lo, hi;
     cv::minMaxLoc(a, &lo, &hi);
     EXPECT_GT(hi - lo, 1.0) << "the untrained net must produce some relief for the test to mean anything";
-    const double mean_bound = roundings * bf16_full_scale_rounding_m(lo_m, hi_m);
+    const double mean_bound = bf16_mean_bound_m(g, lo_m, hi_m);
     cv::Mat1f d;
     cv::absdiff(a, b, d);
     std::vector<float> v(d.begin(), d.end());
