@@ -796,3 +796,29 @@ TEST(World, KeptPaintedCoastIsNoStaircase) {
   infer::keep_painted_land(own, label);
   EXPECT_EQ(cv::norm(own, before, cv::NORM_INF), 0.0);
 }
+
+// An age acts as the painting darkened to the age's subsidence with the
+// age's maturity: the network reads the subsidence, and the passes and
+// motu seeded where the painting shows none are planned from it too (they
+// were planned from the painted brightness, so a bright atoll given
+// --age-myr 60 was seeded as a young reef's few motu). Bright ring + age,
+// dark ring + maturity: the same heights, byte for byte, on the shipped
+// model at its own side (where the plan is applied).
+TEST(Infer, AnAgeIsThePaintingDarkenedToItsSubsidence) {
+  auto g = model::load_generator(model::resolve_model_path(""));
+  DecodedSketch ring;
+  ring.label = cv::Mat1b(256, 256, uint8_t(kAbyss));
+  cv::circle(ring.label, {128, 128}, 95, kReef, cv::FILLED);
+  cv::circle(ring.label, {128, 128}, 72, kLagoon, cv::FILLED);
+  for (const double age : {5.0, 60.0}) {
+    DecodedSketch bright = ring, dark = ring;
+    bright.subsidence = cv::Mat1f(256, 256, 0.f);
+    dark.subsidence = cv::Mat1f(256, 256, float(subsidence_of_age(age)));
+    InferOptions aged, darkened;
+    aged.age_myr = age;
+    darkened.maturity = maturity_of_age(age);
+    const cv::Mat1f a = infer_heights(g, {bright}, aged)[0], b = infer_heights(g, {dark}, darkened)[0];
+    ASSERT_EQ(a.size(), b.size());
+    EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0) << "age " << age << " My";
+  }
+}

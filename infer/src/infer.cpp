@@ -188,9 +188,10 @@ cv::Mat1f finish_answer(cv::Mat1f h, const DecodedSketch& sketch, const InferOpt
     cv::resize(sketch.label, label_model, h.size(), 0, 0, cv::INTER_NEAREST);
     smooth_lagoon_floor(h, label_model);
     cv::resize(sketch.label, label, want, 0, 0, cv::INTER_NEAREST);
-    // Passes and motu where the painting shows none, placed by the seed.
-    const SeededReefDetails details =
-        plan_reef_details(label_model, sketch.subsidence, o.world_size_m / h.cols, o.seed, o.variation);
+    // Passes and motu where the painting shows none, placed by the seed and
+    // as many as the subsidence the network read (the age's, when given).
+    const SeededReefDetails details = plan_reef_details(label_model, with_age(sketch, o.age_myr).subsidence,
+                                                        o.world_size_m / h.cols, o.seed, o.variation);
     paint_seeded_motu(label, details, o.world_size_m / want.width);
     const Rerolled r = reroll_for_amplify(h, o.world_size_m / h.cols, o.seed, o.variation, amplification_of(o));
     h = amplify_heights(r.height_m, label, o.world_size_m, o.seed, r.params, true, sketch.ruggedness);
