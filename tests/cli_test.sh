@@ -75,6 +75,23 @@ j = json.load(open(p + ".json"))
 assert [m["name"] for m in j["layers"]["materials"]][:2] == ["deep_sea_floor", "lagoon_sand"]
 assert j["files"]["flow"] == "yv.flow.png" and cv2.imread(p + ".flow.png", cv2.IMREAD_UNCHANGED).dtype.name == "uint16"
 PYEOF
+# The rain the erosion read (docs/LAYERS.md "Rain"): with wind, PREFIX.rain.exr
+# in mm/yr, named in the sidecar, wetter on land than the sea upwind's
+# background somewhere and never below the floor; without wind, no file.
+[ ! -e "$T/lay/yv.rain.exr" ] && ok || bad "rain layer without wind"
+"$BIN" -q generate --preset windswept --size 96 --layers -o "$T/lay/ws" >/dev/null || bad "generate windswept --layers"
+OPENCV_IO_ENABLE_OPENEXR=1 "$PY" - "$T/lay/ws" <<'PYEOF' && ok || bad "rain layer"
+import cv2, json, sys
+p = sys.argv[1]
+j = json.load(open(p + ".json"))
+assert j["files"]["rain"] == "ws.rain.exr", j["files"]
+r = cv2.imread(p + ".rain.exr", cv2.IMREAD_UNCHANGED)
+h = cv2.imread(p + ".height.exr", cv2.IMREAD_UNCHANGED)
+rain = j["spec"]["rain"]
+assert r.shape == h.shape and r.dtype.name == "float32", (r.shape, r.dtype)
+assert r.min() >= rain["floor_share"] * rain["background_mm_yr"] - 1e-3, r.min()
+assert r[h > 0].max() > rain["background_mm_yr"] * 1.05, r[h > 0].max()
+PYEOF
 "$BIN" -q generate --random 2 --levels 1 --seed 3 --size 48 --layers --out "$T/lay1" --threads 1 >/dev/null || bad "random --layers t1"
 "$BIN" -q generate --random 2 --levels 1 --seed 3 --size 48 --layers --out "$T/lay2" --threads 2 >/dev/null || bad "random --layers t2"
 diff -r "$T/lay1" "$T/lay2" >/dev/null && ok || bad "layers: threads 1 vs 2 differ"

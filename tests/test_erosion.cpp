@@ -1145,6 +1145,23 @@ TEST(Erosion, ParamsAreScaledToTheCanvasAndTheAge) {
   EXPECT_NEAR(matured(p, 4).trunk_share * matured(p, 4).duration_yr, p.trunk_share * p.duration_yr, 1e-6);
 }
 
+// Every `erosion.flow_exponent` the spec allows erodes to finite heights.
+// Shares of slope^p underflowed where land rises a few ulps a cell (p = 4:
+// a denormal sum), and the drainage area over that sum overflowed to inf,
+// then NaN heights: the young-volcano preset with p = 4 stopped the
+// generator ("flood_route: a queued key below the last one taken").
+TEST(Erosion, EveryFlowExponentErodesToFiniteHeights) {
+  std::ifstream f(std::string(REEFGEN_SOURCE_DIR) + "/configs/presets/young-volcano.json");
+  nlohmann::json j = nlohmann::json::parse(f);
+  RenderOptions opt;
+  opt.size_px = 257;
+  for (const double p : {0.5, 2.0, 4.0, 10.0}) {
+    j["erosion"]["flow_exponent"] = p;
+    const cv::Mat1f h = generate(spec_from_json(j, "t"), opt).height_m;
+    EXPECT_TRUE(cv::checkRange(h)) << "flow_exponent " << p;
+  }
+}
+
 // A Moorea-sized canvas (24 km, the young-volcano preset's 66 km² island) at
 // Kauaʻi's age keeps a dissected mountain: with the 6 km canvas's base cells
 // (94 m here) every cell incised and the flanks were planed to a 67 m plain

@@ -106,6 +106,54 @@ TEST(Rain, DischargeIsRainTimesAreaUpstream) {
   for (const int i : g.stack) EXPECT_NEAR(wet[size_t(i)], 2.5 * area[size_t(i)], 1e-3 * wet[size_t(i)]);
 }
 
+// Runoff = rain − evapotranspiration, at least kMinRunoffShare of the rain,
+// over its mean on the land: ET turns a 2× rain contrast into a 6× runoff
+// contrast, and a lee drier than ET keeps its storms' tenth.
+TEST(Rain, RunoffIsRainLessEvapotranspiration) {
+  const cv::Mat1f h(4, 4, 10.f);
+  cv::Mat1f rain(4, 4, 1000.f);
+  rain.colRange(2, 4).setTo(2000.f);
+  auto left_right = [&](double et) {
+    const cv::Mat1f r = terrain::runoff_relative_to_land_mean(rain, h, et);
+    return std::pair<double, double>{r(0, 0), r(0, 3)};
+  };
+  const auto none = left_right(0), some = left_right(800), most = left_right(1500);
+  EXPECT_NEAR(none.first, 1000.0 / 1500, 1e-6);
+  EXPECT_NEAR(none.second, 2000.0 / 1500, 1e-6);
+  EXPECT_NEAR(some.first, 200.0 / 700, 1e-6);  // 200 and 1200 mm/yr run off
+  EXPECT_NEAR(some.second, 1200.0 / 700, 1e-6);
+  EXPECT_NEAR(most.first, 100.0 / 300, 1e-6);  // the dry side's floor: 10 % of 1000
+  EXPECT_NEAR(most.second, 500.0 / 300, 1e-6);
+  // No land: the same discharge everywhere.
+  const cv::Mat1f sea(4, 4, -10.f);
+  EXPECT_EQ(cv::norm(terrain::runoff_relative_to_land_mean(rain, sea, 800), cv::Mat1f(4, 4, 1.f), cv::NORM_INF), 0.0);
+}
+
+// rain_erodibility_exponent: at the same discharge weights, the wetter half
+// of a flank is cut deeper and the drier half less than with K alone.
+TEST(Rain, WetterRockIncisesFaster) {
+  cv::Mat1f h0(40, 40, -5.f);
+  for (int y = 2; y < 38; ++y)
+    for (int x = 2; x < 38; ++x) h0(y, x) = float(2 * x) + 0.01f * float((x * 13 + y * 7) % 11);  // draining west
+  cv::Mat1f rain(h0.size(), 0.5f);
+  rain.rowRange(20, 40).setTo(1.5f);  // the south half wet
+  const cv::Mat1f K(h0.size(), 1e-4f);
+  auto worn = [&](double b) {
+    terrain::ErosionParams p;
+    p.rain_erodibility_exponent = b;
+    cv::Mat1f h = h0.clone();
+    terrain::erode_level(h, K, 10, 4, 2000, p, terrain::Routing::kFlood, 0, rain);
+    double dry = 0, wet = 0;
+    for (int y = 2; y < 38; ++y)
+      for (int x = 2; x < 38; ++x) (y < 20 ? dry : wet) += double(h0(y, x) - h(y, x));
+    return std::pair<double, double>{dry, wet};
+  };
+  const auto k_alone = worn(0), wet_k = worn(1);
+  ASSERT_GT(k_alone.first, 0.0);
+  EXPECT_GT(wet_k.second, 1.1 * k_alone.second) << "wet half";
+  EXPECT_LT(wet_k.first, 0.9 * k_alone.first) << "dry half";
+}
+
 // The measure on cones: equal radial grooves are a comb (one spectral peak,
 // equal spacing, no sector stands out); grooves at random azimuths, and
 // deep ones on one side only, read as such.

@@ -527,16 +527,20 @@ cv::Vec2d prevailing_wind(const IslandSpec& spec) {
 // it; upsampled after.
 constexpr int kRainGridPx = 128;
 
-// Each pixel's rain over the land's mean (terrain/rain.hpp), from the
-// volcano's heights and the prevailing wind; empty without wind or rain.
-cv::Mat1f rain_of(const IslandSpec& spec, const cv::Mat1f& volcano_m) {
+// The rain in mm/yr (terrain/rain.hpp) and each pixel's runoff over the
+// land's mean, from the volcano's heights and the prevailing wind, both at
+// the canvas's size; empty without wind or rain.
+struct RainFields {
+  cv::Mat1f mm_yr, runoff_rel;
+};
+RainFields rain_of(const IslandSpec& spec, const cv::Mat1f& volcano_m) {
   const cv::Vec2d wind = prevailing_wind(spec);
   if (!spec.rain.enabled || !(std::hypot(wind[0], wind[1]) > 1e-9)) return {};
   const int n = std::min(kRainGridPx, volcano_m.cols);
   const cv::Mat1f h = terrain::resampled(volcano_m, n, cv::INTER_AREA);
   const cv::Mat1f rain = terrain::orographic_rain_mm_yr(h, spec.world_size_m / n, wind, spec.rain);
-  const cv::Mat1f rel = terrain::rain_relative_to_land_mean(rain, h);
-  return terrain::resampled(rel, volcano_m.cols, cv::INTER_LINEAR);
+  const cv::Mat1f rel = terrain::runoff_relative_to_land_mean(rain, h, spec.rain.evapotranspiration_mm_yr);
+  return {terrain::resampled(rain, volcano_m.cols, cv::INTER_LINEAR), terrain::resampled(rel, volcano_m.cols, cv::INTER_LINEAR)};
 }
 
 }  // namespace
@@ -564,7 +568,7 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
   const float *rho = lut.rho.data(), *hsub = lut.hsub.data(), *coral = lut.coral.data(), *merged = lut.merged.data();
   constexpr int kLast = ProfileTables::kEntries - 2;  // the last interval's first entry
 
-  IslandFields out{cv::Mat1f(W, W), cv::Mat1f(W, W), cv::Mat1b(W, W), cv::Mat1f()};
+  IslandFields out{cv::Mat1f(W, W), cv::Mat1f(W, W), cv::Mat1b(W, W), cv::Mat1f(), cv::Mat1f()};
   cv::Mat1f coral_m, rho_px;
   cv::Mat2f source_px;  // with the reef: each pixel's source point
   if (split) coral_m.create(W, W);
@@ -616,8 +620,10 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
   if (eroded) {
     if (spec.noise.shield > 0) shape_shield(out.height_m, spec.noise);
     if (opt.keep_uneroded) out.uneroded_m = out.height_m.clone();
+    RainFields rain = rain_of(spec, out.height_m);
     out.height_m = terrain::erode_island(out.height_m, rho_px, spec.world_size_m, spec.noise.seed, spec.erosion,
-                                         rain_of(spec, out.height_m));
+                                         rain.runoff_rel);
+    out.rain_mm_yr = std::move(rain.mm_yr);
     if (spec.coral.enabled && !reef) grow_coral(out, coral_m, smax_table);
   }
   if (reef) {

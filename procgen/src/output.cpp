@@ -53,6 +53,10 @@ WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFiel
              json_path = name(".json");
   nlohmann::json files = {{"height", height_path.filename().string()}, {"label", label_path.filename().string()}};
   if (preview) files["preview"] = preview_path.filename().string();
+  // The rain the erosion read, a layer beside the others (docs/LAYERS.md "Rain").
+  const bool rain_file = layers && layer_files && !f.rain_mm_yr.empty();
+  const auto rain_path = name(".rain.exr");
+  if (rain_file) files["rain"] = rain_path.filename().string();
   out.sidecar = island_sidecar(spec, W, mpp, hmin, hmax, files, provenance);
 
   ExrAttributes attrs = {{"reefgen:version", kVersion},
@@ -91,6 +95,12 @@ WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFiel
       bytes["preview"] = fs::file_size(p);
     });
   }
+  if (rain_file)
+    staged.write(rain_path, [&](const fs::path& p) {
+      write_exr_height(p, f.rain_mm_yr, {{"reefgen:version", kVersion}, {"reefgen:units", "rain, mm/yr"},
+                                         {"reefgen:metres_per_pixel", std::to_string(mpp)}});
+      bytes["rain"] = fs::file_size(p);
+    });
   std::optional<terrain::Layers> L;
   if (layers) {
     L = layer_job.get();

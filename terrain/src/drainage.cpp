@@ -1,5 +1,6 @@
 #include "reefgen/terrain/drainage.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <type_traits>
 
@@ -43,10 +44,25 @@ void accumulate_multiple(const FlowGraph& g, const cv::Mat1b& role, float cell_a
       const int i = g.stack[k];
       // Non-lower neighbours get a zero share; adding +0 leaves the sum's bits as they are.
       float w[8], sum = 0.f;
-      for (int d = 0; d < 8; ++d) {
-        const float sl = (fz[i] - fz[i + offset[d]]) * len.inv[d];
-        w[d] = sl > 0.f ? (decltype(unit_exponent)::value ? sl : std::pow(sl, exponent)) : 0.f;
-        sum += w[d];
+      if constexpr (decltype(unit_exponent)::value) {
+        for (int d = 0; d < 8; ++d) {
+          const float sl = (fz[i] - fz[i + offset[d]]) * len.inv[d];
+          w[d] = sl > 0.f ? sl : 0.f;
+          sum += w[d];
+        }
+      } else {
+        // Shares of (slope / the steepest)^p: slope^p itself underflows to a
+        // denormal sum on a gentle flank (p = 4: 1e-12 → 1e-48), and the
+        // area divided by it overflowed to inf, then NaN heights.
+        float steepest = 0.f;
+        for (int d = 0; d < 8; ++d) {
+          w[d] = (fz[i] - fz[i + offset[d]]) * len.inv[d];
+          steepest = std::max(steepest, w[d]);
+        }
+        for (int d = 0; d < 8; ++d) {
+          w[d] = w[d] > 0.f ? std::pow(w[d] / steepest, exponent) : 0.f;
+          sum += w[d];
+        }
       }
       if (sum <= 0.f) {
         const int r = g.receiver[i];

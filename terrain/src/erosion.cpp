@@ -75,6 +75,10 @@ cv::Mat1f erodibility_map(const cv::Mat1f& resistance, uint64_t seed, const Eros
 
 namespace {
 
+// The least runoff share a cell's K is scaled by (a zero runoff would stop
+// the rock eroding at all; rain.hpp's floor keeps it above this anyway).
+constexpr float kMinRainShare = 1e-3f;
+
 // Creep between channels at each finer level (creep_between_channels): σ in
 // cells of that level, and the drainage area where channels begin (1 ha:
 // hillslopes ~100 m long, Montgomery & Dietrich 1988). Measured on a painted
@@ -106,6 +110,22 @@ cv::Mat1f base_level_surface(const cv::Mat1f& h, const cv::Mat1b& role) {
     for (int x = 0; x < z.cols; ++x)
       if (role(y, x) != kActive) z(y, x) = std::max(z(y, x), 0.f);
   return z;
+}
+
+// K where the wind brings the rain: × rain_rel^b (ErosionParams::
+// rain_erodibility_exponent). Kauaʻi's bedrock rivers incise faster where
+// it is wetter at a given stream power, the climate's hold on erodibility
+// beside the discharge's (Ferrier, Huppert & Perron 2013, Nature 496:206).
+cv::Mat1f wet_erodibility(const cv::Mat1f& K, const float* rain, double exponent) {
+  if (!rain || !(exponent > 0)) return K;
+  cv::Mat1f out(K.size());
+  const float b = float(exponent);
+  for (int y = 0; y < K.rows; ++y)
+    for (int x = 0; x < K.cols; ++x) {
+      const float r = rain[size_t(y) * size_t(K.cols) + size_t(x)];
+      out(y, x) = K(y, x) * std::pow(std::max(r, kMinRainShare), b);
+    }
+  return out;
 }
 
 // The stack router's draw for step s on a W×H grid (0: steepest descent).
@@ -146,6 +166,7 @@ void erode_level(cv::Mat1f& h, const cv::Mat1f& K, double dx, int steps, double 
   if (!rain_rel.empty() && (rain_rel.size() != h.size() || !rain_rel.isContinuous()))
     throw Error("erode: the rain must be a continuous field of the heights' size");
   const float* rain = rain_rel.empty() ? nullptr : rain_rel.ptr<float>();
+  const cv::Mat1f K_wet = wet_erodibility(K, rain, p.rain_erodibility_exponent);
   FlowGraph graph;
   std::vector<float> area_m2;
   for (int s = 0; s < steps; ++s) {
@@ -157,7 +178,7 @@ void erode_level(cv::Mat1f& h, const cv::Mat1f& K, double dx, int steps, double 
       route_flood(z, role, dx, graph);
       accumulate_multiple(graph, role, cell_area_m2, dx, static_cast<float>(p.flow_exponent), area_m2, rain);
     }
-    erode_stream_power(z, K, graph, area_m2, dt, p.m_area, p.channel_head_m2);
+    erode_stream_power(z, K_wet, graph, area_m2, dt, p.m_area, p.channel_head_m2);
     diffuse_hillslope(z, role, roi, sigma_px);
   }
   if (creep_px > 0) creep_between_channels(z, role, blur_roi(creep_px), area_m2, kChannelAreaM2, creep_px);

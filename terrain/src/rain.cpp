@@ -78,14 +78,18 @@ cv::Mat1f orographic_rain_mm_yr(const cv::Mat1f& height_m, double dx, cv::Vec2d 
   return out;
 }
 
-cv::Mat1f rain_relative_to_land_mean(const cv::Mat1f& rain, const cv::Mat1f& h) {
+cv::Mat1f runoff_relative_to_land_mean(const cv::Mat1f& rain, const cv::Mat1f& h, double et_mm_yr) {
+  cv::Mat1f runoff(rain.size());
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x)
+      runoff(y, x) = float(std::max(double(rain(y, x)) - et_mm_yr, kMinRunoffShare * rain(y, x)));
   double sum = 0;
   int64_t n = 0;
   for (int y = 0; y < h.rows; ++y)
     for (int x = 0; x < h.cols; ++x)
-      if (h(y, x) > 0) sum += rain(y, x), ++n;
+      if (h(y, x) > 0) sum += runoff(y, x), ++n;
   if (n == 0 || !(sum > 0)) return cv::Mat1f(h.size(), 1.f);
-  return cv::Mat1f(rain * (double(n) / sum));
+  return cv::Mat1f(runoff * (double(n) / sum));
 }
 
 }  // namespace reefgen::terrain

@@ -27,6 +27,7 @@ struct IslandFields {
   cv::Mat1f xt;        // W×W, parametric distance x̃ ∈ [0,5] after the wind warp
   cv::Mat1b label;     // W×W, region ids 0..4 = min(⌊x̃⌋, 4)
   cv::Mat1f uneroded_m;  // W×W heights before erosion (coral included) when RenderOptions::keep_uneroded; else empty
+  cv::Mat1f rain_mm_yr;  // W×W rain from the prevailing wind the erosion read (terrain/rain.hpp), mm/yr; empty without wind, rain or erosion
 };
 
 IslandFields generate(const IslandSpec& spec, const RenderOptions& opt = {});

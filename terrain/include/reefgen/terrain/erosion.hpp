@@ -53,6 +53,7 @@ struct ErosionParams {
   double flow_exponent = 1.0;         // multiple-flow-direction share ∝ slope^p (Quinn et al.: 1; large = one direction), [0, 10]
   double pit_breach_m = 5;            // closed depressions left at the end: breached up to this depth, filled below it (0: filled flat), m, [0, 100]
   double channel_head_m2 = 0;         // drainage area where incision begins (above it hillslopes only diffuse; 0: every cell incises), m², [0, 1e8]
+  double rain_erodibility_exponent = 0;  // K × (runoff / its land mean)^this where the wind brings rain: wetter rock weathers deeper and incises faster (Ferrier et al. 2013), [0, 4]
 };
 
 // The one field list (common/params_json.hpp): JSON both ways and the ranges.
@@ -78,6 +79,7 @@ void fields(ErosionParams& p, F&& f) {
   f("flow_exponent", p.flow_exponent, Range{0, 10});
   f("pit_breach_m", p.pit_breach_m, Range{0, 100});
   f("channel_head_m2", p.channel_head_m2, Range{0, 1e8});
+  f("rain_erodibility_exponent", p.rain_erodibility_exponent, Range{0, 4});
 }
 // The canvas the erosion's constants are tuned on, m: the presets' and the
 // training set's 6 km. erode_island holds an island's erosion the same on a
@@ -125,8 +127,9 @@ ErosionParams erosion_params_from_json(const nlohmann::json& j, const std::strin
 enum class Routing { kFlood, kStack };
 // creep_px > 0: after the steps, creep_between_channels with that σ (cells)
 // and kChannelAreaM2 (a finer level's hillslopes, docs/EROSION.md "Creep between channels").
-// rain_rel (optional, same size): each cell's rain over the land's mean
-// (rain.hpp), so the law's A is the discharge Q = Σ P·a / P̄.
+// rain_rel (optional, same size): each cell's runoff over the land's mean
+// (rain.hpp), so the law's A is the discharge Q = Σ R·a / R̄, and K is
+// × rain_rel^rain_erodibility_exponent.
 void erode_level(cv::Mat1f& height_m, const cv::Mat1f& erodibility, double metres_per_px, int steps,
                  double duration_yr, const ErosionParams& p, Routing routing = Routing::kFlood, double creep_px = 0,
                  const cv::Mat1f& rain_rel = cv::Mat1f());

@@ -25,6 +25,7 @@ struct RainParams {
   double moist_stability_hz = 0.005;  // N_m, moist Brunt–Väisälä frequency, 1/s, [0, 0.1]
   double vapour_height_m = 2500;      // H_w, depth of the moist layer, m, [100, 10000]
   double floor_share = 0.05;          // the driest cell's rain as a share of the background, [0, 1]
+  double evapotranspiration_mm_yr = 0;  // rain that evaporates or transpires before it runs off (runoff = P − ET, at least kMinRunoffShare·P), mm/yr, [0, 10000]
 };
 
 template <class F>
@@ -38,6 +39,7 @@ void fields(RainParams& p, F&& f) {
   f("moist_stability_hz", p.moist_stability_hz, Range{0, 0.1});
   f("vapour_height_m", p.vapour_height_m, Range{100, 10000});
   f("floor_share", p.floor_share, Range{0, 1});
+  f("evapotranspiration_mm_yr", p.evapotranspiration_mm_yr, Range{0, 10000});
 }
 void to_json(nlohmann::json& j, const RainParams& p);
 RainParams rain_params_from_json(const nlohmann::json& j, const std::string& origin);
@@ -51,8 +53,15 @@ RainParams rain_params_from_json(const nlohmann::json& j, const std::string& ori
 cv::Mat1f orographic_rain_mm_yr(const cv::Mat1f& height_m, double metres_per_px, cv::Vec2d wind_to,
                                 const RainParams& p);
 
-// rain / its mean over the land (h > 0): what multiplies each cell's area in
-// the discharge. All ones where there is no land.
-cv::Mat1f rain_relative_to_land_mean(const cv::Mat1f& rain_mm_yr, const cv::Mat1f& height_m);
+// The share of the rain that runs off where evapotranspiration takes more
+// than falls: a dry lee's streams still carry its storms' floods.
+inline constexpr double kMinRunoffShare = 0.1;
+// Runoff R = max(P − ET, kMinRunoffShare·P) over its mean on the land
+// (h > 0): what multiplies each cell's area in the discharge (Q = Σ R·a).
+// ET turns a modest rain contrast into a runoff contrast, as on Kauaʻi's
+// lee, where 500 mm/yr of rain leaves almost nothing to run off. All ones
+// where there is no land.
+cv::Mat1f runoff_relative_to_land_mean(const cv::Mat1f& rain_mm_yr, const cv::Mat1f& height_m,
+                                       double evapotranspiration_mm_yr);
 
 }  // namespace reefgen::terrain
