@@ -11,9 +11,11 @@
 #include "reefgen/gis/geotiff.hpp"
 #include "reefgen/gis/heightmap.hpp"
 #include "reefgen/heightfile.hpp"
+#include "reefgen/image_io.hpp"
 #include "reefgen/files.hpp"
 #include "reefgen/terrain/erosion.hpp"
 #include "reefgen/terrain/layers.hpp"
+#include "reefgen/terrain/rain.hpp"
 #include "reefgen/terrain/realism.hpp"
 #include "reefgen/version.hpp"
 
@@ -30,6 +32,7 @@ struct ErodeArgs {
   gis::HeightmapUnits units;
   double sea_level_m = 0;
   double resistance = 0.3;
+  std::optional<double> wind_from_deg;  // where the prevailing wind comes from, degrees clockwise from north
   uint64_t seed = 1;
   int threads = default_threads();
   bool png16 = false, r16 = false, preview = false;
@@ -70,6 +73,14 @@ nlohmann::json realism_json(const cv::Mat1f& h, double mpp) {
   return {{"pits", s.pits}, {"terraces", s.terraces}, {"valleys", s.valleys}, {"max_height_m", s.max_height_m}};
 }
 
+// The wind blowing from `from_deg` (a compass bearing, clockwise from north,
+// as weather reports give it) as the vector it blows towards, image axes
+// (x east, y south): from the north (0°) it blows to +y.
+cv::Vec2d wind_towards(double from_deg) {
+  const double t = from_deg * CV_PI / 180;
+  return {-std::sin(t), std::cos(t)};
+}
+
 int run_erode(const ErodeArgs& a0, const GlobalOptions& g) {
   ErodeArgs a = a0;
   parse_range(a.range, a.units);
@@ -89,7 +100,12 @@ int run_erode(const ErodeArgs& a0, const GlobalOptions& g) {
   const double mpp = in.metres_per_px, world_m = mpp * in.height_m.cols;
   cv::Mat1f before = in.height_m - float(a.sea_level_m);
   if (!g.quiet) std::fprintf(stderr, "erode: %s, %d², %.3g m per pixel\n", a.input.c_str(), before.cols, mpp);
-  cv::Mat1f out = terrain::erode_island(before, cv::Mat1f(before.size(), float(a.resistance)), world_m, a.seed, ep);
+  // With a wind, the rain from it (docs/EROSION.md "Rain from the wind"):
+  // the windward side's discharge is the larger.
+  terrain::RainFields rain;
+  if (a.wind_from_deg) rain = terrain::rain_for_erosion(before, world_m, wind_towards(*a.wind_from_deg), terrain::RainParams{});
+  cv::Mat1f out = terrain::erode_island(before, cv::Mat1f(before.size(), float(a.resistance)), world_m, a.seed, ep,
+                                        rain.runoff_rel);
   if (a.finish.ocean_floor_m < 0) terrain::deepen_flank(out, a.finish.ocean_floor_m);
 
   StagedOutputs staged;
@@ -108,6 +124,7 @@ int run_erode(const ErodeArgs& a0, const GlobalOptions& g) {
                          {"erosion", ep},
                          {"resistance", a.resistance},
                          {"seed", a.seed},
+                         {"wind_from_deg", a.wind_from_deg ? nlohmann::json(*a.wind_from_deg) : nlohmann::json()},
                          {"realism_before", realism_json(before, mpp)},
                          {"realism_after", realism_json(out, mpp)}};
   side.update(stage_height_files(staged, names.prefix, out, mpp, hf));
@@ -116,6 +133,14 @@ int run_erode(const ErodeArgs& a0, const GlobalOptions& g) {
     L = terrain::compute_layers(out, before, cv::Mat1b(), mpp, fin.rules, a.threads);
   if (a.finish.layers) {
     terrain::add_layers_to_sidecar(side, terrain::stage_layer_files(staged, names.prefix.string(), *L, mpp, fin.rules, a.threads));
+    if (!rain.mm_yr.empty()) {
+      const std::string rain_path = names.prefix.string() + ".rain.exr";
+      staged.write(rain_path, [&](const fs::path& t) {
+        write_exr_height(t, rain.mm_yr, {{"reefgen:version", kVersion}, {"reefgen:units", "rain, mm/yr"},
+                                          {"reefgen:metres_per_pixel", std::to_string(mpp)}});
+      });
+      side["files"]["rain"] = fs::path(rain_path).filename().string();
+    }
   }
   if (a.finish.geotiff)
     side["geotiff"] = gis::stage_geotiff_files(staged, names.prefix.string(), out, &*L, mpp, fin.geo, a.threads);
@@ -138,6 +163,7 @@ Command add_erode_command(CLI::App& app, const GlobalOptions& g) {
       "  reefgen erode dem.tif -o out/dem --layers --geotiff\n"
       "  reefgen erode dem.tif -o out/dem --for unity,unreal\n"
       "  reefgen erode island.height.exr -o out/again --layers\n"
+      "  reefgen erode island.height.exr -o out/wet --wind-from 60 --layers   # trade winds from the ENE\n"
       "  reefgen erode terrain.png --range -120:900 --world-size 8000 -o out/t --png16\n"
       "  reefgen erode terrain.r16 --range 0:1024 --metres-per-px 2 --sea-level 40 -o out/t --r16\n");
   sub->add_option("heightmap", a->input, "Heightmap: .exr (metres), .tif (GeoTIFF), .png (16-bit) or .r16/.raw (16-bit LE, square)")
@@ -153,6 +179,10 @@ Command add_erode_command(CLI::App& app, const GlobalOptions& g) {
       ->check(finite_in(-1e5, 1e5))->capture_default_str();
   sub->add_option("--resistance", a->resistance, "Rock resistance ρ everywhere, 0 (soft) … 1 (hard)")
       ->check(finite_in(0, 1))->capture_default_str();
+  sub->add_option("--wind-from", a->wind_from_deg,
+                  "DEG: the prevailing wind's compass bearing (where it comes from, clockwise from north; trade winds ~60): "
+                  "rain from it (Smith & Barstad) erodes the windward side harder; with --layers also PREFIX.rain.exr")
+      ->check(CLI::Range(0.0, 360.0));
   sub->add_option("--erosion", a->erosion_file, "FILE: JSON of erosion parameters (docs/EROSION.md) overriding the defaults");
   sub->add_option("--seed", a->seed, "Seed of the fractal detail the refinement adds")->check(seed_value())->capture_default_str();
   add_finish_flags(sub, a->finish);

@@ -171,6 +171,28 @@ for s in splat0.png splat1.png flow.png height.tif slope.tif; do [ -s "$T/er/inf
   grep -q "running-stats changes nothing" && grep -q '"batchnorm": "none (the generator uses instance norm)"' "$T/er/rs.json" \
   && ok || bad "--running-stats on an instance-norm model is not said to change nothing"
 # Errors: PNG16 and R16 without units, a RAW of the wrong length, not square, over its input.
+# erode --wind-from: rain from that bearing erodes the island (not as calm),
+# the rain layer with --layers, and a wind from the west against one from
+# the east wets opposite halves (the rain's sign of west minus east flips).
+[ ! -e "$T/er/we.rain.exr" ] && ok || bad "erode: a rain layer without wind"
+"$BIN" -q erode "$T/er/w.height.exr" -o "$T/er/west" --wind-from 270 --layers >/dev/null 2>"$T/err" || bad "erode --wind-from: $(cat "$T/err")"
+"$BIN" -q erode "$T/er/w.height.exr" -o "$T/er/east" --wind-from 90 --layers >/dev/null 2>"$T/err" || bad "erode --wind-from 90: $(cat "$T/err")"
+OPENCV_IO_ENABLE_OPENEXR=1 "$PY" - "$T/er" <<'PYEOF' && ok || bad "erode --wind-from: rain or heights"
+import cv2, json, sys
+d = sys.argv[1]
+calm, west, east = (cv2.imread(f"{d}/{n}.height.exr", cv2.IMREAD_UNCHANGED) for n in ("we", "west", "east"))
+assert abs(west - calm).max() > 0.01 and abs(east - calm).max() > 0.01, "the wind changed nothing"
+rw, re_ = (cv2.imread(f"{d}/{n}.rain.exr", cv2.IMREAD_UNCHANGED) for n in ("west", "east"))
+land = calm > 0
+half = land.shape[1] // 2
+def lean(r):  # mean rain on the western land half minus the eastern
+    return r[:, :half][land[:, :half]].mean() - r[:, half:][land[:, half:]].mean()
+assert lean(rw) * lean(re_) < 0, (lean(rw), lean(re_))
+assert json.load(open(f"{d}/west.json"))["wind_from_deg"] == 270
+assert json.load(open(f"{d}/west.json"))["files"]["rain"] == "west.rain.exr"
+PYEOF
+"$BIN" -q erode "$T/er/w.height.exr" -o "$T/er/x" --wind-from 361 >/dev/null 2>"$T/err" && bad "--wind-from 361 accepted" || \
+  { grep -q "wind-from" "$T/err" && ok || bad "--wind-from 361: $(cat "$T/err")"; }
 "$BIN" -q erode "$T/er/we.height.png" -o "$T/er/x" >/dev/null 2>"$T/err" && bad "png16 without --range accepted" || \
   { grep -q "we.height.png.*--range" "$T/err" && ok || bad "png16 no range: $(cat "$T/err")"; }
 head -c 1001 /dev/zero > "$T/er/odd.r16"

@@ -522,25 +522,12 @@ cv::Vec2d prevailing_wind(const IslandSpec& spec) {
   return w;
 }
 
-// The rain's grid: the orographic field is smooth over U·τ (10 km at the
-// defaults), so 128 cells across the canvas (47 m at the default 6 km) hold
-// it; upsampled after.
-constexpr int kRainGridPx = 128;
-
-// The rain in mm/yr (terrain/rain.hpp) and each pixel's runoff over the
-// land's mean, from the volcano's heights and the prevailing wind, both at
-// the canvas's size; empty without wind or rain.
-struct RainFields {
-  cv::Mat1f mm_yr, runoff_rel;
-};
-RainFields rain_of(const IslandSpec& spec, const cv::Mat1f& volcano_m) {
+// The rain the erosion reads (terrain/rain.hpp), from the volcano's heights
+// and the prevailing wind; empty without wind or rain.
+terrain::RainFields rain_of(const IslandSpec& spec, const cv::Mat1f& volcano_m) {
   const cv::Vec2d wind = prevailing_wind(spec);
   if (!spec.rain.enabled || !(std::hypot(wind[0], wind[1]) > 1e-9)) return {};
-  const int n = std::min(kRainGridPx, volcano_m.cols);
-  const cv::Mat1f h = terrain::resampled(volcano_m, n, cv::INTER_AREA);
-  const cv::Mat1f rain = terrain::orographic_rain_mm_yr(h, spec.world_size_m / n, wind, spec.rain);
-  const cv::Mat1f rel = terrain::runoff_relative_to_land_mean(rain, h, spec.rain.evapotranspiration_mm_yr);
-  return {terrain::resampled(rain, volcano_m.cols, cv::INTER_LINEAR), terrain::resampled(rel, volcano_m.cols, cv::INTER_LINEAR)};
+  return terrain::rain_for_erosion(volcano_m, spec.world_size_m, wind, spec.rain);
 }
 
 }  // namespace
@@ -620,7 +607,7 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
   if (eroded) {
     if (spec.noise.shield > 0) shape_shield(out.height_m, spec.noise);
     if (opt.keep_uneroded) out.uneroded_m = out.height_m.clone();
-    RainFields rain = rain_of(spec, out.height_m);
+    terrain::RainFields rain = rain_of(spec, out.height_m);
     out.height_m = terrain::erode_island(out.height_m, rho_px, spec.world_size_m, spec.noise.seed, spec.erosion,
                                          rain.runoff_rel);
     out.rain_mm_yr = std::move(rain.mm_yr);

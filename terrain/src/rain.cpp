@@ -5,6 +5,7 @@
 #include <complex>
 
 #include "reefgen/error.hpp"
+#include "reefgen/terrain/erosion.hpp"
 
 namespace reefgen::terrain {
 
@@ -76,6 +77,14 @@ cv::Mat1f orographic_rain_mm_yr(const cv::Mat1f& height_m, double dx, cv::Vec2d 
     for (int x = 0; x < out.cols; ++x)
       out(y, x) = float(std::max(floor, p.background_mm_yr + double(rain(y, x)) * kSecondsPerYear));
   return out;
+}
+
+RainFields rain_for_erosion(const cv::Mat1f& height_m, double world_size_m, cv::Vec2d wind_to, const RainParams& p) {
+  const int n = std::min(kRainGridPx, height_m.cols);
+  const cv::Mat1f h = resampled(height_m, n, cv::INTER_AREA);
+  const cv::Mat1f rain = orographic_rain_mm_yr(h, world_size_m / n, wind_to, p);
+  const cv::Mat1f rel = runoff_relative_to_land_mean(rain, h, p.evapotranspiration_mm_yr);
+  return {resampled(rain, height_m.cols, cv::INTER_LINEAR), resampled(rel, height_m.cols, cv::INTER_LINEAR)};
 }
 
 cv::Mat1f runoff_relative_to_land_mean(const cv::Mat1f& rain, const cv::Mat1f& h, double et_mm_yr) {

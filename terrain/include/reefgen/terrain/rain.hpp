@@ -64,4 +64,19 @@ inline constexpr double kMinRunoffShare = 0.1;
 cv::Mat1f runoff_relative_to_land_mean(const cv::Mat1f& rain_mm_yr, const cv::Mat1f& height_m,
                                        double evapotranspiration_mm_yr);
 
+// The rain's grid: the orographic field is smooth over U·τ (4 km at the
+// defaults), so 128 cells across a canvas (47 m at the default 6 km) hold
+// it; upsampled after.
+inline constexpr int kRainGridPx = 128;
+
+// The rain an erosion reads, at the heights' size: in mm/yr, and each cell's
+// runoff over the land's mean (the discharge's weight, erode_level's rain_rel).
+struct RainFields {
+  cv::Mat1f mm_yr, runoff_rel;
+};
+// orographic_rain_mm_yr on height_m (square, world_size_m wide) averaged to
+// min(kRainGridPx, side) cells, then runoff_relative_to_land_mean, both
+// upsampled bilinearly. Used by the generator and by `reefgen erode --wind-from`.
+RainFields rain_for_erosion(const cv::Mat1f& height_m, double world_size_m, cv::Vec2d wind_to, const RainParams& p);
+
 }  // namespace reefgen::terrain
