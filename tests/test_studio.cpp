@@ -492,6 +492,19 @@ TEST_F(Studio, ExportsWriteOnlyIntoTheOutputFolder) {
   }
   EXPECT_NE(pictures[0], pictures[1]);
   expect_error(client->Post("/api/layers?view=wear", spec_body.dump(), "application/json"), 400, "view 'wear'");
+  // The rain the erosion read: a picture where the spec has a wind, one
+  // line where it has none.
+  expect_error(client->Post("/api/layers?view=rain", spec_body.dump(), "application/json"), 400, "no rain from a wind");
+  {
+    json windy = spec_body;
+    windy["spec"]["wind"] = json::parse(R"([{"points": [[-0.9, 0.0], [0.0, 0.05]], "strength": 0.3, "width": 0.2}])");
+    auto r = client->Post("/api/layers?view=rain", windy.dump(), "application/json");
+    ASSERT_TRUE(r);
+    ASSERT_EQ(r->status, 200) << r->body;
+    const cv::Mat img = cv::imdecode(std::vector<uchar>(r->body.begin(), r->body.end()), cv::IMREAD_COLOR);
+    ASSERT_EQ(img.cols, 64);
+    EXPECT_NE(r->body, pictures[1]) << "the rain drawn as the flow";
+  }
   expect_error(client->Post("/api/export?format=spec&name=x", body.dump(), "application/json"), 400, "needs a spec");
   // Static files: no path outside the page's folder.
   auto t = client->Get("/../../etc/passwd");

@@ -465,6 +465,7 @@ struct StudioServer::Impl {
   struct Source {
     cv::Mat1f height_m;
     cv::Mat1f before_m;  // heights before erosion (the layers' wear and deposit), when known
+    cv::Mat1f rain_mm_yr;  // the rain the erosion read (curves mode with wind), else empty
     cv::Mat1b region;    // region ids at the heights' size
     cv::Mat3b label;     // the HSV label map
     json spec_json;      // curves mode: the spec as run
@@ -486,7 +487,8 @@ struct StudioServer::Impl {
       const int64_t size = body.contains("size") ? body["size"].get<int64_t>() : 256;
       check_side(size);
       const procgen::IslandFields f = island_of(body["spec"], int(size), &sp, keep_uneroded);
-      src = {f.height_m, f.uneroded_m, f.label, encode_labels(f.label, sp.subsidence), {}, sp.world_size_m / f.height_m.cols};
+      src = {f.height_m, f.uneroded_m, f.rain_mm_yr, f.label, encode_labels(f.label, sp.subsidence), {},
+             sp.world_size_m / f.height_m.cols};
       procgen::to_json(src.spec_json, sp);
       return src;
     }
@@ -755,14 +757,19 @@ struct StudioServer::Impl {
   }
 
   // A layer as a picture for the 2D view and the 3D view's texture
-  // (docs/STUDIO.md): materials (hill-shaded base colours) or flow.
+  // (docs/STUDIO.md): materials (hill-shaded base colours), flow, or the
+  // rain the erosion read (curves mode, where the spec has wind strokes).
   void answer_layers(const httplib::Request& req, httplib::Response& res) {
     const std::string view = req.get_param_value("view");
-    if (view != "materials" && view != "flow") throw BadRequest("view '" + view + "': use materials or flow");
+    if (view != "materials" && view != "flow" && view != "rain")
+      throw BadRequest("view '" + view + "': use materials, flow or rain");
     const Source src = source_of(body_json(req.body), true);
+    if (view == "rain" && src.rain_mm_yr.empty())
+      throw BadRequest("view rain: this island has no rain from a wind (draw wind strokes in curves mode; a painted sketch has none)");
     const terrain::Layers L = terrain::compute_layers(src.height_m, src.before_m, src.region, src.metres_per_px);
     const cv::Mat3b picture = view == "materials" ? terrain::material_colour_map(L)
-                                                  : terrain::flow_colour_map(L, src.height_m, src.metres_per_px);
+                              : view == "flow"    ? terrain::flow_colour_map(L, src.height_m, src.metres_per_px)
+                                                  : terrain::rain_colour_map(L, src.height_m, src.rain_mm_yr);
     res.set_content(encode_png8(picture, 1), "image/png");
   }
 

@@ -313,4 +313,29 @@ cv::Mat3b flow_colour_map(const Layers& L, const cv::Mat1f& h, double dx) {
   return out;
 }
 
+cv::Mat3b rain_colour_map(const Layers& L, const cv::Mat1f& h, const cv::Mat1f& rain) {
+  if (rain.size() != h.size()) throw Error("rain picture: the rain and the heights must be of one size");
+  double dry = 0, wet = 0;
+  bool any = false;
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x)
+      if (h(y, x) > 0) {
+        dry = any ? std::min(dry, double(rain(y, x))) : rain(y, x);
+        wet = any ? std::max(wet, double(rain(y, x))) : rain(y, x);
+        any = true;
+      }
+  const double span = std::max(1.0, wet - dry);
+  cv::Mat3b out(h.size());
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x) {
+      const float shade = hill_shade(L.normal(y, x));
+      const float t = float(std::clamp((rain(y, x) - dry) / span, 0.0, 1.0));
+      const cv::Vec3f land = cv::Vec3f(70, 150, 200) * (1 - t) + cv::Vec3f(150, 140, 30) * t;  // BGR: ochre → teal
+      const cv::Vec3f c = h(y, x) <= 0 ? cv::Vec3f(120, 90, 60) : land * (0.35f + 0.65f * shade);
+      out(y, x) = cv::Vec3b(cv::saturate_cast<uint8_t>(c[0]), cv::saturate_cast<uint8_t>(c[1]),
+                            cv::saturate_cast<uint8_t>(c[2]));
+    }
+  return out;
+}
+
 }  // namespace reefgen::terrain

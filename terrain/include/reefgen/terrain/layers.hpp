@@ -107,6 +107,10 @@ cv::Mat3b material_colour_map(const Layers& layers, bool shaded = true);
 // blue, and the flow drawn over it from white (a few cells drain here) to
 // deep blue (the largest drainage area on the map), on a log scale.
 cv::Mat3b flow_colour_map(const Layers& layers, const cv::Mat1f& height_m, double metres_per_px);
+// A picture of the rain (BGR, rain_mm_yr at the heights' size): the land
+// hill-shaded and tinted from dry ochre (the map's driest land) to wet
+// blue-green (its wettest), a linear scale between the two; the sea blue.
+cv::Mat3b rain_colour_map(const Layers& layers, const cv::Mat1f& height_m, const cv::Mat1f& rain_mm_yr);
 
 }  // namespace reefgen::terrain
 
