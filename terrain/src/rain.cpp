@@ -4,6 +4,8 @@
 #include <cmath>
 #include <complex>
 
+#include <opencv2/imgproc.hpp>
+
 #include "reefgen/error.hpp"
 #include "reefgen/terrain/erosion.hpp"
 
