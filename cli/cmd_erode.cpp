@@ -11,7 +11,6 @@
 #include "reefgen/gis/geotiff.hpp"
 #include "reefgen/gis/heightmap.hpp"
 #include "reefgen/heightfile.hpp"
-#include "reefgen/image_io.hpp"
 #include "reefgen/files.hpp"
 #include "reefgen/terrain/erosion.hpp"
 #include "reefgen/terrain/layers.hpp"
@@ -134,12 +133,8 @@ int run_erode(const ErodeArgs& a0, const GlobalOptions& g) {
   if (a.finish.layers) {
     terrain::add_layers_to_sidecar(side, terrain::stage_layer_files(staged, names.prefix.string(), *L, mpp, fin.rules, a.threads));
     if (!rain.mm_yr.empty()) {
-      const std::string rain_path = names.prefix.string() + ".rain.exr";
-      staged.write(rain_path, [&](const fs::path& t) {
-        write_exr_height(t, rain.mm_yr, {{"reefgen:version", kVersion}, {"reefgen:units", "rain, mm/yr"},
-                                          {"reefgen:metres_per_pixel", std::to_string(mpp)}});
-      });
-      side["files"]["rain"] = fs::path(rain_path).filename().string();
+      terrain::stage_rain_file(staged, names.prefix.string(), rain.mm_yr, mpp);
+      side["files"]["rain"] = fs::path(names.prefix.string() + terrain::kRainFileSuffix).filename().string();
     }
   }
   if (a.finish.geotiff)

@@ -191,6 +191,10 @@ assert lean(rw) * lean(re_) < 0, (lean(rw), lean(re_))
 assert json.load(open(f"{d}/west.json"))["wind_from_deg"] == 270
 assert json.load(open(f"{d}/west.json"))["files"]["rain"] == "west.rain.exr"
 PYEOF
+# The rain file is an output like the others: never written over an input.
+cp "$T/er/west.rain.exr" "$T/er/in.rain.exr"
+"$BIN" -q erode "$T/er/in.rain.exr" -o "$T/er/in" --wind-from 60 --layers --metres-per-px 20 >/dev/null 2>"$T/err" && bad "erode over its rain input accepted" || \
+  { grep -q "also an input" "$T/err" && cmp -s "$T/er/west.rain.exr" "$T/er/in.rain.exr" && ok || bad "erode over its rain input: $(cat "$T/err")"; }
 "$BIN" -q erode "$T/er/w.height.exr" -o "$T/er/x" --wind-from 361 >/dev/null 2>"$T/err" && bad "--wind-from 361 accepted" || \
   { grep -q "wind-from" "$T/err" && ok || bad "--wind-from 361: $(cat "$T/err")"; }
 "$BIN" -q erode "$T/er/we.height.png" -o "$T/er/x" >/dev/null 2>"$T/err" && bad "png16 without --range accepted" || \

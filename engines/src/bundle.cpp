@@ -378,7 +378,7 @@ std::vector<Engine> engines_from_strings(const std::vector<std::string>& names) 
 PlannedOutputs planned_outputs(const std::filesystem::path& prefix, const std::vector<Engine>& bundles) {
   PlannedOutputs p;
   const std::string pre = prefix.string();
-  for (const char* ext : {".height.exr", ".height.png", ".r16", ".preview.png", ".json", ".obj", ".glb"})
+  for (const char* ext : {".height.exr", ".height.png", ".r16", ".preview.png", ".json", ".obj", ".glb", terrain::kRainFileSuffix})
     p.files.push_back(pre + ext);
   for (const auto& ext : terrain::layer_file_suffixes()) p.files.push_back(pre + ext);
   for (const auto& ext : gis::geotiff_suffixes()) p.files.push_back(pre + ext);

@@ -55,7 +55,7 @@ WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFiel
   if (preview) files["preview"] = preview_path.filename().string();
   // The rain the erosion read, a layer beside the others (docs/LAYERS.md "Rain").
   const bool rain_file = layers && layer_files && !f.rain_mm_yr.empty();
-  const auto rain_path = name(".rain.exr");
+  const auto rain_path = name(terrain::kRainFileSuffix);
   if (rain_file) files["rain"] = rain_path.filename().string();
   out.sidecar = island_sidecar(spec, W, mpp, hmin, hmax, files, provenance);
 
@@ -95,12 +95,7 @@ WrittenIsland write_island(const std::filesystem::path& prefix, const IslandFiel
       bytes["preview"] = fs::file_size(p);
     });
   }
-  if (rain_file)
-    staged.write(rain_path, [&](const fs::path& p) {
-      write_exr_height(p, f.rain_mm_yr, {{"reefgen:version", kVersion}, {"reefgen:units", "rain, mm/yr"},
-                                         {"reefgen:metres_per_pixel", std::to_string(mpp)}});
-      bytes["rain"] = fs::file_size(p);
-    });
+  if (rain_file) bytes["rain"] = terrain::stage_rain_file(staged, prefix.string(), f.rain_mm_yr, mpp);
   std::optional<terrain::Layers> L;
   if (layers) {
     L = layer_job.get();

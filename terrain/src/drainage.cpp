@@ -51,9 +51,10 @@ void accumulate_multiple(const FlowGraph& g, const cv::Mat1b& role, float cell_a
           sum += w[d];
         }
       } else {
-        // Shares of (slope / the steepest)^p: slope^p itself underflows to a
-        // denormal sum on a gentle flank (p = 4: 1e-12 → 1e-48), and the
-        // area divided by it overflowed to inf, then NaN heights.
+        // Shares of (slope / the steepest)^p: slope^p itself underflows where
+        // land rises a few ulps a cell (slopes of ~1e-9 at the 0.1 m land
+        // floor, 1e-36 at p = 4), and the area over that sum overflowed to
+        // inf, then NaN heights.
         float steepest = 0.f;
         for (int d = 0; d < 8; ++d) {
           w[d] = (fz[i] - fz[i + offset[d]]) * len.inv[d];

@@ -4,8 +4,10 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "reefgen/image_io.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/terrain/layers.hpp"
+#include "reefgen/version.hpp"
 
 namespace reefgen::terrain {
 
@@ -36,6 +38,16 @@ constexpr std::pair<const char*, const char*> kLayerFiles[] = {
     {"flow", ".flow.png"},     {"slope", ".slope.png"},     {"wear", ".wear.png"},     {"deposit", ".deposit.png"},
     {"normal", ".normal.png"}, {"splat0", ".splat0.png"}, {"splat1", ".splat1.png"}, {"materials", ".materials.png"}};
 }  // namespace
+
+uint64_t stage_rain_file(StagedOutputs& staged, const std::string& prefix, const cv::Mat1f& rain_mm_yr, double mpp) {
+  uint64_t bytes = 0;
+  staged.write(prefix + kRainFileSuffix, [&](const fs::path& p) {
+    write_exr_height(p, rain_mm_yr, {{"reefgen:version", kVersion}, {"reefgen:units", "rain, mm/yr"},
+                                     {"reefgen:metres_per_pixel", std::to_string(mpp)}});
+    bytes = fs::file_size(p);
+  });
+  return bytes;
+}
 
 std::vector<std::string> layer_file_suffixes() {
   std::vector<std::string> out;

@@ -315,15 +315,10 @@ cv::Mat3b flow_colour_map(const Layers& L, const cv::Mat1f& h, double dx) {
 
 cv::Mat3b rain_colour_map(const Layers& L, const cv::Mat1f& h, const cv::Mat1f& rain) {
   if (rain.size() != h.size()) throw Error("rain picture: the rain and the heights must be of one size");
+  // The land's driest and wettest (0 and 0 with no land: every cell is sea).
   double dry = 0, wet = 0;
-  bool any = false;
-  for (int y = 0; y < h.rows; ++y)
-    for (int x = 0; x < h.cols; ++x)
-      if (h(y, x) > 0) {
-        dry = any ? std::min(dry, double(rain(y, x))) : rain(y, x);
-        wet = any ? std::max(wet, double(rain(y, x))) : rain(y, x);
-        any = true;
-      }
+  const cv::Mat land = h > 0;
+  if (cv::countNonZero(land) > 0) cv::minMaxLoc(rain, &dry, &wet, nullptr, nullptr, land);
   const double span = std::max(1.0, wet - dry);
   cv::Mat3b out(h.size());
   for (int y = 0; y < h.rows; ++y)

@@ -161,6 +161,13 @@ nlohmann::json layer_files_description(double metres_per_px, const LayerParams& 
 // beside the others under "files", the rest under "layers".
 void add_layers_to_sidecar(nlohmann::json& sidecar, nlohmann::json layers);
 
+// The rain the erosion read, beside the layers where there was a wind
+// (docs/LAYERS.md): PREFIX + kRainFileSuffix, float32 EXR in mm/yr.
+inline constexpr const char* kRainFileSuffix = ".rain.exr";
+// Stages that file; returns its size in bytes (the sidecar's file_bytes).
+uint64_t stage_rain_file(StagedOutputs& staged, const std::string& prefix, const cv::Mat1f& rain_mm_yr,
+                         double metres_per_px);
+
 // The suffixes stage_layer_files writes (for output-over-input checks).
 std::vector<std::string> layer_file_suffixes();
 
