@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 R=build/cli/reefgen
 W=$(mktemp -d); trap 'rm -rf "$W"' EXIT
 $R -q generate --preset young-volcano --size 2049 --seed 1 -o "$W/isle" --for blender >/dev/null
-blender -b --factory-startup --python scripts/render_bundle.py -- "$W/isle.blender" isle "$W/render.png" 1400 800 24 \
+blender -b -noaudio --factory-startup --python scripts/render_bundle.py -- "$W/isle.blender" isle "$W/render.png" 1400 800 24 \
   >"$W/log" 2>&1 || { tail -20 "$W/log"; exit 1; }
 cp "$W/render.png" docs/finished-island.png
 echo "docs/finished-island.png"
