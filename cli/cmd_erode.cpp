@@ -105,7 +105,7 @@ int run_erode(const ErodeArgs& a0, const GlobalOptions& g) {
   if (a.wind_from_deg) rain = terrain::rain_for_erosion(before, world_m, wind_towards(*a.wind_from_deg), terrain::RainParams{});
   cv::Mat1f out = terrain::erode_island(before, cv::Mat1f(before.size(), float(a.resistance)), world_m, a.seed, ep,
                                         rain.runoff_rel);
-  if (a.finish.ocean_floor_m < 0) terrain::deepen_flank(out, a.finish.ocean_floor_m);
+  if (a.finish.ocean_floor_m < 0) terrain::deepen_flank(out, a.finish.ocean_floor_m, mpp);
 
   StagedOutputs staged;
   HeightFiles hf;

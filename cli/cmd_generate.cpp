@@ -89,9 +89,10 @@ int run_single(const GenerateArgs& a, const GlobalOptions& g) {
   note_bundle_sizes(fin, a.size, g.quiet);
   opt.keep_uneroded = fin.need_layers;
   IslandFields f = generate(spec, opt);
+  const double mpp = spec.world_size_m / opt.size_px;
   if (a.finish.ocean_floor_m < 0) {
-    terrain::deepen_flank(f.height_m, a.finish.ocean_floor_m);
-    if (!f.uneroded_m.empty()) terrain::deepen_flank(f.uneroded_m, a.finish.ocean_floor_m);
+    terrain::deepen_flank(f.height_m, a.finish.ocean_floor_m, mpp, f.label);
+    if (!f.uneroded_m.empty()) terrain::deepen_flank(f.uneroded_m, a.finish.ocean_floor_m, mpp, f.label);
   }
   nlohmann::json prov = {{"mode", a.preset.empty() ? "spec" : "preset"},
                          {"source", a.preset.empty() ? a.spec_file : a.preset},
@@ -100,7 +101,6 @@ int run_single(const GenerateArgs& a, const GlobalOptions& g) {
   // The spec written beside the island has the age applied (its subsidence
   // and erosion); what it was asked for is kept here.
   if (!age.is_null()) prov["age"] = age;
-  const double mpp = spec.world_size_m / opt.size_px;
   const ExtraFiles finishing = [&](StagedOutputs& staged, nlohmann::json& side, const terrain::Layers* L) {
     if (a.finish.geotiff) side["geotiff"] = gis::stage_geotiff_files(staged, prefix.string(), f.height_m, L, mpp, fin.geo, a.threads);
     if (!fin.bundles.empty())

@@ -48,8 +48,9 @@ void add_finish_flags(CLI::App* sub, FinishFlags& f) {
                   engines::engine_names() + " (comma-separated or repeated; docs/ENGINES.md)")
       ->type_name("ENGINE");
   sub->add_option("--ocean-floor-m", f.ocean_floor_m,
-                  "Continue the submarine flank down to this depth, e.g. -2000 (metres, [-11000, -60]): the open "
-                  "ocean below -60 m is stretched so that its lowest cell lies there; lagoons are kept "
+                  "Continue the submarine flank towards this depth, e.g. -2000 (metres, [-11000, -60]): the open "
+                  "ocean below -60 m sinks with its distance from the reef, leaving it at 35 deg and relaxing "
+                  "with depth, so the floor is reached kilometres out; lagoons are kept "
                   "(docs/REEF.md \"Deeper than the abyss\")")
       ->check(finite_in(terrain::kDeepestOceanFloorM, terrain::kShallowestOceanFloorM))
       ->type_name("M");

@@ -19,7 +19,7 @@ struct FinishFlags {
   bool geotiff = false;               // PREFIX.height.tif (+ the float layers with --layers)
   std::string crs, origin;            // of the GeoTIFFs and the gis bundle
   std::vector<std::string> engines;   // --for: bundles, PREFIX.<engine>/
-  double ocean_floor_m = 0;           // m, --ocean-floor-m: the open ocean's flank stretched down to it; 0 = off
+  double ocean_floor_m = 0;           // m, --ocean-floor-m: the open ocean's flank continued towards it; 0 = off
 
   // What the flags ask for, checked (one line naming the flag otherwise).
   struct Parsed {

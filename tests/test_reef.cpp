@@ -5,6 +5,7 @@
 #include <fstream>
 
 #include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "reefgen/labels.hpp"
 #include "test_util.hpp"
@@ -246,43 +247,157 @@ TEST(ReefStats, GridAmplitudeFindsAPlantedWaffle) {
   EXPECT_GT(waffle.grid_ring_ratio, 10);
 }
 
-// --ocean-floor-m: the open ocean is stretched to the depth asked, continuous
-// at the knee; a lagoon behind its rim keeps its depth even below the knee.
-TEST(OceanFloor, StretchesTheOpenOceanAndKeepsLagoons) {
+// The flank's profile: it leaves the reef at kFlankTopSlope, relaxes as it
+// nears the floor (¾ of that slope halfway down) and never passes the span.
+TEST(OceanFloor, TheFlankLeavesTheReefAtItsSlopeAndRelaxes) {
+  const double span = 1940, eps = 1e-3;
+  EXPECT_EQ(terrain::flank_drop_m(0, span), 0);
+  EXPECT_NEAR(terrain::flank_drop_m(eps, span) / eps, terrain::kFlankTopSlope, 1e-6);
+  const double half = span / terrain::kFlankTopSlope * std::atanh(0.5);  // where it is halfway down
+  EXPECT_NEAR(terrain::flank_drop_m(half, span), span / 2, 1e-9);
+  const double slope_half = (terrain::flank_drop_m(half + eps, span) - terrain::flank_drop_m(half - eps, span)) / (2 * eps);
+  EXPECT_NEAR(slope_half, 0.75 * terrain::kFlankTopSlope, 1e-6);
+  EXPECT_LT(terrain::flank_drop_m(1e6, span), span + 1e-9);
+  EXPECT_GT(terrain::flank_drop_m(1e6, span), span - 1e-6);
+  EXPECT_EQ(terrain::flank_drop_m(100, 0), 0);
+}
+
+namespace {
+
+// A 64² atoll of 50 m cells: a rim at -1 m around a -70 m lagoon, the ocean
+// falling from -60 m at the rim to -100 m 16 cells out; with a pass, the rim
+// has a gap at -70 m joining the lagoon to the ocean below the knee.
+cv::Mat1f atoll_64(bool pass) {
   cv::Mat1f h(64, 64, -100.f);
-  // A rim at -1 m around a -70 m lagoon in the middle; the ocean rises to -60 m at the rim.
   for (int y = 0; y < 64; ++y)
     for (int x = 0; x < 64; ++x) {
       const double r = std::hypot(x - 31.5, y - 31.5);
       if (r < 12) h(y, x) = -70.f;
-      else if (r < 16) h(y, x) = -1.f;
+      else if (r < 16) h(y, x) = (pass && std::abs(y - 31.5) < 2 && x > 31) ? -70.f : -1.f;
       else h(y, x) = float(-60.0 - 40.0 * std::min(1.0, (r - 16) / 16));
     }
+  return h;
+}
+
+// The steepest step between 4-neighbours that are both in `mask`, m per m.
+double steepest_step(const cv::Mat1f& h, const cv::Mat1b& mask, double cell_m) {
+  double s = 0;
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 0; x < h.cols; ++x) {
+      if (x + 1 < h.cols && mask(y, x) && mask(y, x + 1)) s = std::max(s, double(std::abs(h(y, x) - h(y, x + 1))));
+      if (y + 1 < h.rows && mask(y, x) && mask(y + 1, x)) s = std::max(s, double(std::abs(h(y, x) - h(y + 1, x))));
+    }
+  return s / cell_m;
+}
+
+}  // namespace
+
+// --ocean-floor-m: the open ocean sinks by the flank's drop at its distance
+// from the reef (the Euclidean distance to the nearest cell that is not open
+// ocean, here found by brute force, less half a cell to the contour; the
+// smoothed one lies within a Gaussian's mean radius, σ √(π/2), of it), never
+// below the floor; a lagoon behind its rim keeps its depth even below the
+// knee; no step is steeper than the field's own plus the flank's slope.
+TEST(OceanFloor, TheOpenOceanSinksWithItsDistanceFromTheReef) {
+  const double cell = 50, floor = -2000;
+  const cv::Mat1f h = atoll_64(false);
   cv::Mat1f d = h.clone();
-  terrain::deepen_flank(d, -2000);
-  EXPECT_FLOAT_EQ(d(0, 0), -2000.f);       // the model's floor lands on the ocean floor
-  EXPECT_FLOAT_EQ(d(31, 31), -70.f);       // the lagoon is not the ocean
-  EXPECT_FLOAT_EQ(d(31, 31 + 14), -1.f);   // nor the rim
-  // Continuous at the knee: the flank's first cells stay near -60 m.
-  EXPECT_NEAR(d(31, 31 + 17), -60.0 + (h(31, 31 + 17) + 60.0) * 1940.0 / 40.0, 1e-3);
+  terrain::deepen_flank(d, floor, cell);
+  const double span = -100 - floor;  // the ocean's lowest cell, -100 m, to the floor
+  for (const cv::Point p : {cv::Point(0, 0), cv::Point(63, 31), cv::Point(31 + 17, 31), cv::Point(5, 40)}) {
+    double nearest = 1e9;
+    for (int y = 0; y < 64; ++y)
+      for (int x = 0; x < 64; ++x)
+        if (!(h(y, x) < terrain::kFlankKneeM)) nearest = std::min(nearest, std::hypot(x - p.x, y - p.y));
+    // Within a near σ's mean radius where only the near blur is read (3 σ
+    // from the reef), within the far σ's beyond.
+    const double near_off = std::sqrt(M_PI / 2) * terrain::kFlankDistanceBlurPx;
+    const bool near_only = nearest - 0.5 + near_off < 3 * terrain::kFlankDistanceBlurPx;
+    const double off = near_off * (near_only ? 1 : terrain::kFlankFarBlurMinRatio) + 0.01;
+    const double deepest = std::max(floor, h(p) - terrain::flank_drop_m((nearest - 0.5 + off) * cell, span));
+    const double shallowest = std::max(floor, h(p) - terrain::flank_drop_m(std::max(0.0, nearest - 0.5 - off) * cell, span));
+    EXPECT_GE(d(p), deepest - 1e-3) << p;
+    EXPECT_LE(d(p), shallowest + 1e-3) << p;
+  }
+  EXPECT_FLOAT_EQ(d(31, 31), -70.f);      // the lagoon is not the ocean
+  EXPECT_FLOAT_EQ(d(31, 31 + 14), -1.f);  // nor the rim
   EXPECT_FLOAT_EQ(d(31, 31 + 16), h(31, 31 + 16));  // at the knee itself: unchanged
+  const double one_cell_m = terrain::kFlankTopSlope * cell;
   double lo, hi;
   cv::minMaxLoc(d, &lo, &hi);
-  EXPECT_FLOAT_EQ(float(lo), -2000.f);
+  EXPECT_GE(lo, floor);
+  EXPECT_LT(lo, -700);  // the corners, ~1.4 km from the rim
+  const cv::Mat1b ocean = h < terrain::kFlankKneeM;
+  EXPECT_LE(steepest_step(d, ocean, cell),
+            steepest_step(h, ocean, cell) + terrain::kFlankTopSlope * terrain::kFlankDistanceSteepest + 1e-4);
+  // Outwards along a row the ocean only descends (no counter-slope).
+  for (int x = 31 + 17; x + 1 < 64; ++x) EXPECT_LE(d(31, x + 1), d(31, x)) << x;
   cv::Mat1f same = h.clone();
-  terrain::deepen_flank(same, -90);  // shallower than the ocean already is: nothing
+  terrain::deepen_flank(same, -90, cell);  // shallower than the ocean already is: nothing
   EXPECT_EQ(cv::norm(same, h, cv::NORM_INF), 0);
-  EXPECT_THROW(terrain::deepen_flank(same, std::nan("")), Error);
-  EXPECT_THROW(terrain::deepen_flank(same, -20000), Error);
-  // Above the knee nothing could be stretched: refused, not ignored.
-  EXPECT_THROW(terrain::deepen_flank(same, -59), Error);
-  EXPECT_THROW(terrain::deepen_flank(same, -1), Error);
-  // An ocean a hair below the knee is stretched as if it reached -100 m,
-  // not one cell to the floor asked (an 11 km needle).
+  EXPECT_THROW(terrain::deepen_flank(same, std::nan(""), cell), Error);
+  EXPECT_THROW(terrain::deepen_flank(same, -20000, cell), Error);
+  // Above the knee there is no flank to continue: refused, not ignored.
+  EXPECT_THROW(terrain::deepen_flank(same, -59, cell), Error);
+  EXPECT_THROW(terrain::deepen_flank(same, -1, cell), Error);
+  EXPECT_THROW(terrain::deepen_flank(same, -2000, 0), Error);
+  EXPECT_THROW(terrain::deepen_flank(same, -2000, std::nan("")), Error);
+  // An ocean a hair below the knee sinks by its distance, not to the floor
+  // asked (the old stretch made that one cell an 11 km needle).
   cv::Mat1f shallow(64, 64, -20.f);
   shallow(0, 0) = -60.00001f;
-  terrain::deepen_flank(shallow, -11000);
-  EXPECT_GT(shallow(0, 0), -61.f);
+  terrain::deepen_flank(shallow, -11000, cell);
+  EXPECT_GT(shallow(0, 0), -60 - one_cell_m);
+  // A canvas that is all ocean has no reef to be near: it sinks by the whole span.
+  cv::Mat1f sea(16, 16, -80.f);
+  sea(3, 3) = -90.f;
+  terrain::deepen_flank(sea, -1000, cell);
+  EXPECT_FLOAT_EQ(sea(3, 3), -1000.f);
+  EXPECT_FLOAT_EQ(sea(0, 0), -990.f);
+}
+
+// At a straight reef the smoothing leaves the distance as it is: the flank
+// is continuous at the knee, the first ocean cell half a cell's distance
+// from the contour, and then the drop of each distance.
+TEST(OceanFloor, AtAStraightReefTheFirstOceanCellSinksByHalfACellsSlope) {
+  const double cell = 20, floor = -3000;
+  cv::Mat1f h(48, 96, -1.f);
+  for (int y = 0; y < h.rows; ++y)
+    for (int x = 40; x < h.cols; ++x) h(y, x) = -61.f - float(x - 40) * 0.1f;
+  cv::Mat1f d = h.clone();
+  terrain::deepen_flank(d, floor, cell);
+  double lowest;
+  cv::minMaxLoc(h, &lowest);
+  const double span = lowest - floor;
+  // Within 0.02 cells of distance: the far blur's odd continuation stops a
+  // coarse canvas width out, where the Gaussian's tail weighs < 1 %.
+  const double tolerance_m = 0.02 * terrain::kFlankTopSlope * cell;
+  for (const int x : {40, 41, 50, 80, 95})
+    for (const int y : {0, 24, 47})
+      EXPECT_NEAR(d(y, x), h(y, x) - terrain::flank_drop_m((x - 40 + 0.5) * cell, span), tolerance_m) << x << "," << y;
+  EXPECT_EQ(cv::norm(d.colRange(0, 40), h.colRange(0, 40), cv::NORM_INF), 0);  // the reef does not move
+}
+
+// A lagoon the regions mark is kept even where a pass below the knee joins
+// it to the ocean; without the regions the same lagoon would be taken for
+// the ocean and sunk.
+TEST(OceanFloor, ALagoonTheRegionsMarkIsKeptThroughAPass) {
+  const double cell = 50;
+  const cv::Mat1f h = atoll_64(true);
+  cv::Mat1b region(h.size(), uint8_t(kAbyss));
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x)
+      if (std::hypot(x - 31.5, y - 31.5) < 12) region(y, x) = kLagoon;
+  cv::Mat1f blind = h.clone(), kept = h.clone();
+  terrain::deepen_flank(blind, -2000, cell);
+  EXPECT_LT(blind(31, 31), -100.f);  // sunk through the pass
+  // The regions at half the size (as a sketch is): resized to the heights.
+  cv::Mat1b half;
+  cv::resize(region, half, {32, 32}, 0, 0, cv::INTER_NEAREST);
+  terrain::deepen_flank(kept, -2000, cell, half);
+  EXPECT_FLOAT_EQ(kept(31, 31), -70.f);
+  EXPECT_FLOAT_EQ(kept(31, 25), -70.f);
+  EXPECT_LT(kept(0, 0), -700.f);  // the ocean still sinks
 }
 
 // Drawn passes are bounded (each reef cell looks at the passes near it): too

@@ -263,8 +263,10 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
         heights = infer_heights(gen, sketches, io, keep_before);
       }
       if (io.ocean_floor_m < 0) {
-        for (auto& h : heights) terrain::deepen_flank(h, io.ocean_floor_m);
-        for (auto& h : before) terrain::deepen_flank(h, io.ocean_floor_m);
+        for (size_t k = 0; k < heights.size(); ++k)
+          terrain::deepen_flank(heights[k], io.ocean_floor_m, io.world_size_m / heights[k].cols, labels[k]);
+        for (size_t k = 0; k < before.size(); ++k)
+          terrain::deepen_flank(before[k], io.ocean_floor_m, io.world_size_m / before[k].cols, labels[k]);
       }
     }
     // Island k of the chunk's answers (variation k of the one sketch).

@@ -252,7 +252,7 @@ WorldFields world_fields(const WorldJob& a, model::GeneratorFile& gen, const Dec
   // The flank below the training range, on the whole world at once (the
   // checkpoint keeps the heights before it: the same for any depth).
   auto deepened = [&a](WorldFields& f) {
-    if (a.ocean_floor_m < 0) terrain::deepen_flank(f.h, a.ocean_floor_m);
+    if (a.ocean_floor_m < 0) terrain::deepen_flank(f.h, a.ocean_floor_m, f.world_m / f.h.cols, f.region_model);
     return f;
   };
   if (a.raw) return deepened(w);

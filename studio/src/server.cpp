@@ -516,15 +516,15 @@ struct StudioServer::Impl {
   }
 
   // {"ocean_floor_m": D} in an export's body: the CLI's --ocean-floor-m
-  // (terrain/ocean_floor.hpp), the open ocean's flank stretched down to D.
+  // (terrain/ocean_floor.hpp), the open ocean's flank continued towards D.
   static void deepen_if_asked(const json& body, Source& src) {
     if (!body.contains("ocean_floor_m") || body["ocean_floor_m"].is_null()) return;
     const json& d = body["ocean_floor_m"];
     if (!d.is_number() ||
         !(d.get<double>() >= terrain::kDeepestOceanFloorM && d.get<double>() <= terrain::kShallowestOceanFloorM))
       throw BadRequest("ocean_floor_m must be a depth in metres in [-11000, -60], e.g. -2000 (or left out)");
-    terrain::deepen_flank(src.height_m, d.get<double>());
-    if (!src.before_m.empty()) terrain::deepen_flank(src.before_m, d.get<double>());
+    terrain::deepen_flank(src.height_m, d.get<double>(), src.metres_per_px, src.region);
+    if (!src.before_m.empty()) terrain::deepen_flank(src.before_m, d.get<double>(), src.metres_per_px, src.region);
   }
 
   // The bundle of `e` (layers from the regions, the erosion when known) staged

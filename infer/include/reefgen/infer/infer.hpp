@@ -53,7 +53,7 @@ struct InferOptions {
   double age_myr = kNotSet;
   double maturity = kNotSet;
   int size_px = 0;             // output side, [0, 8192]; 0 = the sketch's own size
-  double ocean_floor_m = 0;    // m: the open ocean's flank stretched down to it after amplification (terrain/ocean_floor.hpp); 0 = off
+  double ocean_floor_m = 0;    // m: the open ocean's flank continued towards it after amplification (terrain/ocean_floor.hpp); 0 = off
   double world_size_m = kCanvasWorldSizeM;  // canvas width in metres (the amplification's erosion works in metres)
   // amplify_heights at every square size: the model's own side gets
   // its clean-up (ponds raised, erosion on its grid, pits breached), larger

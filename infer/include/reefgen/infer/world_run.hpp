@@ -37,7 +37,7 @@ struct WorldJob {
   bool geotiff = false;
   gis::GeoReference geo;
   std::vector<engines::Engine> bundles;
-  double ocean_floor_m = 0;       // < 0: the open ocean's flank stretched down to it
+  double ocean_floor_m = 0;       // < 0: the open ocean's flank continued towards it
   // The flags as given (files asked for, CRS, origin, bundles): a checkpoint
   // is resumed only by the same command (with the same layer rules).
   nlohmann::json flags_key;
