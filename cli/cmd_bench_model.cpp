@@ -6,9 +6,9 @@
 #include <cstdio>
 
 #include "app.hpp"
-#include "reefgen/heap.hpp"
 #include "reefgen/files.hpp"
 #include "reefgen/model/fast_unet.hpp"
+#include "reefgen/model/torch_threads.hpp"
 #include "reefgen/train/pix2pix.hpp"
 
 namespace reefgen {
@@ -110,8 +110,7 @@ int bench_infer(const BenchModelArgs& a, train::Pix2Pix& p) {
 int run_bench_model(const BenchModelArgs& a, bool training) {
   if (a.reps < 1 || a.threads < 1 || a.batch < 1) throw Error("--reps, --threads and --batch must be ≥ 1");
   if (a.size < 32 || a.size > 4096 || (a.size & (a.size - 1))) throw Error("--size " + std::to_string(a.size) + ": must be a power of two in 32..4096");
-  torch::set_num_threads(a.threads);
-  keep_freed_memory();
+  model::use_torch_threads(a.threads);
   torch::manual_seed(1);
   train::Pix2Pix p(bench_options(a, training));
   // Drawn for both benches: the same random stream as before they were split.

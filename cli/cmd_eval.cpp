@@ -5,13 +5,12 @@
 #include <optional>
 
 #include "app.hpp"
-#include "reefgen/heap.hpp"
 #include "reefgen/constants.hpp"
 #include "reefgen/infer/evaluate.hpp"
 #include "reefgen/files.hpp"
 #include "reefgen/model/shipped.hpp"
+#include "reefgen/model/torch_threads.hpp"
 #include "reefgen/train/data.hpp"
-#include "reefgen/train/fused_adam.hpp"
 #include "reefgen/version.hpp"
 
 namespace reefgen {
@@ -48,8 +47,7 @@ Command add_eval_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--world-size", a->world_size_m, "Canvas width in metres (slopes)")->capture_default_str()->check(finite_in(1, 1e7));
   sub->add_option("--threads", a->threads, "LibTorch threads (default: all cores)")->check(CLI::Range(1, 256));
   return {sub, [a, &g]() -> int {
-            torch::set_num_threads(a->threads.value_or(default_threads()));
-            keep_freed_memory();
+            model::use_torch_threads(a->threads.value_or(default_threads()));
             if (a->max_pairs < 1) throw Error("--max-pairs must be ≥ 1");
             a->model = model::resolve_model_path(a->model).string();
             model::GeneratorFile gen = model::load_generator(a->model);

@@ -6,11 +6,10 @@
 #include <optional>
 
 #include "app.hpp"
-#include "reefgen/heap.hpp"
 #include "reefgen/infer/evaluate.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/model/shipped.hpp"
-#include "reefgen/train/fused_adam.hpp"
+#include "reefgen/model/torch_threads.hpp"
 #include "reefgen/version.hpp"
 
 namespace reefgen {
@@ -39,8 +38,7 @@ Command add_eval_sketches_command(CLI::App& app, const GlobalOptions& g) {
       ->capture_default_str();
   sub->add_option("--threads", a->threads, "LibTorch threads (default: all cores)")->check(CLI::Range(1, 256));
   return {sub, [a, &g]() -> int {
-            torch::set_num_threads(a->threads.value_or(default_threads()));
-            keep_freed_memory();
+            model::use_torch_threads(a->threads.value_or(default_threads()));
             if (!(a->young_max >= 0 && a->young_max <= 1)) throw Error("--young-max must be in [0, 1]");
             if (!fs::is_directory(a->dir)) throw Error(a->dir + ": not a folder of sketches");
             const std::vector<fs::path> files = images_in(a->dir);

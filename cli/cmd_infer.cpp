@@ -5,13 +5,12 @@
 
 #include "app.hpp"
 #include "finish.hpp"
-#include "reefgen/heap.hpp"
 #include "reefgen/constants.hpp"
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/infer/run.hpp"
 #include "reefgen/files.hpp"
 #include "reefgen/model/shipped.hpp"
-#include "reefgen/train/fused_adam.hpp"
+#include "reefgen/model/torch_threads.hpp"
 
 namespace reefgen {
 
@@ -142,8 +141,7 @@ void set_infer_options(const InferArgs& a, model::GeneratorFile& gen, const std:
 }
 
 int run_infer(const InferArgs& a, const GlobalOptions& g) {
-  torch::set_num_threads(a.threads.value_or(default_threads()));
-  keep_freed_memory();
+  model::use_torch_threads(a.threads.value_or(default_threads()));
   infer::InferJob job = infer_job(a, g);
   job.threads = a.threads.value_or(default_threads());
   job.model_path = model::resolve_model_path(a.model).string();

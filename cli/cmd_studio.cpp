@@ -12,6 +12,7 @@
 #include "reefgen/install.hpp"
 #include "reefgen/files.hpp"
 #include "reefgen/model/shipped.hpp"
+#include "reefgen/model/torch_threads.hpp"
 #include "reefgen/studio/server.hpp"
 
 namespace reefgen {
@@ -41,7 +42,7 @@ Command add_studio_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--assets", a->assets, "The page's folder (default: the build's studio/assets)");
   sub->add_option("--threads", a->threads, "LibTorch threads (default: all cores)")->check(CLI::Range(1, 256));
   return {sub, [a, &g]() -> int {
-            torch::set_num_threads(a->threads.value_or(default_threads()));
+            model::use_torch_threads(a->threads.value_or(default_threads()));
             a->o.model = model::resolve_model_path(a->model);
             a->o.out_dir = a->out;
             const char* env = std::getenv("REEFGEN_STUDIO_ASSETS");

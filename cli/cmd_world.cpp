@@ -8,12 +8,12 @@
 #include "reefgen/age.hpp"
 #include "reefgen/constants.hpp"
 #include "reefgen/files.hpp"
-#include "reefgen/heap.hpp"
 #include "reefgen/infer/amplify.hpp"
 #include "reefgen/infer/world_run.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/model/shipped.hpp"
+#include "reefgen/model/torch_threads.hpp"
 #include "reefgen/parallel.hpp"
 
 namespace reefgen {
@@ -117,8 +117,7 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
   sub->add_option("--threads", a->threads, "Threads (default: all cores)")->check(CLI::Range(1, 256));
   return {sub, [a, &g]() -> int {
             const int threads = a->threads.value_or(default_threads());
-            torch::set_num_threads(threads);
-            keep_freed_memory();
+            model::use_torch_threads(threads);
             if (a->metres_per_px > 0 && a->world_size_m > 0)
               throw Error("--metres-per-px and --world-size say the same thing; give one");
             if (a->raw && a->size > 0) throw Error("--raw keeps the model's scale; drop --size or --raw");

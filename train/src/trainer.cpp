@@ -10,10 +10,10 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "reefgen/heap.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/model/archive.hpp"
 #include "reefgen/model/generator_file.hpp"
+#include "reefgen/model/torch_threads.hpp"
 #include "reefgen/preview.hpp"
 #include "reefgen/rng.hpp"
 #include "reefgen/sha256.hpp"
@@ -242,9 +242,8 @@ struct Job {
 // ranks of this machine.
 void set_torch_threads(const TrainParams& params, const DistConfig& dist) {
   const int all = std::max(1, int(std::thread::hardware_concurrency()) / std::max(1, dist.local_world_size));
-  torch::set_num_threads(params.threads > 0 ? params.threads : all);
+  model::use_torch_threads(params.threads > 0 ? params.threads : all);
   at::globalContext().setDeterministicAlgorithms(params.deterministic, /*warn_only=*/true);
-  keep_freed_memory();
 }
 
 void open_job(Job& job, const TrainParams& requested, const RunOptions& run) {
