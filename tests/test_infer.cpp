@@ -822,3 +822,24 @@ TEST(Infer, AnAgeIsThePaintingDarkenedToItsSubsidence) {
     EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0) << "age " << age << " My";
   }
 }
+
+// A young painted shield is nearly undissected: at 0.1 My the amplification
+// lobes the flank a tenth as much as from 1 My on (infer/amplify_params.hpp
+// matured), so the valleys the lobes start stay few, where at full lobes a
+// 0.1 My answer was a starfish of petals as dissected as a 1 My one
+// (valleys share 0.336 against 0.314 at 1025²; now 0.056). From 1 My the
+// answer is as before: the same bytes as the maturity alone.
+TEST(Infer, AYoungShieldIsNearlyUndissected) {
+  auto g = model::load_generator(model::resolve_model_path(""));
+  const DecodedSketch s = read_sketch(std::string(REEFGEN_SOURCE_DIR) + "/tests/data/painted/01-young-volcano.png");
+  InferOptions young, old;
+  young.size_px = old.size_px = 513;
+  young.age_myr = 0.1;
+  old.age_myr = 1;
+  const double cell_m = young.world_size_m / 513;
+  const double v_young = realism_stats(infer_heights(g, {s}, young)[0], cell_m).valleys;
+  const double v_old = realism_stats(infer_heights(g, {s}, old)[0], cell_m).valleys;
+  EXPECT_LT(v_young, 0.5 * v_old) << v_young << " against " << v_old;
+  EXPECT_EQ(matured(AmplifyParams{}, 5).lobe_m, AmplifyParams{}.lobe_m);
+  EXPECT_DOUBLE_EQ(matured(AmplifyParams{}, 0.1).lobe_m, 0.1 * AmplifyParams{}.lobe_m);
+}

@@ -16,6 +16,7 @@ AmplifyParams matured(const AmplifyParams& p, double maturity) {
   a.erosion = terrain::matured(p.erosion, maturity);
   a.steps = std::max(a.steps, int(std::lround(a.steps * std::sqrt(maturity))));
   a.roughness *= std::min(1.0, maturity);
+  a.lobe_m *= std::min(1.0, maturity);
   return a;
 }
 

@@ -56,8 +56,10 @@ AmplifyParams amplify_params_from_json(const nlohmann::json& j, const std::strin
 
 // The amplification of an island `maturity` times as eroded (reefgen/age.hpp):
 // its erosion terrain::matured, more steps for the longer time, and a young
-// island roughened less (roughness × maturity below 1: fewer gullies on a
-// young shield).
+// island roughened and lobed less (roughness and lobe_m × maturity below 1:
+// fewer gullies on a young shield, and its contours not yet pushed into the
+// spurs and re-entrants of valleys — at full lobes a 0.1 My answer was a
+// starfish of petals converging on the summit, docs/EROSION.md).
 AmplifyParams matured(const AmplifyParams& p, double maturity);
 
 }  // namespace reefgen::infer
