@@ -31,6 +31,7 @@ ErosionParams matured(const ErosionParams& p, double maturity) {
   // island's extra time goes to the base grid, which deepens valleys into
   // them (the trunk's whole time × 5 planed a Kauaʻi-aged flank to a plain).
   if (maturity > 1) e.trunk_share = p.trunk_share / maturity;
+  if (maturity > 1) e.diffusivity = p.diffusivity / maturity;
   return e;
 }
 

@@ -106,8 +106,12 @@ inline constexpr double kMaturedChannelHeadM2 = 5e3;
 // The params of an island `maturity` times as eroded (reefgen/age.hpp): the
 // time (duration_yr, which the generator and the amplification both scale)
 // × maturity, more implicit steps for a longer time (stable at any length,
-// but a few coarse strokes cut blunt valley walls) and channels beginning at
-// kMaturedChannelHeadM2 (infer::matured ages the amplification's own). The
+// but a few coarse strokes cut blunt valley walls), channels beginning at
+// kMaturedChannelHeadM2 (infer::matured ages the amplification's own) and,
+// above maturity 1, the diffusivity ÷ maturity: the total creep D·t stays
+// the unit maturity's, so an old island's time deepens valleys between
+// ridges that stay sharp (growing with the age it made a 5 My island's
+// interfluves broad and rounded, docs/EROSION.md "Trunk basins"). The
 // finer levels keep their time: it is what re-incises the upsampled surface
 // at each cell size, and without it a young island's flanks showed the
 // coarser levels' cells as a 2 and 4 px waffle at 1025² (docs/EROSION.md).
