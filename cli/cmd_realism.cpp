@@ -35,6 +35,7 @@ struct RealismArgs {
   bool channels = false;
   bool dissection = false;
   bool drainage = false;
+  std::optional<double> wind_from_deg;  // with --drainage: where the wind comes from, degrees clockwise from north
   double grid_period_px = 0;
   std::string sketch;
 };
@@ -87,7 +88,7 @@ FileStats stats_of(const std::string& file, const RealismArgs& a, const std::opt
   if (a.reef) r.reef = terrain::reef_stats(h, r.metres_per_px, a.grid_period_px), r.has_reef = true;
   if (a.channels) r.channels = terrain::flat_channel_stats(h, r.metres_per_px);
   if (a.dissection) r.dissection = terrain::dissection_stats(h, r.metres_per_px);
-  if (a.drainage) r.drainage = terrain::landform_stats(h, r.metres_per_px);
+  if (a.drainage) r.drainage = terrain::landform_stats(h, r.metres_per_px, a.wind_from_deg.value_or(-1));
   if (sketch) r.agree = terrain::sketch_agreement(h, sketch->label, sketch->subsidence);
   r.st = realism_stats(h, r.metres_per_px);
   return r;
@@ -110,7 +111,8 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                                  "  reefgen realism w/world.height.exr --reef --grid-period 8   # and the model grid at 1:1\n"
                                  "  reefgen realism w/world.height.exr --channels             # straight flat channels on land\n"
                                  "  reefgen realism out/old.height.exr --dissection            # drainage density, hypsometry (age)\n"
-                                 "  reefgen realism out/yv.height.exr --drainage               # valley spacing, comb, wind, Hack");
+                                 "  reefgen realism out/yv.height.exr --drainage               # valley spacing, comb, wind, Hack\n"
+                                 "  reefgen realism out/ws.height.exr --drainage --wind-from 270  # and windward valleys against leeward");
   sub->add_option("files", a->files, "Height files (OpenEXR, metres, sea level 0)")->required();
   sub->add_option("--metres-per-px", a->metres_per_px, "Cell size in metres (default: the file's own)")
       ->check(finite_in(1e-6, 1e6));
@@ -138,8 +140,12 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
   sub->add_flag("--drainage", a->drainage,
                 "Also how the valleys are organised (docs/REALISM.md \"Drainage organisation\"): the spacing of "
                 "valleys on circles round the summit (coefficient of variation), the angular spectrum's peak over "
-                "its median (a comb), the dissection's variation between sectors (the wind), Hack's exponent and "
-                "valleys per coastal basin");
+                "its median (a comb), the dissection's variation between sectors (the wind), Hack's exponent, "
+                "valleys per coastal basin and the valley depth's 90th percentile");
+  sub->add_option("--wind-from", a->wind_from_deg,
+                  "DEG: with --drainage, where the prevailing wind comes from (compass bearing, clockwise from "
+                  "north): also the windward half's median valley depth over the leeward half's")
+      ->check(CLI::Range(0.0, 360.0));
   sub->add_option("--sketch", a->sketch,
                   "The sketch the heights were drawn from: also the painted land above the sea and the painted "
                   "bright abyss below -20 m (any resolution over the same ground)");
@@ -209,7 +215,9 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                                    {"hack_exponent", r.drainage->hack_exponent},
                                    {"valleys_per_basin", r.drainage->valleys_per_basin},
                                    {"valleys_on_circles", r.drainage->valleys_on_circles},
+                                   {"valley_depth_p90_m", r.drainage->valley_depth_p90_m},
                                    {"grid_cell_m", r.drainage->cell_m}};
+                if (r.drainage && a->wind_from_deg) j["drainage"]["windward_depth_ratio"] = r.drainage->windward_depth_ratio;
                 if (agree) {
                   j["painted_land_above_sea"] = agree->land_above_sea;
                   j["painted_abyss_below_20m"] = agree->abyss_below_bar;
@@ -250,10 +258,13 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
                 if (r.drainage)
                   std::printf("%-40s drainage: valley spacing CV %.2f (%d valleys on 3 circles), angular spectrum peak "
                               "%.1fx its median, sector dissection CV %.2f, Hack's exponent %.2f, %.2f valleys per "
-                              "coastal basin (read on %.0f m cells)\n",
+                              "coastal basin, valley depth p90 %.1f m (read on %.0f m cells)\n",
                               "", r.drainage->spacing_cv, r.drainage->valleys_on_circles, r.drainage->spectrum_peak_ratio,
                               r.drainage->sector_cv, r.drainage->hack_exponent, r.drainage->valleys_per_basin,
-                              r.drainage->cell_m);
+                              r.drainage->valley_depth_p90_m, r.drainage->cell_m);
+                if (r.drainage && a->wind_from_deg)
+                  std::printf("%-40s wind from %.0f deg: windward valleys %.2fx as deep as leeward ones (medians)\n", "",
+                              *a->wind_from_deg, r.drainage->windward_depth_ratio);
                 if (agree)
                   std::printf("%-40s painted land above sea %.2f%% (%lld cells), bright abyss below -20 m %.2f%% (%lld cells)\n",
                               "", 100 * agree->land_above_sea, (long long)agree->land_cells, 100 * agree->abyss_below_bar,

@@ -113,6 +113,16 @@ assert j["realism_after"]["pits"] <= 0.01, j["realism_after"]
 assert j["input"]["format"] == "exr" and abs(j["metres_per_pixel"] - 6000 / 128) < 1e-3, j["metres_per_pixel"]
 assert j["geotiff"]["files"]["height"] == "we.height.tif"
 PYEOF
+# The drainage report's valley depth, and with a wind the windward side's
+# against the lee's: the two bearings see the same halves swapped.
+for b in 90 270; do "$BIN" realism --json --drainage --wind-from $b "$T/er/we.height.exr" > "$T/er/d$b.json" || bad "realism --wind-from $b"; done
+"$PY" - "$T/er" <<'PYEOF' && ok || bad "realism --drainage --wind-from"
+import json, sys
+e, w = (json.load(open(sys.argv[1] + "/d%d.json" % b))["drainage"] for b in (90, 270))
+assert e["valley_depth_p90_m"] > 0 and e["valley_depth_p90_m"] == w["valley_depth_p90_m"], (e, w)
+assert e["windward_depth_ratio"] > 0 and abs(e["windward_depth_ratio"] * w["windward_depth_ratio"] - 1) < 0.1, (e, w)
+PYEOF
+"$BIN" realism --drainage --wind-from 400 "$T/er/we.height.exr" >/dev/null 2>&1 && bad "realism --wind-from 400 accepted" || ok
 if command -v gdalinfo >/dev/null && command -v gdaldem >/dev/null && command -v gdal_contour >/dev/null; then
   gdalinfo -json -stats "$T/er/we.height.tif" > "$T/er/info.json" 2>"$T/err" || bad "gdalinfo: $(cat "$T/err")"
   "$PY" - "$T/er" <<'PYEOF' && ok || bad "GeoTIFF: pixel size, units or heights differ from the EXR"

@@ -181,6 +181,30 @@ TEST(Landform, TellsACombFromIrregularValleys) {
   EXPECT_THROW(terrain::landform_stats(bad, 10), Error);
 }
 
+// The valley depth (closing less heights): a cone's grooves as deep as
+// they were cut, a plain cone none; with a wind, the side it comes from
+// against the other (grooves 40 m deep east, 12 m west: the east is
+// windward for a wind from 90°, leeward for one from 270°).
+TEST(Landform, ValleyDepthAndTheWindwardSide) {
+  const int n = 400;
+  std::vector<double> a, d, side;
+  for (int k = 0; k < 24; ++k) {
+    a.push_back(2 * CV_PI * k / 24), d.push_back(25);
+    side.push_back(std::cos(a.back()) > 0 ? 40 : 12);
+  }
+  const auto comb = terrain::landform_stats(grooved_cone(n, a, d), 10);
+  EXPECT_GT(comb.valley_depth_p90_m, 0.4 * 25);
+  EXPECT_LT(comb.valley_depth_p90_m, 1.05 * 25);
+  EXPECT_LT(terrain::landform_stats(grooved_cone(n, {}, {}), 10).valley_depth_p90_m, 1.0);
+  EXPECT_EQ(comb.windward_depth_ratio, 0);  // no wind given
+  const cv::Mat1f lopsided = grooved_cone(n, a, side);
+  const double east = terrain::landform_stats(lopsided, 10, 90).windward_depth_ratio;
+  const double west = terrain::landform_stats(lopsided, 10, 270).windward_depth_ratio;
+  EXPECT_GT(east, 2.0);
+  EXPECT_LT(west, 0.5);
+  EXPECT_NEAR(east * west, 1.0, 0.05);  // the same two halves, swapped (nearly: the summit's column is leeward both times)
+}
+
 // Hack's law on a branching network: a cone's radial channels grow in
 // length with area almost linearly (h near 1); a tree of tributaries less.
 TEST(Landform, HacksExponentOfAPlainConeIsNearOne) {

@@ -244,9 +244,37 @@ void drainage_figures(const Grid& g, LandformStats& s) {
   s.valleys_per_basin = outlets ? double(heads) / outlets : 0;
 }
 
+// The valley depth on the grid (closing less heights over the land read)
+// and, with a wind, windward over leeward median depth of valley cells.
+void valley_depth_figures(const Grid& g, const Rays& rays, double wind_from_deg, LandformStats& s) {
+  const int r = std::max(1, int(std::lround(kValleyDepthDiscShareOfDiameter * g.diameter_cells)));
+  cv::Mat1f closed;
+  cv::morphologyEx(g.h, closed, cv::MORPH_CLOSE, cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * r + 1, 2 * r + 1}),
+                   cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+  // Bearing θ (clockwise from north, rows running south): the direction the
+  // wind comes from is (sin θ, −cos θ) in (x, y).
+  const double wx = std::sin(wind_from_deg * CV_PI / 180), wy = -std::cos(wind_from_deg * CV_PI / 180);
+  std::vector<double> depth, windward, leeward;
+  const double land_m = kValleyDepthLandShareOfPeak * g.peak_m, valley_m = kValleyCellShareOfPeak * g.peak_m;
+  for (int y = 0; y < g.h.rows; ++y)
+    for (int x = 0; x < g.h.cols; ++x) {
+      if (!(g.h(y, x) > land_m)) continue;
+      const double d = std::max(0.f, closed(y, x) - g.h(y, x));
+      depth.push_back(d);
+      if (wind_from_deg < 0 || d < valley_m) continue;
+      const double facing = (x - rays.summit.x) * wx + (y - rays.summit.y) * wy;
+      (facing > 0 ? windward : leeward).push_back(d);
+    }
+  if (!depth.empty()) {
+    std::nth_element(depth.begin(), depth.begin() + long(depth.size() * 9 / 10), depth.end());
+    s.valley_depth_p90_m = depth[depth.size() * 9 / 10];
+  }
+  if (!windward.empty() && !leeward.empty()) s.windward_depth_ratio = median_of(windward) / median_of(leeward);
+}
+
 }  // namespace
 
-LandformStats landform_stats(const cv::Mat1f& height_m, double metres_per_px) {
+LandformStats landform_stats(const cv::Mat1f& height_m, double metres_per_px, double wind_from_deg) {
   if (height_m.empty()) throw Error("landform: empty height field");
   if (!(metres_per_px > 0)) throw Error("landform: metres_per_px must be > 0");
   if (!cv::checkRange(height_m)) throw Error("landform: the height field holds NaN or infinite values");
@@ -261,6 +289,7 @@ LandformStats landform_stats(const cv::Mat1f& height_m, double metres_per_px) {
   circle_figures(g, rays, detrended, s);
   s.sector_cv = sector_dissection_cv(g, rays, detrended);
   drainage_figures(g, s);
+  valley_depth_figures(g, rays, wind_from_deg, s);
   return s;
 }
 

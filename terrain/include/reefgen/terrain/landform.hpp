@@ -33,6 +33,16 @@ inline constexpr int kSpectrumFirst = 6, kSpectrumLast = 80;
 // Valleys for "basins capturing others": channels draining at least this
 // share of the island's land.
 inline constexpr double kValleyAreaShare = 0.002;
+// Valley depth: the heights' grey closing with a disc of this share of the
+// diameter, less the heights (valleys narrower than twice it are bridged, as
+// the surface they were cut into; 300 m on the presets' 3 km islands, 5 km
+// on Kauaʻi), read over land above kValleyDepthLandShareOfPeak of the peak
+// (the coastal plain is no valley).
+inline constexpr double kValleyDepthDiscShareOfDiameter = 0.1;
+inline constexpr double kValleyDepthLandShareOfPeak = 0.02;
+// Where a valley is for the windward / leeward comparison: deeper than this
+// share of the peak (a gully, not the grain).
+inline constexpr double kValleyCellShareOfPeak = 0.01;
 
 struct LandformStats {
   double spacing_cv = 0;           // coefficient of variation of the valleys' spacing on the circles (mean of the three)
@@ -41,12 +51,20 @@ struct LandformStats {
   double hack_exponent = 0;        // h in L ∝ A^h: main-stream length against drainage area over the land's channels
   double valleys_per_basin = 0;    // valley heads (kValleyAreaShare) per coastal basin that holds one
   int valleys_on_circles = 0;      // minima counted on the three circles
+  double valley_depth_p90_m = 0;   // 90th percentile of the valley depth over land (closing less heights), m
+  // With a wind (wind_from_deg ≥ 0): the median valley depth on the
+  // windward half (cells whose bearing from the summit is within 90° of
+  // where the wind comes from) over the leeward half's; 0 without a wind or
+  // a valley on either half.
+  double windward_depth_ratio = 0;
   double cell_m = 0;               // the grid it was read on
 };
 
-// height_m in metres, sea level 0, metres_per_px the cell size. Throws
+// height_m in metres, sea level 0, metres_per_px the cell size; rows run
+// south (north up, as the generator and GIS draw them); wind_from_deg the
+// compass bearing the wind comes from, or < 0 for none. Throws
 // reefgen::Error on an empty or non-finite field, a non-positive cell size
 // or a field with too little land to read (fewer than 100 cells).
-LandformStats landform_stats(const cv::Mat1f& height_m, double metres_per_px);
+LandformStats landform_stats(const cv::Mat1f& height_m, double metres_per_px, double wind_from_deg = -1);
 
 }  // namespace reefgen::terrain
