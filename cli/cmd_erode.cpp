@@ -68,8 +68,7 @@ void check_cell_size(double mpp, const std::string& input) {
 }
 
 nlohmann::json realism_json(const cv::Mat1f& h, double mpp) {
-  const terrain::RealismStats s = terrain::realism_stats(h, mpp);
-  return {{"pits", s.pits}, {"terraces", s.terraces}, {"valleys", s.valleys}, {"max_height_m", s.max_height_m}};
+  return terrain::realism_stats(h, mpp);
 }
 
 // The wind blowing from `from_deg` (a compass bearing, clockwise from north,

@@ -178,12 +178,8 @@ Command add_realism_command(CLI::App& app, const GlobalOptions&) {
               const auto& agree = r.agree;
               const double land = double(st.land_cells) / double(size.area());
               if (a->json) {
-                nlohmann::json j = {{"file", f},          {"size_px", {size.width, size.height}},
-                                    {"metres_per_px", mpp}, {"land_share", land},
-                                    {"max_height_m", st.max_height_m}, {"flank_cells", st.flank_cells},
-                                    {"pits", st.pits},    {"terraces", st.terraces},
-                                    {"valleys", st.valleys}, {"seams_rows", st.seams_rows},
-                                    {"seams_cols", st.seams_cols}};
+                nlohmann::json j = st;
+                j.update({{"file", f}, {"size_px", {size.width, size.height}}, {"metres_per_px", mpp}, {"land_share", land}});
                 if (r.has_reef) {
                   const auto& e = r.reef;
                   auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };

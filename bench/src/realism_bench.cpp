@@ -89,10 +89,9 @@ nlohmann::json realism_bench(const RealismBenchOptions& o, model::GeneratorFile*
       stats.push_back(realism_stats(h, io.world_size_m / o.size_px));
       const RealismStats& st = stats.back();
       const bool flank = st.flank_cells > 0;
-      per[painted[i].filename().string()] = {{"pits", st.pits},
-                                             {"flank_cells", st.flank_cells},
-                                             {"terraces", flank ? nlohmann::json(st.terraces) : nlohmann::json()},
-                                             {"valleys", flank ? nlohmann::json(st.valleys) : nlohmann::json()}};
+      // Without a flank terraces and valleys are not judged (null).
+      nlohmann::json& one = per[painted[i].filename().string()] = st;
+      if (!flank) one["terraces"] = one["valleys"] = nullptr;
       progress.tick(i + 1);
     }
     out["painted"] = realism_summary(stats, ms);

@@ -177,13 +177,11 @@ py::dict realism(py::array_t<float, py::array::c_style | py::array::forcecast> h
     s = terrain::realism_stats(h, metres_per_px);
   }
   py::dict d;
-  d["pits"] = s.pits;
-  d["terraces"] = s.terraces;
-  d["valleys"] = s.valleys;
-  d["seams_rows"] = s.seams_rows;
-  d["seams_cols"] = s.seams_cols;
-  d["max_height_m"] = s.max_height_m;
-  d["land_cells"] = s.land_cells;
+  const nlohmann::json j = s;
+  for (const auto& [key, value] : j.items()) {
+    if (value.is_number_integer()) d[key.c_str()] = value.get<int64_t>();
+    else d[key.c_str()] = value.get<double>();
+  }
   return d;
 }
 

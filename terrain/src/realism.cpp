@@ -13,6 +13,12 @@
 
 namespace reefgen::terrain {
 
+void to_json(nlohmann::json& j, const RealismStats& s) {
+  j = {{"land_cells", s.land_cells}, {"flank_cells", s.flank_cells}, {"max_height_m", s.max_height_m},
+       {"pits", s.pits},             {"terraces", s.terraces},       {"valleys", s.valleys},
+       {"seams_rows", s.seams_rows}, {"seams_cols", s.seams_cols}};
+}
+
 void plan_curvature(const cv::Mat1f& s, double metres_per_px, cv::Mat1f& curvature, cv::Mat1f& gradient) {
   const int H = s.rows, W = s.cols;
   curvature.create(H, W);

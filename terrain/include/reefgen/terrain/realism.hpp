@@ -5,6 +5,7 @@
 
 #include <functional>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
 namespace reefgen::terrain {
@@ -22,6 +23,11 @@ struct RealismStats {
   double seams_rows = 0;  // seam_score along rows (a horizontal border between row r and r+1); 0 = no land
   double seams_cols = 0;  // the same along columns (a vertical border)
 };
+
+// The statistics as every report writes them (realism --json, erode's
+// sidecar, bench realism, Python's reefgen.realism): one key per field,
+// named as the field.
+void to_json(nlohmann::json& j, const RealismStats& s);
 
 // A canvas whose highest land is lower than this has no flank, metres: its
 // land is motu, sand cays or a reef islet (real motu 1–4 m, docs/REEF.md),
