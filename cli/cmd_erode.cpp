@@ -123,6 +123,7 @@ int run_erode(const ErodeArgs& a0, const GlobalOptions& g) {
                          {"resistance", a.resistance},
                          {"seed", a.seed},
                          {"wind_from_deg", a.wind_from_deg ? nlohmann::json(*a.wind_from_deg) : nlohmann::json()},
+                         {"ocean_floor_m", a.finish.ocean_floor_m < 0 ? nlohmann::json(a.finish.ocean_floor_m) : nlohmann::json()},
                          {"realism_before", realism_json(before, mpp)},
                          {"realism_after", realism_json(out, mpp)}};
   side.update(stage_height_files(staged, names.prefix, out, mpp, hf));

@@ -113,6 +113,16 @@ assert j["realism_after"]["pits"] <= 0.01, j["realism_after"]
 assert j["input"]["format"] == "exr" and abs(j["metres_per_pixel"] - 6000 / 128) < 1e-3, j["metres_per_pixel"]
 assert j["geotiff"]["files"]["height"] == "we.height.tif"
 PYEOF
+# --ocean-floor-m on a heightmap of yours: the flank continued by its
+# distance from the land (docs/REEF.md), never below the floor, recorded.
+"$BIN" -q erode "$T/er/w.height.exr" -o "$T/er/deep" --ocean-floor-m -1500 >/dev/null 2>"$T/err" || bad "erode --ocean-floor-m: $(cat "$T/err")"
+OPENCV_IO_ENABLE_OPENEXR=1 "$PY" - "$T/er" <<'PYEOF' && ok || bad "erode --ocean-floor-m"
+import cv2, json, sys
+d = sys.argv[1]
+a, b = (cv2.imread(d + f, cv2.IMREAD_UNCHANGED) for f in ("/we.height.exr", "/deep.height.exr"))
+assert -1500 <= b.min() < a.min() - 200, (a.min(), b.min())
+assert json.load(open(d + "/deep.json"))["ocean_floor_m"] == -1500
+PYEOF
 # The drainage report's valley depth, and with a wind the windward side's
 # against the lee's: the two bearings see the same halves swapped.
 for b in 90 270; do "$BIN" realism --json --drainage --wind-from $b "$T/er/we.height.exr" > "$T/er/d$b.json" || bad "realism --wind-from $b"; done
