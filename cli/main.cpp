@@ -21,6 +21,7 @@
 #include <opencv2/core/utils/logger.hpp>
 
 #include "app.hpp"
+#include "reefgen/heap.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/version.hpp"
 
@@ -199,6 +200,7 @@ int main(int argc, char** argv) {
   // one line from reefgen, naming the file (read_image and friends).
   cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
   reefgen::remove_temps_on_fatal_signals();
+  reefgen::keep_freed_images();
   CLI::App app{"reefgen " + std::string(reefgen::kVersion) +
                " - procedural and learning-based coral reef island terrains\n\n"
                "Examples:\n"

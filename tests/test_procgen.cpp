@@ -193,6 +193,30 @@ TEST(Noise, RangesAndDeterminism) {
   for (int i = 0; i < 1000; ++i) EXPECT_LE(std::fabs(p(i / 1000.0)), 1.0);
 }
 
+// fbm_n runs on the CPU's vector path (eight lanes of gathers on AVX2 and
+// AVX-512): on each path REEFGEN_CPU_PATH can force it must give fbm()'s bits
+// at every point — lattice points, ±0, negative and large coordinates, a
+// count that leaves a tail, one to five octaves.
+TEST(Noise, FbmOfARowIsFbmBitForBitOnEveryVectorPath) {
+  std::vector<float> x = {0.f, -0.f, 1.f, -1.f, 255.f, 256.f, -256.5f, 1e4f + 0.25f, -3e4f}, y = {0.f, 0.f, -0.f, 1.f, 0.5f, -255.f, 17.f, -0.75f, 2e4f};
+  for (int i = 0; i < 1000; ++i) x.push_back(-40.f + 0.0813f * i), y.push_back(25.f - 0.0377f * i);
+  for (const char* path : {"sse2", "avx2", "avx512"}) {
+    const test::ScopedEnv force("REEFGEN_CPU_PATH", path);
+    const GradientNoise2 g(11);
+    for (int octaves = 1; octaves <= 5; ++octaves) {
+      std::vector<float> want(x.size()), got(x.size(), -7.f);
+      for (size_t p = 0; p < x.size(); ++p) want[p] = g.fbm(x[p], y[p], octaves);
+      g.fbm_n(x.data(), y.data(), int(x.size()), octaves, got.data());
+      for (size_t p = 0; p < x.size(); ++p)
+        if (std::memcmp(&want[p], &got[p], sizeof(float)) != 0) {
+          ADD_FAILURE() << path << ", " << octaves << " octaves: fbm(" << x[p] << ", " << y[p] << ") = " << want[p]
+                        << ", fbm_n gives " << got[p];
+          break;
+        }
+    }
+  }
+}
+
 // The magnified look-up (a texel wider than a pixel, islands above ~400²):
 // Catmull-Rom passes through the texels, wraps like the bilinear one, and has
 // no kink on a texel edge, where the bilinear slope jumps (the creases a

@@ -224,15 +224,19 @@ float pass_distance(const ReefPlan::Pass& p, float x, float y) {
 // ±kTableExtent canvas units (cells of ~23 m at the default 6 km canvas) and
 // read bilinearly: the sea floor's relief has features of 1500 m, so this
 // replaces three octaves of gradient noise per abyss cell at no visible cost.
-// A node is evaluated the first time a look-up reads it (NaN until then): at
+// Nodes are evaluated the first time a look-up reads one of them, kBlock
+// neighbours of a row at once on the CPU's vector path (NaN until then): at
 // 256² an island's abyss touches a tenth of the 513² nodes, and building them
 // all cost more than the rest of the reef (docs/BENCHMARKS.md). The values
-// are the full table's, whatever the order of the look-ups.
+// are the full table's, whatever the order of the look-ups. F(xs, ys, n, out)
+// evaluates n nodes at canvas points (xs, ys).
+constexpr int kNoiseTableBlock = 16;
 template <class F>
 class NoiseTable {
  public:
   static constexpr int kTableSide = 512;
   static constexpr float kTableExtent = 2.f;
+  static constexpr int kBlock = kNoiseTableBlock;
   explicit NoiseTable(F f) : f_(std::move(f)), t_(kTableSide + 1, kTableSide + 1, std::numeric_limits<float>::quiet_NaN()) {}
   float at(float x, float y) {
     const float gx = std::clamp((x + kTableExtent) / (2.f * kTableExtent) * kTableSide, 0.f, float(kTableSide) - 1e-3f);
@@ -245,13 +249,40 @@ class NoiseTable {
   }
 
  private:
+  static float coordinate(int i) { return -kTableExtent + 2.f * kTableExtent * i / kTableSide; }
   float node(int r, int c) {
     float& v = t_(r, c);
-    if (std::isnan(v)) v = f_(-kTableExtent + 2.f * kTableExtent * c / kTableSide, -kTableExtent + 2.f * kTableExtent * r / kTableSide);
+    if (std::isnan(v)) fill_block(r, c - c % kBlock);
     return v;
+  }
+  void fill_block(int r, int c0) {
+    const int n = std::min(kBlock, kTableSide + 1 - c0);
+    float xs[kBlock], ys[kBlock];
+    for (int i = 0; i < n; ++i) xs[i] = coordinate(c0 + i), ys[i] = coordinate(r);
+    f_(xs, ys, n, &t_(r, c0));
   }
   F f_;
   cv::Mat1f t_;
+};
+
+// Step 1's two noises for the cells of one row that step 1 reads, read at
+// once on the CPU's vector path (GradientNoise2::fbm_n): the lagoon floor's
+// relief (2 octaves, 600 m features) and the patch reefs' (3 octaves,
+// kPatchCellM), in the order of the cells.
+constexpr double kLagoonReliefFeatureM = 600;
+struct LagoonNoiseRow {
+  std::vector<float> u, v, pu, pv, relief, patch;
+  void clear() { u.clear(), v.clear(), pu.clear(), pv.clear(); }
+  void add(double sx, double sy, double to_m) {
+    u.push_back(float(sx * to_m / kLagoonReliefFeatureM)), v.push_back(float(sy * to_m / kLagoonReliefFeatureM));
+    pu.push_back(float(sx * to_m / terrain::kPatchCellM)), pv.push_back(float(sy * to_m / terrain::kPatchCellM));
+  }
+  void read(const terrain::GradientNoise2& noise, const terrain::GradientNoise2& patch_noise, bool patches) {
+    const int n = int(u.size());
+    relief.resize(n), patch.resize(n);
+    noise.fbm_n(u.data(), v.data(), n, 2, relief.data());
+    if (patches) patch_noise.fbm_n(pu.data(), pv.data(), n, 3, patch.data());
+  }
 };
 
 }  // namespace
@@ -277,9 +308,16 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
   const double groove_fade = std::clamp((rp.groove_spacing_m / mpp - 3.0) / 3.0, 0.0, 1.0);
   const double groove_amp = rp.groove_amplitude_m * groove_fade;
   const double floor_m = spec.heights.floor_m;
-  NoiseTable abyss_relief([&](float x, float y) {
-    return noise.fbm(float(x * to_m / kAbyssReliefFeatureM), float(y * to_m / kAbyssReliefFeatureM), 3);
+  NoiseTable abyss_relief([&](const float* xs, const float* ys, int n, float* out) {
+    float u[kNoiseTableBlock], v[kNoiseTableBlock];
+    for (int i = 0; i < n; ++i) u[i] = float(xs[i] * to_m / kAbyssReliefFeatureM), v[i] = float(ys[i] * to_m / kAbyssReliefFeatureM);
+    noise.fbm_n(u, v, n, 3, out);
   });
+  // Step 1 reads ground below −0.3 m short of the reef flat: it only ever
+  // raises such ground, so land and shallows skip its noise.
+  const auto lagoon_step = [&](double xr, double g) { return xr < c.flat_begin && g < -0.3; };
+  const bool patches = rp.patch_reefs > 0 && D > 1;
+  LagoonNoiseRow lagoon_noise;
 
   for (int y = 0; y < W; ++y) {
     float* h = height_m.ptr<float>(y);
@@ -287,6 +325,11 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
     const cv::Vec2f* src = in.source.ptr<cv::Vec2f>(y);
     const float* cor = in.coral_m.ptr<float>(y);
     uint8_t* lab = label ? label->ptr<uint8_t>(y) : nullptr;
+    lagoon_noise.clear();
+    for (int x = 0; x < W; ++x)
+      if (lagoon_step(double(xtr[x]) - 3.0, h[x])) lagoon_noise.add(src[x][0], src[x][1], to_m);
+    lagoon_noise.read(noise, patch_noise, patches);
+    int lagoon_cell = 0;
     for (int x = 0; x < W; ++x) {
       const double sx = src[x][0], sy = src[x][1], xt = xtr[x], xr = xt - 3.0;
       // The cell's polar position and the outline radii at its angle, worked
@@ -296,17 +339,20 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
       bool polar = false;
       const auto need_polar = [&] {
         if (polar) return;
-        r = std::hypot(sx, sy), th = std::atan2(sy, sx), R = outlines.radii(th), polar = true;
+        r = std::sqrt(sx * sx + sy * sy), th = std::atan2(sy, sx), R = outlines.radii(th), polar = true;
       };
       double g = h[x];
       // 1. Lagoon floor: a basin deepest in the middle (q = 0) and 0.75 D at
-      // the back reef, with low relief and patch reefs. It only ever raises
-      // ground below −0.3 m, so land and shallows skip its noise.
-      if (xr < c.flat_begin && g < -0.3) {
+      // the back reef, with low relief and patch reefs (their noises read
+      // for the row above).
+      if (lagoon_step(xr, g)) {
         need_polar();
+        const int k = lagoon_cell++;
         const double q = std::min(1.0, r / R[2]);
-        double F = -D * (kBackReefShare + (1.0 - kBackReefShare) * (1.0 - q * q)) + 0.08 * D * noise.fbm(float(sx * to_m / 600), float(sy * to_m / 600), 2);
-        if (rp.patch_reefs > 0 && D > 1) F = std::max(F, double(terrain::patch_reef_m(patch_noise, sx * to_m, sy * to_m, D, rp.patch_reefs)));
+        double F = -D * (kBackReefShare + (1.0 - kBackReefShare) * (1.0 - q * q)) + 0.08 * D * lagoon_noise.relief[k];
+        if (patches)
+          F = std::max(F, double(terrain::patch_reef_from_fbm_m(patch_noise, lagoon_noise.pu[k], lagoon_noise.pv[k],
+                                                                lagoon_noise.patch[k], D, rp.patch_reefs)));
         g = std::max(g, std::min(F, -0.3));
       }
       // 2. Passes cut the coral down to their floor.

@@ -59,9 +59,11 @@ cv::Mat1f erodibility_map(const cv::Mat1f& resistance, uint64_t seed, const Eros
     const GradientNoise2 noise(seed);
     const int n = std::min({128, H, W});
     cv::Mat1f coarse(n, n);
-    for (int y = 0; y < n; ++y)
-      for (int x = 0; x < n; ++x)
-        coarse(y, x) = noise.fbm(4.f * (x + 0.5f) / n + 0.37f, 4.f * (y + 0.5f) / n + 0.71f, 2);
+    std::vector<float> u(n), v(n);
+    for (int y = 0; y < n; ++y) {
+      for (int x = 0; x < n; ++x) u[x] = 4.f * (x + 0.5f) / n + 0.37f, v[x] = 4.f * (y + 0.5f) / n + 0.71f;
+      noise.fbm_n(u.data(), v.data(), n, 2, coarse[y]);
+    }
     if (n == W && n == H) mod = coarse;
     else cv::resize(coarse, mod, cv::Size(W, H), 0, 0, cv::INTER_LINEAR);
   }

@@ -3,19 +3,28 @@
 #include <algorithm>
 #include <cmath>
 
+#include <immintrin.h>
+
 #include "reefgen/rng.hpp"
+#include "reefgen/vector_path.hpp"
 
 namespace reefgen::terrain {
 
-GradientNoise2::GradientNoise2(uint64_t seed) {
+namespace {
+GradientNoise2::FbmRowFn fbm_row_for_this_cpu();
+}  // namespace
+
+GradientNoise2::GradientNoise2(uint64_t seed) : fbm_row_(fbm_row_for_this_cpu()) {
   std::array<uint8_t, 256> p;
   for (int i = 0; i < 256; ++i) p[i] = static_cast<uint8_t>(i);
   Rng rng(seed, 0, "gradient-noise-2d");
   for (int i = 255; i > 0; --i) std::swap(p[i], p[rng.uniform_int(0, i)]);  // Fisher-Yates
-  for (int i = 0; i < 512; ++i) perm_[i] = p[i & 255];
+  for (int i = 0; i < 512; ++i) perm_[i] = p[i & 255], perm32_[i] = p[i & 255];
 }
 
 namespace {
+// fade, lerp and grad are mirrored operation for operation by fbm_n's vector
+// path below (the same roundings in the same order: the same bits).
 inline float fade(float t) { return t * t * t * (t * (t * 6.f - 15.f) + 10.f); }
 inline float lerp(float a, float b, float t) { return a + t * (b - a); }
 // 12 directions of Perlin's improved noise restricted to 2-D (z = 0), plus 4
@@ -62,6 +71,85 @@ float GradientNoise2::fbm(float x, float y, int octaves) const {
     x *= 2; y *= 2;
   }
   return sum / norm;
+}
+
+namespace {
+
+// Eight lanes of perlin(): floor, the lattice hash by gathers from perm32,
+// fade, the four corner gradients and the lerps, each rounded as the scalar
+// code rounds it (no FMA: the build has -ffp-contract=off and no target here
+// enables it).
+struct Perlin8 {
+  const int32_t* perm;
+
+  REEFGEN_AVX2 static __m256 fade8(__m256 t) {
+    const __m256 t3 = _mm256_mul_ps(_mm256_mul_ps(t, t), t);
+    __m256 b = _mm256_sub_ps(_mm256_mul_ps(t, _mm256_set1_ps(6.f)), _mm256_set1_ps(15.f));
+    b = _mm256_add_ps(_mm256_mul_ps(t, b), _mm256_set1_ps(10.f));
+    return _mm256_mul_ps(t3, b);
+  }
+  REEFGEN_AVX2 static __m256 lerp8(__m256 a, __m256 b, __m256 t) {
+    return _mm256_add_ps(a, _mm256_mul_ps(t, _mm256_sub_ps(b, a)));
+  }
+  REEFGEN_AVX2 static __m256 grad8(__m256i h, __m256 x, __m256 y) {
+    const __m256i i = _mm256_and_si256(h, _mm256_set1_epi32(15));
+    const __m256 gx = _mm256_i32gather_ps(kGradX, i, 4), gy = _mm256_i32gather_ps(kGradY, i, 4);
+    return _mm256_add_ps(_mm256_mul_ps(gx, x), _mm256_mul_ps(gy, y));
+  }
+  REEFGEN_AVX2 __m256i hash(__m256i i) const { return _mm256_i32gather_epi32(perm, i, 4); }
+
+  REEFGEN_AVX2 __m256 operator()(__m256 x, __m256 y) const {
+    const __m256 fx = _mm256_floor_ps(x), fy = _mm256_floor_ps(y);
+    const __m256i m255 = _mm256_set1_epi32(255), one = _mm256_set1_epi32(1);
+    const __m256i X = _mm256_and_si256(_mm256_cvttps_epi32(fx), m255), Y = _mm256_and_si256(_mm256_cvttps_epi32(fy), m255);
+    x = _mm256_sub_ps(x, fx);
+    y = _mm256_sub_ps(y, fy);
+    const __m256 u = fade8(x), v = fade8(y);
+    const __m256i a = _mm256_add_epi32(hash(X), Y), b = _mm256_add_epi32(hash(_mm256_add_epi32(X, one)), Y);
+    const __m256 x1 = _mm256_sub_ps(x, _mm256_set1_ps(1.f)), y1 = _mm256_sub_ps(y, _mm256_set1_ps(1.f));
+    const __m256 n = lerp8(lerp8(grad8(hash(a), x, y), grad8(hash(b), x1, y), u),
+                           lerp8(grad8(hash(_mm256_add_epi32(a, one)), x, y1), grad8(hash(_mm256_add_epi32(b, one)), x1, y1), u), v);
+    // std::clamp(n, −1, 1): n itself unless it is below −1 or above 1.
+    const __m256 lo = _mm256_set1_ps(-1.f), hi = _mm256_set1_ps(1.f);
+    const __m256 c = _mm256_blendv_ps(n, lo, _mm256_cmp_ps(n, lo, _CMP_LT_OQ));
+    return _mm256_blendv_ps(c, hi, _mm256_cmp_ps(hi, c, _CMP_LT_OQ));
+  }
+};
+
+void fbm_row_scalar(const GradientNoise2& g, const int32_t*, const float* x, const float* y, int n, int octaves, float* out) {
+  for (int i = 0; i < n; ++i) out[i] = g.fbm(x[i], y[i], octaves);
+}
+
+// fbm()'s loop on eight points: the octave offsets, amplitudes and their sum
+// are the same scalars for every lane.
+REEFGEN_AVX2 void fbm_row_avx2(const GradientNoise2& g, const int32_t* perm, const float* xs, const float* ys, int n,
+                               int octaves, float* out) {
+  const Perlin8 perlin{perm};
+  int i = 0;
+  for (; i + 8 <= n; i += 8) {
+    __m256 x = _mm256_loadu_ps(xs + i), y = _mm256_loadu_ps(ys + i), sum = _mm256_setzero_ps();
+    float amp = 1, norm = 0;
+    for (int o = 0; o < octaves; ++o) {
+      const __m256 p = perlin(_mm256_add_ps(x, _mm256_set1_ps(17.31f * o)), _mm256_sub_ps(y, _mm256_set1_ps(9.73f * o)));
+      sum = _mm256_add_ps(sum, _mm256_mul_ps(_mm256_set1_ps(amp), p));
+      norm += amp;
+      amp *= 0.5f;
+      x = _mm256_mul_ps(x, _mm256_set1_ps(2.f));
+      y = _mm256_mul_ps(y, _mm256_set1_ps(2.f));
+    }
+    _mm256_storeu_ps(out + i, _mm256_div_ps(sum, _mm256_set1_ps(norm)));
+  }
+  fbm_row_scalar(g, perm, xs + i, ys + i, n - i, octaves, out + i);
+}
+
+GradientNoise2::FbmRowFn fbm_row_for_this_cpu() {
+  return pick_path<GradientNoise2::FbmRowFn>(&fbm_row_scalar, &fbm_row_avx2, &fbm_row_avx2);
+}
+
+}  // namespace
+
+void GradientNoise2::fbm_n(const float* x, const float* y, int n, int octaves, float* out) const {
+  fbm_row_(*this, perm32_.data(), x, y, n, octaves, out);
 }
 
 NoiseTile::NoiseTile(int octaves) : t_(static_cast<size_t>(kSize) * kSize) {

@@ -17,12 +17,25 @@ class GradientNoise2 {
   explicit GradientNoise2(uint64_t seed);
   float perlin(float x, float y) const;
   float fbm(float x, float y, int octaves) const;
+  // fbm at n points, out[i] = fbm(x[i], y[i], octaves) to the bit, eight
+  // points at a time on the AVX2 and AVX-512 paths (reefgen/vector_path.hpp;
+  // docs/BENCHMARKS.md): for loops that read the noise at every cell.
+  void fbm_n(const float* x, const float* y, int n, int octaves, float* out) const;
   // Same noise with the lattice wrapped every `period` cells; `salt` shifts
   // the hash so that octaves are not copies of each other.
   float perlin_periodic(float x, float y, int period, int salt) const;
 
  private:
   std::array<uint8_t, 512> perm_;
+  // perm_ widened, for the vector path's gathers.
+  std::array<int32_t, 512> perm32_;
+ public:
+  using FbmRowFn = void (*)(const GradientNoise2&, const int32_t*, const float*, const float*, int, int, float*);
+
+ private:
+  // fbm_n's loop for the CPU path when the noise was made (REEFGEN_CPU_PATH
+  // caps it, as every dispatched loop).
+  FbmRowFn fbm_row_;
 };
 
 // A periodic fBm texture of kSize² texels (Perlin octaves with lattice cells

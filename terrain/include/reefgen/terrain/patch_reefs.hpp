@@ -12,6 +12,21 @@ namespace reefgen::terrain {
 // reefs on atoll lagoon floors, a few per km².
 inline constexpr double kPatchCellM = 250;
 
+// patch_reef_m's knoll from the noise coordinates (u, v) = (xm, ym) / kPatchCellM
+// and the 3-octave fbm already read there (n = noise.fbm(u, v, 3)): for
+// loops that read the fbm of a whole row at once (GradientNoise2::fbm_n).
+inline float patch_reef_from_fbm_m(const GradientNoise2& noise, float u, float v, double n, double depth_m,
+                                   double density) {
+  // fbm is roughly symmetric about 0 with |n| < 0.6: density 0 → no knolls,
+  // 1 → about a third of the floor.
+  const double threshold = 0.35 - 0.4 * density;
+  if (n <= threshold) return -1e30f;
+  const double top = -0.5 - 5.5 * (0.5 + 0.5 * noise.perlin(u * 0.37f + 11.f, v * 0.37f - 5.f));
+  const double t = std::clamp((n - threshold) / 0.12, 0.0, 1.0);
+  const double rise = t * t * (3.0 - 2.0 * t);
+  return float(-depth_m + (depth_m + top) * rise);
+}
+
 // Where a band-limited noise field (features of ~kPatchCellM) rises above a
 // threshold set by `density` ([0, 1]: none to about a third of the floor),
 // the floor at depth_m (positive) rises to a knoll whose top lies 0.5–6 m
@@ -21,15 +36,7 @@ inline constexpr double kPatchCellM = 250;
 // their floor.
 inline float patch_reef_m(const GradientNoise2& noise, double xm, double ym, double depth_m, double density) {
   const float u = float(xm / kPatchCellM), v = float(ym / kPatchCellM);
-  const double n = noise.fbm(u, v, 3);
-  // fbm is roughly symmetric about 0 with |n| < 0.6: density 0 → no knolls,
-  // 1 → about a third of the floor.
-  const double threshold = 0.35 - 0.4 * density;
-  if (n <= threshold) return -1e30f;
-  const double top = -0.5 - 5.5 * (0.5 + 0.5 * noise.perlin(u * 0.37f + 11.f, v * 0.37f - 5.f));
-  const double t = std::clamp((n - threshold) / 0.12, 0.0, 1.0);
-  const double rise = t * t * (3.0 - 2.0 * t);
-  return float(-depth_m + (depth_m + top) * rise);
+  return patch_reef_from_fbm_m(noise, u, v, noise.fbm(u, v, 3), depth_m, density);
 }
 
 }  // namespace reefgen::terrain
