@@ -217,6 +217,30 @@ TEST(Noise, FbmOfARowIsFbmBitForBitOnEveryVectorPath) {
   }
 }
 
+// perlin_periodic_n (the noise tile's rows): the vector path for periods
+// that are powers of two, the scalar one for others; fbm's bits either way.
+TEST(Noise, PeriodicNoiseOfARowIsBitForBitOnEveryVectorPath) {
+  std::vector<float> x, y;
+  for (int i = 0; i < 517; ++i) x.push_back(-70.f + 0.3013f * i), y.push_back(90.f - 0.4471f * i);
+  for (const char* path : {"sse2", "avx2", "avx512"}) {
+    const test::ScopedEnv force("REEFGEN_CPU_PATH", path);
+    const GradientNoise2 g(0x5EEDu);
+    for (int period : {1, 7, 64, 128, 512})
+      for (int salt : {0, 3}) {
+        std::vector<float> got(x.size(), -7.f);
+        g.perlin_periodic_n(x.data(), y.data(), int(x.size()), period, salt, got.data());
+        for (size_t p = 0; p < x.size(); ++p) {
+          const float want = g.perlin_periodic(x[p], y[p], period, salt);
+          if (std::memcmp(&want, &got[p], sizeof(float)) != 0) {
+            ADD_FAILURE() << path << ", period " << period << ", salt " << salt << ": (" << x[p] << ", " << y[p]
+                          << ") = " << want << ", row gives " << got[p];
+            break;
+          }
+        }
+      }
+  }
+}
+
 // The magnified look-up (a texel wider than a pixel, islands above ~400²):
 // Catmull-Rom passes through the texels, wraps like the bilinear one, and has
 // no kink on a texel edge, where the bilinear slope jumps (the creases a

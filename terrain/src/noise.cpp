@@ -97,6 +97,10 @@ struct Perlin8 {
     return _mm256_add_ps(_mm256_mul_ps(gx, x), _mm256_mul_ps(gy, y));
   }
   REEFGEN_AVX2 __m256i hash(__m256i i) const { return _mm256_i32gather_epi32(perm, i, 4); }
+  REEFGEN_AVX2 __m256i hash2(__m256i i, __m256i j) const { return hash(_mm256_add_epi32(hash(i), j)); }
+  REEFGEN_AVX2 static __m256i wrap(__m256i i, __m256i mask, __m256i shift) {
+    return _mm256_and_si256(_mm256_add_epi32(_mm256_and_si256(i, mask), shift), _mm256_set1_epi32(255));
+  }
 
   REEFGEN_AVX2 __m256 operator()(__m256 x, __m256 y) const {
     const __m256 fx = _mm256_floor_ps(x), fy = _mm256_floor_ps(y);
@@ -109,7 +113,28 @@ struct Perlin8 {
     const __m256 x1 = _mm256_sub_ps(x, _mm256_set1_ps(1.f)), y1 = _mm256_sub_ps(y, _mm256_set1_ps(1.f));
     const __m256 n = lerp8(lerp8(grad8(hash(a), x, y), grad8(hash(b), x1, y), u),
                            lerp8(grad8(hash(_mm256_add_epi32(a, one)), x, y1), grad8(hash(_mm256_add_epi32(b, one)), x1, y1), u), v);
-    // std::clamp(n, −1, 1): n itself unless it is below −1 or above 1.
+    return clamp8(n);
+  }
+
+  // perlin_periodic() for a period that is a power of two, where
+  // ((i % period) + period) % period is i & (period − 1).
+  REEFGEN_AVX2 __m256 periodic(__m256 x, __m256 y, int period, int salt) const {
+    const __m256 fx = _mm256_floor_ps(x), fy = _mm256_floor_ps(y);
+    const __m256i X0 = _mm256_cvttps_epi32(fx), Y0 = _mm256_cvttps_epi32(fy), one = _mm256_set1_epi32(1);
+    const __m256i mask = _mm256_set1_epi32(period - 1), shift = _mm256_set1_epi32(37 * salt);
+    const __m256i X = wrap(X0, mask, shift), X1 = wrap(_mm256_add_epi32(X0, one), mask, shift);
+    const __m256i Y = wrap(Y0, mask, shift), Y1 = wrap(_mm256_add_epi32(Y0, one), mask, shift);
+    x = _mm256_sub_ps(x, fx);
+    y = _mm256_sub_ps(y, fy);
+    const __m256 u = fade8(x), v = fade8(y);
+    const __m256 x1 = _mm256_sub_ps(x, _mm256_set1_ps(1.f)), y1 = _mm256_sub_ps(y, _mm256_set1_ps(1.f));
+    const __m256 n = lerp8(lerp8(grad8(hash2(X, Y), x, y), grad8(hash2(X1, Y), x1, y), u),
+                           lerp8(grad8(hash2(X, Y1), x, y1), grad8(hash2(X1, Y1), x1, y1), u), v);
+    return clamp8(n);
+  }
+
+  // std::clamp(n, −1, 1): n itself unless it is below −1 or above 1.
+  REEFGEN_AVX2 static __m256 clamp8(__m256 n) {
     const __m256 lo = _mm256_set1_ps(-1.f), hi = _mm256_set1_ps(1.f);
     const __m256 c = _mm256_blendv_ps(n, lo, _mm256_cmp_ps(n, lo, _CMP_LT_OQ));
     return _mm256_blendv_ps(c, hi, _mm256_cmp_ps(hi, c, _CMP_LT_OQ));
@@ -142,6 +167,21 @@ REEFGEN_AVX2 void fbm_row_avx2(const GradientNoise2& g, const int32_t* perm, con
   fbm_row_scalar(g, perm, xs + i, ys + i, n - i, octaves, out + i);
 }
 
+void periodic_row_scalar(const GradientNoise2& g, const int32_t*, const float* x, const float* y, int n, int period,
+                         int salt, float* out) {
+  for (int i = 0; i < n; ++i) out[i] = g.perlin_periodic(x[i], y[i], period, salt);
+}
+
+REEFGEN_AVX2 void periodic_row_avx2(const GradientNoise2& g, const int32_t* perm, const float* xs, const float* ys,
+                                    int n, int period, int salt, float* out) {
+  const Perlin8 perlin{perm};
+  int i = 0;
+  if ((period & (period - 1)) == 0)
+    for (; i + 8 <= n; i += 8)
+      _mm256_storeu_ps(out + i, perlin.periodic(_mm256_loadu_ps(xs + i), _mm256_loadu_ps(ys + i), period, salt));
+  periodic_row_scalar(g, perm, xs + i, ys + i, n - i, period, salt, out + i);
+}
+
 GradientNoise2::FbmRowFn fbm_row_for_this_cpu() {
   return pick_path<GradientNoise2::FbmRowFn>(&fbm_row_scalar, &fbm_row_avx2, &fbm_row_avx2);
 }
@@ -152,24 +192,32 @@ void GradientNoise2::fbm_n(const float* x, const float* y, int n, int octaves, f
   fbm_row_(*this, perm32_.data(), x, y, n, octaves, out);
 }
 
+void GradientNoise2::perlin_periodic_n(const float* x, const float* y, int n, int period, int salt, float* out) const {
+  using Fn = void (*)(const GradientNoise2&, const int32_t*, const float*, const float*, int, int, int, float*);
+  pick_path<Fn>(&periodic_row_scalar, &periodic_row_avx2, &periodic_row_avx2)(*this, perm32_.data(), x, y, n, period, salt, out);
+}
+
 NoiseTile::NoiseTile(int octaves) : t_(static_cast<size_t>(kSize) * kSize) {
   // Periodic Perlin: lattice indices wrap at the period (in cells) of each
   // octave, so the tile repeats seamlessly. Fixed seed: the tile is part of
   // the generator's definition, islands differ by where they sample it.
+  // A row's octave at a time on the CPU's vector path (perlin_periodic_n),
+  // summed per texel in fbm's order: the bits of the texel-by-texel sum.
   const GradientNoise2 g(0x5EEDu);
-  for (int y = 0; y < kSize; ++y)
-    for (int x = 0; x < kSize; ++x) {
-      float sum = 0, amp = 1, norm = 0;
-      int cell = kBaseCell;
-      for (int o = 0; o < octaves; ++o, cell /= 2) {
-        const int period = kSize / cell;
-        const float u = float(x) / cell, v = float(y) / cell;
-        sum += amp * g.perlin_periodic(u + 0.5f / cell, v + 0.5f / cell, period, o);
-        norm += amp;
-        amp *= 0.5f;
-      }
-      t_[static_cast<size_t>(y) * kSize + x] = sum / norm;
+  std::vector<float> u(kSize), v(kSize), octave(kSize), sum(kSize);
+  for (int y = 0; y < kSize; ++y) {
+    std::fill(sum.begin(), sum.end(), 0.f);
+    float amp = 1, norm = 0;
+    int cell = kBaseCell;
+    for (int o = 0; o < octaves; ++o, cell /= 2) {
+      for (int x = 0; x < kSize; ++x) u[x] = float(x) / cell + 0.5f / cell, v[x] = float(y) / cell + 0.5f / cell;
+      g.perlin_periodic_n(u.data(), v.data(), kSize, kSize / cell, o, octave.data());
+      for (int x = 0; x < kSize; ++x) sum[x] += amp * octave[x];
+      norm += amp;
+      amp *= 0.5f;
     }
+    for (int x = 0; x < kSize; ++x) t_[static_cast<size_t>(y) * kSize + x] = sum[x] / norm;
+  }
 }
 
 const NoiseTile& NoiseTile::get(int octaves) {

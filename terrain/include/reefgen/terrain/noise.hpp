@@ -24,6 +24,9 @@ class GradientNoise2 {
   // Same noise with the lattice wrapped every `period` cells; `salt` shifts
   // the hash so that octaves are not copies of each other.
   float perlin_periodic(float x, float y, int period, int salt) const;
+  // perlin_periodic at n points, to the bit; on the vector path when the
+  // period is a power of two.
+  void perlin_periodic_n(const float* x, const float* y, int n, int period, int salt, float* out) const;
 
  private:
   std::array<uint8_t, 512> perm_;
