@@ -69,17 +69,56 @@ TEST(Reef, ShoreKeepsLagoonUnderWater) {
   EXPECT_NEAR(shore_height_m(80, 2.0 + r.shoreface, 20, r), -20, 1e-12);
 }
 
-TEST(Reef, ReefCoralHasAFlatAndACrestAwash) {
-  CoralParams c;
-  c.back_m = -25;
-  EXPECT_EQ(reef_coral_m(c.back_end, c), -25);
-  EXPECT_EQ(reef_coral_m(c.flat_begin, c), c.flat_m);
-  EXPECT_EQ(reef_coral_m(0.5 * (c.crest_begin + c.crest_end), c), c.crest_m);
+// The rim's zones add up to the band; the flat is flat_width_m × (1 +
+// gain · facing) where the band has room, the back-reef slope takes what is
+// left; a narrower band narrows the flat first, then every zone alike.
+TEST(Reef, RimZonesFillTheBandAndTheFlatGivesWayFirst) {
+  const ReefParams r;
+  for (double facing : {-1.0, 0.0, 0.6}) {
+    const RimWidths w = rim_widths_m(2000, facing, r);
+    EXPECT_NEAR(w.fore + w.crest + w.flat + w.back, 2000, 1e-9);
+    EXPECT_NEAR(w.flat, r.flat_width_m * (1 + r.windward_flat_gain * facing), 1e-9) << facing;
+    EXPECT_EQ(w.fore, r.fore_reef_m);
+    EXPECT_EQ(w.crest, r.crest_width_m);
+  }
+  const RimWidths narrow = rim_widths_m(400, 0.0, r);
+  EXPECT_NEAR(narrow.fore + narrow.crest + narrow.flat + narrow.back, 400, 1e-9);
+  EXPECT_EQ(narrow.back, kMinBackReefM);
+  EXPECT_NEAR(narrow.flat, 400 - r.fore_reef_m - r.crest_width_m - kMinBackReefM, 1e-9);
+  const RimWidths tiny = rim_widths_m(120, 0.0, r);
+  EXPECT_EQ(tiny.flat, 0);
+  EXPECT_NEAR(tiny.fore + tiny.crest + tiny.back, 120, 1e-9);
+  EXPECT_NEAR(tiny.fore / tiny.back, r.fore_reef_m / kMinBackReefM, 1e-12);
+}
+
+// Across the rim: the terrace rises from −fore_reef_depth_m at R₄ to the
+// crest (awash), the flat lies at flat_m beyond its first quarter, the
+// back-reef slope ends at the lagoon's edge; no step anywhere (1 m apart,
+// nothing moves more than the steepest zone allows).
+TEST(Reef, RimHeightRisesToAnAwashCrestAndAFlatThenFallsToTheLagoon) {
+  const ReefParams r;
+  const CoralParams c;
+  const RimWidths w = rim_widths_m(900, 0.0, r);
+  const double back_m = -22;
+  EXPECT_NEAR(rim_height_m(0, w, c, back_m, r.fore_reef_depth_m, 0, 0), -r.fore_reef_depth_m, 1e-12);
+  EXPECT_NEAR(rim_height_m(w.fore + 0.5 * w.crest, w, c, back_m, r.fore_reef_depth_m, 0, 0), c.crest_m, 1e-12);
   EXPECT_GE(c.crest_m, -1.0);
-  EXPECT_LE(c.crest_m, 1.0);
-  EXPECT_EQ(reef_coral_m(1.0, c), c.abyss_m);
-  // The flat's first half stays within 0.1 m of flat_m: a flat, not a ramp.
-  EXPECT_NEAR(reef_coral_m(0.5 * (c.flat_begin + c.crest_begin), c), c.flat_m, 0.1);
+  EXPECT_NEAR(rim_height_m(w.fore + w.crest + 0.6 * w.flat, w, c, back_m, r.fore_reef_depth_m, 0, 0), c.flat_m, 1e-12);
+  EXPECT_NEAR(rim_height_m(900, w, c, back_m, r.fore_reef_depth_m, 0, 0), back_m, 1e-9);
+  // The crest's and the flat's relief move them, nothing else.
+  EXPECT_NEAR(rim_height_m(w.fore + 0.5 * w.crest, w, c, back_m, r.fore_reef_depth_m, 0.2, -0.1), c.crest_m + 0.2, 1e-12);
+  double prev = rim_height_m(0, w, c, back_m, r.fore_reef_depth_m, 0, 0), steepest = 0;
+  for (double s = 1; s <= 900; s += 1) {
+    const double h = rim_height_m(s, w, c, back_m, r.fore_reef_depth_m, 0, 0);
+    if (s <= w.fore) EXPECT_GE(h, prev - 1e-12) << s;  // the terrace rises to the crest
+    steepest = std::max(steepest, std::fabs(h - prev));
+    prev = h;
+  }
+  // Steepest at the terrace's foot (d/ds of its 1.5 power) or on the
+  // back-reef slope (the ease's peak, 1.5 × its fall over its width).
+  const double foot = 1.5 * (r.fore_reef_depth_m + c.crest_m) / w.fore, back = 1.5 * (c.flat_m - back_m) / w.back;
+  EXPECT_LE(steepest, std::max(foot, back) + 0.01);
+  EXPECT_GE(steepest, std::max(foot, back) - 0.01);
 }
 
 // The atoll bars of the reef issue at 513² (the test size; docs/REEF.md has
@@ -97,6 +136,8 @@ TEST(Reef, AtollPresetMeetsTheRealReefBars) {
   EXPECT_GE(st.motu, 3);
   EXPECT_GE(st.passes, 1);
   EXPECT_LE(st.flat_floor_share, 0.02);
+  // Reef flats of hundreds of metres (Johnson & Ortiz: 850 ± 817 m), not a tyre.
+  EXPECT_GE(st.reef_flat_width_m, 400);
   // Motu are labelled beach (the green a painter puts on a reef ring).
   int motu_beach = 0;
   for (int y = 0; y < 513; ++y)
@@ -145,7 +186,9 @@ TEST(Reef, DrawnPassesAndMotuAreWhereTheSpecPutsThem) {
   float north = -1e9f, west_crest = -1e9f;
   for (int y = 0; y < 256; ++y) north = std::max(north, f.height_m(y, 256));
   const OutlineTable o(s.outlines, s.min_gap);
-  const double r_crest = o.radii(M_PI)[2] + 0.5 * (s.coral.crest_begin + s.coral.crest_end) * (o.radii(M_PI)[3] - o.radii(M_PI)[2]);
+  // The crest lies fore_reef_m + half the crest inward of R₄ (canvas units: × 2 / the canvas).
+  const RimWidths w = rim_widths_m((o.radii(M_PI)[3] - o.radii(M_PI)[2]) * s.world_size_m / 2, -plan_reef(s, o).windward[0], s.reef);
+  const double r_crest = o.radii(M_PI)[3] - (w.fore + 0.5 * w.crest) * 2 / s.world_size_m;
   const int xc = int(std::lround((1.0 - r_crest) * 256));
   for (int x = std::max(0, xc - 3); x <= xc + 3; ++x) west_crest = std::max(west_crest, f.height_m(256, x));
   EXPECT_GT(north, 1.0f);

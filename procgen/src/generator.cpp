@@ -306,24 +306,19 @@ struct ProfileTables {
   std::vector<float> rho, hsub, coral, merged;
 
   // With reef geomorphology the volcano is shaped to the lagoon shore
-  // (shore_height_m) and the coral is a reef with a flat, rising from the
-  // lagoon floor; elsewhere there is no coral (kNoCoral), so the lagoon
-  // basin and the sea floor beyond the reef come from apply_reef.
+  // (shore_height_m) and there is no coral here (kNoCoral): the rim, the
+  // lagoon basin and the sea floor beyond the reef come from apply_reef.
   ProfileTables(const IslandSpec& spec, double lagoon_depth_m)
       : rho(kEntries), hsub(kEntries), coral(kEntries), merged(kEntries) {
     const bool reef = spec.reef.enabled;
-    CoralParams reef_coral = spec.coral;
-    reef_coral.back_m = -kBackReefShare * lagoon_depth_m;
     for (int j = 0; j < kEntries; ++j) {
       const double xt = 5.0 * j / (kEntries - 1), x = xt - 3.0;
       rho[j] = float(sample_curve(spec.resistance, xt / 5.0));
       const double h0 = subsided_height_m(sample_curve(spec.profile, xt / 5.0), spec.subsidence, spec.heights);
       hsub[j] = float(reef ? shore_height_m(h0, xt, lagoon_depth_m, spec.reef) : h0);
-      if (!spec.coral.enabled) coral[j] = kNoCoral;
-      // Past the fore-reef foot the coral ends two entries out, so the
-      // interpolation between the foot and kNoCoral never reaches x < 1.
-      else if (reef) coral[j] = (x <= spec.coral.back_end || x > 1.0 + 10.0 / (kEntries - 1)) ? kNoCoral
-                                                                                              : float(reef_coral_m(x, reef_coral));
+      // With the reef, apply_reef grows the rim's coral in metres (its zones'
+      // widths do not scale with the band): no coral from x̃ here.
+      if (!spec.coral.enabled || reef) coral[j] = kNoCoral;
       else coral[j] = float(coral_height_m(x, spec.coral));
       merged[j] = spec.coral.enabled ? float(smax(hsub[j], coral[j], spec.smax_k)) : hsub[j];
     }

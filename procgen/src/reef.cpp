@@ -94,11 +94,13 @@ void add_random_passes(ReefPlan& plan, const IslandSpec& spec, const OutlineTabl
     const double th = leeward + rng.uniform(-M_PI / 3, M_PI / 3);
     const auto R = outlines.radii(th);
     const double r0 = R[2] - 0.03, r1 = R[3] + 0.03;
-    const double width_m = rng.uniform(100, 260), depth_m = rng.uniform(8, 20);
-    // Four points across the rim, each pushed sideways: a channel that winds.
+    // As deep as the lagoon's edge at least, so the pass joins lagoon and sea.
+    const double width_m = rng.uniform(100, 260), depth_m = std::max(rng.uniform(8, 20), kBackReefShare * plan.depth_m);
+    // Four points across the rim, each pushed sideways: a channel that winds
+    // but crosses the rim (a wider push ran it along a wide rim).
     std::vector<Vec2> pts;
     for (int i = 0; i < 4; ++i) {
-      const double r = r0 + (r1 - r0) * i / 3.0, a = th + rng.uniform(-1.5, 1.5) * width_m * to_canvas / r;
+      const double r = r0 + (r1 - r0) * i / 3.0, a = th + rng.uniform(-0.8, 0.8) * width_m * to_canvas / r;
       pts.push_back({r * std::cos(a), r * std::sin(a)});
     }
     plan.passes.push_back(pass_from_curve(pts, width_m, depth_m, to_canvas));
@@ -116,6 +118,33 @@ double pass_angle(const ReefPlan::Pass& p) {
 // sand slopes down to it; Stoddart & Steers 1977; motu 1–4 m high): ~0.6 %
 // across the crown of a 1.5 m, 200 m wide islet, more on higher ones.
 constexpr double kMotuLean = 0.4;
+// The motu loop looks this many half-widths out (the apron is below the reef by then).
+constexpr double kMotuApronReach = 3.0;
+
+// Relief of the crest and the flat along the rim (m, amplitude of a noise of
+// the given feature size in m): reef flats and crests are not level (One
+// Tree Reef: 3.5 % of the −2…+1 m band within 1 cm of one height).
+constexpr double kCrestReliefM = 0.25, kCrestReliefFeatureM = 200;
+constexpr double kFlatReliefM = 0.7, kFlatReliefFeatureM = 120;
+
+// A motu sits on the flat's lagoonward part, with this much flat seaward of
+// it (m; Johnson & Ortiz 2023: 184 ± 93 m in front of large motu), and is
+// never narrower than kMinMotuWidthM (less flat than that: none there).
+constexpr double kMotuSeawardFlatM = 150, kMinMotuWidthM = 60;
+// Beyond its edge a motu's sand apron descends at this slope (tan 20°) until
+// it meets the reef: no wall into the lagoon or onto the flat.
+constexpr double kMotuApronSlope = 0.36;
+
+// The cosine of the angle between the canvas direction th and windward.
+double facing_wind(const ReefPlan& plan, double th) { return std::cos(th) * plan.windward[0] + std::sin(th) * plan.windward[1]; }
+
+// The half-width (m) a motu has room for at angle th: half the flat that is
+// left lagoonward of kMotuSeawardFlatM.
+double motu_half_width_room_m(const ReefPlan& plan, const IslandSpec& spec, const OutlineTable& outlines, double th) {
+  const auto R = outlines.radii(th);
+  const RimWidths w = rim_widths_m((R[3] - R[2]) * canvas_to_m(spec), facing_wind(plan, th), spec.reef);
+  return 0.5 * (w.flat - kMotuSeawardFlatM);
+}
 
 // Random motu: sand islets on the reef flat, 150–1200 m long and 150–400 m
 // wide (Johnson & Ortiz, 154 atolls: motu 263 ± 210 m wide), 1.5–3.5 m high,
@@ -123,7 +152,6 @@ constexpr double kMotuLean = 0.4;
 void add_random_motu(ReefPlan& plan, const IslandSpec& spec, const OutlineTable& outlines, double to_canvas) {
   Rng rng(spec.noise.seed, 0, "reef-motu");
   const int count = int(std::lround(spec.reef.random_motu * std::min(1.0, spec.subsidence / 0.2)));
-  const auto& c = spec.coral;
   for (int k = 0; k < count; ++k) {
     const double th = rng.uniform(-M_PI, M_PI);
     const double len_m = rng.uniform(150, 1200), wid_m = rng.uniform(150, 400), top = rng.uniform(1.5, 3.5);
@@ -131,11 +159,10 @@ void add_random_motu(ReefPlan& plan, const IslandSpec& spec, const OutlineTable&
       return std::fabs(wrap_angle(th - pass_angle(p))) < 0.15;
     });
     if (near_pass) continue;
-    const auto R = outlines.radii(th);
-    const double flat_half = 0.5 * (c.crest_end - c.back_end) * (R[3] - R[2]);
     ReefPlan::Islet m;
     m.theta = th;
-    m.half_wid = std::min(0.5 * wid_m * to_canvas, flat_half);
+    m.half_wid = std::min(0.5 * wid_m, motu_half_width_room_m(plan, spec, outlines, th)) * to_canvas;
+    if (m.half_wid < 0.5 * kMinMotuWidthM * to_canvas) continue;  // no room on this stretch of flat
     m.half_len = 0.5 * len_m * to_canvas;
     m.height_m = top;
     plan.motu.push_back(m);
@@ -166,17 +193,35 @@ double shore_height_m(double h_m, double xt, double depth_m, const ReefParams& r
   return h_m;
 }
 
-double reef_coral_m(double x, const CoralParams& c) {
-  if (x <= c.back_end) return c.back_m;
-  if (x < c.flat_begin) return c.back_m + (c.flat_m - c.back_m) * ease((x - c.back_end) / (c.flat_begin - c.back_end));
-  if (x < c.crest_begin) {
-    // The flat stays flat and turns up into the crest over its last part.
-    const double t = ease((x - c.flat_begin) / (c.crest_begin - c.flat_begin));
-    return c.flat_m + (c.crest_m - c.flat_m) * t * t * t;
+RimWidths rim_widths_m(double band_m, double facing, const ReefParams& r) {
+  RimWidths w{r.fore_reef_m, r.crest_width_m, r.flat_width_m * (1.0 + r.windward_flat_gain * std::clamp(facing, -1.0, 1.0)),
+              kMinBackReefM};
+  const double others = w.fore + w.crest + w.back;
+  if (others + w.flat <= band_m) {
+    w.back = band_m - w.fore - w.crest - w.flat;
+    return w;
   }
-  if (x <= c.crest_end) return c.crest_m;
-  if (x < 1.0) return c.crest_m + (c.abyss_m - c.crest_m) * ease((x - c.crest_end) / (1.0 - c.crest_end));
-  return c.abyss_m;
+  w.flat = std::max(0.0, band_m - others);
+  const double k = band_m / (others + w.flat);
+  if (k < 1) w.fore *= k, w.crest *= k, w.flat *= k, w.back *= k;
+  return w;
+}
+
+double rim_height_m(double s, const RimWidths& w, const CoralParams& c, double back_m, double fore_depth_m,
+                    double crest_relief_m, double flat_relief_m) {
+  const double crest = c.crest_m + crest_relief_m, flat = c.flat_m + flat_relief_m;
+  if (s <= w.fore) return crest - (fore_depth_m + crest) * std::pow(1.0 - std::max(s, 0.0) / w.fore, 1.5);
+  s -= w.fore;
+  if (s <= w.crest) return crest;
+  s -= w.crest;
+  if (w.flat <= 0) return crest + (back_m - crest) * ease(s / w.back);
+  if (s <= w.flat) {
+    // The flat turns up into the crest over its first quarter.
+    const double t = std::max(0.0, 1.0 - s / (0.25 * w.flat));
+    return flat + (crest - flat) * t * t * t;
+  }
+  s -= w.flat;
+  return flat + (back_m - flat) * ease(s / w.back);
 }
 
 ReefPlan plan_reef(const IslandSpec& spec, const OutlineTable& outlines) {
@@ -190,7 +235,8 @@ ReefPlan plan_reef(const IslandSpec& spec, const OutlineTable& outlines) {
     ReefPlan::Islet i;
     i.theta = m.angle_deg * M_PI / 180.0;
     i.half_len = 0.5 * m.length_m * to_canvas;
-    i.half_wid = 0.5 * m.width_m * to_canvas;
+    // Never wider than the flat has room for (but kept, at its least width, where it has none).
+    i.half_wid = std::min(0.5 * m.width_m, std::max(0.5 * kMinMotuWidthM, motu_half_width_room_m(plan, spec, outlines, i.theta))) * to_canvas;
     i.height_m = m.height_m;
     plan.motu.push_back(i);
   }
@@ -313,6 +359,7 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
     for (int i = 0; i < n; ++i) u[i] = float(xs[i] * to_m / kAbyssReliefFeatureM), v[i] = float(ys[i] * to_m / kAbyssReliefFeatureM);
     noise.fbm_n(u, v, n, 3, out);
   });
+  const double back_m = -kBackReefShare * D;
   // Step 1 reads ground below −0.3 m short of the reef flat: it only ever
   // raises such ground, so land and shallows skip its noise.
   const auto lagoon_step = [&](double xr, double g) { return xr < c.flat_begin && g < -0.3; };
@@ -355,16 +402,33 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
                                                                 lagoon_noise.patch[k], D, rp.patch_reefs)));
         g = std::max(g, std::min(F, -0.3));
       }
+      // The rim's coral between R₃ and R₄, zoned in metres from R₄ inward
+      // (docs/REEF.md "Reef proportions"); its crest and flat have relief
+      // along the rim (no dead-level planes). s_m < 0 off the rim.
+      double coral = cor[x], s_m = -1;
+      RimWidths rim{};
+      const auto need_rim = [&] {
+        need_polar();
+        rim = rim_widths_m((R[3] - R[2]) * to_m, facing_wind(plan, th), rp);
+      };
+      if (c.enabled && xr >= 0.0 && xr <= 1.0) {
+        need_rim();
+        s_m = (1.0 - xr) * (R[3] - R[2]) * to_m;
+        const double crest_relief = kCrestReliefM * noise.perlin(float(sx * to_m / kCrestReliefFeatureM) + 31.7f,
+                                                                 float(sy * to_m / kCrestReliefFeatureM));
+        const double flat_relief = kFlatReliefM * noise.fbm(float(sx * to_m / kFlatReliefFeatureM) - 13.1f,
+                                                            float(sy * to_m / kFlatReliefFeatureM) + 5.3f, 2);
+        coral = rim_height_m(s_m, rim, c, back_m, rp.fore_reef_depth_m, crest_relief, flat_relief);
+      }
       // 2. Passes cut the coral down to their floor.
-      double coral = cor[x];
       bool in_pass = false;
-      if (xr > c.back_end - 0.3 && xr < 1.0)
+      if (xr > -0.3 && xr < 1.0)
         for (const auto& p : plan.passes) {
           if (sx < p.box[0] || sy < p.box[1] || sx > p.box[2] || sy > p.box[3]) continue;
           // Wider seaward (the channel fans out over the fore reef), with
           // sloping walls (the cut deepens over its whole half-width) and
           // edges roughened along the channel.
-          const double hw = p.half_width * (1.0 + 0.6 * ease((xr - c.back_end) / (1.0 - c.back_end))) *
+          const double hw = p.half_width * (1.0 + 0.6 * ease(xr)) *
                             (1.0 + 0.2 * noise.perlin(float(sx * to_m / 90), float(sy * to_m / 90)));
           const double d = pass_distance(p, float(sx), float(sy));
           if (d >= hw) continue;
@@ -375,15 +439,16 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
         }
       // 3. Coral growth on the ground (Eq. 9).
       g = smax_table(float(g), float(coral));
-      if (lab && in_pass && xr >= c.back_end && xr <= c.crest_end) lab[x] = kLagoon;
-      // 4. Motu on the reef flat, their edges roughened along the rim.
-      if (xr > c.back_end - 0.2 && xr < 1.0 && !in_pass)
+      if (lab && in_pass && s_m >= rim.fore) lab[x] = kLagoon;
+      // 4. Motu on the reef flat's lagoonward part, their edges roughened
+      // along the rim, their aprons sloping down to the reef around them.
+      if (xr > -0.2 && xr < 1.0 && !in_pass)
         for (const auto& m : plan.motu) {
-          need_polar();
-          const double rc = R[2] + 0.5 * (c.flat_begin + c.crest_end) * (R[3] - R[2]);
+          need_rim();
+          const double rc = R[3] - (rim.fore + rim.crest + kMotuSeawardFlatM) / to_m - m.half_wid;
           const double u = wrap_angle(th - m.theta) * rc / m.half_len, v = (r - rc) / m.half_wid;
           double d = std::hypot(u, v);
-          if (d >= 1.3) continue;
+          if (d >= kMotuApronReach) continue;
           // Noise read at the cell's position, not its angle: the angle
           // jumps by 2π west of the centre and drew a seam across a motu there.
           d *= 1.0 + 0.15 * noise.perlin(float(sx * to_m / 120 + m.theta * 7), float(sy * to_m / 120));
@@ -393,36 +458,41 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
           // crest line is not level either.
           const double along_ridge = 1.0 + 0.15 * noise.perlin(float(sx * to_m / 150), float(sy * to_m / 150 + m.theta * 3 + 1.7));
           const double crown_m = m.height_m * (1.0 - kMotuLean * (1.0 - std::clamp(v, -1.0, 1.0))) * along_ridge;
-          const double top = -0.6 + (crown_m + 0.6) * ease((1.0 - d) / 0.45);
+          const double top = d < 1.0 ? -0.6 + (crown_m + 0.6) * ease((1.0 - d) / 0.45)
+                                     : -0.6 - (d - 1.0) * m.half_wid * to_m * kMotuApronSlope;
           if (top > g) g = top;
           if (lab && top > 0.5) lab[x] = kBeach;  // above the crest: the islet, not the reef
         }
       // 5. Spur-and-groove: grooves perpendicular to the crest, 0.5 m to
       // groove_depth_m deep, on the windward side.
-      if (groove_amp > 0 && xr > c.crest_end - 0.1 && g < -0.5 && g > -rp.groove_depth_m) {
+      const bool seaward_of_crest = xt >= 4.0 || (s_m >= 0 && s_m < rim.fore);
+      if (groove_amp > 0 && seaward_of_crest && g < -0.5 && g > -rp.groove_depth_m) {
         need_polar();
-        const double facing = std::cos(th) * plan.windward[0] + std::sin(th) * plan.windward[1];
-        const double ww = ease(2.0 * facing + 0.5);
-        const double dg = -g;
-        const double wd = ease((dg - 0.5) / 2.0) * (1.0 - ease((dg - 0.6 * rp.groove_depth_m) / (0.4 * rp.groove_depth_m)));
-        // Irregular as real grooves: the phase wanders over a few periods and
-        // the relief varies from spur to spur.
+        const double ww = ease(2.0 * facing_wind(plan, th) + 0.5);
         const double along = th * grooves_round;
         // The noises are read round a circle (the angle jumps by 2π west of
         // the centre, and a noise of it drew a seam in the grooves there).
+        // The phase wanders by up to ~2 periods over ~12 and the relief and
+        // the grooves' reach down the slope vary from spur to spur (a
+        // smaller wander drew a comb of equal teeth at 70 m spacing).
         const double rho12 = grooves_round / 12.0, rho5 = grooves_round / 5.0;
         const double phase = along / (2.0 * M_PI) +
-                             0.8 * noise.perlin(float(rho12 * std::cos(th)), float(rho12 * std::sin(th) + 3.5));
-        const double relief = 0.6 + 0.4 * noise.perlin(float(rho5 * std::cos(th)), float(rho5 * std::sin(th) + 7.25));
+                             1.6 * noise.perlin(float(rho12 * std::cos(th)), float(rho12 * std::sin(th) + 3.5));
+        const double spur = noise.perlin(float(rho5 * std::cos(th)), float(rho5 * std::sin(th) + 7.25));
+        const double relief = 0.55 + 0.45 * spur;
+        const double dg = -g, reach = rp.groove_depth_m * (0.75 + 0.25 * spur);
+        const double wd = ease((dg - 0.5) / 2.0) * (1.0 - ease((dg - 0.6 * reach) / (0.4 * reach)));
         g += groove_amp * relief * ww * wd * std::cos(2.0 * M_PI * phase);
       }
-      // 6. Beyond the reef the flank keeps descending towards the floor,
-      // e-folding over abyss_decay_m, with relief: never a flat plane.
+      // 6. Beyond the rim the drop-off and the flank descend from the
+      // terrace's foot towards the floor, e-folding over abyss_decay_m (35°
+      // at the top by default, relaxing with depth), with relief: never a
+      // flat plane.
       if (xt >= 4.0) {
         need_polar();
         const double d = std::max(0.0, r - R[3]) * to_m;
         const double n = abyss_relief.at(float(sx), float(sy));
-        g = std::max(g, flank_height_m(d, floor_m, c.abyss_m, rp.abyss_decay_m, rp.abyss_relief_m, n));
+        g = std::max(g, flank_height_m(d, floor_m, -rp.fore_reef_depth_m, rp.abyss_decay_m, rp.abyss_relief_m, n));
       }
       h[x] = float(g);
     }

@@ -14,15 +14,21 @@ namespace reefgen::procgen {
 
 class OutlineTable;
 
-// Step 6, the sea floor beyond the reef: from the fore-reef foot (foot_m) it
-// descends towards the floor, e-folding over decay_m, never reaching it (no
-// flat plane), with low relief (n ∈ [−1, 1], fbm over kAbyssReliefFeatureM)
-// that grows in over kAbyssReliefRiseM from the reef. d_m: distance from the
-// reef's outer edge. Also what augment::redraw_flank draws after augmentation.
+// Step 6, the sea floor beyond the reef: from the fore-reef foot (foot_m)
+// the drop-off falls kDropOffM (or all the way, above a shallower floor) as
+// 1 − tanh(d / decay_m) — its steepest at the top, kDropOffM / decay_m
+// (60 / 70 m: 41°), 32° on average over its first 80 % — then the rest
+// towards the floor e-folding over kFlankFarDecayM, never reaching it (a
+// floor reached a few hundred metres out was a flat plane over the canvas),
+// with low relief (n ∈ [−1, 1], fbm over kAbyssReliefFeatureM) that grows
+// in over kAbyssReliefRiseM from the reef. d_m: distance from the rim's
+// outer edge. Also what augment::redraw_flank draws after augmentation.
 inline constexpr double kAbyssReliefFeatureM = 1500;
 inline constexpr double kAbyssReliefRiseM = 300;
+inline constexpr double kDropOffM = 60, kFlankFarDecayM = 900;
 inline double flank_height_m(double d_m, double floor_m, double foot_m, double decay_m, double relief_m, double n) {
-  const double base = floor_m + 1.0 + (foot_m - floor_m - 1.0) * std::exp(-d_m / decay_m);
+  const double fall = foot_m - floor_m - 1.0, far = std::max(0.0, fall - kDropOffM);
+  const double base = floor_m + 1.0 + far * std::exp(-d_m / kFlankFarDecayM) + (fall - far) * (1.0 - std::tanh(d_m / decay_m));
   const double relief = relief_m * (0.5 + 0.5 * n) * (1.0 - std::exp(-d_m / kAbyssReliefRiseM));
   return base + relief;
 }
@@ -50,10 +56,31 @@ double lagoon_depth_m(const IslandSpec& spec);
 // lagoon is water at every age ("behind a reef crest lies water").
 double shore_height_m(double h_m, double xt, double depth_m, const ReefParams& r);
 
-// Coral height over x = x̃ − 3 with a reef flat: back-reef toe (back_m) on
-// x ≤ back_end, rise to the flat (flat_m) at flat_begin, flat then a crest
-// (crest_m) from crest_begin to crest_end, fore reef down to abyss_m at x = 1.
-double reef_coral_m(double x, const CoralParams& c);
+// The rim's zones across the band between the outlines R₃ (the lagoon's
+// border) and R₄ (the rim's outer edge), metres, seaward to lagoonward
+// (docs/REEF.md "Reef proportions"): the fore-reef terrace, the crest, the
+// flat, the back-reef slope down to the lagoon. They add up to the band.
+struct RimWidths {
+  double fore = 0, crest = 0, flat = 0, back = 0;
+};
+// The back-reef slope is never narrower than this (m): from the flat down
+// to the lagoon's edge, 15–40 m at the lagoon depths of kBackReefShare, at
+// most ~30° over it (60 m drew the lagoon's edge as a dark line in a
+// hill-shade).
+inline constexpr double kMinBackReefM = 100;
+// The widths on a band band_m wide, facing ∈ [−1, 1] the cosine of the
+// angle from windward: the flat is flat_width_m × (1 + windward_flat_gain ·
+// facing) where the band has room; a narrower band narrows the flat first,
+// then every zone in proportion; a wider one widens the back-reef slope.
+RimWidths rim_widths_m(double band_m, double facing, const ReefParams& r);
+
+// Coral height (m) at s metres lagoonward of R₄ (0 ≤ s ≤ the band): the
+// fore-reef terrace rises from −fore_reef_depth_m to the crest (concave, flat
+// at the crest, ~15° at the foot), the crest at crest_m + crest_relief_m,
+// the flat at flat_m + flat_relief_m turning up into the crest over its
+// first quarter, then the back-reef slope down to back_m at R₃.
+double rim_height_m(double s, const RimWidths& w, const CoralParams& c, double back_m, double fore_depth_m,
+                    double crest_relief_m, double flat_relief_m);
 
 // Segments per bounding box of a pass's centre line: a drawn pass of 1024
 // points is 8000 segments, and most boxes are far from a given cell.

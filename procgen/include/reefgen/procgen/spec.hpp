@@ -129,10 +129,15 @@ struct ReefParams {
   int random_passes = 2;             // passes added on the leeward rim, [0, 16]
   std::vector<Motu> motu;            // placed motu, 0..256
   int random_motu = 6;               // motu added on the reef flat (scaled down below subsidence 0.2), [0, 64]
-  double groove_spacing_m = 30;      // m, spur-and-groove period along the windward fore reef, [5, 200]
+  double groove_spacing_m = 70;      // m, spur-and-groove period along the windward fore reef (Storlazzi et al. 2003: 71 m at 5 m depth), [5, 200]
   double groove_amplitude_m = 1.5;   // m, spur top to groove floor / 2, [0, 10]
   double groove_depth_m = 20;        // m, grooves run from the crest down to this depth, [2, 60]
-  double abyss_decay_m = 900;        // m, e-folding distance of the sea floor's descent beyond the reef, [50, 1e5]
+  double flat_width_m = 500;         // m, reef flat from the crest towards the lagoon where the rim is wide enough (Johnson & Ortiz 2023: 850 ± 817 m on 154 atolls), [0, 5000]
+  double windward_flat_gain = 0.3;   // flat width × (1 + gain · cos of the angle from windward): wider where the waves come from, [0, 0.9]
+  double crest_width_m = 30;         // m, the reef crest between the flat and the fore reef, [5, 300]
+  double fore_reef_m = 130;          // m, the fore-reef terrace from the crest down to fore_reef_depth_m (One Tree Reef: 3° over 137 m), [20, 1000]
+  double fore_reef_depth_m = 20;     // m, depth at the rim's outer edge (R₄) where the terrace ends and the drop-off begins, [2, 60]
+  double abyss_decay_m = 70;         // m, horizontal scale of the drop-off below the fore reef (70: 41° at its top, 32° on average; flank_height_m), [50, 1e5]
   double abyss_relief_m = 4;         // m, sea-floor relief (low-frequency noise), [0, 30]
 };
 template <class F>
@@ -150,6 +155,11 @@ void fields(ReefParams& p, F&& f) {
   f("groove_spacing_m", p.groove_spacing_m, Range{5, 200});
   f("groove_amplitude_m", p.groove_amplitude_m, Range{0, 10});
   f("groove_depth_m", p.groove_depth_m, Range{2, 60});
+  f("flat_width_m", p.flat_width_m, Range{0, 5000});
+  f("windward_flat_gain", p.windward_flat_gain, Range{0, 0.9});
+  f("crest_width_m", p.crest_width_m, Range{5, 300});
+  f("fore_reef_m", p.fore_reef_m, Range{20, 1000});
+  f("fore_reef_depth_m", p.fore_reef_depth_m, Range{2, 60});
   f("abyss_decay_m", p.abyss_decay_m, Range{50, 1e5});
   f("abyss_relief_m", p.abyss_relief_m, Range{0, 30});
 }
