@@ -118,8 +118,10 @@ double pass_angle(const ReefPlan::Pass& p) {
 // sand slopes down to it; Stoddart & Steers 1977; motu 1–4 m high): ~0.6 %
 // across the crown of a 1.5 m, 200 m wide islet, more on higher ones.
 constexpr double kMotuLean = 0.4;
-// The motu loop looks this many half-widths out (the apron is below the reef by then).
-constexpr double kMotuApronReach = 3.0;
+// The motu loop looks this many half-widths out (the apron is below the
+// reef by then); an islet's edge is roughened by up to kMotuEdgeNoise of its
+// distance.
+constexpr double kMotuApronReach = 3.0, kMotuEdgeNoise = 0.15;
 
 // Relief of the crest and the flat along the rim (m, amplitude of a noise of
 // the given feature size in m): reef flats and crests are not level (One
@@ -407,9 +409,11 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
       // along the rim (no dead-level planes). s_m < 0 off the rim.
       double coral = cor[x], s_m = -1;
       RimWidths rim{};
+      bool rim_known = false;
       const auto need_rim = [&] {
+        if (rim_known) return;
         need_polar();
-        rim = rim_widths_m((R[3] - R[2]) * to_m, facing_wind(plan, th), rp);
+        rim = rim_widths_m((R[3] - R[2]) * to_m, facing_wind(plan, th), rp), rim_known = true;
       };
       if (c.enabled && xr >= 0.0 && xr <= 1.0) {
         need_rim();
@@ -449,9 +453,14 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
           const double u = wrap_angle(th - m.theta) * rc / m.half_len, v = (r - rc) / m.half_wid;
           double d = std::hypot(u, v);
           if (d >= kMotuApronReach) continue;
+          // Past the islet its apron only raises ground that lies below it:
+          // where even the roughest edge (d × (1 − kMotuEdgeNoise)) leaves
+          // the apron under the ground, nothing changes and the noises are skipped.
+          const double d_least = d * (1.0 - kMotuEdgeNoise);
+          if (d_least > 1.0 && -0.6 - (d_least - 1.0) * m.half_wid * to_m * kMotuApronSlope <= g) continue;
           // Noise read at the cell's position, not its angle: the angle
           // jumps by 2π west of the centre and drew a seam across a motu there.
-          d *= 1.0 + 0.15 * noise.perlin(float(sx * to_m / 120 + m.theta * 7), float(sy * to_m / 120));
+          d *= 1.0 + kMotuEdgeNoise * noise.perlin(float(sx * to_m / 120 + m.theta * 7), float(sy * to_m / 120));
           // The top leans from a storm ridge on the ocean side (v > 0) down to
           // the lagoon: a dead-flat top read as a filled, straight flat channel.
           // Along the islet the ridge rises and falls (±15 % over ~150 m): its
