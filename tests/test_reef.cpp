@@ -145,6 +145,37 @@ TEST(Reef, AtollPresetMeetsTheRealReefBars) {
   EXPECT_GT(motu_beach, 100);
 }
 
+// Reefs at their real proportions on the two reef presets at 513² (11.7 m
+// cells; docs/REEF.md "Reef proportions" has the 1025² figures): flats of
+// ≥ 400 m, no dead-level plane (no 2-cm bin of the −2…+1 m band holds
+// more than 6 % of it), and no wall: no cell above −30 m (rim, motu,
+// lagoon) steeper than 70° — the old motu slabs and fore reef had 60 m in
+// one cell, and fail it.
+TEST(Reef, PresetRimsAreWideUnevenAndWithoutWalls) {
+  for (const char* name : {"atoll", "barrier-reef"}) {
+    const IslandSpec s = preset(name);
+    constexpr int kSide = 513;
+    const double mpp = s.world_size_m / kSide;
+    const IslandFields f = generate(s, side(kSide));
+    EXPECT_GE(terrain::reef_stats(f.height_m, mpp).reef_flat_width_m, 400) << name;
+    std::vector<int> bins(150, 0);
+    int band = 0;
+    double steepest = 0;
+    for (int y = 1; y + 1 < kSide; ++y)
+      for (int x = 1; x + 1 < kSide; ++x) {
+        const float h = f.height_m(y, x);
+        if (h >= -2.f && h < 1.f) ++bins[std::min(149, int((h + 2.f) / 0.02f))], ++band;
+        if (h <= -30.f) continue;
+        const double gx = (f.height_m(y, x + 1) - f.height_m(y, x - 1)) / (2 * mpp);
+        const double gy = (f.height_m(y + 1, x) - f.height_m(y - 1, x)) / (2 * mpp);
+        steepest = std::max(steepest, std::atan(std::hypot(gx, gy)) * 180 / M_PI);
+      }
+    ASSERT_GT(band, 0) << name;
+    EXPECT_LE(double(*std::max_element(bins.begin(), bins.end())) / band, 0.06) << name;
+    EXPECT_LE(steepest, 70) << name;
+  }
+}
+
 // A bright (young) island's painted lagoon is water: every lagoon-labelled
 // cell below the sea, at every subsidence.
 TEST(Reef, LagoonIsWaterAtEveryAge) {
