@@ -198,7 +198,10 @@ TEST(RedrawFlank, FollowsTheCanvasNotTheAugmentationScale) {
   const Pair big_r = redraw_flank(big, f, 5), small_r = redraw_flank(small, f, 5);
   for (double d : {6.0, 12.0, 20.0}) {
     EXPECT_NEAR(abyss_median_at(big_r, d), abyss_median_at(small_r, d), 0.6) << d;
-    const double flank = -99 + 19 * std::exp(-(d + 0.5 - 0.5) * f.metres_per_px / 900);
+    // flank_height_m's fall from −80 m to a −100 m floor, 19 m: a quarter
+    // e-folding over 900 m, the rest as 1 − tanh(d / decay).
+    const double x_m = d * f.metres_per_px;
+    const double flank = -99 + 0.25 * 19 * std::exp(-x_m / 900) + 0.75 * 19 * (1 - std::tanh(x_m / 900));
     EXPECT_NEAR(abyss_median_at(big_r, d), flank + 2, 1.5) << d;  // + the relief's mean, 2 m far out
   }
   EXPECT_GT(std::fabs(abyss_median_at(big, 12) - abyss_median_at(small, 12)), 1.0);  // what the redraw removes

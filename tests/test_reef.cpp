@@ -78,21 +78,22 @@ TEST(Reef, RimZonesFillTheBandAndTheFlatGivesWayFirst) {
     const RimWidths w = rim_widths_m(2000, facing, r);
     EXPECT_NEAR(w.fore + w.crest + w.flat + w.back, 2000, 1e-9);
     EXPECT_NEAR(w.flat, r.flat_width_m * (1 + r.windward_flat_gain * facing), 1e-9) << facing;
-    EXPECT_EQ(w.fore, r.fore_reef_m);
+    EXPECT_EQ(w.fore, r.fore_reef_m + kDropOffWidthM);
     EXPECT_EQ(w.crest, r.crest_width_m);
   }
   const RimWidths narrow = rim_widths_m(400, 0.0, r);
   EXPECT_NEAR(narrow.fore + narrow.crest + narrow.flat + narrow.back, 400, 1e-9);
   EXPECT_EQ(narrow.back, kMinBackReefM);
-  EXPECT_NEAR(narrow.flat, 400 - r.fore_reef_m - r.crest_width_m - kMinBackReefM, 1e-9);
-  const RimWidths tiny = rim_widths_m(120, 0.0, r);
+  EXPECT_NEAR(narrow.flat, 400 - r.fore_reef_m - kDropOffWidthM - r.crest_width_m - kMinBackReefM, 1e-9);
+  const RimWidths tiny = rim_widths_m(200, 0.0, r);
   EXPECT_EQ(tiny.flat, 0);
-  EXPECT_NEAR(tiny.fore + tiny.crest + tiny.back, 120, 1e-9);
-  EXPECT_NEAR(tiny.fore / tiny.back, r.fore_reef_m / kMinBackReefM, 1e-12);
+  EXPECT_NEAR(tiny.fore + tiny.crest + tiny.back, 200, 1e-9);
+  EXPECT_NEAR(tiny.fore / tiny.back, (r.fore_reef_m + kDropOffWidthM) / kMinBackReefM, 1e-12);
 }
 
-// Across the rim: the terrace rises from −fore_reef_depth_m at R₄ to the
-// crest (awash), the flat lies at flat_m beyond its first quarter, the
+// Across the rim: the seaward slope rises from −rim_edge_depth_m at R₄ past
+// the terrace's foot (−fore_reef_depth_m) to the crest (awash), the flat lies at
+// flat_m beyond its first quarter, the
 // back-reef slope ends at the lagoon's edge; no step anywhere (1 m apart,
 // nothing moves more than the steepest zone allows).
 TEST(Reef, RimHeightRisesToAnAwashCrestAndAFlatThenFallsToTheLagoon) {
@@ -100,25 +101,34 @@ TEST(Reef, RimHeightRisesToAnAwashCrestAndAFlatThenFallsToTheLagoon) {
   const CoralParams c;
   const RimWidths w = rim_widths_m(900, 0.0, r);
   const double back_m = -22;
-  EXPECT_NEAR(rim_height_m(0, w, c, back_m, r.fore_reef_depth_m, 0, 0), -r.fore_reef_depth_m, 1e-12);
-  EXPECT_NEAR(rim_height_m(w.fore + 0.5 * w.crest, w, c, back_m, r.fore_reef_depth_m, 0, 0), c.crest_m, 1e-12);
+  EXPECT_NEAR(rim_height_m(0, w, c, back_m, r, 0, 0), -rim_edge_depth_m(r), 1e-12);
+  // The terrace's foot, kDropOffWidthM in from the edge.
+  EXPECT_NEAR(rim_height_m(kDropOffWidthM, w, c, back_m, r, 0, 0), -r.fore_reef_depth_m, 1e-9);
+  EXPECT_NEAR(rim_height_m(w.fore + 0.5 * w.crest, w, c, back_m, r, 0, 0), c.crest_m, 1e-12);
   EXPECT_GE(c.crest_m, -1.0);
-  EXPECT_NEAR(rim_height_m(w.fore + w.crest + 0.6 * w.flat, w, c, back_m, r.fore_reef_depth_m, 0, 0), c.flat_m, 1e-12);
-  EXPECT_NEAR(rim_height_m(900, w, c, back_m, r.fore_reef_depth_m, 0, 0), back_m, 1e-9);
+  EXPECT_NEAR(rim_height_m(w.fore + w.crest + 0.6 * w.flat, w, c, back_m, r, 0, 0), c.flat_m, 1e-12);
+  EXPECT_NEAR(rim_height_m(900, w, c, back_m, r, 0, 0), back_m, 1e-9);
   // The crest's and the flat's relief move them, nothing else.
-  EXPECT_NEAR(rim_height_m(w.fore + 0.5 * w.crest, w, c, back_m, r.fore_reef_depth_m, 0.2, -0.1), c.crest_m + 0.2, 1e-12);
-  double prev = rim_height_m(0, w, c, back_m, r.fore_reef_depth_m, 0, 0), steepest = 0;
+  EXPECT_NEAR(rim_height_m(w.fore + 0.5 * w.crest, w, c, back_m, r, 0.2, -0.1), c.crest_m + 0.2, 1e-12);
+  double prev = rim_height_m(0, w, c, back_m, r, 0, 0), steepest = 0;
   for (double s = 1; s <= 900; s += 1) {
-    const double h = rim_height_m(s, w, c, back_m, r.fore_reef_depth_m, 0, 0);
-    if (s <= w.fore) EXPECT_GE(h, prev - 1e-12) << s;  // the terrace rises to the crest
+    const double h = rim_height_m(s, w, c, back_m, r, 0, 0);
+    if (s <= w.fore) {
+      EXPECT_GE(h, prev - 1e-12) << s;  // the terrace rises to the crest
+    }
     steepest = std::max(steepest, std::fabs(h - prev));
     prev = h;
   }
-  // Steepest at the terrace's foot (d/ds of its 1.5 power) or on the
-  // back-reef slope (the ease's peak, 1.5 × its fall over its width).
-  const double foot = 1.5 * (r.fore_reef_depth_m + c.crest_m) / w.fore, back = 1.5 * (c.flat_m - back_m) / w.back;
-  EXPECT_LE(steepest, std::max(foot, back) + 0.01);
-  EXPECT_GE(steepest, std::max(foot, back) - 0.01);
+  // Steepest at R₄ — the drop-off's a·u + (1 − a)·u^1.5 has slope
+  // (a + 1.5 (1 − a)) × its fall over its width there, a matching the
+  // terrace's foot — or on the back-reef slope (the ease's peak, 1.5 × its
+  // fall over its width).
+  const double fall = rim_edge_depth_m(r) - r.fore_reef_depth_m;
+  const double a = 1.5 * (r.fore_reef_depth_m + c.crest_m) / r.fore_reef_m * kDropOffWidthM / fall;
+  const double at_edge = (a + 1.5 * (1 - a)) * fall / kDropOffWidthM, back = 1.5 * (c.flat_m - back_m) / w.back;
+  EXPECT_LE(steepest, std::max(at_edge, back) + 0.01);
+  EXPECT_GE(steepest, std::max(at_edge, back) - 0.02);
+  EXPECT_LE(std::atan(at_edge) * 180 / M_PI, 45);  // the drop-off at most ~45° (Bikini: ~25° to 366 m, 30–45° elsewhere)
 }
 
 // The atoll bars of the reef issue at 513² (the test size; docs/REEF.md has

@@ -10,6 +10,7 @@
 #include "reefgen/terrain/erosion.hpp"
 #include "reefgen/procgen/generator.hpp"
 #include "reefgen/procgen/random_spec.hpp"
+#include "reefgen/procgen/reef.hpp"
 #include "reefgen/islands/terrains.hpp"
 #include "reefgen/rng.hpp"
 
@@ -203,7 +204,7 @@ Pair make_pair(uint64_t seed, int64_t index, const DatasetParams& p, PairInfo* o
     FlankShape f;
     f.metres_per_px = spec.world_size_m / p.size_px;
     f.floor_m = spec.heights.floor_m;
-    f.foot_m = spec.reef.enabled ? -spec.reef.fore_reef_depth_m : spec.coral.abyss_m;
+    f.foot_m = spec.reef.enabled ? -procgen::rim_edge_depth_m(spec.reef) : spec.coral.abyss_m;
     f.decay_m = spec.reef.abyss_decay_m;
     f.relief_m = spec.reef.abyss_relief_m;
     pair = redraw_flank(pair, f, derive_seed(seed, static_cast<uint64_t>(index), "flank"));

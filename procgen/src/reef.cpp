@@ -196,7 +196,7 @@ double shore_height_m(double h_m, double xt, double depth_m, const ReefParams& r
 }
 
 RimWidths rim_widths_m(double band_m, double facing, const ReefParams& r) {
-  RimWidths w{r.fore_reef_m, r.crest_width_m, r.flat_width_m * (1.0 + r.windward_flat_gain * std::clamp(facing, -1.0, 1.0)),
+  RimWidths w{r.fore_reef_m + kDropOffWidthM, r.crest_width_m, r.flat_width_m * (1.0 + r.windward_flat_gain * std::clamp(facing, -1.0, 1.0)),
               kMinBackReefM};
   const double others = w.fore + w.crest + w.back;
   if (others + w.flat <= band_m) {
@@ -209,10 +209,18 @@ RimWidths rim_widths_m(double band_m, double facing, const ReefParams& r) {
   return w;
 }
 
-double rim_height_m(double s, const RimWidths& w, const CoralParams& c, double back_m, double fore_depth_m,
+double rim_height_m(double s, const RimWidths& w, const CoralParams& c, double back_m, const ReefParams& r,
                     double crest_relief_m, double flat_relief_m) {
   const double crest = c.crest_m + crest_relief_m, flat = c.flat_m + flat_relief_m;
-  if (s <= w.fore) return crest - (fore_depth_m + crest) * std::pow(1.0 - std::max(s, 0.0) / w.fore, 1.5);
+  if (s <= w.fore) {
+    const double drop = w.fore * kDropOffWidthM / (r.fore_reef_m + kDropOffWidthM), terrace = w.fore - drop;
+    const double rise = r.fore_reef_depth_m + crest;  // the terrace's, foot to crest
+    if (s >= drop) return crest - rise * std::pow(1.0 - (s - drop) / terrace, 1.5);
+    // The drop-off: its slope where the terrace ends (1.5 · rise / terrace), then steeper to R₄.
+    const double fall = rim_edge_depth_m(r) - r.fore_reef_depth_m, u = (drop - std::max(s, 0.0)) / drop;
+    const double a = std::min(1.0, 1.5 * rise / terrace * drop / fall);
+    return -r.fore_reef_depth_m - fall * (a * u + (1.0 - a) * std::pow(u, 1.5));
+  }
   s -= w.fore;
   if (s <= w.crest) return crest;
   s -= w.crest;
@@ -391,6 +399,9 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
         r = std::sqrt(sx * sx + sy * sy), th = std::atan2(sy, sx), R = outlines.radii(th), polar = true;
       };
       double g = h[x];
+      // The lagoon floor's height here (without step 1: its edge's): the
+      // rim's back-reef slope ends on it, so no step where the rim meets the lagoon.
+      double lagoon_floor = back_m;
       // 1. Lagoon floor: a basin deepest in the middle (q = 0) and 0.75 D at
       // the back reef, with low relief and patch reefs (their noises read
       // for the row above).
@@ -402,7 +413,8 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
         if (patches)
           F = std::max(F, double(terrain::patch_reef_from_fbm_m(patch_noise, lagoon_noise.pu[k], lagoon_noise.pv[k],
                                                                 lagoon_noise.patch[k], D, rp.patch_reefs)));
-        g = std::max(g, std::min(F, -0.3));
+        lagoon_floor = std::min(F, -0.3);
+        g = std::max(g, lagoon_floor);
       }
       // The rim's coral between R₃ and R₄, zoned in metres from R₄ inward
       // (docs/REEF.md "Reef proportions"); its crest and flat have relief
@@ -422,7 +434,11 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
                                                                  float(sy * to_m / kCrestReliefFeatureM));
         const double flat_relief = kFlatReliefM * noise.fbm(float(sx * to_m / kFlatReliefFeatureM) - 13.1f,
                                                             float(sy * to_m / kFlatReliefFeatureM) + 5.3f, 2);
-        coral = rim_height_m(s_m, rim, c, back_m, rp.fore_reef_depth_m, crest_relief, flat_relief);
+        // The back-reef slope ends 3/k under the lagoon floor: where coral
+        // and ground are equal Eq. 9's smooth maximum stands 1/(2k) above
+        // both (1 m at the default k), which drew a ridge and a step along
+        // the lagoon's edge; 3/k under, it adds 0.015 m.
+        coral = rim_height_m(s_m, rim, c, lagoon_floor - 3.0 / spec.smax_k, rp, crest_relief, flat_relief);
       }
       // 2. Passes cut the coral down to their floor.
       bool in_pass = false;
@@ -501,7 +517,7 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
         need_polar();
         const double d = std::max(0.0, r - R[3]) * to_m;
         const double n = abyss_relief.at(float(sx), float(sy));
-        g = std::max(g, flank_height_m(d, floor_m, -rp.fore_reef_depth_m, rp.abyss_decay_m, rp.abyss_relief_m, n));
+        g = std::max(g, flank_height_m(d, floor_m, -rim_edge_depth_m(rp), rp.abyss_decay_m, rp.abyss_relief_m, n));
       }
       h[x] = float(g);
     }

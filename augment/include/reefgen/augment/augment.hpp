@@ -32,8 +32,8 @@ Pair affine(const Pair& p, double angle_deg, double scale, bool flip_x, double o
 struct FlankShape {
   double metres_per_px = 6000.0 / 256;  // the canvas's cells
   double floor_m = -100;                // the abyss floor (the spec's heights.floor_m)
-  double foot_m = -20;                  // the fore-reef foot (-reef.fore_reef_depth_m; coral.abyss_m without the reef)
-  double decay_m = 70;                  // reef.abyss_decay_m
+  double foot_m = -60;                  // the rim's seaward edge (-procgen::rim_edge_depth_m; coral.abyss_m without the reef)
+  double decay_m = 35;                  // reef.abyss_decay_m
   double relief_m = 4;                  // reef.abyss_relief_m
 };
 

@@ -14,20 +14,21 @@ namespace reefgen::procgen {
 
 class OutlineTable;
 
-// Step 6, the sea floor beyond the reef: from the fore-reef foot (foot_m)
-// the drop-off falls kDropOffM (or all the way, above a shallower floor) as
-// 1 − tanh(d / decay_m) — its steepest at the top, kDropOffM / decay_m
-// (60 / 70 m: 41°), 32° on average over its first 80 % — then the rest
-// towards the floor e-folding over kFlankFarDecayM, never reaching it (a
-// floor reached a few hundred metres out was a flat plane over the canvas),
-// with low relief (n ∈ [−1, 1], fbm over kAbyssReliefFeatureM) that grows
-// in over kAbyssReliefRiseM from the reef. d_m: distance from the rim's
-// outer edge. Also what augment::redraw_flank draws after augmentation.
+// Step 6, the sea floor beyond the reef: from the rim's edge (foot_m,
+// −rim_edge_depth_m) the flank falls kDropOffM, or 1 − kFlankTailShare of
+// the way to a shallower floor (from −60 m to the −100 m floor: 29 m), as
+// 1 − tanh(d / decay_m) — steepest at the top (29 m over 35 m: 40°), then
+// relaxing — and the rest towards the floor e-folding over kFlankFarDecayM,
+// never reaching it (a floor reached a few hundred metres out was a flat
+// plane over the canvas), with low relief (n ∈ [−1, 1], fbm over
+// kAbyssReliefFeatureM) that grows in over kAbyssReliefRiseM from the reef.
+// d_m: distance from the rim's outer edge. Also what augment::redraw_flank
+// draws after augmentation.
 inline constexpr double kAbyssReliefFeatureM = 1500;
 inline constexpr double kAbyssReliefRiseM = 300;
-inline constexpr double kDropOffM = 60, kFlankFarDecayM = 900;
+inline constexpr double kDropOffM = 60, kFlankFarDecayM = 900, kFlankTailShare = 0.25;
 inline double flank_height_m(double d_m, double floor_m, double foot_m, double decay_m, double relief_m, double n) {
-  const double fall = foot_m - floor_m - 1.0, far = std::max(0.0, fall - kDropOffM);
+  const double fall = foot_m - floor_m - 1.0, far = std::max(kFlankTailShare * fall, fall - kDropOffM);
   const double base = floor_m + 1.0 + far * std::exp(-d_m / kFlankFarDecayM) + (fall - far) * (1.0 - std::tanh(d_m / decay_m));
   const double relief = relief_m * (0.5 + 0.5 * n) * (1.0 - std::exp(-d_m / kAbyssReliefRiseM));
   return base + relief;
@@ -61,8 +62,16 @@ double shore_height_m(double h_m, double xt, double depth_m, const ReefParams& r
 // (docs/REEF.md "Reef proportions"): the fore-reef terrace, the crest, the
 // flat, the back-reef slope down to the lagoon. They add up to the band.
 struct RimWidths {
-  double fore = 0, crest = 0, flat = 0, back = 0;
+  double fore = 0, crest = 0, flat = 0, back = 0;  // fore: the drop-off and the terrace above it
 };
+// The rim's seaward edge (R₄) lies kRimEdgeDepthM deep: the drop-off from
+// the terrace's foot (fore_reef_depth_m) down to it is part of the rim, over
+// kDropOffWidthM, so every abyss-labelled cell is open ocean (below −60 m,
+// as terrain::deepen_flank and the dataset's wrap check read it).
+inline constexpr double kRimEdgeDepthM = 60, kDropOffWidthM = 60;
+// The rim's depth at R₄ (m, positive): kRimEdgeDepthM, or deeper than a
+// terrace whose foot lies deeper still.
+inline double rim_edge_depth_m(const ReefParams& r) { return std::max(kRimEdgeDepthM, r.fore_reef_depth_m + 1.0); }
 // The back-reef slope is never narrower than this (m): from the flat down
 // to the lagoon's edge, 15–40 m at the lagoon depths of kBackReefShare, at
 // most ~30° over it (60 m drew the lagoon's edge as a dark line in a
@@ -75,11 +84,13 @@ inline constexpr double kMinBackReefM = 100;
 RimWidths rim_widths_m(double band_m, double facing, const ReefParams& r);
 
 // Coral height (m) at s metres lagoonward of R₄ (0 ≤ s ≤ the band): the
-// fore-reef terrace rises from −fore_reef_depth_m to the crest (concave, flat
-// at the crest, ~15° at the foot), the crest at crest_m + crest_relief_m,
-// the flat at flat_m + flat_relief_m turning up into the crest over its
-// first quarter, then the back-reef slope down to back_m at R₃.
-double rim_height_m(double s, const RimWidths& w, const CoralParams& c, double back_m, double fore_depth_m,
+// drop-off rises from −rim_edge_depth_m at R₄ to −fore_reef_depth_m over
+// the first kDropOffWidthM (~42° at R₄, easing into the terrace's slope),
+// the fore-reef terrace rises from there to the crest as (1 − t)^1.5
+// (~10° at its foot, flat at the crest), then the crest at crest_m +
+// crest_relief_m, the flat at flat_m + flat_relief_m turning up into the
+// crest over its first quarter, and the back-reef slope down to back_m at R₃.
+double rim_height_m(double s, const RimWidths& w, const CoralParams& c, double back_m, const ReefParams& r,
                     double crest_relief_m, double flat_relief_m);
 
 // Segments per bounding box of a pass's centre line: a drawn pass of 1024

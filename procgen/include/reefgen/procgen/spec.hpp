@@ -136,8 +136,8 @@ struct ReefParams {
   double windward_flat_gain = 0.3;   // flat width × (1 + gain · cos of the angle from windward): wider where the waves come from, [0, 0.9]
   double crest_width_m = 30;         // m, the reef crest between the flat and the fore reef, [5, 300]
   double fore_reef_m = 130;          // m, the fore-reef terrace from the crest down to fore_reef_depth_m (One Tree Reef: 3° over 137 m), [20, 1000]
-  double fore_reef_depth_m = 20;     // m, depth at the rim's outer edge (R₄) where the terrace ends and the drop-off begins, [2, 60]
-  double abyss_decay_m = 70;         // m, horizontal scale of the drop-off below the fore reef (70: 41° at its top, 32° on average; flank_height_m), [50, 1e5]
+  double fore_reef_depth_m = 20;     // m, depth of the fore-reef terrace's foot, where the drop-off begins (60 m further out the rim ends at −60 m), [2, 60]
+  double abyss_decay_m = 35;         // m, horizontal scale of the flank's fall beyond the rim's −60 m edge (35: 40° at its top; flank_height_m), [10, 1e5]
   double abyss_relief_m = 4;         // m, sea-floor relief (low-frequency noise), [0, 30]
 };
 template <class F>
@@ -160,7 +160,7 @@ void fields(ReefParams& p, F&& f) {
   f("crest_width_m", p.crest_width_m, Range{5, 300});
   f("fore_reef_m", p.fore_reef_m, Range{20, 1000});
   f("fore_reef_depth_m", p.fore_reef_depth_m, Range{2, 60});
-  f("abyss_decay_m", p.abyss_decay_m, Range{50, 1e5});
+  f("abyss_decay_m", p.abyss_decay_m, Range{10, 1e5});
   f("abyss_relief_m", p.abyss_relief_m, Range{0, 30});
 }
 
