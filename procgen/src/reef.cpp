@@ -410,7 +410,9 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
         const int k = lagoon_cell++;
         const double q = std::min(1.0, r / R[2]);
         double F = -D * (kBackReefShare + (1.0 - kBackReefShare) * (1.0 - q * q)) + 0.08 * D * lagoon_noise.relief[k];
-        if (patches)
+        // Patch reefs grow in the lagoon, not under the rim (a knoll's top
+        // near the flat's height, merged by Eq. 9, stood above the sea).
+        if (patches && xr < 0.0)
           F = std::max(F, double(terrain::patch_reef_from_fbm_m(patch_noise, lagoon_noise.pu[k], lagoon_noise.pv[k],
                                                                 lagoon_noise.patch[k], D, rp.patch_reefs)));
         lagoon_floor = std::min(F, -0.3);
