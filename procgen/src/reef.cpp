@@ -455,8 +455,11 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
           const double d = pass_distance(p, float(sx), float(sy));
           if (d >= hw) continue;
           const double m = ease(1.25 * (1.0 - d / hw));
+          // The ground is cut 3/k deeper than the coral: where the two met at
+          // the pass's floor Eq. 9's smooth maximum raised it by 1/(2k) (1 m),
+          // a step across the floor where the ground crossed it.
           coral += m * (std::min(coral, -p.depth_m) - coral);
-          g = std::min(g, g + m * (std::min(g, -p.depth_m) - g));
+          g = std::min(g, g + m * (std::min(g, -p.depth_m - 3.0 / spec.smax_k) - g));
           in_pass = in_pass || m > 0.5;
         }
       // 3. Coral growth on the ground (Eq. 9).
