@@ -444,6 +444,7 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
       }
       // 2. Passes cut the coral down to their floor.
       bool in_pass = false;
+      double pass_cut = 0;  // the strongest cut here, [0, 1]
       if (xr > -0.3 && xr < 1.0)
         for (const auto& p : plan.passes) {
           if (sx < p.box[0] || sy < p.box[1] || sx > p.box[2] || sy > p.box[3]) continue;
@@ -455,15 +456,19 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
           const double d = pass_distance(p, float(sx), float(sy));
           if (d >= hw) continue;
           const double m = ease(1.25 * (1.0 - d / hw));
-          // The ground is cut 3/k deeper than the coral: where the two met at
-          // the pass's floor Eq. 9's smooth maximum raised it by 1/(2k) (1 m),
-          // a step across the floor where the ground crossed it.
           coral += m * (std::min(coral, -p.depth_m) - coral);
-          g = std::min(g, g + m * (std::min(g, -p.depth_m - 3.0 / spec.smax_k) - g));
+          g = std::min(g, g + m * (std::min(g, -p.depth_m) - g));
           in_pass = in_pass || m > 0.5;
+          pass_cut = std::max(pass_cut, m);
         }
-      // 3. Coral growth on the ground (Eq. 9).
-      g = smax_table(float(g), float(coral));
+      // 3. Coral growth on the ground (Eq. 9) — but a pass's floor is the cut
+      // surface, not a merge: where coral and ground are both cut to it the
+      // smooth maximum stood 1/(2k) (1 m) above it, with a step where the
+      // ground dipped below the floor. Blended by the cut's strength.
+      {
+        const double merged = smax_table(float(g), float(coral)), hard = std::max(g, coral);
+        g = hard + (1.0 - pass_cut) * (merged - hard);
+      }
       if (lab && in_pass && s_m >= rim.fore) lab[x] = kLagoon;
       // 4. Motu on the reef flat's lagoonward part, their edges roughened
       // along the rim, their aprons sloping down to the reef around them.
