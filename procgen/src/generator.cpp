@@ -551,9 +551,10 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
   constexpr int kLast = ProfileTables::kEntries - 2;  // the last interval's first entry
 
   IslandFields out{cv::Mat1f(W, W), cv::Mat1f(W, W), cv::Mat1b(W, W), cv::Mat1f(), cv::Mat1f()};
-  cv::Mat1f coral_m, rho_px;
+  cv::Mat1f coral_m, rho_px;  // coral_m: the coral to grow on the eroded volcano (the reef grows its own)
   cv::Mat2f source_px;  // with the reef: each pixel's source point
-  if (split) coral_m.create(W, W);
+  const bool coral_after = eroded && !reef && spec.coral.enabled;
+  if (coral_after) coral_m.create(W, W);
   if (eroded) rho_px.create(W, W);
   if (reef) source_px.create(W, W);
   // Per row: the source points, then x̃ for the whole row on the CPU's
@@ -580,7 +581,7 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
       } else {
         h = hsub[j] + f * (hsub[j + 1] - hsub[j]);
         if (noisy) detail(y, x) = 1.f + amp * noise.at(src_x[x], src_y[x]);
-        if (split) coral_m(y, x) = coral[j] + f * (coral[j + 1] - coral[j]);
+        if (coral_after) coral_m(y, x) = coral[j] + f * (coral[j + 1] - coral[j]);
         if (eroded) rho_px(y, x) = rho[j] + f * (rho[j + 1] - rho[j]);
       }
       if (reef) source_px(y, x) = cv::Vec2f(src_x[x], src_y[x]);
@@ -606,11 +607,11 @@ IslandFields generate(const IslandSpec& spec, const RenderOptions& opt) {
     out.height_m = terrain::erode_island(out.height_m, rho_px, spec.world_size_m, spec.noise.seed, spec.erosion,
                                          rain.runoff_rel);
     out.rain_mm_yr = std::move(rain.mm_yr);
-    if (spec.coral.enabled && !reef) grow_coral(out, coral_m, smax_table);
+    if (coral_after) grow_coral(out, coral_m, smax_table);
   }
   if (reef) {
     const ReefPlan plan = plan_reef(spec, outlines);
-    const ReefInputs in{out.xt, source_px, coral_m};
+    const ReefInputs in{out.xt, source_px};
     apply_reef(out.height_m, &out.label, in, spec, outlines, plan);
     if (!out.uneroded_m.empty()) apply_reef(out.uneroded_m, nullptr, in, spec, outlines, plan);
   }

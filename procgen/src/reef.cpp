@@ -280,7 +280,7 @@ float pass_distance(const ReefPlan::Pass& p, float x, float y) {
 // ±kTableExtent canvas units (cells of ~23 m at the default 6 km canvas) and
 // read bilinearly: the sea floor's relief has features of 1500 m, so this
 // replaces three octaves of gradient noise per abyss cell at no visible cost.
-// Nodes are evaluated the first time a look-up reads one of them, kBlock
+// Nodes are evaluated the first time a look-up reads one of them, kNoiseTableBlock
 // neighbours of a row at once on the CPU's vector path (NaN until then): at
 // 256² an island's abyss touches a tenth of the 513² nodes, and building them
 // all cost more than the rest of the reef (docs/BENCHMARKS.md). The values
@@ -292,7 +292,6 @@ class NoiseTable {
  public:
   static constexpr int kTableSide = 512;
   static constexpr float kTableExtent = 2.f;
-  static constexpr int kBlock = kNoiseTableBlock;
   explicit NoiseTable(F f) : f_(std::move(f)), t_(kTableSide + 1, kTableSide + 1, std::numeric_limits<float>::quiet_NaN()) {}
   float at(float x, float y) {
     const float gx = std::clamp((x + kTableExtent) / (2.f * kTableExtent) * kTableSide, 0.f, float(kTableSide) - 1e-3f);
@@ -308,12 +307,12 @@ class NoiseTable {
   static float coordinate(int i) { return -kTableExtent + 2.f * kTableExtent * i / kTableSide; }
   float node(int r, int c) {
     float& v = t_(r, c);
-    if (std::isnan(v)) fill_block(r, c - c % kBlock);
+    if (std::isnan(v)) fill_block(r, c - c % kNoiseTableBlock);
     return v;
   }
   void fill_block(int r, int c0) {
-    const int n = std::min(kBlock, kTableSide + 1 - c0);
-    float xs[kBlock], ys[kBlock];
+    const int n = std::min(kNoiseTableBlock, kTableSide + 1 - c0);
+    float xs[kNoiseTableBlock], ys[kNoiseTableBlock];
     for (int i = 0; i < n; ++i) xs[i] = coordinate(c0 + i), ys[i] = coordinate(r);
     f_(xs, ys, n, &t_(r, c0));
   }
@@ -342,6 +341,10 @@ struct LagoonNoiseRow {
 };
 
 }  // namespace
+
+// Coral height (m) off the rim: far below any ground, so Eq. 9's smooth
+// maximum returns the ground unchanged.
+constexpr double kNoCoralM = -1e4;
 
 // Long: the reef's six numbered steps (lagoon floor, passes, coral growth,
 // motu, spur-and-groove, flank) run in one pass per cell over the distance
@@ -380,7 +383,6 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
     float* h = height_m.ptr<float>(y);
     const float* xtr = in.xt.ptr<float>(y);
     const cv::Vec2f* src = in.source.ptr<cv::Vec2f>(y);
-    const float* cor = in.coral_m.ptr<float>(y);
     uint8_t* lab = label ? label->ptr<uint8_t>(y) : nullptr;
     lagoon_noise.clear();
     for (int x = 0; x < W; ++x)
@@ -421,7 +423,7 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
       // The rim's coral between R₃ and R₄, zoned in metres from R₄ inward
       // (docs/REEF.md "Reef proportions"); its crest and flat have relief
       // along the rim (no dead-level planes). s_m < 0 off the rim.
-      double coral = cor[x], s_m = -1;
+      double coral = kNoCoralM, s_m = -1;
       RimWidths rim{};
       bool rim_known = false;
       const auto need_rim = [&] {

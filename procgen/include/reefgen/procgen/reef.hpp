@@ -15,7 +15,7 @@ namespace reefgen::procgen {
 class OutlineTable;
 
 // Step 6, the sea floor beyond the reef: from the rim's edge (foot_m,
-// −rim_edge_depth_m) the flank falls kDropOffM, or 1 − kFlankTailShare of
+// −rim_edge_depth_m) the flank falls kFlankSteepFallM, or 1 − kFlankTailShare of
 // the way to a shallower floor (from −60 m to the −100 m floor: 29 m), as
 // 1 − tanh(d / decay_m) — steepest at the top (29 m over 35 m: 40°), then
 // relaxing — and the rest towards the floor e-folding over kFlankFarDecayM,
@@ -26,9 +26,9 @@ class OutlineTable;
 // draws after augmentation.
 inline constexpr double kAbyssReliefFeatureM = 1500;
 inline constexpr double kAbyssReliefRiseM = 300;
-inline constexpr double kDropOffM = 60, kFlankFarDecayM = 900, kFlankTailShare = 0.25;
+inline constexpr double kFlankSteepFallM = 60, kFlankFarDecayM = 900, kFlankTailShare = 0.25;
 inline double flank_height_m(double d_m, double floor_m, double foot_m, double decay_m, double relief_m, double n) {
-  const double fall = foot_m - floor_m - 1.0, far = std::max(kFlankTailShare * fall, fall - kDropOffM);
+  const double fall = foot_m - floor_m - 1.0, far = std::max(kFlankTailShare * fall, fall - kFlankSteepFallM);
   const double base = floor_m + 1.0 + far * std::exp(-d_m / kFlankFarDecayM) + (fall - far) * (1.0 - std::tanh(d_m / decay_m));
   const double relief = relief_m * (0.5 + 0.5 * n) * (1.0 - std::exp(-d_m / kAbyssReliefRiseM));
   return base + relief;
@@ -115,13 +115,13 @@ struct ReefPlan {
 };
 ReefPlan plan_reef(const IslandSpec& spec, const OutlineTable& outlines);
 
-// The per-pixel fields the reef steps read: heights before the merge (the
-// volcano, eroded or not), coral heights, x̃, and each pixel's source point
-// (the wind-warped canvas point its material came from).
+// The per-pixel fields the reef steps read besides the heights before the
+// merge (the volcano, eroded or not): x̃ and each pixel's source point (the
+// wind-warped canvas point its material came from). The coral is the rim's,
+// grown by apply_reef itself.
 struct ReefInputs {
   const cv::Mat1f& xt;
   const cv::Mat2f& source;  // canvas (x, y) of each pixel's material
-  const cv::Mat1f& coral_m;
 };
 
 // The steps, in order, on one height field (label updated where motu or
