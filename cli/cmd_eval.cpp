@@ -61,9 +61,11 @@ Command add_eval_command(CLI::App& app, const GlobalOptions& g) {
             if (!a->out.empty()) ensure_writable_dir(a->out);
             const size_t n = std::min(pairs.size(), size_t(a->max_pairs));
             std::vector<infer::EvalPair> eval_pairs;
-            for (size_t i = 0; i < n; ++i)
+            for (size_t i = 0; i < n; ++i) {
               eval_pairs.push_back(infer::read_eval_pair(data.dir / pairs[i].label, data.dir / pairs[i].height,
                                                          data.size_px, pairs[i].index, pairs[i].label));
+              eval_pairs.back().maturity = pairs[i].maturity;
+            }
             infer::EvalOptions eo;
             eo.perturb = !a->no_perturb;
             eo.running_stats = a->running_stats;

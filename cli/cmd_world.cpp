@@ -50,8 +50,10 @@ infer::WorldJob world_job(const WorldArgs& a, int threads, bool quiet) {
   job.options.engine = infer::engine_from_string(a.engine);
   job.options.seed = a.seed;
   job.options.variation = a.variation;
-  if (const double m = maturity_for(a.age_myr, a.maturity); m != kNotSet)
+  if (const double m = maturity_for(a.age_myr, a.maturity); m != kNotSet) {
     job.options.amplification = infer::matured(job.options.amplification, m);
+    job.options.maturity = m;  // what a generator with the maturity channel reads (infer::network_maturity)
+  }
   job.layers = a.finish.layers;
   job.need_layers = fin.need_layers;
   job.layer_rules = fin.rules;

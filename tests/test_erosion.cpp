@@ -1196,6 +1196,24 @@ TEST(Erosion, EveryFlowExponentErodesToFiniteHeights) {
   }
 }
 
+// Every maturity the spec allows erodes to finite heights at small sizes.
+// At 128² the base grid's old island is planed to its 0.1 m land floor, where
+// neighbours differ by a few ulps: the slopes' sum was a denormal, the area
+// over it inf, then NaN heights — `generate --preset young-volcano --size 128
+// --maturity 16` and a dataset drawing maturities up to 20 stopped with
+// "flood_route: a queued key below the last one taken".
+TEST(Erosion, EveryMaturityErodesToFiniteHeightsAtSmallSizes) {
+  std::ifstream f(std::string(REEFGEN_SOURCE_DIR) + "/configs/presets/young-volcano.json");
+  nlohmann::json j = nlohmann::json::parse(f);
+  RenderOptions opt;
+  opt.size_px = 128;
+  for (const double m : {16.0, kMaxMaturity}) {
+    j["maturity"] = m;
+    const cv::Mat1f h = generate(spec_from_json(j, "t"), opt).height_m;
+    EXPECT_TRUE(cv::checkRange(h)) << "maturity " << m;
+  }
+}
+
 // A Moorea-sized canvas (24 km, the young-volcano preset's 66 km² island) at
 // Kauaʻi's age keeps a dissected mountain: with the 6 km canvas's base cells
 // (94 m here) every cell incised and the flanks were planed to a 67 m plain

@@ -106,6 +106,76 @@ TEST(Infer, SizesRangeDeterminismAndBatchIndependence) {
 
 // The command as a library call: a folder of sketches to height files and
 // sidecars, the EXR equal to infer_heights, all or nothing, never over an input.
+// A generator with the maturity channel (docs/MODEL.md "The age channel")
+// reads the maturity infer is asked for, the age's when only the age is set,
+// 1 when neither is; the 4th plane is exactly that maturity's code, and the
+// same options on a three-channel generator read none. A file of another
+// channel count is refused naming it.
+TEST(Infer, AMaturityChannelGeneratorReadsTheAskedMaturity) {
+  const fs::path d = temp_dir("infer_maturity");
+  torch::manual_seed(9);
+  model::UNetOptions uo;
+  uo.ngf = 4;
+  uo.depth = 6;
+  uo.norm = model::Norm::Instance;
+  uo.in_channels = model::kLabelAndMaturityChannels;
+  model::UNetGenerator net(uo);
+  model::init_pix2pix(*net);
+  model::save_generator(d / "g4.pt", net, {-100, 560}, 64, 1);
+  model::GeneratorFile g = model::load_generator(d / "g4.pt");
+  const DecodedSketch s = sketch(3, 64);
+  InferOptions o;
+  o.amplify = false;  // the network's own answer
+  EXPECT_EQ(network_maturity(o), 1);
+  const cv::Mat1f plain = infer_heights(g, {s}, o)[0];
+  o.maturity = 1;
+  EXPECT_EQ(cv::norm(plain, infer_heights(g, {s}, o)[0], cv::NORM_INF), 0.0);
+  o.maturity = 20;
+  const cv::Mat1f old = infer_heights(g, {s}, o)[0];
+  EXPECT_GT(cv::norm(plain, old, cv::NORM_INF), 0.01) << "the maturity did not reach the network";
+  // By hand: the label tensor with the plane of maturity 20's code (1).
+  {
+    c10::InferenceMode im;
+    g.g->train(true);
+    g.g->set_dropout_enabled(false);
+    torch::Tensor x = model::label_to_tensor(canonical_sketch(s, 64));
+    x = torch::cat({x, torch::ones({1, 64, 64})}, 0).unsqueeze(0);  // {1,4,S,S}
+    const cv::Mat1f by_hand = model::tensor_to_height(g.g->forward(x)[0], g.range);
+    EXPECT_LT(cv::norm(old, by_hand, cv::NORM_INF), 1e-3);
+  }
+  // The age alone: its maturity (5 My: 5).
+  o.maturity = kNotSet;
+  o.age_myr = 5;
+  EXPECT_EQ(network_maturity(o), 5);
+  o.age_myr = kNotSet;
+  o.maturity = 5;
+  InferOptions by_age;
+  by_age.amplify = false;
+  by_age.age_myr = 5;
+  DecodedSketch aged = s;
+  aged.subsidence.setTo(float(subsidence_of_age(5)));
+  EXPECT_EQ(cv::norm(infer_heights(g, {s}, by_age)[0], infer_heights(g, {aged}, o)[0], cv::NORM_INF), 0.0);
+  // Three channels: the maturity changes nothing before the amplification.
+  auto g3 = tiny_generator(d);
+  InferOptions p3;
+  p3.amplify = false;
+  const cv::Mat1f a3 = infer_heights(g3, {s}, p3)[0];
+  p3.maturity = 20;
+  EXPECT_EQ(cv::norm(a3, infer_heights(g3, {s}, p3)[0], cv::NORM_INF), 0.0);
+  // Another channel count: refused on load, naming the file.
+  uo.in_channels = 5;
+  model::UNetGenerator five(uo);
+  model::save_generator(d / "g5.pt", five, {-100, 560}, 64, 1);
+  try {
+    model::load_generator(d / "g5.pt");
+    ADD_FAILURE() << "a five-channel generator loaded";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("g5.pt"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("reads 5 input channels"), std::string::npos) << e.what();
+  }
+  fs::remove_all(d);
+}
+
 TEST(Infer, InferFilesWritesEverySketchOrNothing) {
   const fs::path d = temp_dir("infer_files");
   auto g = tiny_generator(d);

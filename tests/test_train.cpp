@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include "reefgen/age.hpp"
 #include "reefgen/image_io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/model/generator_file.hpp"
@@ -514,6 +515,89 @@ TEST(Train, InitStartsFromAnotherRunsWeights) {
   bad.init_from = base / "src" / "run.json";  // neither a checkpoint nor a generator
   expect_error_naming([&] { run_training(params, bad); }, "run.json");
   EXPECT_FALSE(fs::exists(base / "bad" / "checkpoint.pt"));
+  fs::remove_all(base);
+}
+
+// The maturity's code: 0 at the unit maturity, ±1 at the ends of the range,
+// clamped past them, monotonic; the plane appended to the label unchanged.
+TEST(Codec, TheMaturityPlane) {
+  EXPECT_EQ(model::maturity_code(1), 0.f);
+  EXPECT_NEAR(model::maturity_code(kMaxMaturity), 1.f, 1e-7);
+  EXPECT_NEAR(model::maturity_code(kMinMaturity), -1.f, 1e-6);
+  EXPECT_EQ(model::maturity_code(1e6), model::maturity_code(kMaxMaturity));
+  EXPECT_EQ(model::maturity_code(1e-9), model::maturity_code(kMinMaturity));
+  EXPECT_LT(model::maturity_code(0.5), model::maturity_code(2));
+  EXPECT_NEAR(model::maturity_code(5), std::log(5.0) / std::log(20.0), 1e-6);
+  cv::Mat3b label(8, 6, cv::Vec3b(10, 200, 30));
+  const torch::Tensor t3 = model::network_input(label, model::kLabelChannels, 7);
+  EXPECT_TRUE(torch::equal(t3, model::label_to_tensor(label)));
+  const torch::Tensor t4 = model::network_input(label, model::kLabelAndMaturityChannels, 5);  // {4,8,6}
+  ASSERT_EQ(t4.sizes(), (std::vector<int64_t>{4, 8, 6}));
+  EXPECT_TRUE(torch::equal(t4.narrow(0, 0, 3), t3));
+  EXPECT_TRUE(torch::all(t4[3] == model::maturity_code(5)).item<bool>());
+  EXPECT_THROW(model::network_input(label, 5, 1), std::invalid_argument);
+}
+
+// The maturity channel (docs/MODEL.md "The age channel"): each pair's
+// manifest maturity reaches G and D as a constant fourth plane; a G widened
+// from a three-channel generator file answers as the file's G did, at every
+// maturity (the new channel's weights start at zero); a run with the channel
+// exports a four-channel generator, and a checkpoint without it is refused.
+TEST(Train, TheMaturityChannelCarriesEachPairsMaturity) {
+  const fs::path data = make_dataset("maturity_data", 5, 1, {0.1, 1, 5, 20, 2});
+  const DatasetInfo d = open_dataset(data);
+  ASSERT_EQ(d.train.size(), 4u);
+  EXPECT_EQ(d.train[0].maturity, 0.1);
+  EXPECT_EQ(d.train[3].maturity, 20);
+  EXPECT_EQ(open_dataset(make_dataset("no_maturity_data", 2, 1)).train[0].maturity, 1);
+  const Sample three = load_sample(d, d.train[0], {}, 0);
+  const Sample four = load_sample(d, d.train[0], {}, 0, model::kLabelAndMaturityChannels);
+  ASSERT_EQ(three.label.size(0), 3);
+  ASSERT_EQ(four.label.size(0), 4);
+  EXPECT_TRUE(torch::equal(four.label.narrow(0, 0, 3), three.label));
+  EXPECT_NEAR(four.label[3].min().item<float>(), std::log(0.1) / std::log(kMaxMaturity), 1e-6);
+  EXPECT_EQ(four.label[3].min().item<float>(), four.label[3].max().item<float>());
+  // Jittered and flipped, the plane stays the pair's.
+  const Sample jittered = load_sample(d, d.train[3], {true, 1.2, true}, 11, model::kLabelAndMaturityChannels);
+  EXPECT_EQ(jittered.label[3].min().item<float>(), 1.f);
+  EXPECT_EQ(jittered.label[3].max().item<float>(), 1.f);
+
+  const fs::path base = temp_dir("maturity_runs");
+  TrainParams params = tiny_params();
+  torch::manual_seed(3);
+  Pix2Pix p3(pix2pix_options(params));
+  model::save_generator(base / "g3.pt", p3.G(), {}, 64, 1);
+  TrainParams aged = params;
+  aged.maturity_channel = true;
+  EXPECT_EQ(pix2pix_options(aged).g.in_channels, 4);
+  EXPECT_EQ(pix2pix_options(aged).d.in_channels, 5);
+  torch::manual_seed(4);
+  Pix2Pix p4(pix2pix_options(aged));
+  load_checkpoint_weights(base / "g3.pt", p4, aged);
+  {
+    torch::NoGradGuard no_grad;
+    for (Pix2Pix* p : {&p3, &p4}) {
+      p->G()->eval();
+      p->G()->set_dropout_enabled(false);
+    }
+    const torch::Tensor x = torch::rand({1, 3, 64, 64}) * 2 - 1;  // {1,3,S,S}
+    const torch::Tensor y3 = p3.G()->forward(x);
+    for (const double m : {0.1, 1.0, 20.0}) {
+      const torch::Tensor x4 = model::with_maturity(x[0], m).unsqueeze(0);  // {1,4,S,S}
+      EXPECT_LT((p4.G()->forward(x4) - y3).abs().max().item<float>(), 1e-5f) << "maturity " << m;
+    }
+  }
+
+  RunOptions run = run_in(data, base / "aged");
+  run.max_steps = 2;
+  ASSERT_EQ(run_training(aged, run).step, 2);
+  EXPECT_EQ(model::load_generator(base / "aged" / "generator.pt").g->options().in_channels, 4);
+  RunOptions plain = run_in(data, base / "plain");
+  plain.max_steps = 1;
+  ASSERT_EQ(run_training(params, plain).step, 1);
+  RunOptions mixed = run_in(data, base / "mixed");
+  mixed.init_from = base / "plain" / "checkpoint.pt";
+  expect_error_naming([&] { run_training(aged, mixed); }, "maturity_channel = false there, true here");
   fs::remove_all(base);
 }
 

@@ -1,6 +1,7 @@
 #pragma once
 // What the training tests share: a tiny dataset on disk and tiny settings.
 #include <string>
+#include <vector>
 
 #include "reefgen/constants.hpp"
 #include "reefgen/image_io.hpp"
@@ -13,8 +14,9 @@
 namespace reefgen::test {
 
 // A dataset folder in the format of `reefgen dataset build`: `n` generated
-// islands at 64 px, the last `n_val` in the val split.
-inline fs::path make_dataset(const std::string& name, int n, int n_val) {
+// islands at 64 px, the last `n_val` in the val split; with maturities, pair
+// i's manifest record holds maturities[i] (as a dataset drawing them does).
+inline fs::path make_dataset(const std::string& name, int n, int n_val, const std::vector<double>& maturities = {}) {
   const fs::path d = temp_dir(name);
   fs::create_directories(d / "train");
   fs::create_directories(d / "val");
@@ -32,10 +34,10 @@ inline fs::path make_dataset(const std::string& name, int n, int n_val) {
     write_png(d / (std::string(stem) + ".label.png"), encode_labels(f.label, s.subsidence));
     write_exr_height(d / (std::string(stem) + ".height.exr"), f.height_m);
     const std::string label = std::string(stem) + ".label.png", height = std::string(stem) + ".height.exr";
-    manifest += nlohmann::json{{"index", i}, {"split", split}, {"label", label}, {"height", height},
-                               {"label_fnv64", file_checksum(d / label)}, {"height_fnv64", file_checksum(d / height)}}
-                    .dump() +
-                "\n";
+    nlohmann::json record{{"index", i}, {"split", split}, {"label", label}, {"height", height},
+                          {"label_fnv64", file_checksum(d / label)}, {"height_fnv64", file_checksum(d / height)}};
+    if (size_t(i) < maturities.size()) record["maturity"] = maturities[size_t(i)];
+    manifest += record.dump() + "\n";
   }
   write_text_atomic(d / "manifest.jsonl", manifest);
   return d;

@@ -35,6 +35,17 @@ EvalPair read_eval_pair(const std::filesystem::path& label, const std::filesyste
   return p;
 }
 
+namespace {
+// A generator with the maturity channel is asked for the pair's maturity (and
+// amplified at it, as `infer --maturity` would); any other reads none.
+InferOptions at_maturity(const InferOptions& io, const model::GeneratorFile& g, double maturity) {
+  if (g.g->options().in_channels != model::kLabelAndMaturityChannels || maturity == 1) return io;
+  InferOptions o = io;
+  o.maturity = maturity;
+  return o;
+}
+}  // namespace
+
 EvalResult evaluate(model::GeneratorFile& g, const std::vector<EvalPair>& pairs, const EvalOptions& o) {
   const size_t n = pairs.size();
   std::vector<DecodedSketch> clean;
@@ -58,7 +69,7 @@ EvalResult evaluate(model::GeneratorFile& g, const std::vector<EvalPair>& pairs,
       const DecodedSketch sk = kind == Perturbation::None
                                    ? clean[i]
                                    : decode_sketch(perturb(pairs[i].label_bgr, kind, uint64_t(pairs[i].index)), pairs[i].name);
-      const cv::Mat1f pred = infer_heights(g, {sk}, io)[0];
+      const cv::Mat1f pred = infer_heights(g, {sk}, at_maturity(io, g, pairs[i].maturity))[0];
       const MetricSums m = pair_metrics(pred, pairs[i].truth_m, clean[i].label, g.range.lo_m, g.range.hi_m,
                                         o.world_size_m / pred.cols);
       sums.add(m);

@@ -124,6 +124,11 @@ torch::Tensor forward_generator(model::GeneratorFile& g, const torch::Tensor& x,
   return y;
 }
 
+double network_maturity(const InferOptions& o) {
+  const double m = maturity_for(o.age_myr, o.maturity);
+  return m == kNotSet ? 1.0 : m;
+}
+
 namespace {
 
 // The sketch as the network reads it: with an age, its subsidence.
@@ -153,7 +158,8 @@ std::vector<cv::Mat1f> network_answers(model::GeneratorFile& g, const std::vecto
   const Precision precision = resolve(o, g);
   std::vector<torch::Tensor> inputs;
   for (const auto& s : sketches)
-    inputs.push_back(model::label_to_tensor(canonical_sketch(with_age(s, o.age_myr), g.size_px)));
+    inputs.push_back(model::network_input(canonical_sketch(with_age(s, o.age_myr), g.size_px),
+                                          g.g->options().in_channels, network_maturity(o)));  // {in,S,S}
   std::vector<cv::Mat1f> answers;
   // Stochastic mode runs one sketch per forward with the masks of --seed, so a
   // sketch gives the same island alone or in a folder, in any position.

@@ -29,7 +29,8 @@ DecodedSketch at_model_scale(const DecodedSketch& s, double sketch_metres_per_px
 
 // One forward over label/λ maps already square and a multiple of 2^depth.
 cv::Mat1f forward_heights(model::GeneratorFile& g, const cv::Mat1b& label, const cv::Mat1f& sub, const InferOptions& o) {
-  const torch::Tensor x = model::label_to_tensor(encode_labels(label, sub)).unsqueeze(0);  // {1,3,S,S}
+  const torch::Tensor x =
+      model::network_input(encode_labels(label, sub), g.g->options().in_channels, network_maturity(o)).unsqueeze(0);  // {1,in,S,S}
   const torch::Tensor y = forward_generator(g, x, resolve_engine(o), resolve(o, g), o.running_stats);  // {1,1,S,S}
   return model::tensor_to_height(y[0], g.range);
 }

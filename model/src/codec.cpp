@@ -1,8 +1,13 @@
 #include "reefgen/model/codec.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <stdexcept>
+#include <string>
 
 #include <opencv2/imgproc.hpp>
+
+#include "reefgen/age.hpp"
 
 namespace reefgen::model {
 
@@ -13,6 +18,25 @@ torch::Tensor label_to_tensor(const cv::Mat3b& label_bgr) {
                         .permute({2, 0, 1})                                         // {3,H,W}
                         .to(torch::kFloat32);
   return t.div_(127.5).sub_(1.0).contiguous();
+}
+
+float maturity_code(double maturity) {
+  const double m = std::clamp(maturity, kMinMaturity, kMaxMaturity);
+  return static_cast<float>(std::clamp(std::log(m) / std::log(kMaxMaturity), -1.0, 1.0));
+}
+
+torch::Tensor with_maturity(const torch::Tensor& label, double maturity) {
+  if (label.dim() != 3 || label.size(0) != kLabelChannels)
+    throw std::invalid_argument("with_maturity: expected a label tensor {3,H,W}, got " + c10::str(label.sizes()));
+  const torch::Tensor plane = torch::full({1, label.size(1), label.size(2)}, maturity_code(maturity));  // {1,H,W}
+  return torch::cat({label, plane}, 0);  // {4,H,W}
+}
+
+torch::Tensor network_input(const cv::Mat3b& label_bgr, int in_channels, double maturity) {
+  if (in_channels == kLabelChannels) return label_to_tensor(label_bgr);
+  if (in_channels == kLabelAndMaturityChannels) return with_maturity(label_to_tensor(label_bgr), maturity);
+  throw std::invalid_argument("network_input: a generator reads " + std::to_string(kLabelChannels) + " or " +
+                              std::to_string(kLabelAndMaturityChannels) + " channels, not " + std::to_string(in_channels));
 }
 
 torch::Tensor height_to_tensor(const cv::Mat1f& height_m, const HeightRange& r) {

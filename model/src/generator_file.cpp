@@ -79,6 +79,9 @@ GeneratorFile load_generator(const std::filesystem::path& path) {
   try {
     const auto j = parse_json_checked(read_string(a, "options"), path.string() + " (its options)");
     o.in_channels = j.at("in_channels");
+    if (o.in_channels != kLabelChannels && o.in_channels != kLabelAndMaturityChannels)
+      throw std::runtime_error("it reads " + std::to_string(o.in_channels) +
+                               " input channels; reefgen feeds 3 (the label map) or 4 (the label map and the maturity)");
     o.out_channels = j.at("out_channels");
     o.ngf = j.at("ngf");
     o.depth = j.at("depth");

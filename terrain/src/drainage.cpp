@@ -65,12 +65,15 @@ void accumulate_multiple(const FlowGraph& g, const cv::Mat1b& role, float cell_a
           sum += w[d];
         }
       }
-      if (sum <= 0.f) {
+      // Slopes of a few ulps (an old island planed to its 0.1 m land floor)
+      // sum to a denormal: the area over it overflows to inf, then NaN
+      // heights. Such a cell is flat: it drains to its receiver.
+      const float a = sum > 0.f ? area[i] / sum : 0.f;
+      if (sum <= 0.f || !std::isfinite(a)) {
         const int r = g.receiver[i];
         if (rl[r] == kActive) area[r] += area[i];
         continue;
       }
-      const float a = area[i] / sum;
       for (int d = 0; d < 8; ++d)
         if (w[d] > 0.f) {
           const int j = i + offset[d];

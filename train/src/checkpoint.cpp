@@ -235,7 +235,7 @@ int64_t load_checkpoint(const fs::path& path, Pix2Pix& p, const TrainParams& par
 
 bool same_architecture(const TrainParams& a, const TrainParams& b, std::string* differing) {
   const json ja = a, jb = b;
-  for (const char* k : {"ngf", "ndf", "depth", "d_layers", "norm", "upsample"})
+  for (const char* k : {"ngf", "ndf", "depth", "d_layers", "norm", "upsample", "maturity_channel"})
     if (ja.at(k) != jb.at(k)) {
       if (differing) *differing = std::string(k) + " = " + ja.at(k).dump() + " there, " + jb.at(k).dump() + " here";
       return false;
@@ -245,16 +245,33 @@ bool same_architecture(const TrainParams& a, const TrainParams& b, std::string* 
 
 namespace {
 
+// A convolution's weight {out,in,k,k} that reads more input channels here
+// than in the file, and is otherwise the same.
+bool widened_input(const torch::Tensor& file, const torch::Tensor& here) {
+  if (file.dim() != 4 || here.dim() != 4 || here.size(1) <= file.size(1)) return false;
+  for (int64_t d : {0, 2, 3})
+    if (file.size(d) != here.size(d)) return false;
+  return true;
+}
+
 // Copies every tensor of `from` into the same-named tensor of `to`; throws
-// when a name or shape differs (another architecture).
+// when a name or shape differs (another architecture). With widen, a weight
+// that reads more input channels here (G's first convolution with the
+// maturity channel added) takes the file's channels first and zeros for the
+// new ones: the widened G answers every input as the file's G did.
 void copy_tensors(const torch::OrderedDict<std::string, torch::Tensor>& from,
-                  torch::OrderedDict<std::string, torch::Tensor>& to, const fs::path& path) {
+                  torch::OrderedDict<std::string, torch::Tensor>& to, const fs::path& path, bool widen = false) {
   if (from.size() != to.size())
     throw Error(path.string() + ": another architecture (" + std::to_string(from.size()) + " tensors, this config has " +
                 std::to_string(to.size()) + "); start from a generator of the same networks or change the config");
   torch::NoGradGuard no_grad;
   for (const auto& item : from) {
     torch::Tensor* t = to.find(item.key());
+    if (t && widen && widened_input(item.value(), *t)) {
+      t->zero_();
+      t->narrow(1, 0, item.value().size(1)).copy_(item.value());
+      continue;
+    }
     if (!t || !t->sizes().equals(item.value().sizes()))
       throw Error(path.string() + ": another architecture (tensor " + item.key() +
                   "); start from a generator of the same networks or change the config");
@@ -274,7 +291,7 @@ bool load_generator_weights(const fs::path& path, Pix2Pix& p) {
   }
   auto params = p.G()->named_parameters();
   auto buffers = p.G()->named_buffers();
-  copy_tensors(f.g->named_parameters(), params, path);
+  copy_tensors(f.g->named_parameters(), params, path, /*widen=*/true);
   copy_tensors(f.g->named_buffers(), buffers, path);
   return true;
 }

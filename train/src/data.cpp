@@ -20,6 +20,20 @@ const std::vector<PairRef>& DatasetInfo::split(const std::string& name) const {
   throw Error("unknown split '" + name + "'; use train, val or test");
 }
 
+namespace {
+fs::path manifest_path(const fs::path& dir) { return dir / "manifest.jsonl"; }
+
+// The record's erosion maturity (datasets before maturities were drawn have
+// none: their erosion is the configured one, maturity 1).
+double maturity_of(const augment::ManifestPair& p, const fs::path& manifest) {
+  const auto it = p.record.find("maturity");
+  if (it == p.record.end() || it->is_null()) return 1;
+  if (!it->is_number() || !(it->get<double>() > 0))
+    throw Error(manifest.string() + ":" + std::to_string(p.line) + ": \"maturity\" must be a positive number; rebuild the dataset");
+  return it->get<double>();
+}
+}  // namespace
+
 DatasetInfo open_dataset(const fs::path& dir, const augment::ManifestCheck& check) {
   DatasetInfo d;
   d.dir = dir;
@@ -35,17 +49,17 @@ DatasetInfo open_dataset(const fs::path& dir, const augment::ManifestCheck& chec
   }
   if (!(d.range.hi_m > d.range.lo_m)) throw Error(meta.string() + ": height_normalisation_m must be [lo, hi] with lo < hi");
   for (augment::ManifestPair& p : augment::read_manifest(dir, check)) {
-    PairRef r{p.index, std::move(p.label), std::move(p.height)};
+    PairRef r{p.index, std::move(p.label), std::move(p.height), maturity_of(p, manifest_path(dir))};
     if (p.split == "train") d.train.push_back(std::move(r));
     else if (p.split == "val") d.val.push_back(std::move(r));
     else d.test.push_back(std::move(r));
   }
-  const fs::path manifest = dir / "manifest.jsonl";
+  const fs::path manifest = manifest_path(dir);
   if (d.train.empty()) throw Error(manifest.string() + ": no training pairs");
   return d;
 }
 
-Sample load_sample(const DatasetInfo& d, const PairRef& p, const JitterOptions& jit, uint64_t seed) {
+Sample load_sample(const DatasetInfo& d, const PairRef& p, const JitterOptions& jit, uint64_t seed, int in_channels) {
   const fs::path lp = d.dir / p.label, hp = d.dir / p.height;
   cv::Mat3b label;
   try {
@@ -80,7 +94,8 @@ Sample load_sample(const DatasetInfo& d, const PairRef& p, const JitterOptions& 
       cv::flip(height, height, 1);
     }
   }
-  return {model::label_to_tensor(label), model::height_to_tensor(height, d.range)};
+  // The maturity plane is constant: the jitter does not move it.
+  return {model::network_input(label, in_channels, p.maturity), model::height_to_tensor(height, d.range)};
 }
 
 size_t sample_at(uint64_t seed, int64_t q, size_t n) {

@@ -57,6 +57,10 @@ std::string resolved_precision(const TrainParams& p) {
   return p.engine == "onednn" && model::cpu_has_native_bf16() ? "bf16" : "fp32";
 }
 
+int in_channels_of(const TrainParams& p) {
+  return p.maturity_channel ? model::kLabelAndMaturityChannels : model::kLabelChannels;
+}
+
 Pix2PixOptions pix2pix_options(const TrainParams& p, const model::HeightRange& range) {
   Pix2PixOptions o;
   o.g.ngf = p.ngf;
@@ -64,6 +68,8 @@ Pix2PixOptions pix2pix_options(const TrainParams& p, const model::HeightRange& r
   o.g.norm = model::norm_from_string(p.norm);
   o.g.upsample = model::upsample_from_string(p.upsample);
   o.g.dropout = p.dropout;
+  o.g.in_channels = in_channels_of(p);
+  o.d.in_channels = o.g.in_channels + o.g.out_channels;
   o.d.ndf = p.ndf;
   o.d.n_layers = p.d_layers;
   o.d.norm = o.g.norm;

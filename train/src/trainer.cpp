@@ -49,8 +49,8 @@ void without_side_effects(model::UNetGenerator& g, F f) {
   g->set_dropout_enabled(dropout);
 }
 
-cv::Mat3b tensor_to_label_bgr(const torch::Tensor& t) {  // {3,S,S} in [-1,1]
-  torch::Tensor u8 = t.add(1.0).mul(127.5).round().clamp(0, 255).to(torch::kUInt8).permute({1, 2, 0}).contiguous();
+cv::Mat3b tensor_to_label_bgr(const torch::Tensor& t) {  // {in,S,S} in [-1,1]: its label channels
+  torch::Tensor u8 = t.narrow(0, 0, model::kLabelChannels).add(1.0).mul(127.5).round().clamp(0, 255).to(torch::kUInt8).permute({1, 2, 0}).contiguous();
   cv::Mat3b rgb(int(t.size(1)), int(t.size(2)));
   std::memcpy(rgb.data, u8.data_ptr<uint8_t>(), size_t(u8.numel()));
   cv::Mat3b bgr;
@@ -146,10 +146,12 @@ struct Validator {
   const TrainParams& params;
   fs::path out;
 
+  int in_channels() const { return in_channels_of(params); }
+
   Validator(Pix2Pix& p_, const DatasetInfo& d, bool lead, const TrainParams& pr, const fs::path& run_out)
       : p(p_), data(d), val(d.val.empty() ? d.train : d.val), params(pr), out(run_out) {
     for (int i = 0; lead && i < std::min<int>(params.val_samples, int(val.size())); ++i)
-      fixed.push_back(load_sample(data, val[size_t(i)], {}, 0));
+      fixed.push_back(load_sample(data, val[size_t(i)], {}, 0, in_channels()));
   }
 
   void write_grid(int64_t s) {
@@ -183,7 +185,7 @@ struct Validator {
       p.G()->train(batch_stats);
       p.G()->set_dropout_enabled(false);
       for (size_t i = 0; i < std::min(val.size(), size_t(params.val_max_pairs)); ++i) {
-        const Sample v = load_sample(data, val[i], {}, 0);
+        const Sample v = load_sample(data, val[i], {}, 0, in_channels());
         sum += (p.G()->forward(v.label.unsqueeze(0))[0] - v.height).abs().mean().item<double>();
         ++count;
       }
@@ -327,11 +329,11 @@ Prefetcher::Batch load_batch(const Job& job, int64_t s) {
   for (int64_t b = 0; b < job.plan.B; ++b) {
     const int64_t q = sample_index(job, s, b);
     const PairRef& ref = job.data.train[sample_at(seed, q, job.data.train.size())];
-    Sample smp = load_sample(job.data, ref, jitter, derive_seed(seed, uint64_t(q), "jitter"));
+    Sample smp = load_sample(job.data, ref, jitter, derive_seed(seed, uint64_t(q), "jitter"), in_channels_of(job.params));
     labels.push_back(smp.label);
     heights.push_back(smp.height);
   }
-  return {torch::stack(labels), torch::stack(heights)};  // {B,3,S,S}, {B,1,S,S}
+  return {torch::stack(labels), torch::stack(heights)};  // {B,in,S,S}, {B,1,S,S}
 }
 
 // Dropout draws from torch's generator, reseeded per step, and each sample's

@@ -21,6 +21,7 @@ struct EvalPair {
   cv::Mat1f truth_m;
   int64_t index = 0;  // the pair's index in the dataset (seeds its perturbations)
   std::string name;   // the label file, relative to the dataset
+  double maturity = 1;  // the erosion maturity its truth was made at (the manifest's); read by a generator with the maturity channel
 };
 // Reads a pair and checks it: both files size_px² (the dataset's size), the
 // heights finite. Errors name the file and the fix (rebuild the dataset).

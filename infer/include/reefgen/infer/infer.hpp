@@ -74,7 +74,12 @@ Precision resolve(const InferOptions& o, const model::GeneratorFile& g);
 // regions by nearest neighbour (never blended), subsidence bilinear.
 cv::Mat3b canonical_sketch(const DecodedSketch& sketch, int size_px);
 
-// One forward of the generator on x {n,3,S,S} (S a multiple of 2^depth; the
+// The maturity a generator with the maturity channel is asked for
+// (model/codec.hpp): the options' maturity, else their age's, else 1 (the
+// erosion the training data had before the channel).
+double network_maturity(const InferOptions& o);
+
+// One forward of the generator on x {n,in,S,S} (S a multiple of 2^depth; the
 // oneDNN engine up to 4096) → {n,1,S,S} in [-1, 1], by engine and precision
 // as resolved; the caller sets g's train/dropout modes (infer_heights does).
 // The oneDNN engine's plan is built once per (n, S, precision, mode).

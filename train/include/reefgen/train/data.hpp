@@ -25,6 +25,7 @@ namespace reefgen::train {
 struct PairRef {
   int64_t index = 0;
   std::string label, height;  // paths relative to the dataset folder
+  double maturity = 1;        // the erosion maturity its truth was made at (the manifest's; 1 where none was drawn)
 };
 
 struct DatasetInfo {
@@ -48,13 +49,15 @@ struct JitterOptions {
 };
 
 struct Sample {
-  torch::Tensor label;   // {3,S,S} in [-1,1]
+  torch::Tensor label;   // {in,S,S}: the label map in [-1,1], then the maturity plane when asked (model/codec.hpp)
   torch::Tensor height;  // {1,S,S} in [-1,1]
 };
 
 // Loads and checks one pair (size, NaN), then jitters it with draws from `seed`:
-// label by nearest neighbour (never blended), height bilinearly.
-Sample load_sample(const DatasetInfo& d, const PairRef& p, const JitterOptions& j, uint64_t seed);
+// label by nearest neighbour (never blended), height bilinearly. in_channels:
+// model::kLabelChannels, or kLabelAndMaturityChannels for the pair's maturity as a 4th plane.
+Sample load_sample(const DatasetInfo& d, const PairRef& p, const JitterOptions& j, uint64_t seed,
+                   int in_channels = model::kLabelChannels);
 
 // Position q of the endless sample stream (epoch q / n, a fresh permutation of
 // the n pairs per epoch).
@@ -65,7 +68,7 @@ size_t sample_at(uint64_t seed, int64_t q, size_t n);
 // rethrows a worker's exception.
 class Prefetcher {
  public:
-  using Batch = std::pair<torch::Tensor, torch::Tensor>;  // label {B,3,S,S}, height {B,1,S,S}
+  using Batch = std::pair<torch::Tensor, torch::Tensor>;  // label {B,in,S,S}, height {B,1,S,S}
   Prefetcher(std::function<Batch(int64_t)> make, int64_t first, int64_t end, int threads, int depth);
   ~Prefetcher();
   Batch next();

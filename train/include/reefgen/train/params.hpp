@@ -22,6 +22,7 @@ struct TrainParams {
   std::string norm = "batch";   // batch | instance | none
   std::string upsample = "transpose";  // G's decoder: transpose (pix2pix) | nearest | bilinear (resize-convolution)
   double dropout = 0.5;         // in G's three innermost decoder blocks, [0, 1)
+  bool maturity_channel = false;  // G and D also read each pair's erosion maturity as a 4th input plane (docs/MODEL.md "The age channel")
   // Optimisation
   double lr = 2e-4;             // Adam learning rate, (0, 1]
   double beta1 = 0.5;           // Adam β1, [0, 1)
@@ -66,6 +67,7 @@ void fields(TrainParams& p, F&& f) {
   f("norm", p.norm, OneOf{{"batch", "instance", "none"}});
   f("upsample", p.upsample, OneOf{{"transpose", "nearest", "bilinear"}});
   f("dropout", p.dropout, Range{0, 1, false, true});
+  f("maturity_channel", p.maturity_channel);
   f("lr", p.lr, Range{0, 1, true, false});
   f("beta1", p.beta1, Range{0, 1, false, true});
   f("beta2", p.beta2, Range{0, 1, false, true});
@@ -105,6 +107,9 @@ void validate(const TrainParams& p, const std::string& origin);
 // over all of them. Errors name where the values came from.
 TrainParams train_params_for_run(const std::string& config_path, const fs::path& run_dir, bool resume,
                                  const nlohmann::json& overrides);
+
+// G's input channels: the label map's, and the maturity plane with maturity_channel.
+int in_channels_of(const TrainParams& p);
 
 // `range` (the dataset's height normalisation) turns l1_shore_m into normalised units.
 Pix2PixOptions pix2pix_options(const TrainParams& p, const model::HeightRange& range = {});
