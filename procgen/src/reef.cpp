@@ -16,6 +16,10 @@ namespace reefgen::procgen {
 
 namespace {
 
+// Patch reefs rise to their full height over this distance inside R₃ (m):
+// about a knoll's half-width, so its side at the rim is no steeper than its others.
+constexpr double kKnollRimMarginM = 120;
+
 inline double ease(double t) {
   t = std::clamp(t, 0.0, 1.0);
   return t * t * (3.0 - 2.0 * t);
@@ -413,10 +417,15 @@ void apply_reef(cv::Mat1f& height_m, cv::Mat1b* label, const ReefInputs& in, con
         const double q = std::min(1.0, r / R[2]);
         double F = -D * (kBackReefShare + (1.0 - kBackReefShare) * (1.0 - q * q)) + 0.08 * D * lagoon_noise.relief[k];
         // Patch reefs grow in the lagoon, not under the rim (a knoll's top
-        // near the flat's height, merged by Eq. 9, stood above the sea).
-        if (patches && xr < 0.0)
-          F = std::max(F, double(terrain::patch_reef_from_fbm_m(patch_noise, lagoon_noise.pu[k], lagoon_noise.pv[k],
-                                                                lagoon_noise.patch[k], D, rp.patch_reefs)));
+        // near the flat's height, merged by Eq. 9, stood above the sea), and
+        // rise in over kKnollRimMarginM inside R₃: cut off at R₃ a knoll
+        // stood as a 17 m wall over the back reef's toe (75° at 2049²).
+        const double inside_m = (R[2] - r) * to_m;
+        if (patches && xr < 0.0 && inside_m > 0) {
+          const double knoll = terrain::patch_reef_from_fbm_m(patch_noise, lagoon_noise.pu[k], lagoon_noise.pv[k],
+                                                              lagoon_noise.patch[k], D, rp.patch_reefs);
+          if (knoll > F) F += ease(inside_m / kKnollRimMarginM) * (knoll - F);
+        }
         lagoon_floor = std::min(F, -0.3);
         g = std::max(g, lagoon_floor);
       }

@@ -11,6 +11,10 @@ namespace reefgen::terrain {
 // Feature size of the patch-reef noise (m): about the spacing of patch
 // reefs on atoll lagoon floors, a few per km².
 inline constexpr double kPatchCellM = 250;
+// A knoll's side spans kKnollSideFbm of the fbm per kKnollReliefRefM of
+// relief (m) above the floor, and at least that.
+inline constexpr double kKnollSideFbm = 0.12;
+inline constexpr double kKnollReliefRefM = 12;
 
 // patch_reef_m's knoll from the noise coordinates (u, v) = (xm, ym) / kPatchCellM
 // and the 3-octave fbm already read there (n = noise.fbm(u, v, 3)): for
@@ -22,7 +26,11 @@ inline float patch_reef_from_fbm_m(const GradientNoise2& noise, float u, float v
   const double threshold = 0.35 - 0.4 * density;
   if (n <= threshold) return -1e30f;
   const double top = -0.5 - 5.5 * (0.5 + 0.5 * noise.perlin(u * 0.37f + 11.f, v * 0.37f - 5.f));
-  const double t = std::clamp((n - threshold) / 0.12, 0.0, 1.0);
+  // The side spans more of the noise the taller the knoll, so its slope does
+  // not grow with the lagoon's depth (0.12 of the noise for any relief stood
+  // at up to 78° in a 26 m lagoon at 2049²).
+  const double side = kKnollSideFbm * std::max(1.0, (depth_m + top) / kKnollReliefRefM);
+  const double t = std::clamp((n - threshold) / side, 0.0, 1.0);
   const double rise = t * t * (3.0 - 2.0 * t);
   return float(-depth_m + (depth_m + top) * rise);
 }
