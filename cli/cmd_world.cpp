@@ -40,8 +40,8 @@ infer::WorldJob world_job(const WorldArgs& a, int threads, bool quiet) {
   job.sketch = a.sketch;
   job.prefix = a.out;
   job.size = a.size;
-  job.age_myr = a.age_myr;
-  job.maturity = a.maturity;
+  job.options.age_myr = a.age_myr;
+  job.options.maturity = a.maturity;
   job.raw = a.raw;
   job.files.png16 = a.png16;
   job.files.r16 = a.r16;
@@ -50,10 +50,6 @@ infer::WorldJob world_job(const WorldArgs& a, int threads, bool quiet) {
   job.options.engine = infer::engine_from_string(a.engine);
   job.options.seed = a.seed;
   job.options.variation = a.variation;
-  if (const double m = maturity_for(a.age_myr, a.maturity); m != kNotSet) {
-    job.options.amplification = infer::matured(job.options.amplification, m);
-    job.options.maturity = m;  // what a generator with the maturity channel reads (infer::network_maturity)
-  }
   job.layers = a.finish.layers;
   job.need_layers = fin.need_layers;
   job.layer_rules = fin.rules;
@@ -126,8 +122,7 @@ Command add_world_command(CLI::App& app, const GlobalOptions& g) {
             infer::WorldJob job = world_job(*a, threads, g.quiet);
             infer::refuse_world_over_sketch(job);
             if (!fs::is_regular_file(a->sketch)) throw Error(a->sketch + ": no such sketch file");
-            DecodedSketch s = read_sketch(a->sketch);
-            if (a->age_myr != kNotSet) s.subsidence.setTo(float(subsidence_of_age(a->age_myr)));
+            const DecodedSketch s = read_sketch(a->sketch);
             infer::check_world_finish(job, s.label.rows == s.label.cols);
             ensure_writable_dir(job.prefix.has_parent_path() ? job.prefix.parent_path() : fs::path("."));
             job.sketch_metres_per_px = a->world_size_m > 0    ? a->world_size_m / s.label.cols

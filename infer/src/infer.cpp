@@ -124,14 +124,6 @@ torch::Tensor forward_generator(model::GeneratorFile& g, const torch::Tensor& x,
   return y;
 }
 
-double network_maturity(const InferOptions& o) {
-  const double m = maturity_for(o.age_myr, o.maturity);
-  return m == kNotSet ? 1.0 : m;
-}
-
-namespace {
-
-// The sketch as the network reads it: with an age, its subsidence.
 DecodedSketch with_age(const DecodedSketch& s, double age_myr) {
   if (age_myr == kNotSet) return s;
   DecodedSketch a = s;
@@ -139,11 +131,17 @@ DecodedSketch with_age(const DecodedSketch& s, double age_myr) {
   return a;
 }
 
-// The amplification's params for the options' age or maturity.
 AmplifyParams amplification_of(const InferOptions& o) {
   const double m = maturity_for(o.age_myr, o.maturity);
   return m == kNotSet ? o.amplification : matured(o.amplification, m);
 }
+
+double network_maturity(const InferOptions& o) {
+  const double m = maturity_for(o.age_myr, o.maturity);
+  return m == kNotSet ? 1.0 : m;
+}
+
+namespace {
 
 // The network's answers in metres at the model's side, one per sketch.
 std::vector<cv::Mat1f> network_answers(model::GeneratorFile& g, const std::vector<DecodedSketch>& sketches,

@@ -136,8 +136,8 @@ nlohmann::json world_key(const WorldJob& a, const std::string& model_path, int64
           {"seed", a.options.seed},
           {"variation", a.options.variation},
           {"layer_rules", a.layer_rules},
-          {"age_myr", a.age_myr},
-          {"maturity", a.maturity},
+          {"age_myr", a.options.age_myr},
+          {"maturity", a.options.maturity},
           {"raw", a.raw},
           {"ocean_floor_m", a.ocean_floor_m},
           {"precision", to_string(a.options.precision)},
@@ -277,7 +277,7 @@ WorldFields world_fields(const WorldJob& a, model::GeneratorFile& gen, const Dec
   if (!quiet) std::fprintf(stderr, "world: amplifying to %d² ...\n", N);
   Progress progress("world: last level, bands", size_t((N + kWorldBandRowsPx - 1) / kWorldBandRowsPx), quiet);
   // Every island re-rolled by the seed, then eroded anew at every size, as infer does.
-  const Rerolled r = reroll_for_amplify(w.model_h, kModelMetresPerPx, io.seed, io.variation, io.amplification);
+  const Rerolled r = reroll_for_amplify(w.model_h, kModelMetresPerPx, io.seed, io.variation, amplification_of(io));
   w.h = amplify_world(r.height_m, w.region_model, N, w.world_m, io.seed, r.params,
                              [&](int done, int) { progress.tick(size_t(done)); }, {}, s.ruggedness);
   cut_seeded_passes(w.h, w.region_model, details, kModelMetresPerPx * w.model_h.cols / w.h.cols, io.seed);
@@ -307,8 +307,8 @@ void write_world(const WorldJob& a, const WorldFields& w, int64_t train_step, co
                                     {"raw", a.raw},
                                     {"seed", a.options.seed},
                                     {"variation", a.options.variation},
-                                    {"age_myr", a.age_myr == kNotSet ? nlohmann::json() : nlohmann::json(a.age_myr)},
-                                    {"maturity", a.maturity == kNotSet ? nlohmann::json() : nlohmann::json(a.maturity)}}},
+                                    {"age_myr", a.options.age_myr == kNotSet ? nlohmann::json() : nlohmann::json(a.options.age_myr)},
+                                    {"maturity", a.options.maturity == kNotSet ? nlohmann::json() : nlohmann::json(a.options.maturity)}}},
                          {"ocean_floor_m", a.ocean_floor_m < 0 ? nlohmann::json(a.ocean_floor_m) : nlohmann::json()},
                          {"size_px", {h.cols, h.rows}},
                          {"metres_per_px", mpp},
@@ -343,7 +343,9 @@ void run_world(model::GeneratorFile& gen, const DecodedSketch& sketch, const Wor
                      "." + job.prefix.filename().string() + ".world.lock", true);
   const WorldCheckpoint checkpoint(job.prefix, world_key(job, job.model_path, gen.train_step), job.quiet);
   try {
-    const WorldFields w = world_fields(job, gen, sketch, checkpoint);
+    // The age as infer applies it: its subsidence over the painted one (the
+    // amplification is matured and the network's maturity read from the options).
+    const WorldFields w = world_fields(job, gen, with_age(sketch, job.options.age_myr), checkpoint);
     write_world(job, w, gen.train_step, checkpoint);
   } catch (const Error& e) {
     if (!checkpoint.holds_work()) {

@@ -74,6 +74,12 @@ Precision resolve(const InferOptions& o, const model::GeneratorFile& g);
 // regions by nearest neighbour (never blended), subsidence bilinear.
 cv::Mat3b canonical_sketch(const DecodedSketch& sketch, int size_px);
 
+// The sketch as the network reads it under an age (kNotSet: as painted):
+// the age's subsidence replaces the painted brightness everywhere.
+DecodedSketch with_age(const DecodedSketch& s, double age_myr);
+// The amplification's params for the options' age or maturity (matured).
+AmplifyParams amplification_of(const InferOptions& o);
+
 // The maturity a generator with the maturity channel is asked for
 // (model/codec.hpp): the options' maturity, else their age's, else 1 (the
 // erosion the training data had before the channel).

@@ -26,10 +26,9 @@ struct WorldJob {
   std::string model_path;         // the generator's file: recorded, and part of the resume key
   double sketch_metres_per_px = kModelMetresPerPx;  // ground of one sketch pixel, m
   int size = 0;                   // output side along the longer axis (0: the model's answer's), px
-  double age_myr = kNotSet, maturity = kNotSet;  // reefgen/age.hpp; recorded (the options carry their effect)
   bool raw = false;               // the network's bare answer at the model's scale
   HeightFiles files;              // png16 / r16 / preview
-  InferOptions options;           // precision, engine, seed and variation (the re-roll), the amplification (aged)
+  InferOptions options;           // precision, engine, seed and variation (the re-roll), the amplification, the age and maturity (applied by run_world as by infer)
   // Finishing: the layer files, GeoTIFFs, bundles and the deeper flank.
   bool layers = false;            // the layer files (tiled past one file)
   bool need_layers = false;       // layers, or a bundle that carries them
