@@ -6,7 +6,7 @@ set -euo pipefail
 PKGS=(
   build-essential cmake ninja-build pkg-config
   libopencv-dev          # image I/O, resampling, colour conversion
-  zlib1g-dev             # our own fast 8-bit PNG encoder (common/src/io.cpp)
+  zlib1g-dev             # our own fast 8-bit PNG encoder (common/src/image_io.cpp)
   libopenexr-dev         # float height fields (.exr, channel Y)
   libgdal-dev gdal-bin   # GeoTIFF heights and layers (gis/); gdalinfo, gdaldem, gdal_contour check them in the tests
   nlohmann-json3-dev     # params <-> JSON
