@@ -8,7 +8,8 @@ model has never seen, runs `reefgen infer --size 1025` on them and measures
   * a bright island with a lagoon ring, painted as the paper's authors painted
     Mayotte: the share of the painted lagoon below sea level.
 
-Usage: python3 scripts/reef-bars.py [-m MODEL] [--out DIR] [--bin build/cli/reefgen]
+Usage: python3 scripts/reef-bars.py [-m MODEL] [--out DIR] [--bin build/cli/reefgen] [--age-myr T]
+(--age-myr: both inferred at that age, as `infer --age-myr T`.)
 Prints one JSON object on stdout. Needs Debian's python3-opencv and numpy.
 """
 import argparse
@@ -68,10 +69,12 @@ def paint_bright_lagoon(lam=0.1):
     return img
 
 
-def infer(binary, model, sketch, out):
+def infer(binary, model, sketch, out, age_myr=None):
     cmd = [binary, "-q", "infer", sketch, "-o", out, "--size", "1025"]
     if model:
         cmd += ["-m", model]
+    if age_myr is not None:
+        cmd += ["--age-myr", str(age_myr)]
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
     h = cv2.imread(out + ".height.exr", cv2.IMREAD_UNCHANGED)
     return h if h.ndim == 2 else h[..., 0]
@@ -87,11 +90,12 @@ def main():
     ap.add_argument("-m", "--model", default="")
     ap.add_argument("--out", default="out/reef-bars")
     ap.add_argument("--bin", default="build/cli/reefgen")
+    ap.add_argument("--age-myr", type=float, default=None)
     a = ap.parse_args()
     os.makedirs(a.out, exist_ok=True)
     atoll, centres = paint_atoll()
     cv2.imwrite(os.path.join(a.out, "atoll-sketch.png"), atoll)
-    h = infer(a.bin, a.model, os.path.join(a.out, "atoll-sketch.png"), os.path.join(a.out, "atoll"))
+    h = infer(a.bin, a.model, os.path.join(a.out, "atoll-sketch.png"), os.path.join(a.out, "atoll"), a.age_myr)
     scale = h.shape[0] / SIDE
     islets = 0
     yy, xx = np.mgrid[0:h.shape[0], 0:h.shape[1]]
@@ -104,7 +108,7 @@ def main():
     reef = reef_report(a.bin, os.path.join(a.out, "atoll.height.exr"))
     bright = paint_bright_lagoon()
     cv2.imwrite(os.path.join(a.out, "lagoon-sketch.png"), bright)
-    hb = infer(a.bin, a.model, os.path.join(a.out, "lagoon-sketch.png"), os.path.join(a.out, "lagoon"))
+    hb = infer(a.bin, a.model, os.path.join(a.out, "lagoon-sketch.png"), os.path.join(a.out, "lagoon"), a.age_myr)
     lagoon = cv2.resize((ring_mask(58, 86)).astype(np.uint8), hb.shape[::-1], interpolation=cv2.INTER_NEAREST) > 0
     wet = float((hb[lagoon] < 0).mean())
     print(json.dumps({"atoll_motu_islets": islets, "atoll_motu_dot_shares": shares,
