@@ -151,6 +151,22 @@ if [ -e "$T/w/r6/.x.world.lock" ]; then
 else bad "the first world took no lock"; fi
 wait $first && [ -s "$T/w/r6/x.height.exr" ] && [ ! -e "$T/w/r6/.x.world.lock" ] && [ ! -e "$T/w/r6/x.partial" ] && ok \
   || bad "the first of two worlds with one -o: $(cat "$T/err6")"
+# Stopped by a signal while amplifying (SIGINT and SIGTERM): the checkpoint
+# stays for the rerun, the lock goes with the process, and the rerun ends
+# with the uninterrupted run's heights.
+for sig in INT TERM; do
+  rm -rf "$T/w/r7"; mkdir -p "$T/w/r7"
+  "$BIN" -q world "$T/w/big.png" --size 2049 -o "$T/w/r7/x" >/dev/null 2>&1 &
+  pid=$!
+  for _ in $(seq 300); do [ -e "$T/w/r7/x.partial" ] && break; sleep 0.05; done
+  sleep 0.3; kill -s $sig $pid 2>/dev/null; wait $pid
+  if [ ! -e "$T/w/r7/x.height.exr" ]; then
+    [ ! -e "$T/w/r7/.x.world.lock" ] && ok || bad "a world stopped by SIG$sig left its lock file"
+  fi
+  "$BIN" -q world "$T/w/big.png" --size 2049 -o "$T/w/r7/x" >/dev/null 2>"$T/err" \
+    && cmp -s "$T/w/r7/x.height.exr" "$T/w/r6/x.height.exr" && [ ! -e "$T/w/r7/.x.world.lock" ] && ok \
+    || bad "the rerun of a world stopped by SIG$sig: $(cat "$T/err")"
+done
 expect_error "--for blender: a world past 8192² is written in tiles" world "$T/w/big.png" --size 9000 --for blender -o "$T/e/x"
 # A scale the pass cannot take is refused from the numbers, in one line
 # naming the fix that works, and leaves no PREFIX.partial behind.

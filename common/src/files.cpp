@@ -633,11 +633,15 @@ DirLock::DirLock(const fs::path& dir, const std::string& what, const std::string
     throw Error(dir.string() + ": another reefgen process is using this " + what +
                 "; wait for it to finish or choose another folder");
   }
-  if (remove_when_done) remove_ = lock;
+  // A lock removed when done goes on a fatal signal too (SIGINT, SIGTERM,
+  // SIGHUP): unlinked with the temporaries, still held, as the destructor
+  // unlinks it (a world stopped with Ctrl-C left PREFIX's .world.lock).
+  if (remove_when_done) remove_ = lock, track_temp(lock);
 }
 
 DirLock::~DirLock() {
   // Unlinked while still held: no other process can have taken it.
+  if (!remove_.empty()) untrack_temp(remove_);
   if (fd_ >= 0 && !remove_.empty()) ::unlink(remove_.c_str());
   if (fd_ >= 0) ::close(fd_);  // releases the flock
 }
