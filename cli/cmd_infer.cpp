@@ -144,6 +144,7 @@ int run_infer(const InferArgs& a, const GlobalOptions& g) {
   model::use_torch_threads(a.threads.value_or(default_threads()));
   infer::InferJob job = infer_job(a, g);
   job.threads = a.threads.value_or(default_threads());
+  job.quiet = g.quiet;
   job.model_path = model::resolve_model_path(a.model).string();
   model::GeneratorFile gen = model::load_generator(job.model_path);
   set_infer_options(a, gen, job.model_path, g.quiet, job.options);

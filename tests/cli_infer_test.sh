@@ -228,4 +228,13 @@ cp "$T/s/one.png" "$T/s/y.preview.png"; before=$(sha256sum < "$T/s/y.preview.png
 "$BIN" -q infer "$T/s/y.preview.png" -m "$M" -o "$T/s/y" --preview >/dev/null 2>&1 && bad "infer overwrote its input" || ok
 [ "$(sha256sum < "$T/s/y.preview.png")" = "$before" ] && [ ! -e "$T/s/y.height.exr" ] && ok || bad "input changed or outputs left"
 
+# A large island names its stages on stderr as they end (seconds each, and
+# half a minute at 8192²); -q keeps stderr empty; the data stays on stdout.
+"$BIN" infer "$T/s/one.png" -m "$M" -o "$T/s/big" --size 2049 >"$T/big.out" 2>"$T/big.err" \
+  && grep -q "^infer: amplified in" "$T/big.err" && grep -q "^infer: files staged in" "$T/big.err" \
+  && grep -q "big.height.exr" "$T/big.out" && ! grep -q "infer:" "$T/big.out" && ok \
+  || bad "no stage lines for a 2049² infer: $(cat "$T/big.err")"
+"$BIN" -q infer "$T/s/one.png" -m "$M" -o "$T/s/bigq" --size 2049 >/dev/null 2>"$T/bigq.err" && [ ! -s "$T/bigq.err" ] && ok \
+  || bad "-q infer wrote on stderr: $(cat "$T/bigq.err")"
+
 finish

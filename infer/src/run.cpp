@@ -2,7 +2,9 @@
 #include "reefgen/infer/run.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <map>
 
 #include <opencv2/core.hpp>
@@ -248,10 +250,23 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
   std::vector<cv::Mat1b> labels;
   StagedOutputs staged;
   InferResult r;
+  // Stage lines for a large island: the amplification runs for seconds to
+  // half a minute without another sign of life.
+  const bool stage_lines = !job.quiet && io.size_px >= kStageLinesSidePx;
+  const auto stage = [&](const char* what, std::chrono::steady_clock::time_point since) {
+    if (stage_lines)
+      std::fprintf(stderr, "infer: %s in %.1f s\n", what,
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count());
+  };
   for (size_t i = 0; i < inputs.size(); ++i) {
     if (i % kChunk == 0) {
       const std::vector<DecodedSketch> sketches =
           read_sketches(gen, job, i, std::min(inputs.size(), i + kChunk) - i, r.world_notes);
+      if (stage_lines)
+        std::fprintf(stderr, "infer: %zu sketch%s to %d² (network answer, clean-up, amplification) ...\n",
+                     variations > 1 ? size_t(variations) : sketches.size(),
+                     (variations > 1 ? variations : int(sketches.size())) == 1 ? "" : "es", io.size_px);
+      const auto t_amplify = std::chrono::steady_clock::now();
       before.clear();
       labels.clear();
       std::vector<cv::Mat1f>* keep_before = job.layers || job.geotiff || !job.bundles.empty() ? &before : nullptr;
@@ -268,7 +283,9 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
         for (size_t k = 0; k < before.size(); ++k)
           terrain::deepen_flank(before[k], io.ocean_floor_m, io.world_size_m / before[k].cols, labels[k]);
       }
+      stage("amplified", t_amplify);
     }
+    const auto t_files = std::chrono::steady_clock::now();
     // Island k of the chunk's answers (variation k of the one sketch).
     const auto write_island = [&](size_t k, const fs::path& prefix, const fs::path& exr, uint64_t seed) {
       const cv::Mat1f& h = heights[k];
@@ -293,6 +310,7 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
       write_island(i % kChunk, prefix, layout.many ? fs::path(prefix.string() + ".height.exr") : layout.single.height,
                    io.seed);
     }
+    stage("files staged", t_files);
     if (done) done(i + 1);
   }
   staged.commit();

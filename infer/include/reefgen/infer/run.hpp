@@ -37,11 +37,15 @@ struct InferJob {
   gis::GeoReference geo;
   std::vector<engines::Engine> bundles;  // engine bundles, PREFIX.<engine>/ (docs/ENGINES.md)
   int threads = 1;                    // for the layers and their files
+  bool quiet = true;                  // false: a line on stderr per stage of a large island (kStageLinesSidePx)
   // Islands of the one sketch, seeds options.seed … + variations − 1 (1: one
   // island at PREFIX). Past 1 each goes to PREFIX.seedS.* with all its files,
   // and PREFIX.variations.png shows them side by side (docs/INFERENCE.md).
   int variations = 1;
 };
+// An output this wide or wider takes seconds a stage: its stages are named
+// on stderr as they start and end (the amplification, the files).
+inline constexpr int kStageLinesSidePx = 2049;
 // Most variations of one sketch a run makes.
 inline constexpr int kMaxVariations = 16;
 struct InferResult {
