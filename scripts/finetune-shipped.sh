@@ -8,6 +8,7 @@
 # trunk basins". ~30 min on 2 cores
 # with avx512_bf16; Ctrl-C and run again to resume. Work folders go to
 # $WORK (default ../reefgen-finetune), outside the repository.
+# DATA_CONFIG, TRAIN_CONFIG and STAGE choose another recipe (scripts/train-age.sh).
 #   bash scripts/finetune-shipped.sh
 #   PRECISION=fp32 bash scripts/finetune-shipped.sh   # CPUs without avx512_bf16/AMX (docs/TRAINING.md)
 set -euo pipefail
@@ -15,16 +16,19 @@ cd "$(dirname "$0")/.."
 [ -x build/cli/reefgen-torch ] || bash scripts/build.sh >&2
 BIN=build/cli/reefgen
 WORK=${WORK:-../reefgen-finetune}
+DATA_CONFIG=${DATA_CONFIG:-configs/dataset/shipped.json}
+TRAIN_CONFIG=${TRAIN_CONFIG:-configs/train/shipped-land.json}
+STAGE=${STAGE:-land}
 mkdir -p "$WORK"
-$BIN dataset build --config configs/dataset/shipped.json --seed 11 --out "$WORK/data" >/dev/null
+$BIN dataset build --config "$DATA_CONFIG" --seed 11 --out "$WORK/data" >/dev/null
 P=${PRECISION:-bf16}
-if [ -f "$WORK/land/checkpoint.pt" ]; then
-  $BIN train --data "$WORK/data" --out "$WORK/land" --resume >/dev/null
+if [ -f "$WORK/$STAGE/checkpoint.pt" ]; then
+  $BIN train --data "$WORK/data" --out "$WORK/$STAGE" --resume >/dev/null
 else
-  $BIN train --config configs/train/shipped-land.json --data "$WORK/data" --out "$WORK/land" --precision "$P" \
+  $BIN train --config "$TRAIN_CONFIG" --data "$WORK/data" --out "$WORK/$STAGE" --precision "$P" \
     --init models/reef-256.pt >/dev/null
 fi
-$BIN model pack "$WORK/land/generator.pt" -o "$WORK/reef-256.pt" --storage float16 >/dev/null
+$BIN model pack "$WORK/$STAGE/generator.pt" -o "$WORK/reef-256.pt" --storage float16 >/dev/null
 $BIN -q eval -m "$WORK/reef-256.pt" --data "$WORK/data" --split test --out "$WORK/eval" > /dev/null
 $BIN -q eval-sketches tests/data/painted -m "$WORK/reef-256.pt" --out "$WORK/eval-painted" > /dev/null
 echo "model: $WORK/reef-256.pt (copy it to models/ to ship it)"
