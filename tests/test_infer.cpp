@@ -39,16 +39,19 @@ using test::bf16_mean_bound_m;
 namespace {
 
 // A tiny random generator saved and loaded as `reefgen train` exports it.
-model::GeneratorFile tiny_generator(const fs::path& dir, bool batch_norm = true) {
+model::GeneratorFile tiny_generator(const fs::path& dir, bool batch_norm = true,
+                                    int in_channels = model::kLabelChannels) {
   torch::manual_seed(9);
   model::UNetOptions o;
   o.ngf = 4;
   o.depth = 6;
   o.norm = batch_norm ? model::Norm::Batch : model::Norm::None;
+  o.in_channels = in_channels;
   model::UNetGenerator g(o);
   model::init_pix2pix(*g);
-  model::save_generator(dir / "g.pt", g, {-100, 560}, 64, 1);
-  return model::load_generator(dir / "g.pt");
+  const fs::path file = dir / (in_channels == model::kLabelChannels ? "g.pt" : "g" + std::to_string(in_channels) + ".pt");
+  model::save_generator(file, g, {-100, 560}, 64, 1);
+  return model::load_generator(file);
 }
 
 // An initialised ngf-8, depth-6 generator with the shipped model's kind of
@@ -113,16 +116,7 @@ TEST(Infer, SizesRangeDeterminismAndBatchIndependence) {
 // channel count is refused naming it.
 TEST(Infer, AMaturityChannelGeneratorReadsTheAskedMaturity) {
   const fs::path d = temp_dir("infer_maturity");
-  torch::manual_seed(9);
-  model::UNetOptions uo;
-  uo.ngf = 4;
-  uo.depth = 6;
-  uo.norm = model::Norm::Instance;
-  uo.in_channels = model::kLabelAndMaturityChannels;
-  model::UNetGenerator net(uo);
-  model::init_pix2pix(*net);
-  model::save_generator(d / "g4.pt", net, {-100, 560}, 64, 1);
-  model::GeneratorFile g = model::load_generator(d / "g4.pt");
+  model::GeneratorFile g = tiny_generator(d, true, model::kLabelAndMaturityChannels);
   const DecodedSketch s = sketch(3, 64);
   InferOptions o;
   o.amplify = false;  // the network's own answer
@@ -163,6 +157,9 @@ TEST(Infer, AMaturityChannelGeneratorReadsTheAskedMaturity) {
   p3.maturity = 20;
   EXPECT_EQ(cv::norm(a3, infer_heights(g3, {s}, p3)[0], cv::NORM_INF), 0.0);
   // Another channel count: refused on load, naming the file.
+  model::UNetOptions uo;
+  uo.ngf = 4;
+  uo.depth = 6;
   uo.in_channels = 5;
   model::UNetGenerator five(uo);
   model::save_generator(d / "g5.pt", five, {-100, 560}, 64, 1);
