@@ -262,10 +262,10 @@ InferResult infer_files(model::GeneratorFile& gen, const InferJob& job,
     if (i % kChunk == 0) {
       const std::vector<DecodedSketch> sketches =
           read_sketches(gen, job, i, std::min(inputs.size(), i + kChunk) - i, r.world_notes);
+      const size_t islands = variations > 1 ? size_t(variations) : sketches.size();
       if (stage_lines)
-        std::fprintf(stderr, "infer: %zu sketch%s to %d² (network answer, clean-up, amplification) ...\n",
-                     variations > 1 ? size_t(variations) : sketches.size(),
-                     (variations > 1 ? variations : int(sketches.size())) == 1 ? "" : "es", io.size_px);
+        std::fprintf(stderr, "infer: %zu island%s to %d² (network answer, clean-up, amplification) ...\n", islands,
+                     islands == 1 ? "" : "s", io.size_px);
       const auto t_amplify = std::chrono::steady_clock::now();
       before.clear();
       labels.clear();

@@ -21,8 +21,6 @@ const std::vector<PairRef>& DatasetInfo::split(const std::string& name) const {
 }
 
 namespace {
-fs::path manifest_path(const fs::path& dir) { return dir / "manifest.jsonl"; }
-
 // The record's erosion maturity (datasets before maturities were drawn have
 // none: their erosion is the configured one, maturity 1).
 double maturity_of(const augment::ManifestPair& p, const fs::path& manifest) {
@@ -48,13 +46,13 @@ DatasetInfo open_dataset(const fs::path& dir, const augment::ManifestCheck& chec
     throw Error(meta.string() + ": no params.size_px or height_normalisation_m (" + std::string(e.what()) + ")");
   }
   if (!(d.range.hi_m > d.range.lo_m)) throw Error(meta.string() + ": height_normalisation_m must be [lo, hi] with lo < hi");
+  const fs::path manifest = dir / "manifest.jsonl";
   for (augment::ManifestPair& p : augment::read_manifest(dir, check)) {
-    PairRef r{p.index, std::move(p.label), std::move(p.height), maturity_of(p, manifest_path(dir))};
+    PairRef r{p.index, std::move(p.label), std::move(p.height), maturity_of(p, manifest)};
     if (p.split == "train") d.train.push_back(std::move(r));
     else if (p.split == "val") d.val.push_back(std::move(r));
     else d.test.push_back(std::move(r));
   }
-  const fs::path manifest = manifest_path(dir);
   if (d.train.empty()) throw Error(manifest.string() + ": no training pairs");
   return d;
 }
