@@ -10,8 +10,10 @@
 
 #include "reefgen/constants.hpp"
 #include "reefgen/infer/reef_finish.hpp"
+#include "reefgen/interrupt.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/spec.hpp"
+#include "reefgen/rows.hpp"
 #include "reefgen/terrain/pits.hpp"
 
 using namespace reefgen;
@@ -163,6 +165,45 @@ TEST(PaintedReef, SameSeedSameBytesOtherSeedOtherRelief) {
   const cv::Mat1f x = finished(a, 256, 7), y = finished(a, 256, 7), z = finished(a, 256, 8);
   EXPECT_EQ(cv::norm(x, y, cv::NORM_INF), 0.0);
   EXPECT_GT(cv::norm(x, z, cv::NORM_INF), 0.01);
+}
+
+namespace {
+int g_stops_read = 0, g_stop_at = 0;
+void count_stops() {
+  if (++g_stops_read == g_stop_at) throw Interrupted();
+}
+// Installs count_stops for a scope, and always takes it away again.
+struct CountedStops {
+  explicit CountedStops(int stop_at) {
+    g_stops_read = 0, g_stop_at = stop_at;
+    set_interrupt_hook(count_stops);
+  }
+  ~CountedStops() { set_interrupt_hook(nullptr); }
+};
+}  // namespace
+
+// The finish runs its rows on OpenCV's threads, in bands between which a
+// host's stop is read (reefgen/rows.hpp): the same bytes on 1 and 4
+// threads, the stop read at least once per band of the 2048² canvas
+// (with its zone fields blurred on the coarser grid, σ 8 px), and an
+// Interrupted thrown there leaves the call.
+TEST(PaintedReef, SameBytesWhateverTheThreadsAndAStopBetweenBands) {
+  const PaintedAtoll a = painted_atoll();
+  const int before = cv::getNumThreads();
+  cv::setNumThreads(1);
+  const cv::Mat1f one = finished(a, 2048, 7);
+  cv::setNumThreads(4);
+  cv::Mat1f four;
+  {
+    CountedStops counted(0);
+    four = finished(a, 2048, 7);
+    EXPECT_GE(g_stops_read, 2048 / kRowsPerBand);
+  }
+  cv::setNumThreads(before);
+  EXPECT_EQ(cv::norm(one, four, cv::NORM_INF), 0.0);
+  CountedStops stop(3);
+  EXPECT_THROW(finished(a, 2048, 7), Interrupted);
+  EXPECT_EQ(g_stops_read, 3);
 }
 
 // A wide motu is a low islet, not a dome: a painted islet ~470 × 210 m on a

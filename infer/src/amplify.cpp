@@ -8,8 +8,10 @@
 
 #include "reefgen/error.hpp"
 #include "reefgen/infer/reef_finish.hpp"
+#include "reefgen/interrupt.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/rng.hpp"
+#include "reefgen/rows.hpp"
 #include "reefgen/terrain/noise.hpp"
 #include "reefgen/terrain/pits.hpp"
 #include "reefgen/wide_blur.hpp"
@@ -260,6 +262,10 @@ constexpr float kGridFreeBlendM = 1.f;
 // a model cell and finer, so nothing at the grid's period stands out of its
 // frequency ring.
 constexpr double kSeaFloorGrainM = 0.08;
+// px: the water's blur runs on a grid where its σ spans this many cells
+// once it is wider (4097² and up from a 256² answer; wide_blur.hpp: the
+// read back is within 0.2 % of the local relief).
+constexpr double kGridWorkSigmaPx = 4;
 void smooth_model_grid_underwater(cv::Mat1f& h, int model_side, uint64_t seed) {
   const double sigma = 0.5 * double(h.cols) / model_side;
   if (sigma < 0.75) return;
@@ -267,9 +273,10 @@ void smooth_model_grid_underwater(cv::Mat1f& h, int model_side, uint64_t seed) {
   const float inv_cell = float(double(model_side) / h.cols);  // noise features per pixel: one per model cell
   // The water's own mean: land left out of the blur (normalised convolution),
   // so that shallows beside a coast are not pulled up into a shelf.
-  const MaskedBlur water = masked_blur(h, h < 0.f, sigma);
+  // At 8192² σ is 16 px: above kGridWorkSigmaPx on a coarser grid.
+  const MaskedBlur water = masked_blur(h, h < 0.f, sigma, kGridWorkSigmaPx);
   const cv::Mat1f &blur = water.sum, &wet = water.weight;
-  for (int y = 0; y < h.rows; ++y) {
+  for_each_row(h.rows, [&](int y) {
     float* r = h.ptr<float>(y);
     const float* b = blur.ptr<float>(y);
     const float* m = wet.ptr<float>(y);
@@ -282,7 +289,7 @@ void smooth_model_grid_underwater(cv::Mat1f& h, int model_side, uint64_t seed) {
       const float g = float(kSeaFloorGrainM) * grain.fbm(float(x) * inv_cell * 2.f, float(y) * inv_cell * 2.f, 3);
       r[x] = std::min(r[x] + t * (mean - r[x] + g), kGridFreeTopM);
     }
-  }
+  });
 }
 
 // A smooth region erodes as harder rock: ρ' = ρ + (1 − r)(1 − ρ), so a
@@ -371,13 +378,21 @@ cv::Mat1f amplify_heights(const cv::Mat1f& coarse_m, const cv::Mat1b& label, dou
   const cv::Mat1f resistance =
       harden(resampled(resistance_of_labels(label), N, cv::INTER_LINEAR), ruggedness_at(ruggedness, N, world_size_m));
   cv::Mat1f out = refine_heights(coarse, land, resistance, world_size_m, seed, p, detail);
+  // Each finishing pass takes up to a second at 8192²: a host's stop
+  // (Python's Ctrl-C, reefgen/interrupt.hpp) is read between them.
+  check_interrupt();
   smooth_model_grid_underwater(out, S, seed);
+  check_interrupt();
   finish_painted_reef(out, label_s, world_size_m, seed);
   grow_painted_patch_reefs(out, label_s, world_size_m, seed);
+  check_interrupt();
   fill_ponds(out, label, world_size_m / N, a.pond_max_m2);
+  check_interrupt();
   drain_pits(out, kPitDepthM, float(p.pit_breach_m), world_size_m / N);
   if (lowland_relief) add_lowland_relief(out, 0, seed);
+  check_interrupt();
   grade_land(out, world_size_m / N);
+  check_interrupt();
   settle_motu(out, label_s, world_size_m, seed);
   return out;
 }

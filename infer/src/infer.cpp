@@ -9,6 +9,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "reefgen/interrupt.hpp"
 #include "reefgen/parallel.hpp"
 #include "reefgen/rng.hpp"
 
@@ -197,8 +198,11 @@ cv::Mat1f finish_answer(cv::Mat1f h, const DecodedSketch& sketch, const InferOpt
     const SeededReefDetails details = plan_reef_details(label_model, with_age(sketch, o.age_myr).subsidence,
                                                         o.world_size_m / h.cols, o.seed, o.variation);
     paint_seeded_motu(label, details, o.world_size_m / want.width);
+    check_interrupt();  // between the network's answer and each amplification stage (reefgen/interrupt.hpp)
     const Rerolled r = reroll_for_amplify(h, o.world_size_m / h.cols, o.seed, o.variation, amplification_of(o));
+    check_interrupt();
     h = amplify_heights(r.height_m, label, o.world_size_m, o.seed, r.params, true, sketch.ruggedness);
+    check_interrupt();
     cut_seeded_passes(h, label, details, o.world_size_m / want.width, o.seed);
     cv::min(cv::max(h, range.lo_m), range.hi_m, h);
   } else if (want.width <= h.cols && want.height <= h.rows && h.size() != want) {

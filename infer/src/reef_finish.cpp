@@ -10,6 +10,7 @@
 #include "reefgen/labels.hpp"
 #include "reefgen/ramp.hpp"
 #include "reefgen/rng.hpp"
+#include "reefgen/rows.hpp"
 #include "reefgen/terrain/noise.hpp"
 #include "reefgen/terrain/patch_reefs.hpp"
 
@@ -42,6 +43,8 @@ constexpr float kBandEdgeReef = 0.2f;
 constexpr double kZoneBlurPx = 1.0;
 // Blur of a zone field after its upsampling, source cells.
 constexpr double kZoneUpsampleBlur = 0.5;
+// px: above this σ the zone blur runs on a coarser grid (resized()).
+constexpr double kZoneWorkSigmaPx = 4;
 // A motu's shore: its outline wanders by this much with the noise, its beach
 // rises from the reef flat to +0.3 m over kMotuBeachM seaward of the painted
 // edge, then the berm over kMotuBermM inland (beaches a few tens of metres wide).
@@ -127,14 +130,24 @@ cv::Mat1f motu_signed_distance(const cv::Mat1b& motu, float reach_px) {
 // half a source cell. Bilinear weights kink at every source cell's edge, and
 // a reef top or a knoll eased by them showed the model's 23.4 m grid as
 // facets at 1:1 (bicubic kinks there too: its curvature is discontinuous).
+// Where that blur's σ passes kZoneWorkSigmaPx (4097² and up from a 256²
+// sketch) it runs on a grid where σ spans that many cells, read back
+// bilinearly: at 8192² σ is 16 px, a 129-tap kernel over 67 M pixels, and a
+// field blurred over σ is within ~0.2 % of its range of its bilinear read
+// back from cells σ/4 apart (h²/8 · max|f''|, |f''| ≤ 0.24 range/σ²).
 cv::Mat1f resized(const cv::Mat1f& m, int side) {
   if (m.cols == side) return m.clone();
   cv::Mat1f out;
-  cv::resize(m, out, cv::Size(side, side), 0, 0, side > m.cols ? cv::INTER_LINEAR : cv::INTER_AREA);
-  if (side > 2 * m.cols) {
-    const double sigma = kZoneUpsampleBlur * side / m.cols;
-    cv::GaussianBlur(out, out, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
+  if (side <= 2 * m.cols) {
+    cv::resize(m, out, cv::Size(side, side), 0, 0, side > m.cols ? cv::INTER_LINEAR : cv::INTER_AREA);
+    return out;
   }
+  const double sigma = kZoneUpsampleBlur * side / m.cols;
+  const int work = sigma > kZoneWorkSigmaPx ? int(std::ceil(side * kZoneWorkSigmaPx / sigma)) : side;
+  cv::resize(m, out, cv::Size(work, work), 0, 0, cv::INTER_LINEAR);
+  const double work_sigma = sigma * work / side;
+  cv::GaussianBlur(out, out, cv::Size(0, 0), work_sigma, work_sigma, cv::BORDER_REPLICATE);
+  if (work != side) cv::resize(out, out, cv::Size(side, side), 0, 0, cv::INTER_LINEAR);
   return out;
 }
 
@@ -212,7 +225,7 @@ void finish_painted_reef(cv::Mat1f& h, const cv::Mat1b& label, double world_size
   const terrain::GradientNoise2 noise(derive_seed(seed, 0, "painted-reef-top"));
   const float per_feature = float(world_size_m / N) / kTopFeatureM;
   const float crest = float(p.crest_m), flat = float(p.flat_m);
-  for (int y = 0; y < N; ++y)
+  for_each_row(N, [&](int y) {
     for (int x = 0; x < N; ++x) {
       const float tt = t(y, x);
       const float w = ramp(p.crest_begin - 0.1, p.crest_begin, tt) * (1 - ramp(p.flat_end, p.flat_end + 0.1, tt)) * reef(y, x);
@@ -259,6 +272,7 @@ void finish_painted_reef(cv::Mat1f& h, const cv::Mat1b& label, double world_size
         z += reach_w * std::max(0.f, lv - z);
       }
     }
+  });
 }
 
 void settle_motu(cv::Mat1f& h, const cv::Mat1b& label, double world_size_m, uint64_t seed,
@@ -276,7 +290,7 @@ void settle_motu(cv::Mat1f& h, const cv::Mat1b& label, double world_size_m, uint
   const terrain::GradientNoise2 swales(derive_seed(seed, 0, "motu-swales"));
   const float cell_m = float(world_size_m / N);
   const float per_feature = cell_m / kTopFeatureM, per_swale = cell_m / kMotuSwaleFeatureM;
-  for (int y = 0; y < N; ++y)
+  for_each_row(N, [&](int y) {
     for (int x = 0; x < N; ++x) {
       const float sd_raw = sd(y, x) * label_cell_m;
       // The wander moves the edge by at most its amplitude.
@@ -287,6 +301,7 @@ void settle_motu(cv::Mat1f& h, const cv::Mat1b& label, double world_size_m, uint
       const float swale = std::clamp(swales.fbm(float(x) * per_swale, float(y) * per_swale, 2), -1.f, 1.f);
       h(y, x) = std::min(h(y, x), motu_inside_m(sd_m, n, swale, p));
     }
+  });
 }
 
 namespace {
@@ -306,13 +321,14 @@ void grow_painted_patch_reefs(cv::Mat1f& h, const cv::Mat1b& label, double world
   const cv::Mat1f lagoon = resized(lagoon_s, N);
   const terrain::GradientNoise2 noise(derive_seed(seed, 0, "painted-patch-reefs"));
   const double cell_m = world_size_m / N;
-  for (int y = 0; y < N; ++y)
+  for_each_row(N, [&](int y) {
     for (int x = 0; x < N; ++x) {
       const float w = std::clamp(2.f * lagoon(y, x) - 1.f, 0.f, 1.f);
       if (w <= 0 || !(h(y, x) < kLagoonFloorM)) continue;
       const float knoll = std::max(h(y, x), terrain::patch_reef_m(noise, x * cell_m, y * cell_m, -h(y, x), p.patch_reefs));
       h(y, x) = float(h(y, x) + w * (knoll - h(y, x)));
     }
+  });
 }
 
 }  // namespace reefgen::infer

@@ -181,6 +181,7 @@ void erode_level(cv::Mat1f& h, const cv::Mat1f& K, double dx, int steps, double 
       route_flood(z, role, dx, graph);
       accumulate_multiple(graph, role, cell_area_m2, dx, static_cast<float>(p.flow_exponent), area_m2, rain);
     }
+    check_interrupt();
     erode_stream_power(z, K_wet, graph, area_m2, dt, p.m_area, p.channel_head_m2);
     diffuse_hillslope(z, role, roi, sigma_px);
   }
@@ -257,18 +258,24 @@ cv::Mat1f refine_heights(const cv::Mat1f& coarse_m, const cv::Mat1f& land_m, con
     const int L = levels[li];
     cv::Mat1f up = upsampled_level(cur, L, p.refine_upsample_sigma);
     const cv::Mat1f land_L = resampled(land_m, L, cv::INTER_AREA);
+    // Each of a level's passes takes up to a second at 8192²: a host's stop
+    // (Python's Ctrl-C, reefgen/interrupt.hpp) is read between them.
+    check_interrupt();
     const cv::Mat1f d = detail ? detail(L, up) : cv::Mat1f();
+    check_interrupt();
     cv::Mat1f next = land_L.clone();
     for (int y = 0; y < L; ++y)
       for (int x = 0; x < L; ++x)
         if (land_L(y, x) > 0) next(y, x) = std::max(up(y, x) + (d.empty() ? 0.f : detail_scale * d(y, x)), 0.f);
-    erode_level(next, erodibility_map(resampled(resistance, L, cv::INTER_AREA), seed, p), world_size_m / L,
-                p.refine_steps, duration, fine, Routing::kStack, kCreepPx,
+    const cv::Mat1f K = erodibility_map(resampled(resistance, L, cv::INTER_AREA), seed, p);
+    check_interrupt();
+    erode_level(next, K, world_size_m / L, p.refine_steps, duration, fine, Routing::kStack, kCreepPx,
                 rain_rel.empty() ? cv::Mat1f() : resampled(rain_rel, L, cv::INTER_AREA));
     duration *= 0.5;
     cur = std::move(next);
   }
   cv::Mat1f out = land_m.clone();
+  check_interrupt();
   if (cur.cols != N) cur = resampled(cur, N, cv::INTER_CUBIC);
   for (int y = 0; y < N; ++y)
     for (int x = 0; x < N; ++x)

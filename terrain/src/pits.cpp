@@ -248,9 +248,11 @@ int64_t grade_land(cv::Mat1f& h, double cell_m, double slope) {
   return raised;
 }
 
-// Long: fill and breach share the flood's depression labels and routes built
-// at its top; the two stages are marked.
-int64_t drain_pits(cv::Mat1f& h, float max_depth_m, float breach_m, double cell_m) {
+namespace {
+// drain_pits over h (the land's box of the field). Long: fill and breach
+// share the flood's depression labels and routes built at its top; the two
+// stages are marked.
+int64_t drain_box(cv::Mat1f& h, float max_depth_m, float breach_m, double cell_m) {
   check_interrupt();
   if (!h.isContinuous()) h = h.clone();
   const FloodRoute fr = flood_route(h, sea_and_edge_roles(h));
@@ -344,6 +346,22 @@ int64_t drain_pits(cv::Mat1f& h, float max_depth_m, float breach_m, double cell_
   if (valley) cut_banks(h, cut, cut_depth_m, cell_m, moved);
   int64_t changed = 0;
   for (const uint8_t m : moved) changed += m;
+  return changed;
+}
+}  // namespace
+
+// On the land's box, as grade_land: every pit, route and outlet lies in it
+// (its ring is sea or the canvas edge, outlets either way), and the flood's
+// ties go by flat index, in the same order in the box as in the field. At
+// 8192² an island covers a few % of the canvas, and the flood over all of
+// it took 1.5 s.
+int64_t drain_pits(cv::Mat1f& h, float max_depth_m, float breach_m, double cell_m) {
+  const cv::Rect box = land_box(h);
+  if (box.empty()) return 0;
+  if (box.size() == h.size()) return drain_box(h, max_depth_m, breach_m, cell_m);
+  cv::Mat1f sub = h(box).clone();
+  const int64_t changed = drain_box(sub, max_depth_m, breach_m, cell_m);
+  sub.copyTo(h(box));
   return changed;
 }
 
