@@ -11,6 +11,7 @@
 #include "app.hpp"
 #include "reefgen/install.hpp"
 #include "reefgen/files.hpp"
+#include "reefgen/interrupt.hpp"
 #include "reefgen/model/shipped.hpp"
 #include "reefgen/model/torch_threads.hpp"
 #include "reefgen/studio/server.hpp"
@@ -58,6 +59,12 @@ Command add_studio_command(CLI::App& app, const GlobalOptions& g) {
             const int port = server.bind();
             const std::string url = "http://" + a->o.host + ":" + std::to_string(port) + "/";
             install_stop_handlers();
+            // A request being computed when Ctrl-C comes stops between its
+            // steps (reefgen/interrupt.hpp) and is answered 503, so the studio
+            // stops in a second or two, not when an 8192² answer is done.
+            set_interrupt_hook(+[] {
+              if (stop_requested()) throw Interrupted();
+            });
             std::thread watcher([&] {
               while (!stop_requested()) std::this_thread::sleep_for(std::chrono::milliseconds(100));
               server.stop();

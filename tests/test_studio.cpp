@@ -10,6 +10,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <thread>
 
 #include <zlib.h>
@@ -20,6 +21,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "reefgen/infer/infer.hpp"
+#include "reefgen/interrupt.hpp"
 #include "reefgen/io.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/model/generator_file.hpp"
@@ -406,6 +408,25 @@ TEST_F(Studio, RawCanvasPixelsGiveThePngsHeights) {
   expect_error(client->Post("/api/infer?w=256", raw, "application/x-reefgen-rgba"), 400, "?h=");
   expect_error(client->Post("/api/infer?w=99999&h=1", raw, "application/x-reefgen-rgba"), 400, "w = 99999");
   expect_error(client->Post("/api/infer?w=-5&h=256", raw, "application/x-reefgen-rgba"), 400, "?w=");
+}
+
+// Ctrl-C while a request is computed (the studio's hook, cmd_studio.cpp,
+// throws Interrupted once a stop is asked): that request is answered a
+// one-line 503 at the work's next step, and the studio serves on after.
+namespace {
+std::atomic<bool> g_stop_asked{false};
+}
+TEST_F(Studio, AStopAskedDuringARequestIsAnswered503) {
+  set_interrupt_hook(+[] {
+    if (g_stop_asked) throw Interrupted();
+  });
+  g_stop_asked = true;
+  expect_error(client->Post("/api/generate?size=128", "{}", "application/json"), 503, "the studio is stopping");
+  g_stop_asked = false;
+  auto r = client->Post("/api/generate?size=128", "{}", "application/json");
+  set_interrupt_hook(nullptr);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200) << r->body;
 }
 
 TEST_F(Studio, GenerateAnswersWhatTheGeneratorComputes) {

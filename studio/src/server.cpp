@@ -24,6 +24,7 @@
 #include "reefgen/files.hpp"
 #include "reefgen/heightfile.hpp"
 #include "reefgen/image_io.hpp"
+#include "reefgen/interrupt.hpp"
 #include "reefgen/parallel.hpp"
 #include "reefgen/infer/infer.hpp"
 #include "reefgen/io.hpp"
@@ -635,7 +636,8 @@ struct StudioServer::Impl {
     res.set_content(json{{"error", msg}}.dump(-1, ' ', false, json::error_handler_t::replace), "application/json");
   }
 
-  // Wraps a handler: BadRequest -> 400, any other exception -> 500; one line each.
+  // Wraps a handler: BadRequest -> 400, Interrupted -> 503, any other
+  // exception -> 500; one line each.
   template <class H>
   httplib::Server::Handler guarded(H h) {
     return [h](const httplib::Request& req, httplib::Response& res) {
@@ -643,6 +645,8 @@ struct StudioServer::Impl {
         h(req, res);
       } catch (const BadRequest& e) {
         fail(res, 400, e.what());
+      } catch (const Interrupted&) {  // the studio is stopping (Ctrl-C): the work stopped between its steps
+        fail(res, 503, "the studio is stopping; send the request again once it runs");
       } catch (const Error& e) {  // reefgen's errors are the user's to fix by definition (bad spec, bad image)
         std::string m = e.what();
         fail(res, 400, m.substr(0, m.find('\n')));
