@@ -137,6 +137,17 @@ if [ -f "$T/w/r5/x.partial/heights.exr" ] \
     && (cd "$T/w/r5" && find . -type f ! -name '*.json' | sort | xargs sha256sum) > "$T/w/r5.sha" \
     && cmp -s "$T/w/r2.sha" "$T/w/r5.sha" && ok || bad "another build resumed a world's checkpoint: $(cat "$T/err")"
 else bad "another build's world run: $(cat "$T/err")"; fi
+# Killed between making PREFIX.partial and writing its key (an empty
+# folder), and while removing a finished run's checkpoint (renamed to
+# .PREFIX.partial.removing first): the rerun starts afresh, exits 0 with an
+# uninterrupted run's bytes and leaves neither (a rerun used to stop on
+# "cannot read x.partial/key.json").
+mkdir -p "$T/w/r8/x.partial" "$T/w/r8/.x.partial.removing/files" && echo old > "$T/w/r8/.x.partial.removing/files/x.raw"
+if "$BIN" -q world "$T/w/big.png" --size 1025 --layers --for unity -o "$T/w/r8/x" >/dev/null 2>"$T/err"; then
+  (cd "$T/w/r8" && find . -type f ! -name '*.json' | sort | xargs sha256sum) > "$T/w/r8.sha"
+  cmp -s "$T/w/r8.sha" "$T/w/r2.sha" && [ ! -e "$T/w/r8/x.partial" ] && [ ! -e "$T/w/r8/.x.partial.removing" ] && ok \
+    || bad "a world over an empty checkpoint and a half-removed one: other bytes, or a folder left"
+else bad "a world over an empty checkpoint and a half-removed one: $(cat "$T/err")"; fi
 mkdir -p "$T/w/r4/x.partial" && echo mine > "$T/w/r4/x.partial/notes.txt"
 expect_error "x.partial: exists and is not a checkpoint of" world "$T/w/big.png" --size 1025 -o "$T/w/r4/x"
 [ "$(cat "$T/w/r4/x.partial/notes.txt")" = mine ] && ok || bad "world deleted a PREFIX.partial it did not make"

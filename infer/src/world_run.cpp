@@ -43,15 +43,18 @@ class WorldCheckpoint {
     key["kind"] = kKind;
     std::error_code ec;
     const fs::path key_file = dir_ / "key.json";
+    // What a run killed while it removed its checkpoint left (remove()).
+    if (fs::symlink_status(removing(), ec).type() == fs::file_type::directory) fs::remove_all(removing(), ec);
     const auto type = fs::symlink_status(dir_, ec).type();
     if (type != fs::file_type::not_found) {
       refuse_unless_ours(type, key_file);
-      resumed_ = read_json(key_file) == key;
-      if (!resumed_ && !quiet)
+      // Killed between making the folder and writing its key: nothing to resume.
+      resumed_ = fs::symlink_status(key_file, ec).type() == fs::file_type::regular && read_json(key_file) == key;
+      if (!resumed_ && !quiet && !fs::is_empty(dir_, ec))
         std::fprintf(stderr, "note: %s holds another world's work; starting again\n", dir_.c_str());
     }
     if (!resumed_) {
-      fs::remove_all(dir_, ec);
+      remove();
       ensure_writable_dir(dir_);
       write_json_atomic(key_file, key);
     }
@@ -66,9 +69,13 @@ class WorldCheckpoint {
       if (e.path().filename() != "key.json") return true;
     return false;
   }
+  // Renamed away first (one atomic step), then deleted: a run killed while
+  // remove_all ran left a PREFIX.partial without its key.json, or with only
+  // some of its files, which no rerun would take as its own again.
   void remove() const {
     std::error_code ec;
-    fs::remove_all(dir_, ec);
+    fs::rename(dir_, removing(), ec);
+    fs::remove_all(ec ? dir_ : removing(), ec);
   }
   // A field saved by an earlier run of this command, if any, and intact
   // (the checksum recorded when it was saved); else it is made again.
@@ -113,6 +120,8 @@ class WorldCheckpoint {
     std::getline(in, recorded);
     return !recorded.empty() && recorded == sha256_of_file(f.string());
   }
+
+  fs::path removing() const { return dir_.parent_path() / ("." + dir_.filename().string() + ".removing"); }
 
   fs::path dir_;
   bool resumed_ = false;
@@ -320,8 +329,7 @@ void write_world(const WorldJob& a, const WorldFields& w, int64_t train_step, co
   stage_world_finish(staged, a, prefix.string(), h, w.model_h, w.region_model, mpp, threads, quiet, side);
   staged.write(prefix.string() + ".json", [&](const fs::path& tmp) { write_json_atomic(tmp, side); });
   staged.commit();
-  std::error_code ec;
-  fs::remove_all(checkpoint.dir(), ec);
+  checkpoint.remove();
   if (!quiet)
     std::fprintf(stderr, "world: files written in %.1f s%s\n", seconds_since(t),
                  staged.resumed_count() ? (" (" + std::to_string(staged.resumed_count()) + " resumed)").c_str() : "");
