@@ -10,6 +10,7 @@
 #include "reefgen/infer/reef_finish.hpp"
 #include "reefgen/interrupt.hpp"
 #include "reefgen/labels.hpp"
+#include "reefgen/ramp.hpp"
 #include "reefgen/rng.hpp"
 #include "reefgen/rows.hpp"
 #include "reefgen/terrain/noise.hpp"
@@ -93,7 +94,7 @@ void lobe_contours(cv::Mat1f& h, double world_size_m, uint64_t seed, const Ampli
   cv::Mat1f mx(S, S), my(S, S);
   for (int y = 0; y < S; ++y)
     for (int x = 0; x < S; ++x) {
-      const float t = std::clamp(h(y, x) / foot_m(y, x), 0.f, 1.f), w = t * t * (3 - 2 * t);
+      const float t = std::clamp(h(y, x) / foot_m(y, x), 0.f, 1.f), w = smoothstep(t);
       const float g = std::hypot(gx(y, x), gy(y, x));
       // 1/|∇h|, faded in below a 2 % slope (summits, plains: no direction)
       const float k = std::min(1.f, g * float(1.0 / (0.02 * cell_m))) / std::max(g, 1e-6f);
@@ -284,7 +285,7 @@ void smooth_model_grid_underwater(cv::Mat1f& h, int model_side, uint64_t seed) {
       if (!(r[x] < kGridFreeTopM) || !(m[x] > 0.f)) continue;
       const float mean = b[x] / m[x];
       const float w = std::clamp((kGridFreeTopM - r[x]) / kGridFreeBlendM, 0.f, 1.f);
-      const float t = w * w * (3.f - 2.f * w);
+      const float t = smoothstep(w);
       // Never raised above kGridFreeTopM: no new shallows or specks of land.
       const float g = float(kSeaFloorGrainM) * grain.fbm(float(x) * inv_cell * 2.f, float(y) * inv_cell * 2.f, 3);
       r[x] = std::min(r[x] + t * (mean - r[x] + g), kGridFreeTopM);

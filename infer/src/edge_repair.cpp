@@ -7,6 +7,7 @@
 
 #include "reefgen/error.hpp"
 #include "reefgen/labels.hpp"
+#include "reefgen/ramp.hpp"
 
 #include "masked_blur.hpp"
 
@@ -50,7 +51,7 @@ void repair_top_edge(cv::Mat1f& h, const EdgeRepairParams& p) {
     const double slope = suu > 0 ? suh / suu : 0;
     for (int d = 0; d < B; ++d) {
       // 1 over the band's outer half, easing to 0 at B
-      const double t = std::clamp(2.0 * (B - d) / B, 0.0, 1.0), s = t * t * (3 - 2 * t);
+      const double t = std::clamp(2.0 * (B - d) / B, 0.0, 1.0), s = smoothstep(t);
       const double trend = mean + slope * (d - c);
       h(d, x) = float(h(d, x) + weight(0, x) * s * (trend - h(d, x)));
     }
@@ -82,7 +83,7 @@ void smooth_band(cv::Mat1f& h, const EdgeRepairParams& p) {
       const int d = std::min(std::min(x, h.cols - 1 - x), std::min(y, h.rows - 1 - y));
       if (d >= reach || !(highest(y, x) < p.open_sea_m)) continue;
       const double t = std::clamp(double(reach - d) / (reach - B / 2.0), 0.0, 1.0);
-      const double w = t * t * (3 - 2 * t) * allowed(y, x);
+      const double w = smoothstep(t) * allowed(y, x);
       h(y, x) = float(h(y, x) + w * (smooth(y, x) - h(y, x)));
     }
 }
@@ -119,7 +120,7 @@ void smooth_fore_reef_foot(cv::Mat1f& h, const cv::Mat1f& done, const OpenSeaSmo
     for (int x = 0; x < h.cols; ++x) {
       if (!floor(y, x) || deep.weight(y, x) < 1e-6f || done(y, x) >= 1.f) continue;
       const double t = std::clamp((p.foot_from_m - h(y, x)) / (p.foot_from_m - p.foot_full_m), 0.0, 1.0);
-      const double w = t * t * (3 - 2 * t) * (1.0 - done(y, x));
+      const double w = smoothstep(t) * (1.0 - done(y, x));
       const float mean = std::min(deep.sum(y, x) / deep.weight(y, x), float(p.foot_from_m));
       h(y, x) = float(h(y, x) + w * (mean - h(y, x)));
     }
@@ -135,7 +136,7 @@ void smooth_open_sea(cv::Mat1f& h, const OpenSeaSmoothing& p) {
   for (int y = 0; y < h.rows; ++y)
     for (int x = 0; x < h.cols; ++x) {
       const double t = std::clamp((p.from_m - highest(y, x)) / (p.from_m - p.full_m), 0.0, 1.0);
-      const double w = t * t * (3 - 2 * t);
+      const double w = smoothstep(t);
       h(y, x) = float(h(y, x) + w * (smooth(y, x) - h(y, x)));
       done(y, x) = float(w);
     }
@@ -155,7 +156,7 @@ void smooth_lagoon_floor(cv::Mat1f& h, const cv::Mat1b& label, const LagoonSmoot
     for (int x = 0; x < h.cols; ++x) {
       if (!inside(y, x) || weight(y, x) < 1e-6f) continue;
       const double t = std::clamp((from_edge(y, x) - 1.0) / (2 * p.sigma_px), 0.0, 1.0);
-      const double w = t * t * (3 - 2 * t);
+      const double w = smoothstep(t);
       // Never above the sea: a mean of water is water, kept so in float.
       const float mean = std::min(sum(y, x) / weight(y, x), -1e-3f);
       h(y, x) = float(h(y, x) + w * (mean - h(y, x)));

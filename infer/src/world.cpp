@@ -11,6 +11,7 @@
 #include "reefgen/normal.hpp"
 #include "reefgen/infer/edge_repair.hpp"
 #include "reefgen/labels.hpp"
+#include "reefgen/ramp.hpp"
 #include "reefgen/rng.hpp"
 
 namespace reefgen::infer {
@@ -210,7 +211,7 @@ void keep_painted_land(cv::Mat1f& h, const cv::Mat1b& label) {
     for (int x = 0; x < h.cols; ++x) {
       if (!land(y, x)) continue;
       const double t = std::clamp((d(y, x) - 1.0) / kPaintedLandRampPx, 0.0, 1.0);
-      const float floor_m = kPaintedCoastFloorM + (kPaintedLandFloorM - kPaintedCoastFloorM) * float(t * t * (3 - 2 * t));
+      const float floor_m = kPaintedCoastFloorM + (kPaintedLandFloorM - kPaintedCoastFloorM) * float(smoothstep(t));
       if (h(y, x) < floor_m) raised(y, x) = 1.f;
       h(y, x) = std::max(h(y, x), floor_m);
     }

@@ -12,6 +12,7 @@
 #include "reefgen/terrain/noise.hpp"
 #include "reefgen/rng.hpp"
 #include "reefgen/procgen/reef.hpp"
+#include "reefgen/ramp.hpp"
 
 namespace reefgen::procgen {
 
@@ -40,7 +41,7 @@ SmoothMaxTable::SmoothMaxTable(double k)
 namespace {
 inline double s_curve(double t) {
   t = std::clamp(t, 0.0, 1.0);
-  return t * t * (3.0 - 2.0 * t);
+  return smoothstep(t);
 }
 }  // namespace
 
@@ -442,7 +443,7 @@ void soften_core_ring(cv::Mat1f& h, const cv::Mat1f& xt) {
       const float d = std::fabs(xr[x] - 1.f);
       if (d >= kCoreRingOuter) continue;
       const float t = std::min(1.f, (kCoreRingOuter - d) / (kCoreRingOuter - kCoreRingInner));
-      const float w = t * t * (3.f - 2.f * t);  // smoothstep: no kink where the blend begins
+      const float w = smoothstep(t);  // no kink where the blend begins
       hr[x] += w * (br[x] - hr[x]);
     }
   }

@@ -8,6 +8,7 @@
 #include "reefgen/error.hpp"
 #include "reefgen/labels.hpp"
 #include "reefgen/procgen/generator.hpp"
+#include "reefgen/ramp.hpp"
 #include "reefgen/rng.hpp"
 #include "reefgen/terrain/noise.hpp"
 #include "reefgen/terrain/patch_reefs.hpp"
@@ -22,7 +23,7 @@ constexpr double kKnollRimMarginM = 120;
 
 inline double ease(double t) {
   t = std::clamp(t, 0.0, 1.0);
-  return t * t * (3.0 - 2.0 * t);
+  return smoothstep(t);
 }
 
 // Wraps an angle difference into (−π, π].

@@ -1,3 +1,4 @@
+#include "reefgen/ramp.hpp"
 #include "reefgen/terrain/noise.hpp"
 
 #include <algorithm>
@@ -248,7 +249,7 @@ double PeriodicNoise1::operator()(double t) const {
     const int i0 = static_cast<int>(std::floor(x)) % n;
     const int i1 = (i0 + 1) % n;
     const double f = x - std::floor(x);
-    const double s = f * f * (3 - 2 * f);
+    const double s = smoothstep(f);
     sum += amp * (lat[i0] + s * (lat[i1] - lat[i0]));
     norm += amp;
     amp *= 0.5;

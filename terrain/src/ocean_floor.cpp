@@ -11,6 +11,7 @@
 
 #include "reefgen/error.hpp"
 #include "reefgen/labels.hpp"
+#include "reefgen/ramp.hpp"
 
 namespace reefgen::terrain {
 
@@ -168,7 +169,7 @@ cv::Mat1f smooth_distance_px(const cv::Mat1b& ocean) {
       float* n = near.ptr<float>(y);
       const float* f = far.ptr<float>(y);
       for (int x = 0; x < near.cols; ++x) {
-        const double t = std::clamp((n[x] - from) / (to - from), 0.0, 1.0), w = t * t * (3 - 2 * t);
+        const double t = std::clamp((n[x] - from) / (to - from), 0.0, 1.0), w = smoothstep(t);
         n[x] = float(n[x] + w * (f[x] - n[x]));
       }
     }

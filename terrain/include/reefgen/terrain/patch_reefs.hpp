@@ -4,6 +4,7 @@
 // painted lagoons a model answer is finished with (infer reef_finish.cpp).
 #include <algorithm>
 
+#include "reefgen/ramp.hpp"
 #include "reefgen/terrain/noise.hpp"
 
 namespace reefgen::terrain {
@@ -31,7 +32,7 @@ inline float patch_reef_from_fbm_m(const GradientNoise2& noise, float u, float v
   // at up to 78° in a 26 m lagoon at 2049²).
   const double side = kKnollSideFbm * std::max(1.0, (depth_m + top) / kKnollReliefRefM);
   const double t = std::clamp((n - threshold) / side, 0.0, 1.0);
-  const double rise = t * t * (3.0 - 2.0 * t);
+  const double rise = smoothstep(t);
   return float(-depth_m + (depth_m + top) * rise);
 }
 
